@@ -1,0 +1,3 @@
+//! The `petriplc` command line.
+
+fn main() {}

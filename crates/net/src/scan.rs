@@ -1,0 +1,328 @@
+//! PLC-scan semantics: read inputs, evolve the net, compute outputs, with time passed in by
+//! the caller. docs/semantics.md states each rule and the seed it comes from.
+
+use std::fmt;
+use std::time::Duration;
+
+use crate::ids::{PlaceId, SignalId, TransitionId};
+use crate::model::{Evolution, Marking, Net, SignalType, StepRule, TokenOverflow};
+use crate::time::format_seconds;
+
+/// How a scan evolves the net; [`ScanOptions::of`] takes the net's own choices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScanOptions {
+    pub step: StepRule,
+    pub evolve: Evolution,
+    /// With `until-stable`, the most passes one scan may make before the net is declared
+    /// unstable.
+    pub max_passes: u32,
+}
+
+impl ScanOptions {
+    pub const DEFAULT_MAX_PASSES: u32 = 1000;
+
+    pub fn of(net: &Net) -> Self {
+        ScanOptions { step: net.step, evolve: net.evolve, max_passes: Self::DEFAULT_MAX_PASSES }
+    }
+}
+
+/// Why a scan failed.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ScanError {
+    #[error(
+        "the net is unstable at t={}s: still firing after {passes} passes of one scan \
+         (transitions cycling: {}); break the cycle with a guard or an inhibitor arc, \
+         or use --evolve one-pass",
+        format_seconds(*time),
+        transitions.join(", ")
+    )]
+    Unstable { time: Duration, passes: u32, transitions: Vec<String> },
+    #[error("at t={}s: {source}", format_seconds(*time))]
+    Overflow { time: Duration, source: TokenOverflow },
+    #[error("time went backwards: a scan at {}s after one at {}s", format_seconds(*now), format_seconds(*previous))]
+    TimeWentBackwards { previous: Duration, now: Duration },
+}
+
+/// Why a transition cannot fire now (for stepwise simulation).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Blocker {
+    /// The guard is false under the current inputs.
+    Guard { guard: String },
+    /// A normal or read arc needs more tokens.
+    Tokens { place: String, has: u32, needs: u32 },
+    /// An inhibitor arc's place holds too many tokens.
+    Inhibited { place: String, has: u32, limit: u32 },
+    /// Firing would overfill a place.
+    Capacity { place: String, would_hold: u64, capacity: u32 },
+    /// A delayed arc's place has not held its tokens long enough.
+    Waiting { place: String, remaining: Duration },
+}
+
+impl fmt::Display for Blocker {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Blocker::Guard { guard } => write!(f, "guard `{guard}` is false"),
+            Blocker::Tokens { place, has, needs } => write!(f, "{place} holds {has}, needs {needs}"),
+            Blocker::Inhibited { place, has, limit } => {
+                write!(f, "{place} holds {has}, inhibitor allows fewer than {limit}")
+            }
+            Blocker::Capacity { place, would_hold, capacity } => {
+                write!(f, "{place} would hold {would_hold}, capacity {capacity}")
+            }
+            Blocker::Waiting { place, remaining } => {
+                write!(f, "{place} must hold its tokens {}s longer", format_seconds(*remaining))
+            }
+        }
+    }
+}
+
+/// Runs a net scan by scan. Owns the marking and the timers of delayed arcs.
+#[derive(Clone, Debug)]
+pub struct Scanner<'n> {
+    net: &'n Net,
+    options: ScanOptions,
+    marking: Marking,
+    capacity: Vec<u32>,
+    /// Input places and the signal each mirrors.
+    input_places: Vec<(PlaceId, SignalId)>,
+    /// Each output signal, its type and the places bound to it.
+    outputs: Vec<(SignalId, SignalType, Vec<PlaceId>)>,
+    /// Per delayed arc: since when its place has held the arc's weight, if it does.
+    since: Vec<Option<Duration>>,
+    last_time: Option<Duration>,
+    fired: Vec<TransitionId>,
+    passes: u32,
+    avail: Vec<u32>,
+    produced: Vec<u32>,
+}
+
+impl<'n> Scanner<'n> {
+    /// A scanner at the initial marking, no scan made yet.
+    pub fn new(net: &'n Net, options: ScanOptions) -> Self {
+        let capacity = net.place_ids().map(|p| net.capacity(p)).collect();
+        let input_places = net.place_ids().filter_map(|p| net.place(p).input.map(|s| (p, s))).collect();
+        let outputs = net
+            .outputs()
+            .map(|s| {
+                let places = net.place_ids().filter(|&p| net.place(p).output == Some(s)).collect();
+                (s, net.signal(s).ty, places)
+            })
+            .collect();
+        Scanner {
+            net,
+            options,
+            marking: net.initial_marking(),
+            capacity,
+            input_places,
+            outputs,
+            since: vec![None; net.timed_arcs().len()],
+            last_time: None,
+            fired: Vec::new(),
+            passes: 0,
+            avail: vec![0; net.places().len()],
+            produced: vec![0; net.places().len()],
+        }
+    }
+
+    pub fn net(&self) -> &'n Net {
+        self.net
+    }
+    pub fn options(&self) -> ScanOptions {
+        self.options
+    }
+    pub fn marking(&self) -> &Marking {
+        &self.marking
+    }
+    /// The transitions fired by the last scan, in firing order (repeated when a transition
+    /// fired in several passes).
+    pub fn fired(&self) -> &[TransitionId] {
+        &self.fired
+    }
+    /// The number of passes the last scan made.
+    pub fn passes(&self) -> u32 {
+        self.passes
+    }
+
+    /// One PLC scan at time `now`: input places take the values of their input signals,
+    /// the net evolves by the step rule and evolution mode, then output signals are written.
+    /// `signals` is indexed by [`SignalId`]; only outputs are written.
+    pub fn scan(&mut self, now: Duration, signals: &mut [i64]) -> Result<(), ScanError> {
+        if let Some(previous) = self.last_time.filter(|&t| now < t) {
+            return Err(ScanError::TimeWentBackwards { previous, now });
+        }
+        self.last_time = Some(now);
+        self.read_inputs(signals);
+        self.fired.clear();
+        self.passes = 0;
+        let mut last_pass_start = 0;
+        loop {
+            if self.options.evolve == Evolution::UntilStable && self.passes == self.options.max_passes {
+                return Err(self.unstable(now, last_pass_start));
+            }
+            self.sample_timers(now);
+            let before = self.fired.len();
+            last_pass_start = before;
+            match self.options.step {
+                StepRule::MaximalStep => self.maximal_step(now, signals)?,
+                StepRule::Sequential => self.sequential(now, signals)?,
+            }
+            self.passes += 1;
+            if self.options.evolve == Evolution::OnePass || self.fired.len() == before {
+                break;
+            }
+        }
+        self.write_outputs(signals);
+        Ok(())
+    }
+
+    fn unstable(&self, now: Duration, last_pass_start: usize) -> ScanError {
+        // The last passes show the cycle; look back far enough to see a whole one.
+        let from = last_pass_start.saturating_sub(self.net.transitions().len() * 4);
+        let mut ids: Vec<TransitionId> = self.fired[from..].to_vec();
+        ids.sort();
+        ids.dedup();
+        ScanError::Unstable {
+            time: now,
+            passes: self.passes,
+            transitions: ids.iter().map(|&t| self.net.transition_label(t).to_string()).collect(),
+        }
+    }
+
+    fn read_inputs(&mut self, signals: &[i64]) {
+        for &(p, s) in &self.input_places {
+            let cap = i64::from(self.capacity[p.index()]);
+            self.marking[p] = signals[s.index()].clamp(0, cap) as u32;
+        }
+    }
+
+    fn write_outputs(&self, signals: &mut [i64]) {
+        for (s, ty, places) in &self.outputs {
+            signals[s.index()] = match ty {
+                SignalType::Bool => i64::from(places.iter().any(|&p| self.marking[p] > 0)),
+                SignalType::Int => places.first().map_or(0, |&p| i64::from(self.marking[p])),
+            };
+        }
+    }
+
+    /// Timers of delayed arcs look at the marking at the start of every pass.
+    fn sample_timers(&mut self, now: Duration) {
+        for (since, ta) in self.since.iter_mut().zip(self.net.timed_arcs()) {
+            if self.marking[ta.place] >= ta.weight {
+                since.get_or_insert(now);
+            } else {
+                *since = None;
+            }
+        }
+    }
+
+    fn delays_elapsed(&self, t: TransitionId, now: Duration) -> bool {
+        self.net.arcs_of(t).timed.iter().all(|&i| {
+            self.since[i].is_some_and(|s| now.saturating_sub(s) >= self.net.timed_arcs()[i].delay)
+        })
+    }
+
+    /// Seed 003's `filter_possible_firings`, extended to read, inhibitor and capacity arcs.
+    fn maximal_step(&mut self, now: Duration, signals: &[i64]) -> Result<(), ScanError> {
+        let net = self.net;
+        self.avail.copy_from_slice(&self.marking.0);
+        self.produced.iter_mut().for_each(|x| *x = 0);
+        for t in net.transition_ids() {
+            let a = net.arcs_of(t);
+            let avail = &self.avail;
+            let enabled = a.consume.iter().all(|&(p, w)| avail[p.index()] >= w)
+                && a.read.iter().all(|&(p, w)| avail[p.index()] >= w)
+                && a.inhibit.iter().all(|&(p, w)| avail[p.index()] < w)
+                && a.produce.iter().all(|&(p, w)| {
+                    let own = a.consume.iter().find(|(q, _)| *q == p).map_or(0, |(_, c)| *c);
+                    let after = u64::from(self.marking[p]) + u64::from(self.produced[p.index()]) + u64::from(w)
+                        - u64::from(own);
+                    after <= u64::from(self.capacity[p.index()])
+                })
+                && self.delays_elapsed(t, now)
+                && net.transition(t).guard.eval(signals);
+            if enabled {
+                for &(p, w) in &a.consume {
+                    self.avail[p.index()] -= w;
+                }
+                for &(p, w) in &a.produce {
+                    // Cannot overflow: the capacity check above bounds it by u32::MAX.
+                    self.produced[p.index()] += w;
+                }
+                self.fired.push(t);
+            }
+        }
+        for (i, m) in self.marking.0.iter_mut().enumerate() {
+            *m = self.avail[i].checked_add(self.produced[i]).ok_or_else(|| ScanError::Overflow {
+                time: now,
+                source: TokenOverflow { place: net.place_label(PlaceId::from(i)).to_string() },
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Seed 004's generated code: in priority order, each enabled transition fires at once.
+    fn sequential(&mut self, now: Duration, signals: &[i64]) -> Result<(), ScanError> {
+        let net = self.net;
+        for t in net.transition_ids() {
+            if self.enabled_now(t, now, signals) {
+                net.fire(&mut self.marking, t).map_err(|source| ScanError::Overflow { time: now, source })?;
+                self.fired.push(t);
+            }
+        }
+        Ok(())
+    }
+
+    fn enabled_now(&self, t: TransitionId, now: Duration, signals: &[i64]) -> bool {
+        let a = self.net.arcs_of(t);
+        let m = &self.marking;
+        a.consume.iter().all(|&(p, w)| m[p] >= w)
+            && a.read.iter().all(|&(p, w)| m[p] >= w)
+            && a.inhibit.iter().all(|&(p, w)| m[p] < w)
+            && a.produce.iter().all(|&(p, w)| {
+                let own = a.consume.iter().find(|(q, _)| *q == p).map_or(0, |(_, c)| *c);
+                u64::from(m[p]) + u64::from(w) - u64::from(own) <= u64::from(self.capacity[p.index()])
+            })
+            && self.delays_elapsed(t, now)
+            && self.net.transition(t).guard.eval(signals)
+    }
+
+    /// Why `t` could not fire alone in the current marking at time `now` with these inputs
+    /// (empty when it could). Delays are judged from the timers as last sampled.
+    pub fn blockers(&self, t: TransitionId, now: Duration, signals: &[i64]) -> Vec<Blocker> {
+        let net = self.net;
+        let a = net.arcs_of(t);
+        let m = &self.marking;
+        let label = |p: PlaceId| net.place_label(p).to_string();
+        let mut out = Vec::new();
+        if !net.transition(t).guard.eval(signals) {
+            out.push(Blocker::Guard { guard: net.guard_text(t) });
+        }
+        for &(p, w) in a.consume.iter().chain(&a.read) {
+            if m[p] < w {
+                out.push(Blocker::Tokens { place: label(p), has: m[p], needs: w });
+            }
+        }
+        for &(p, w) in &a.inhibit {
+            if m[p] >= w {
+                out.push(Blocker::Inhibited { place: label(p), has: m[p], limit: w });
+            }
+        }
+        for &(p, w) in &a.produce {
+            let own = a.consume.iter().find(|(q, _)| *q == p).map_or(0, |(_, c)| *c);
+            let would_hold = u64::from(m[p]) + u64::from(w) - u64::from(own.min(m[p]));
+            if would_hold > u64::from(self.capacity[p.index()]) {
+                out.push(Blocker::Capacity { place: label(p), would_hold, capacity: self.capacity[p.index()] });
+            }
+        }
+        for &i in &a.timed {
+            let ta = net.timed_arcs()[i];
+            if m[ta.place] >= ta.weight {
+                let held = self.since[i].map_or(Duration::ZERO, |s| now.saturating_sub(s));
+                if held < ta.delay {
+                    out.push(Blocker::Waiting { place: label(ta.place), remaining: ta.delay - held });
+                }
+            }
+        }
+        out
+    }
+}
