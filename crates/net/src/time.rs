@@ -43,7 +43,8 @@ fn rank(unit: &str) -> usize {
 }
 
 /// Parses an IEC `TIME` literal (`T#…`, `TIME#…`, any case, `_` separators, an optional
-/// fraction on the last component) or plain decimal seconds (`0.01`).
+/// fraction on the last component), the same without its prefix (`10ms`, `1m30s`), or plain
+/// decimal seconds (`0.01`).
 pub fn parse_duration(text: &str) -> Result<Duration, TimeError> {
     let t = text.trim();
     if t.is_empty() {
@@ -55,8 +56,9 @@ pub fn parse_duration(text: &str) -> Result<Duration, TimeError> {
         .or_else(|| lower.strip_prefix("t#"))
         .map(|b| b.replace('_', ""));
     let nanos = match body {
-        None => decimal_nanos(&lower, 1_000_000_000, text)?,
         Some(body) => iec_nanos(&body, text)?,
+        None if lower.ends_with(|c: char| c.is_ascii_alphabetic()) => iec_nanos(&lower.replace('_', ""), text)?,
+        None => decimal_nanos(&lower, 1_000_000_000, text)?,
     };
     let secs = u64::try_from(nanos / 1_000_000_000).map_err(|_| TimeError::Overflow(text.into()))?;
     Ok(Duration::new(secs, (nanos % 1_000_000_000) as u32))
@@ -181,11 +183,14 @@ mod tests {
         check("T#1h_2m", 3_720_000_000_000);
         check("T#1d2h3m4s5ms6us7ns", 93_784_005_006_007);
         check("T#0.5ms", 500_000);
+        check("10ms", 10_000_000);
+        check("1m30s", 90_000_000_000);
+        check("2.5s", 2_500_000_000);
     }
 
     #[test]
     fn rejects_bad_durations() {
-        for bad in ["", "abc", "T#", "T#5", "T#1s1m", "T#1s1s", "1.2.3", "T#1.5s3ms", "-1", "T#5x"] {
+        for bad in ["", "abc", "T#", "T#5", "T#1s1m", "T#1s1s", "1.2.3", "T#1.5s3ms", "-1", "T#5x", "ms", "5 s"] {
             assert!(parse_duration(bad).is_err(), "{bad:?} should not parse");
         }
         assert!(matches!(parse_duration("0.0000000001"), Err(TimeError::TooFine(_))));

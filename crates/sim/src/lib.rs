@@ -1,14 +1,22 @@
-pub fn add(left: u64, right: u64) -> u64 {
-    left + right
-}
+//! Closed-loop simulation of a controller net: input timelines, plant models (a second net or a
+//! built-in device), the scan-by-scan driver, the recorded trace and its CSV and SVG renderings.
+//!
+//! Time is exact ([`std::time::Duration`]) throughout, so a run is deterministic: the same net,
+//! options, timeline and plant give byte-identical CSV and SVG output.
+
+pub mod plant;
+pub mod plants;
+pub mod plot;
+pub mod sim;
+pub mod timeline;
+pub mod trace;
+
+pub use plant::{builtin, Plant, PlantError, BUILTINS};
+pub use plants::{Keyboard, NetPlant, Tank, Tape};
+pub use plot::{render_svg, write_svg, PlotError};
+pub use sim::{SimError, SimOptions, Simulation};
+pub use timeline::{Timeline, TimelineCursor, TimelineError, TimelineProblem};
+pub use trace::{Trace, TraceRow};
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn it_works() {
-        let result = add(2, 2);
-        assert_eq!(result, 4);
-    }
-}
+pub(crate) mod testnet;

@@ -1,0 +1,116 @@
+//! Command-line options, validated into typed values by clap's parsers.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use petriplc_net::{Evolution, StepRule};
+
+#[derive(Debug, Parser)]
+#[command(name = "petriplc", version, about = "Petri-net soft PLC toolchain: model, simulate, analyse, generate code, run")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Simulate a net scan by scan against a timeline of inputs and/or a plant.
+    Sim(SimArgs),
+}
+
+/// How names in the PNML file are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Names {
+    /// Names are just labels; signals come from petriplc's toolspecific data.
+    Plain,
+    /// Seed 002's SIPN convention: a place's name is its output, a transition's name its
+    /// input condition (`!B1` negates), `default…` names are internal; capacity 1 everywhere.
+    Sipn,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum StepArg {
+    /// All transitions judged against the marking at the start of the pass (seed 003).
+    MaximalStep,
+    /// Each transition fires at once in priority order (seed 004's C).
+    Sequential,
+}
+
+impl From<StepArg> for StepRule {
+    fn from(s: StepArg) -> Self {
+        match s {
+            StepArg::MaximalStep => StepRule::MaximalStep,
+            StepArg::Sequential => StepRule::Sequential,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EvolveArg {
+    /// One pass per scan (seed 002's and 003's generated code).
+    OnePass,
+    /// Passes repeat within the scan until none fires (seed 004, SIPN).
+    UntilStable,
+}
+
+impl From<EvolveArg> for Evolution {
+    fn from(e: EvolveArg) -> Self {
+        match e {
+            EvolveArg::OnePass => Evolution::OnePass,
+            EvolveArg::UntilStable => Evolution::UntilStable,
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    /// The controller net (PNML).
+    pub net: PathBuf,
+    /// How names in the net are read.
+    #[arg(long, value_enum, default_value = "plain")]
+    pub names: Names,
+    /// Input timeline: CSV with header `time,SIG1,SIG2,...`; a value holds until the next row.
+    #[arg(long, value_name = "CSV")]
+    pub inputs: Option<PathBuf>,
+    /// A plant: a built-in name (`tape`, `keyboard`, `tank`) or a plant net (PNML) whose
+    /// outputs feed the controller's inputs by name.
+    #[arg(long, value_name = "NAME|PNML")]
+    pub plant: Option<String>,
+    /// Scan period (`10ms`, `T#10ms`, `0.01`).
+    #[arg(long, default_value = "10ms", value_parser = parse_period)]
+    pub period: Duration,
+    /// Simulated time to stop at [default: 1 s after the timeline's last row, or 10 s].
+    #[arg(long, value_parser = parse_time)]
+    pub until: Option<Duration>,
+    /// Step rule [default: the net's own, else maximal-step].
+    #[arg(long, value_enum)]
+    pub step: Option<StepArg>,
+    /// Evolution per scan [default: the net's own, else one-pass].
+    #[arg(long, value_enum)]
+    pub evolve: Option<EvolveArg>,
+    /// With `until-stable`: the most passes one scan may make.
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_passes: u32,
+    /// Write the trace here (CSV); without --out or --plot it goes to standard output.
+    #[arg(long, value_name = "CSV")]
+    pub out: Option<PathBuf>,
+    /// Write an SVG step plot of inputs, outputs and markings.
+    #[arg(long, value_name = "SVG")]
+    pub plot: Option<PathBuf>,
+    /// Interactive stepwise simulation: Enter runs a scan, a signal name toggles it.
+    #[arg(long, conflicts_with_all = ["out", "plot"])]
+    pub step_through: bool,
+}
+
+fn parse_time(s: &str) -> Result<Duration, String> {
+    petriplc_net::time::parse_duration(s).map_err(|e| e.to_string())
+}
+
+fn parse_period(s: &str) -> Result<Duration, String> {
+    let d = parse_time(s)?;
+    if d.is_zero() {
+        return Err("the scan period must be longer than 0 (e.g. `10ms`)".into());
+    }
+    Ok(d)
+}

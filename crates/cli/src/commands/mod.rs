@@ -1,0 +1,13 @@
+//! One module per subcommand; `run` dispatches.
+
+mod sim;
+mod step_through;
+
+use crate::args::{Cli, Command};
+use crate::failure::Failure;
+
+pub fn run(cli: Cli) -> Result<(), Failure> {
+    match cli.command {
+        Command::Sim(args) => sim::run(args),
+    }
+}

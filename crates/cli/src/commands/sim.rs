@@ -1,0 +1,114 @@
+//! `petriplc sim`: load the controller, its inputs and its plant, run the scans, write the
+//! trace and the plot.
+
+use std::fs;
+use std::io::{self, Write};
+use std::path::Path;
+use std::time::Duration;
+
+use anyhow::{anyhow, Context};
+use petriplc_net::ScanOptions;
+use petriplc_pnml::{Naming, ReadOptions};
+use petriplc_sim::{NetPlant, Plant, SimOptions, Simulation, Timeline};
+
+use super::step_through;
+use crate::args::{Names, SimArgs};
+use crate::failure::{BadInputExt, Failure, RunExt};
+
+pub fn run(args: SimArgs) -> Result<(), Failure> {
+    let read_options = ReadOptions {
+        naming: match args.names {
+            Names::Plain => Naming::Plain,
+            Names::Sipn => Naming::Sipn,
+        },
+    };
+    let net = petriplc_pnml::read_file(&args.net, &read_options).bad_input()?.net;
+    let timeline = args.inputs.as_deref().map(Timeline::read_file).transpose().bad_input()?;
+    // A plant net is read with the plain convention: its signals are declared in the file.
+    let plant_net = match &args.plant {
+        Some(spec) if is_net_path(spec) => {
+            Some(petriplc_pnml::read_file(Path::new(spec), &ReadOptions::default()).bad_input()?.net)
+        }
+        _ => None,
+    };
+    let plant: Option<Box<dyn Plant + '_>> = match (&args.plant, &plant_net) {
+        (None, _) => None,
+        (Some(_), Some(net)) => Some(Box::new(NetPlant::new(net, ScanOptions::of(net)))),
+        (Some(name), None) => Some(petriplc_sim::builtin(name).ok_or_else(|| unknown_plant(name)).bad_input()?),
+    };
+    let scan = ScanOptions {
+        step: args.step.map_or(net.step, Into::into),
+        evolve: args.evolve.map_or(net.evolve, Into::into),
+        max_passes: args.max_passes,
+    };
+    let until = args
+        .until
+        .unwrap_or_else(|| timeline.as_ref().map_or(Duration::from_secs(10), |t| t.end() + Duration::from_secs(1)));
+    let options = SimOptions { period: args.period, until, scan };
+    let mut sim = Simulation::new(&net, options, timeline, plant)
+        .with_context(|| format!("cannot simulate {}", args.net.display()))
+        .bad_input()?;
+    for w in sim.warnings() {
+        eprintln!("warning: {w}");
+    }
+    if args.step_through {
+        return step_through::run(&mut sim);
+    }
+
+    while sim.step().run_failure()?.is_some() {}
+    let plant_summary = sim.plant_summary();
+    let trace = sim.into_trace();
+
+    match (&args.out, &args.plot) {
+        (None, None) => {
+            let stdout = io::stdout();
+            let mut lock = stdout.lock();
+            trace.write_csv(&mut lock).and_then(|()| lock.flush()).context("cannot write the trace").run_failure()?;
+        }
+        (out, plot) => {
+            if let Some(path) = out {
+                create_parent(path)?;
+                let mut file = io::BufWriter::new(
+                    fs::File::create(path).with_context(|| format!("cannot create {}", path.display())).run_failure()?,
+                );
+                trace
+                    .write_csv(&mut file)
+                    .and_then(|()| file.flush())
+                    .with_context(|| format!("cannot write {}", path.display()))
+                    .run_failure()?;
+                eprintln!("trace: {} ({} rows)", path.display(), trace.csv_rows());
+            }
+            if let Some(path) = plot {
+                create_parent(path)?;
+                petriplc_sim::write_svg(&trace, path)
+                    .with_context(|| format!("cannot write the plot {}", path.display()))
+                    .run_failure()?;
+                eprintln!("plot: {}", path.display());
+            }
+        }
+    }
+    if let Some(summary) = plant_summary {
+        eprintln!("plant: {summary}");
+    }
+    Ok(())
+}
+
+fn is_net_path(spec: &str) -> bool {
+    let lower = spec.to_ascii_lowercase();
+    lower.ends_with(".pnml") || lower.ends_with(".xml") || spec.contains(std::path::MAIN_SEPARATOR)
+}
+
+fn unknown_plant(name: &str) -> anyhow::Error {
+    let known: Vec<String> = petriplc_sim::BUILTINS.iter().map(|(n, d)| format!("  {n}: {d}")).collect();
+    anyhow!(
+        "unknown plant `{name}`; give a plant net (a .pnml file) or one of the built-in plants:\n{}",
+        known.join("\n")
+    )
+}
+
+fn create_parent(path: &Path) -> Result<(), Failure> {
+    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(dir) => fs::create_dir_all(dir).with_context(|| format!("cannot create the folder {}", dir.display())).run_failure(),
+        None => Ok(()),
+    }
+}

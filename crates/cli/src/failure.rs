@@ -1,0 +1,47 @@
+//! Failures of a command, split by whose fault they are so the exit code can say so.
+
+/// Why a command failed.
+#[derive(Debug)]
+pub enum Failure {
+    /// The input (a file, an option, a net) is wrong: exit code 2.
+    BadInput(anyhow::Error),
+    /// The input was fine but running it failed (an unstable net, a write error): exit code 1.
+    Run(anyhow::Error),
+}
+
+impl Failure {
+    pub fn error(&self) -> &anyhow::Error {
+        match self {
+            Failure::BadInput(e) | Failure::Run(e) => e,
+        }
+    }
+
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Failure::BadInput(_) => 2,
+            Failure::Run(_) => 1,
+        }
+    }
+}
+
+/// Marks an error as the user's input being wrong.
+pub trait BadInputExt<T> {
+    fn bad_input(self) -> Result<T, Failure>;
+}
+
+impl<T, E: Into<anyhow::Error>> BadInputExt<T> for Result<T, E> {
+    fn bad_input(self) -> Result<T, Failure> {
+        self.map_err(|e| Failure::BadInput(e.into()))
+    }
+}
+
+/// Marks an error as a failure while running.
+pub trait RunExt<T> {
+    fn run_failure(self) -> Result<T, Failure>;
+}
+
+impl<T, E: Into<anyhow::Error>> RunExt<T> for Result<T, E> {
+    fn run_failure(self) -> Result<T, Failure> {
+        self.map_err(|e| Failure::Run(e.into()))
+    }
+}

@@ -1,0 +1,108 @@
+//! The plant side of a closed loop: the process or device the controller net drives, stepped
+//! once per scan just before the controller reads its inputs.
+
+use std::time::Duration;
+
+use petriplc_net::ScanError;
+
+use crate::plants::{Keyboard, Tank, Tape};
+
+/// A simulated process or device. Signals are wired to the controller by name.
+pub trait Plant {
+    fn name(&self) -> &str;
+    /// Signals it reads: controller outputs, or timeline columns.
+    fn inputs(&self) -> Vec<String>;
+    /// Signals it drives: controller inputs (or just observable).
+    fn outputs(&self) -> Vec<String>;
+    /// One step at `now`, before the controller's scan; `inputs` and `outputs` follow the order
+    /// of [`Plant::inputs`] and [`Plant::outputs`]. `outputs` holds the values of the previous
+    /// step (0 before the first), so a plant may leave a value unchanged.
+    fn step(
+        &mut self,
+        now: Duration,
+        inputs: &[i64],
+        outputs: &mut [i64],
+    ) -> Result<(), PlantError>;
+    /// One line describing its state for the end-of-run report, e.g.
+    /// "tape 111111 (6 ones), head at 0".
+    fn summary(&self) -> String;
+}
+
+/// Why a plant step failed.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PlantError {
+    #[error("plant `{plant}`: {source}")]
+    Scan {
+        plant: String,
+        #[source]
+        source: ScanError,
+    },
+    #[error("plant `{plant}`: {message}")]
+    Failed { plant: String, message: String },
+}
+
+/// The built-in plants: (name, one-line description).
+pub const BUILTINS: &[(&str, &str)] = &[
+    (
+        "tape",
+        "Turing-machine tape (seed 003 TM_tape): reads write, left, right; drives read",
+    ),
+    (
+        "keyboard",
+        "4x3 keypad (seed 003 PN_device_kb_IO): reads col1..col3 and timeline key1..key12; drives line1..line4",
+    ),
+    (
+        "tank",
+        "mixer tank (seed 002): reads V1, V2 (inlets, 20 %/s each), V3 (drain, 25 %/s); drives N1 (<= 5 %), N2 (>= 50 %), N3 (>= 90 %)",
+    ),
+];
+
+/// A fresh built-in plant by name (see [`BUILTINS`]).
+pub fn builtin(name: &str) -> Option<Box<dyn Plant>> {
+    match name {
+        "tape" => Some(Box::new(Tape::new())),
+        "keyboard" => Some(Box::new(Keyboard::new())),
+        "tank" => Some(Box::new(Tank::new())),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every built-in listed is constructible, reports its own name, and the reverse.
+    fn check(name: &str, expect: Option<(&str, usize, usize)>) {
+        let got = builtin(name).map(|p| {
+            assert_eq!(p.name(), name);
+            (
+                BUILTINS.iter().find(|b| b.0 == name).map_or("", |b| b.0),
+                p.inputs().len(),
+                p.outputs().len(),
+            )
+        });
+        assert_eq!(got, expect, "{name}");
+    }
+
+    #[test]
+    fn builtins_are_listed_and_constructible() {
+        check("tape", Some(("tape", 3, 1)));
+        check("keyboard", Some(("keyboard", 15, 4)));
+        check("tank", Some(("tank", 3, 3)));
+        check("Tank", None);
+        check("", None);
+        assert_eq!(
+            BUILTINS.iter().map(|b| b.0).collect::<Vec<_>>(),
+            ["tape", "keyboard", "tank"]
+        );
+    }
+
+    #[test]
+    fn errors_name_the_plant() {
+        let e = PlantError::Failed {
+            plant: "tape".into(),
+            message: "head ran off".into(),
+        };
+        assert_eq!(e.to_string(), "plant `tape`: head ran off");
+    }
+}

@@ -1,0 +1,588 @@
+//! The closed-loop driver: at every scan time it applies the timeline, steps the plant, scans
+//! the controller and records the result, with signals wired between them by name.
+
+use std::time::Duration;
+
+use petriplc_net::time::format_seconds;
+use petriplc_net::{Net, ScanError, ScanOptions, Scanner, SignalDirection, SignalId, SignalType};
+
+use crate::plant::{Plant, PlantError};
+use crate::timeline::{CursorState, Timeline};
+use crate::trace::{Trace, TraceRow};
+
+/// How a simulation runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SimOptions {
+    /// Time between scans; scans happen at k·period exactly.
+    pub period: Duration,
+    /// The last time a scan may happen (inclusive).
+    pub until: Duration,
+    /// The controller's scan options.
+    pub scan: ScanOptions,
+}
+
+impl SimOptions {
+    /// `period` and `until` with the scan options the net asks for.
+    pub fn new(net: &Net, period: Duration, until: Duration) -> Self {
+        SimOptions {
+            period,
+            until,
+            scan: ScanOptions::of(net),
+        }
+    }
+}
+
+/// Why a simulation could not be set up or could not go on.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SimError {
+    #[error("the scan period is 0; give a period greater than zero (e.g. 0.01 or T#10ms)")]
+    ZeroPeriod,
+    #[error("timeline {timeline}: column `{column}` is not an input of the controller{}; known inputs: {}; check the spelling", plant_part(.plant), list(.known))]
+    UnknownColumn {
+        timeline: String,
+        column: String,
+        plant: Option<String>,
+        known: Vec<String>,
+    },
+    #[error("timeline {timeline}: column `{column}` is an output of the controller; a timeline drives inputs only (the net computes its outputs)")]
+    ColumnIsOutput { timeline: String, column: String },
+    #[error("`{signal}` is driven by both {first} and {second}; drop it from one of them")]
+    DrivenTwice {
+        signal: String,
+        first: String,
+        second: String,
+    },
+    #[error("plant `{plant}` reads `{input}`, which is neither an output of the controller nor a timeline column; add a `{input}` column to the timeline")]
+    UnwiredPlantInput { plant: String, input: String },
+    #[error("timeline column `{column}` sets boolean input `{column}` to {value} at t={}s; write 0/1 or TRUE/FALSE, or declare the input as int", format_seconds(*time))]
+    NotBoolean {
+        column: String,
+        time: Duration,
+        value: i64,
+    },
+    #[error("`{name}` is not an input of this simulation; inputs: {}; check the spelling", list(.known))]
+    UnknownInput { name: String, known: Vec<String> },
+    #[error("`{name}` is an output of the controller; only inputs can be set")]
+    SetOutput { name: String },
+    #[error("boolean input `{name}` cannot be set to {value}; use 0 or 1")]
+    NotBooleanValue { name: String, value: i64 },
+    #[error("controller: {source}")]
+    Scan {
+        time: Duration,
+        #[source]
+        source: ScanError,
+    },
+    #[error("at t={}s: {source}", format_seconds(*time))]
+    Plant {
+        time: Duration,
+        #[source]
+        source: PlantError,
+    },
+}
+
+impl SimError {
+    /// The simulated time of a failure during the run (`None` for set-up errors).
+    pub fn time(&self) -> Option<Duration> {
+        match self {
+            SimError::Scan { time, .. } | SimError::Plant { time, .. } => Some(*time),
+            _ => None,
+        }
+    }
+}
+
+fn plant_part(plant: &Option<String>) -> String {
+    plant
+        .as_ref()
+        .map_or(String::new(), |p| format!(" nor of plant `{p}`"))
+}
+
+fn list(names: &[String]) -> String {
+    if names.is_empty() {
+        "(none)".to_string()
+    } else {
+        names.join(", ")
+    }
+}
+
+/// Where a plant input's value comes from.
+#[derive(Clone, Copy, Debug)]
+enum Source {
+    /// A controller output, as the previous scan left it.
+    Controller(SignalId),
+    /// A timeline column.
+    Timeline(usize),
+}
+
+struct PlantWiring<'n> {
+    plant: Box<dyn Plant + 'n>,
+    input_names: Vec<String>,
+    sources: Vec<Source>,
+    /// Plant output index → controller input it drives.
+    drives: Vec<(usize, SignalId)>,
+    inputs: Vec<i64>,
+    outputs: Vec<i64>,
+    forced: Vec<Option<i64>>,
+}
+
+/// A controller net in a closed loop with an optional timeline and plant, run scan by scan.
+pub struct Simulation<'n> {
+    net: &'n Net,
+    opts: SimOptions,
+    scanner: Scanner<'n>,
+    signals: Vec<i64>,
+    timeline: Option<Timeline>,
+    cursor: CursorState,
+    /// Timeline column → controller input it drives.
+    timeline_inputs: Vec<(usize, SignalId)>,
+    plant: Option<PlantWiring<'n>>,
+    /// Per controller signal: a value set by hand, overriding timeline and plant.
+    forced: Vec<Option<i64>>,
+    input_ids: Vec<SignalId>,
+    output_ids: Vec<SignalId>,
+    warnings: Vec<String>,
+    /// Index of the next scan.
+    next: u64,
+    now: Duration,
+    finished: bool,
+    current: TraceRow,
+    trace: Trace,
+}
+
+impl<'n> Simulation<'n> {
+    /// Wires the timeline and plant to the controller by signal name and checks the wiring.
+    pub fn new(
+        controller: &'n Net,
+        opts: SimOptions,
+        timeline: Option<Timeline>,
+        plant: Option<Box<dyn Plant + 'n>>,
+    ) -> Result<Self, SimError> {
+        if opts.period.is_zero() {
+            return Err(SimError::ZeroPeriod);
+        }
+        let net = controller;
+        let input_of = |name: &str| {
+            net.signal_by_name(name)
+                .filter(|&s| net.signal(s).direction == SignalDirection::Input)
+        };
+        let output_of = |name: &str| {
+            net.signal_by_name(name)
+                .filter(|&s| net.signal(s).direction == SignalDirection::Output)
+        };
+        let plant_name = plant.as_ref().map(|p| p.name().to_string());
+        let plant_inputs = plant.as_ref().map_or_else(Vec::new, |p| p.inputs());
+        let plant_outputs = plant.as_ref().map_or_else(Vec::new, |p| p.outputs());
+        let plant_label = || format!("plant `{}`", plant_name.as_deref().unwrap_or(""));
+
+        let mut timeline_inputs = Vec::new();
+        if let Some(tl) = &timeline {
+            for (col, name) in tl.columns().iter().enumerate() {
+                if let Some(s) = input_of(name) {
+                    timeline_inputs.push((col, s));
+                    if net.signal(s).ty == SignalType::Bool {
+                        if let Some(&(time, value)) =
+                            tl.changes(col).iter().find(|c| c.1 != 0 && c.1 != 1)
+                        {
+                            return Err(SimError::NotBoolean {
+                                column: name.clone(),
+                                time,
+                                value,
+                            });
+                        }
+                    }
+                } else if plant_inputs.contains(name) {
+                    // Wired below, with the plant's other inputs.
+                } else if output_of(name).is_some() {
+                    return Err(SimError::ColumnIsOutput {
+                        timeline: tl.source().to_string(),
+                        column: name.clone(),
+                    });
+                } else {
+                    let known = net
+                        .inputs()
+                        .map(|s| net.signal(s).name.clone())
+                        .chain(
+                            plant_inputs
+                                .iter()
+                                .filter(|n| output_of(n).is_none())
+                                .cloned(),
+                        )
+                        .collect();
+                    return Err(SimError::UnknownColumn {
+                        timeline: tl.source().to_string(),
+                        column: name.clone(),
+                        plant: plant_name.clone(),
+                        known,
+                    });
+                }
+            }
+        }
+        let column = |name: &str| timeline.as_ref().and_then(|tl| tl.column_index(name));
+
+        let plant = match plant {
+            None => None,
+            Some(plant) => {
+                let mut sources = Vec::with_capacity(plant_inputs.len());
+                for name in &plant_inputs {
+                    sources.push(match (output_of(name), column(name)) {
+                        (Some(s), None) => Source::Controller(s),
+                        (None, Some(c)) => Source::Timeline(c),
+                        (Some(_), Some(_)) => {
+                            return Err(SimError::DrivenTwice {
+                                signal: name.clone(),
+                                first: "the controller".into(),
+                                second: "the timeline".into(),
+                            })
+                        }
+                        (None, None) => {
+                            return Err(SimError::UnwiredPlantInput {
+                                plant: plant.name().to_string(),
+                                input: name.clone(),
+                            })
+                        }
+                    });
+                }
+                let mut drives = Vec::new();
+                for (i, name) in plant_outputs.iter().enumerate() {
+                    if output_of(name).is_some() {
+                        return Err(SimError::DrivenTwice {
+                            signal: name.clone(),
+                            first: "the controller".into(),
+                            second: plant_label(),
+                        });
+                    }
+                    if let Some(s) = input_of(name) {
+                        if column(name).is_some() {
+                            return Err(SimError::DrivenTwice {
+                                signal: name.clone(),
+                                first: "the timeline".into(),
+                                second: plant_label(),
+                            });
+                        }
+                        drives.push((i, s));
+                    }
+                }
+                Some(PlantWiring {
+                    plant,
+                    sources,
+                    drives,
+                    inputs: vec![0; plant_inputs.len()],
+                    outputs: vec![0; plant_outputs.len()],
+                    forced: vec![None; plant_inputs.len()],
+                    input_names: plant_inputs,
+                })
+            }
+        };
+
+        let warnings = net
+            .inputs()
+            .filter(|s| {
+                !timeline_inputs.iter().any(|(_, t)| t == s)
+                    && !plant
+                        .as_ref()
+                        .is_some_and(|p| p.drives.iter().any(|(_, d)| d == s))
+            })
+            .map(|s| {
+                let sig = net.signal(s);
+                let stays = if sig.ty == SignalType::Bool {
+                    "FALSE"
+                } else {
+                    "0"
+                };
+                format!(
+                    "input {} is driven by neither the timeline nor the plant; it stays {stays}",
+                    sig.name
+                )
+            })
+            .collect();
+
+        let cursor = timeline.as_ref().map(CursorState::new).unwrap_or_default();
+        Ok(Simulation {
+            net,
+            opts,
+            scanner: Scanner::new(net, opts.scan),
+            signals: vec![0; net.signals().len()],
+            timeline,
+            cursor,
+            timeline_inputs,
+            plant,
+            forced: vec![None; net.signals().len()],
+            input_ids: net.inputs().collect(),
+            output_ids: net.outputs().collect(),
+            warnings,
+            next: 0,
+            now: Duration::ZERO,
+            finished: false,
+            current: TraceRow::default(),
+            trace: Trace::new(net),
+        })
+    }
+
+    /// Wiring remarks that do not stop the run, e.g. inputs nothing drives.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// The time of scan `k`: exactly k·period, saturating at [`Duration::MAX`].
+    fn time_of(&self, k: u64) -> Duration {
+        let nanos = self.opts.period.as_nanos().saturating_mul(u128::from(k));
+        match u64::try_from(nanos / 1_000_000_000) {
+            Ok(secs) => Duration::new(secs, (nanos % 1_000_000_000) as u32),
+            Err(_) => Duration::MAX,
+        }
+    }
+
+    /// The time of the next scan (past `until` once the run is over).
+    pub fn next_time(&self) -> Duration {
+        self.time_of(self.next)
+    }
+
+    /// Whether the run is over: past `until`, or stopped by an error.
+    pub fn is_over(&self) -> bool {
+        self.finished || self.next_time() > self.opts.until
+    }
+
+    /// Makes one scan at the next time k·period and returns its row (recorded in the trace
+    /// only when something changed); `Ok(None)` once past `until`. After an error the run is
+    /// over and further steps return `Ok(None)`.
+    pub fn step(&mut self) -> Result<Option<&TraceRow>, SimError> {
+        if self.is_over() {
+            self.finished = true;
+            return Ok(None);
+        }
+        let t = self.next_time();
+        if let Err(e) = self.scan_at(t) {
+            self.finished = true;
+            return Err(e);
+        }
+        self.next += 1;
+        self.now = t;
+        Ok(Some(&self.current))
+    }
+
+    fn scan_at(&mut self, t: Duration) -> Result<(), SimError> {
+        // (1) The timeline's values at t.
+        let values: &[Option<i64>] = match &self.timeline {
+            Some(tl) => self.cursor.seek(tl, t),
+            None => &[],
+        };
+        for &(col, s) in &self.timeline_inputs {
+            if let Some(v) = values[col] {
+                self.signals[s.index()] = v;
+            }
+        }
+        // (2) The plant, seeing the controller's outputs from the previous scan.
+        if let Some(pw) = &mut self.plant {
+            for (i, src) in pw.sources.iter().enumerate() {
+                let v = match *src {
+                    Source::Controller(s) => Some(self.signals[s.index()]),
+                    Source::Timeline(col) => values[col],
+                };
+                if let Some(v) = pw.forced[i].or(v) {
+                    pw.inputs[i] = v;
+                }
+            }
+            pw.plant
+                .step(t, &pw.inputs, &mut pw.outputs)
+                .map_err(|source| SimError::Plant { time: t, source })?;
+            for &(i, s) in &pw.drives {
+                self.signals[s.index()] = pw.outputs[i];
+            }
+        }
+        for (v, f) in self.signals.iter_mut().zip(&self.forced) {
+            if let Some(f) = f {
+                *v = *f;
+            }
+        }
+        // (3) The controller.
+        self.scanner
+            .scan(t, &mut self.signals)
+            .map_err(|source| SimError::Scan { time: t, source })?;
+        // (4) The record.
+        let row = &mut self.current;
+        row.time = t;
+        row.inputs.clear();
+        row.inputs
+            .extend(self.input_ids.iter().map(|s| self.signals[s.index()]));
+        row.outputs.clear();
+        row.outputs
+            .extend(self.output_ids.iter().map(|s| self.signals[s.index()]));
+        row.marking.clear();
+        row.marking.extend_from_slice(&self.scanner.marking().0);
+        row.fired.clear();
+        row.fired.extend(
+            self.scanner
+                .fired()
+                .iter()
+                .map(|&t| self.net.transition_label(t).to_string()),
+        );
+        self.trace.record(row);
+        Ok(())
+    }
+
+    /// Sets an input by hand from the next scan on, overriding the timeline and the plant for
+    /// it (stepwise simulation). `name` is a controller input or a plant input fed by the
+    /// timeline.
+    pub fn set_input(&mut self, name: &str, value: i64) -> Result<(), SimError> {
+        let net = self.net;
+        let mut found = false;
+        if let Some(s) = net.signal_by_name(name) {
+            let sig = net.signal(s);
+            if sig.direction == SignalDirection::Output {
+                return Err(SimError::SetOutput {
+                    name: name.to_string(),
+                });
+            }
+            if sig.ty == SignalType::Bool && value != 0 && value != 1 {
+                return Err(SimError::NotBooleanValue {
+                    name: name.to_string(),
+                    value,
+                });
+            }
+            self.forced[s.index()] = Some(value);
+            self.signals[s.index()] = value;
+            found = true;
+        }
+        if let Some(pw) = &mut self.plant {
+            for (i, n) in pw.input_names.iter().enumerate() {
+                if n == name && matches!(pw.sources[i], Source::Timeline(_)) {
+                    pw.forced[i] = Some(value);
+                    found = true;
+                }
+            }
+        }
+        if found {
+            Ok(())
+        } else {
+            Err(SimError::UnknownInput {
+                name: name.to_string(),
+                known: self.settable_inputs(),
+            })
+        }
+    }
+
+    /// The controller's signals as the next scan will find them before the plant steps: the
+    /// timeline's values at [`Simulation::next_time`] and inputs set by hand applied; inputs
+    /// the plant drives keep their current values. For showing what could fire next.
+    pub fn preview_signals(&self) -> Vec<i64> {
+        let mut signals = self.signals.clone();
+        if let Some(tl) = &self.timeline {
+            let t = self.next_time();
+            for &(col, s) in &self.timeline_inputs {
+                if let Some(v) = tl.value_at(col, t) {
+                    signals[s.index()] = v;
+                }
+            }
+        }
+        for (v, f) in signals.iter_mut().zip(&self.forced) {
+            if let Some(f) = f {
+                *v = *f;
+            }
+        }
+        signals
+    }
+
+    /// The value input `name` will have at the next scan as far as known now (see
+    /// [`Simulation::preview_signals`]); `None` for a name [`Simulation::set_input`] rejects.
+    pub fn pending_input(&self, name: &str) -> Option<i64> {
+        if let Some(s) = self.net.signal_by_name(name) {
+            let is_input = self.net.signal(s).direction == SignalDirection::Input;
+            return is_input.then(|| self.preview_signals()[s.index()]);
+        }
+        let pw = self.plant.as_ref()?;
+        let i = pw.input_names.iter().position(|n| n == name)?;
+        let Source::Timeline(col) = pw.sources[i] else {
+            return None;
+        };
+        let timeline_value = self
+            .timeline
+            .as_ref()
+            .and_then(|tl| tl.value_at(col, self.next_time()));
+        Some(pw.forced[i].or(timeline_value).unwrap_or(pw.inputs[i]))
+    }
+
+    /// Names [`Simulation::set_input`] accepts: controller inputs, then plant inputs fed by
+    /// the timeline.
+    pub fn settable_inputs(&self) -> Vec<String> {
+        let mut names: Vec<String> = self
+            .net
+            .inputs()
+            .map(|s| self.net.signal(s).name.clone())
+            .collect();
+        if let Some(pw) = &self.plant {
+            for (n, src) in pw.input_names.iter().zip(&pw.sources) {
+                if matches!(src, Source::Timeline(_)) && !names.contains(n) {
+                    names.push(n.clone());
+                }
+            }
+        }
+        names
+    }
+
+    /// The time of the last scan made (zero before the first).
+    pub fn now(&self) -> Duration {
+        self.now
+    }
+    /// The number of scans made.
+    pub fn scans(&self) -> u64 {
+        self.next
+    }
+    pub fn options(&self) -> &SimOptions {
+        &self.opts
+    }
+    pub fn net(&self) -> &'n Net {
+        self.net
+    }
+    pub fn scanner(&self) -> &Scanner<'n> {
+        &self.scanner
+    }
+    /// The controller's signal values, indexed by [`SignalId`].
+    pub fn signals(&self) -> &[i64] {
+        &self.signals
+    }
+    /// The value of a controller signal by name.
+    pub fn signal(&self, name: &str) -> Option<i64> {
+        self.net
+            .signal_by_name(name)
+            .map(|s| self.signals[s.index()])
+    }
+    /// Tokens in the place with this label ([`Net::place_label`]).
+    pub fn tokens(&self, label: &str) -> Option<u32> {
+        let p = self
+            .net
+            .place_ids()
+            .find(|&p| self.net.place_label(p) == label)?;
+        Some(self.scanner.marking()[p])
+    }
+    pub fn timeline(&self) -> Option<&Timeline> {
+        self.timeline.as_ref()
+    }
+    pub fn plant(&self) -> Option<&(dyn Plant + 'n)> {
+        self.plant.as_ref().map(|p| p.plant.as_ref())
+    }
+    /// The plant's one-line state report.
+    pub fn plant_summary(&self) -> Option<String> {
+        self.plant.as_ref().map(|p| p.plant.summary())
+    }
+    /// The rows recorded so far.
+    pub fn trace(&self) -> &Trace {
+        &self.trace
+    }
+    pub fn into_trace(self) -> Trace {
+        self.trace
+    }
+
+    /// Steps until `until` (keeping the simulation, e.g. for its plant summary).
+    pub fn finish(&mut self) -> Result<(), SimError> {
+        while self.step()?.is_some() {}
+        Ok(())
+    }
+
+    /// Steps until `until` and returns the trace.
+    pub fn run(mut self) -> Result<Trace, SimError> {
+        self.finish()?;
+        Ok(self.trace)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,546 @@
+//! Input timelines: a CSV table of signal values over time (seed 003's `tu`), where each value
+//! holds until a later row changes it.
+//!
+//! ```text
+//! # time in seconds or as an IEC literal; an empty cell keeps the previous value
+//! time,START,STOP,SPEED
+//! 0,0,0,0
+//! T#1.5s,TRUE,,-3
+//! 2,false,1,
+//! ```
+//!
+//! The file is parsed by hand rather than with a CSV library: the format has no quoting, and
+//! hand-parsing lets every error point at the exact line and column of the offending cell.
+
+use std::fmt;
+use std::path::Path;
+use std::time::Duration;
+
+use petriplc_net::time::{format_seconds, parse_duration, TimeError};
+
+/// What is wrong with a timeline file, with where.
+#[derive(Debug, thiserror::Error)]
+pub enum TimelineError {
+    #[error("cannot read timeline {file}: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// `line` and `column` are 1-based; `column` counts characters.
+    #[error("{file}:{line}:{column}: {problem}")]
+    Syntax {
+        file: String,
+        line: usize,
+        column: usize,
+        problem: TimelineProblem,
+    },
+}
+
+impl TimelineError {
+    /// The problem, when the file could be read.
+    pub fn problem(&self) -> Option<&TimelineProblem> {
+        match self {
+            TimelineError::Io { .. } => None,
+            TimelineError::Syntax { problem, .. } => Some(problem),
+        }
+    }
+    /// The 1-based line and column, when the file could be read.
+    pub fn position(&self) -> Option<(usize, usize)> {
+        match self {
+            TimelineError::Io { .. } => None,
+            TimelineError::Syntax { line, column, .. } => Some((*line, *column)),
+        }
+    }
+}
+
+/// One problem in a timeline's text; the message says how to fix it.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum TimelineProblem {
+    #[error("the timeline has no header; its first line must be `time,SIG1,SIG2,...`")]
+    NoHeader,
+    #[error(
+        "the first header cell is `{found}`; it must be `time` (header: `time,SIG1,SIG2,...`)"
+    )]
+    NotTime { found: String },
+    #[error("the header names no signals; add one column per signal: `time,SIG1,SIG2,...`")]
+    NoSignals,
+    #[error("header cell {index} is empty; name every column after the signal it drives")]
+    EmptyColumnName { index: usize },
+    #[error("column `{name}` appears twice in the header (cells {first} and {second}); give each signal one column")]
+    DuplicateColumn {
+        name: String,
+        first: usize,
+        second: usize,
+    },
+    #[error("the row has {found} cells but the header has {expected}; add or remove commas (an empty cell keeps the previous value)")]
+    CellCount { expected: usize, found: usize },
+    #[error("the time cell is empty; every row starts with its time in seconds (`1.5`) or as an IEC literal (`T#1.5s`)")]
+    MissingTime,
+    #[error("bad time: {0}")]
+    BadTime(TimeError),
+    #[error("`{text}` is not a value for `{column}`: write 0/1, TRUE/FALSE or an integer, or leave the cell empty to keep the previous value")]
+    BadValue { column: String, text: String },
+    #[error("time {}s comes before {}s on line {previous_line}; sort the rows by time (equal times are allowed)", format_seconds(*time), format_seconds(*previous))]
+    DecreasingTime {
+        time: Duration,
+        previous: Duration,
+        previous_line: usize,
+    },
+}
+
+/// A parsed timeline: column names and, per column, the times its value changes.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Timeline {
+    source: String,
+    columns: Vec<String>,
+    /// Per column: (time, value) for every row whose cell is not empty, in time order.
+    changes: Vec<Vec<(Duration, i64)>>,
+    rows: usize,
+    end: Duration,
+}
+
+impl Timeline {
+    /// Parses timeline text; `source_name` (usually the file name) prefixes error messages.
+    pub fn parse(text: &str, source_name: &str) -> Result<Timeline, TimelineError> {
+        let err = |line: usize, column: usize, problem: TimelineProblem| TimelineError::Syntax {
+            file: source_name.to_string(),
+            line,
+            column,
+            problem,
+        };
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let mut lines = text
+            .split('\n')
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
+            .filter(|(_, l)| {
+                let t = l.trim();
+                !t.is_empty() && !t.starts_with('#')
+            });
+
+        let Some((header_line, header)) = lines.next() else {
+            let last = text.split('\n').count().max(1);
+            return Err(err(last, 1, TimelineProblem::NoHeader));
+        };
+        let cells = split_cells(header);
+        let (time_col, time_name) = cells[0];
+        if !time_name.eq_ignore_ascii_case("time") {
+            let found = time_name.to_string();
+            return Err(err(
+                header_line,
+                time_col,
+                TimelineProblem::NotTime { found },
+            ));
+        }
+        if cells.len() == 1 {
+            let column = header.chars().count() + 1;
+            return Err(err(header_line, column, TimelineProblem::NoSignals));
+        }
+        let mut columns: Vec<String> = Vec::with_capacity(cells.len() - 1);
+        for (index, &(col, name)) in cells.iter().enumerate().skip(1) {
+            if name.is_empty() {
+                let problem = TimelineProblem::EmptyColumnName { index: index + 1 };
+                return Err(err(header_line, col, problem));
+            }
+            if let Some(first) = columns.iter().position(|c| c == name) {
+                let problem = TimelineProblem::DuplicateColumn {
+                    name: name.to_string(),
+                    first: first + 2,
+                    second: index + 1,
+                };
+                return Err(err(header_line, col, problem));
+            }
+            columns.push(name.to_string());
+        }
+
+        let mut changes = vec![Vec::new(); columns.len()];
+        let mut last: Option<(Duration, usize)> = None;
+        let mut rows = 0;
+        for (line_no, line) in lines {
+            let cells = split_cells(line);
+            if cells.len() != columns.len() + 1 {
+                // Point at the first surplus cell, or at the end of a short row.
+                let column = cells
+                    .get(columns.len() + 1)
+                    .map_or(line.chars().count() + 1, |c| c.0);
+                let problem = TimelineProblem::CellCount {
+                    expected: columns.len() + 1,
+                    found: cells.len(),
+                };
+                return Err(err(line_no, column, problem));
+            }
+            let (time_col, time_text) = cells[0];
+            if time_text.is_empty() {
+                return Err(err(line_no, time_col, TimelineProblem::MissingTime));
+            }
+            let time = parse_duration(time_text)
+                .map_err(|e| err(line_no, time_col, TimelineProblem::BadTime(e)))?;
+            if let Some((previous, previous_line)) = last.filter(|(p, _)| time < *p) {
+                let problem = TimelineProblem::DecreasingTime {
+                    time,
+                    previous,
+                    previous_line,
+                };
+                return Err(err(line_no, time_col, problem));
+            }
+            last = Some((time, line_no));
+            for (i, &(col, cell)) in cells[1..].iter().enumerate() {
+                if cell.is_empty() {
+                    continue;
+                }
+                let value = parse_value(cell).ok_or_else(|| {
+                    let problem = TimelineProblem::BadValue {
+                        column: columns[i].clone(),
+                        text: cell.to_string(),
+                    };
+                    err(line_no, col, problem)
+                })?;
+                changes[i].push((time, value));
+            }
+            rows += 1;
+        }
+        Ok(Timeline {
+            source: source_name.to_string(),
+            columns,
+            changes,
+            rows,
+            end: last.map_or(Duration::ZERO, |(t, _)| t),
+        })
+    }
+
+    /// Reads and parses a timeline file.
+    pub fn read_file(path: impl AsRef<Path>) -> Result<Timeline, TimelineError> {
+        let path = path.as_ref();
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| TimelineError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        Timeline::parse(&text, &file)
+    }
+
+    /// Where the timeline came from, as given to [`Timeline::parse`].
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+    /// The signal columns, without `time`.
+    pub fn columns(&self) -> &[String] {
+        &self.columns
+    }
+    pub fn column_index(&self, name: &str) -> Option<usize> {
+        self.columns.iter().position(|c| c == name)
+    }
+    /// The number of data rows.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+    /// The time of the last row (zero when there is none).
+    pub fn end(&self) -> Duration {
+        self.end
+    }
+    /// Every (time, value) a column is set to, in time order.
+    pub fn changes(&self, column: usize) -> &[(Duration, i64)] {
+        self.changes.get(column).map_or(&[], Vec::as_slice)
+    }
+
+    /// The value of `column` at time `t`: the last non-empty cell at or before `t`; `None`
+    /// before the first row that sets it (or for a column that does not exist).
+    pub fn value_at(&self, column: usize, t: Duration) -> Option<i64> {
+        let ch = self.changes.get(column)?;
+        let n = ch.partition_point(|&(time, _)| time <= t);
+        n.checked_sub(1).map(|i| ch[i].1)
+    }
+
+    /// A cursor for reading every column at increasing times in amortised constant time.
+    pub fn cursor(&self) -> TimelineCursor<'_> {
+        TimelineCursor {
+            timeline: self,
+            state: CursorState::new(self),
+        }
+    }
+}
+
+impl fmt::Display for Timeline {
+    /// Writes the timeline back as canonical CSV (empty cells where a value is unchanged).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "time")?;
+        for c in &self.columns {
+            write!(f, ",{c}")?;
+        }
+        writeln!(f)?;
+        let mut next = vec![0; self.columns.len()];
+        loop {
+            let t = self
+                .changes
+                .iter()
+                .zip(&next)
+                .filter_map(|(ch, &i)| ch.get(i).map(|c| c.0))
+                .min();
+            let Some(t) = t else { break };
+            write!(f, "{}", format_seconds(t))?;
+            for (ch, i) in self.changes.iter().zip(next.iter_mut()) {
+                // Several rows at one time: only the last value at that time is observable.
+                let mut value = None;
+                while let Some(&(_, v)) = ch.get(*i).filter(|c| c.0 == t) {
+                    value = Some(v);
+                    *i += 1;
+                }
+                match value {
+                    Some(v) => write!(f, ",{v}")?,
+                    None => write!(f, ",")?,
+                }
+            }
+            writeln!(f)?;
+        }
+        Ok(())
+    }
+}
+
+/// A timeline read at non-decreasing times.
+#[derive(Clone, Debug)]
+pub struct TimelineCursor<'a> {
+    timeline: &'a Timeline,
+    state: CursorState,
+}
+
+impl TimelineCursor<'_> {
+    /// Moves to time `t` and returns every column's value there (see [`Timeline::value_at`]).
+    /// Going back in time is allowed but restarts from the first row.
+    pub fn seek(&mut self, t: Duration) -> &[Option<i64>] {
+        self.state.seek(self.timeline, t)
+    }
+    /// The values at the last time sought (all `None` before the first seek).
+    pub fn values(&self) -> &[Option<i64>] {
+        &self.state.values
+    }
+}
+
+/// A cursor's position without the borrow, for owners of the timeline (the simulation keeps
+/// its timeline and cursor side by side).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CursorState {
+    next: Vec<usize>,
+    values: Vec<Option<i64>>,
+    at: Option<Duration>,
+}
+
+impl CursorState {
+    pub(crate) fn new(timeline: &Timeline) -> Self {
+        CursorState {
+            next: vec![0; timeline.columns.len()],
+            values: vec![None; timeline.columns.len()],
+            at: None,
+        }
+    }
+
+    pub(crate) fn seek(&mut self, timeline: &Timeline, t: Duration) -> &[Option<i64>] {
+        if self.at.is_some_and(|at| t < at) || self.next.len() != timeline.columns.len() {
+            *self = CursorState::new(timeline);
+        }
+        self.at = Some(t);
+        for ((ch, next), value) in timeline
+            .changes
+            .iter()
+            .zip(&mut self.next)
+            .zip(&mut self.values)
+        {
+            while let Some(&(time, v)) = ch.get(*next) {
+                if time > t {
+                    break;
+                }
+                *value = Some(v);
+                *next += 1;
+            }
+        }
+        &self.values
+    }
+}
+
+/// Splits a line at commas into (1-based character column, trimmed cell) pairs.
+fn split_cells(line: &str) -> Vec<(usize, &str)> {
+    let mut out = Vec::new();
+    let mut column = 1;
+    for raw in line.split(',') {
+        let lead = raw.len() - raw.trim_start().len();
+        let cell = raw.trim();
+        // An empty cell points at where it starts, a filled one at its first character.
+        let offset = if cell.is_empty() {
+            0
+        } else {
+            raw[..lead].chars().count()
+        };
+        out.push((column + offset, cell));
+        column += raw.chars().count() + 1;
+    }
+    out
+}
+
+/// `0`/`1`, `TRUE`/`FALSE` in any case, or a (possibly signed) integer.
+fn parse_value(cell: &str) -> Option<i64> {
+    if cell.eq_ignore_ascii_case("true") {
+        Some(1)
+    } else if cell.eq_ignore_ascii_case("false") {
+        Some(0)
+    } else {
+        cell.parse().ok()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn secs(s: f64) -> Duration {
+        Duration::from_secs_f64(s)
+    }
+
+    /// Parses `input` and renders it as `columns | t: values` lines, or as the error message.
+    fn check(input: &str, expect: &str) {
+        let got = match Timeline::parse(input, "tl.csv") {
+            Ok(tl) => {
+                let mut s = tl.columns().join(",");
+                let mut times: Vec<Duration> = tl.changes.iter().flatten().map(|c| c.0).collect();
+                times.sort();
+                times.dedup();
+                for t in times {
+                    let vals: Vec<String> = (0..tl.columns().len())
+                        .map(|c| tl.value_at(c, t).map_or("-".into(), |v| v.to_string()))
+                        .collect();
+                    s += &format!(" | {}: {}", format_seconds(t), vals.join(","));
+                }
+                s
+            }
+            Err(e) => e.to_string(),
+        };
+        assert_eq!(got, expect, "input:\n{input}");
+    }
+
+    #[test]
+    fn parses_values_times_and_holds() {
+        check(
+            "# keys of seed 003\n\
+             time, A ,B,C\n\
+             \n\
+             0,0,FALSE,-3\n\
+             T#1.5s, true ,,+7\n\
+             \t# comment after data\n\
+             2,,1,\n",
+            "A,B,C | 0: 0,0,-3 | 1.5: 1,0,7 | 2: 1,1,7",
+        );
+        check("time,A\r\n0.25,1\r\n", "A | 0.25: 1");
+        check("\u{feff}TIME,A\n1,0\n1,1\n", "A | 1: 1");
+        check("time,A\n", "A");
+        check("time,A,B\n0,,\n3,5,\n", "A,B | 3: 5,-");
+    }
+
+    #[test]
+    fn reports_every_problem_with_position() {
+        check(
+            "",
+            "tl.csv:1:1: the timeline has no header; its first line must be `time,SIG1,SIG2,...`",
+        );
+        check(
+            "# only\n\n# comments\n",
+            "tl.csv:4:1: the timeline has no header; its first line must be `time,SIG1,SIG2,...`",
+        );
+        check(
+            "t,A\n",
+            "tl.csv:1:1: the first header cell is `t`; it must be `time` (header: `time,SIG1,SIG2,...`)",
+        );
+        check(
+            "time\n0\n",
+            "tl.csv:1:5: the header names no signals; add one column per signal: `time,SIG1,SIG2,...`",
+        );
+        check(
+            "time,A,,B\n",
+            "tl.csv:1:8: header cell 3 is empty; name every column after the signal it drives",
+        );
+        check(
+            "time,A,B, A\n",
+            "tl.csv:1:11: column `A` appears twice in the header (cells 2 and 4); give each signal one column",
+        );
+        check(
+            "time,A,B\n0,1,0,1\n",
+            "tl.csv:2:7: the row has 4 cells but the header has 3; add or remove commas (an empty cell keeps the previous value)",
+        );
+        check(
+            "time,A,B\n0,1\n",
+            "tl.csv:2:4: the row has 2 cells but the header has 3; add or remove commas (an empty cell keeps the previous value)",
+        );
+        check(
+            "time,A\n ,1\n",
+            "tl.csv:2:1: the time cell is empty; every row starts with its time in seconds (`1.5`) or as an IEC literal (`T#1.5s`)",
+        );
+        check(
+            "time,A\nsoon,1\n",
+            "tl.csv:2:1: bad time: `soon` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)",
+        );
+        check(
+            "time,A\n-1,1\n",
+            "tl.csv:2:1: bad time: `-1` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)",
+        );
+        check(
+            "time,A,B\n0,1,  yes\n",
+            "tl.csv:2:7: `yes` is not a value for `B`: write 0/1, TRUE/FALSE or an integer, or leave the cell empty to keep the previous value",
+        );
+        check(
+            "time,A\n0,1.5\n",
+            "tl.csv:2:3: `1.5` is not a value for `A`: write 0/1, TRUE/FALSE or an integer, or leave the cell empty to keep the previous value",
+        );
+        check(
+            "time,A\n0,99999999999999999999\n",
+            "tl.csv:2:3: `99999999999999999999` is not a value for `A`: write 0/1, TRUE/FALSE or an integer, or leave the cell empty to keep the previous value",
+        );
+        check(
+            "time,A\n0,0\n# gap\n2,1\nT#1s,0\n",
+            "tl.csv:5:1: time 1s comes before 2s on line 4; sort the rows by time (equal times are allowed)",
+        );
+    }
+
+    #[test]
+    fn error_accessors_and_io() {
+        let e = Timeline::parse("time,A\n0,x\n", "f").unwrap_err();
+        assert_eq!(e.position(), Some((2, 3)));
+        assert!(matches!(
+            e.problem(),
+            Some(TimelineProblem::BadValue { .. })
+        ));
+        let e = Timeline::read_file("/nonexistent/petriplc/tl.csv").unwrap_err();
+        assert!(e.problem().is_none());
+        assert!(e
+            .to_string()
+            .starts_with("cannot read timeline /nonexistent/petriplc/tl.csv: "));
+    }
+
+    #[test]
+    fn value_at_holds_until_the_next_row() {
+        let tl = Timeline::parse("time,A,B\n1,1,\n2,0,5\n2,1,\n4,,6\n", "x").unwrap();
+        assert_eq!(tl.end(), secs(4.0));
+        assert_eq!(tl.rows(), 4);
+        assert_eq!(tl.column_index("B"), Some(1));
+        assert_eq!(tl.value_at(0, secs(0.5)), None);
+        assert_eq!(tl.value_at(0, secs(1.0)), Some(1));
+        assert_eq!(tl.value_at(0, secs(1.999)), Some(1));
+        // Two rows at one time: the later one is what holds.
+        assert_eq!(tl.value_at(0, secs(2.0)), Some(1));
+        assert_eq!(tl.value_at(1, secs(3.0)), Some(5));
+        assert_eq!(tl.value_at(1, secs(100.0)), Some(6));
+        assert_eq!(tl.value_at(7, secs(1.0)), None);
+        assert_eq!(tl.to_string(), "time,A,B\n1,1,\n2,1,5\n4,,6\n");
+    }
+
+    #[test]
+    fn cursor_agrees_with_value_at() {
+        let tl = Timeline::parse("time,A,B\n0,1,\n0.3,0,5\n0.3,1,\n0.7,,6\n", "x").unwrap();
+        let mut c = tl.cursor();
+        assert_eq!(c.values(), &[None, None]);
+        let times: Vec<Duration> = (0..12).map(|k| Duration::from_millis(100) * k).collect();
+        for &t in &times {
+            let expect: Vec<Option<i64>> = (0..2).map(|col| tl.value_at(col, t)).collect();
+            assert_eq!(c.seek(t), expect.as_slice(), "at {t:?}");
+        }
+        // Going back restarts rather than giving stale values.
+        assert_eq!(c.seek(secs(0.1)), &[Some(1), None]);
+    }
+}

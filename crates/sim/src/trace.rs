@@ -1,0 +1,267 @@
+//! The record of a simulation run: one row per scan in which something changed, and its CSV
+//! form, which is byte-for-byte deterministic so runs can be diffed and golden-tested.
+
+use std::borrow::Cow;
+use std::io::{self, Write};
+use std::time::Duration;
+
+use petriplc_net::time::format_seconds;
+use petriplc_net::{Net, SignalType};
+
+/// The state after one scan.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct TraceRow {
+    pub time: Duration,
+    /// Controller input values, in the order of [`Trace::inputs`].
+    pub inputs: Vec<i64>,
+    /// Controller output values, in the order of [`Trace::outputs`].
+    pub outputs: Vec<i64>,
+    /// Tokens per place, in the order of [`Trace::places`].
+    pub marking: Vec<u32>,
+    /// Labels of the transitions fired by the scan, in firing order.
+    pub fired: Vec<String>,
+}
+
+/// A run's recorded rows and the names that give their columns meaning.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Trace {
+    /// Input signal names, in declaration order.
+    pub inputs: Vec<String>,
+    pub input_types: Vec<SignalType>,
+    /// Output signal names, in declaration order.
+    pub outputs: Vec<String>,
+    pub output_types: Vec<SignalType>,
+    /// Place labels ([`Net::place_label`]).
+    pub places: Vec<String>,
+    /// The first scan's row, then one for every scan whose inputs, outputs or marking changed
+    /// or in which something fired.
+    pub rows: Vec<TraceRow>,
+    /// The time of the last scan made (rows stop at the last change, the run may go on).
+    pub end: Duration,
+    /// How many scans were made.
+    pub scans: u64,
+}
+
+impl Trace {
+    /// An empty trace with the columns of `net`.
+    pub fn new(net: &Net) -> Self {
+        let (inputs, input_types) = net
+            .inputs()
+            .map(|s| (net.signal(s).name.clone(), net.signal(s).ty))
+            .unzip();
+        let (outputs, output_types) = net
+            .outputs()
+            .map(|s| (net.signal(s).name.clone(), net.signal(s).ty))
+            .unzip();
+        Trace {
+            inputs,
+            input_types,
+            outputs,
+            output_types,
+            places: net
+                .place_ids()
+                .map(|p| net.place_label(p).to_string())
+                .collect(),
+            ..Trace::default()
+        }
+    }
+
+    /// Notes one scan; keeps a copy of `row` when it is the first or differs from the last
+    /// kept one (or fired something). Returns whether it was kept.
+    pub fn record(&mut self, row: &TraceRow) -> bool {
+        self.scans += 1;
+        self.end = self.end.max(row.time);
+        let keep = self.rows.last().is_none_or(|last| {
+            !row.fired.is_empty()
+                || last.inputs != row.inputs
+                || last.outputs != row.outputs
+                || last.marking != row.marking
+        });
+        if keep {
+            self.rows.push(row.clone());
+        }
+        keep
+    }
+
+    /// The rows the CSV shows: the first, then those where outputs or marking changed or
+    /// something fired (rows kept only for an input change are left out: the CSV has no input
+    /// columns).
+    pub fn csv_row_iter(&self) -> impl Iterator<Item = &TraceRow> + '_ {
+        self.rows.iter().enumerate().filter_map(move |(i, row)| {
+            let shown = match i.checked_sub(1).map(|j| &self.rows[j]) {
+                None => true,
+                Some(prev) => {
+                    !row.fired.is_empty()
+                        || prev.outputs != row.outputs
+                        || prev.marking != row.marking
+                }
+            };
+            shown.then_some(row)
+        })
+    }
+
+    /// How many data lines [`Trace::write_csv`] writes.
+    pub fn csv_rows(&self) -> usize {
+        self.csv_row_iter().count()
+    }
+
+    /// Writes `time,<outputs…>,m:<place>…,fired`, one line per [`Trace::csv_row_iter`] row, with
+    /// `\n` line ends and fields quoted only where CSV needs it.
+    pub fn write_csv(&self, mut w: impl Write) -> io::Result<()> {
+        let mut line = String::from("time");
+        for name in &self.outputs {
+            push_field(&mut line, name);
+        }
+        for place in &self.places {
+            push_field(&mut line, &format!("m:{place}"));
+        }
+        push_field(&mut line, "fired");
+        line.push('\n');
+        w.write_all(line.as_bytes())?;
+        for row in self.csv_row_iter() {
+            line.clear();
+            line.push_str(&format_seconds(row.time));
+            for (v, ty) in row.outputs.iter().zip(&self.output_types) {
+                let v = match ty {
+                    SignalType::Bool => i64::from(*v != 0),
+                    SignalType::Int => *v,
+                };
+                line.push(',');
+                line.push_str(&v.to_string());
+            }
+            for m in &row.marking {
+                line.push(',');
+                line.push_str(&m.to_string());
+            }
+            push_field(&mut line, &row.fired.join(" "));
+            line.push('\n');
+            w.write_all(line.as_bytes())?;
+        }
+        w.flush()
+    }
+
+    /// The CSV as a string (see [`Trace::write_csv`]).
+    pub fn to_csv(&self) -> String {
+        let mut out = Vec::new();
+        // Writing to a Vec cannot fail.
+        let _ = self.write_csv(&mut out);
+        String::from_utf8_lossy(&out).into_owned()
+    }
+}
+
+/// Appends `,field`, quoted as RFC 4180 asks only when it holds a comma, quote or line break.
+fn push_field(line: &mut String, field: &str) {
+    line.push(',');
+    line.push_str(&quote(field));
+}
+
+fn quote(field: &str) -> Cow<'_, str> {
+    if field.contains([',', '"', '\n', '\r']) {
+        Cow::Owned(format!("\"{}\"", field.replace('"', "\"\"")))
+    } else {
+        Cow::Borrowed(field)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testnet::net;
+
+    fn row(ms: u64, inputs: &[i64], outputs: &[i64], marking: &[u32], fired: &[&str]) -> TraceRow {
+        TraceRow {
+            time: Duration::from_millis(ms),
+            inputs: inputs.to_vec(),
+            outputs: outputs.to_vec(),
+            marking: marking.to_vec(),
+            fired: fired.iter().map(|s| s.to_string()).collect(),
+        }
+    }
+
+    /// Records `rows` as consecutive scans; compares which were kept (by time in ms) and the
+    /// exact CSV.
+    fn check(trace: &mut Trace, rows: &[TraceRow], expect_kept: &[u64], expect_csv: &str) {
+        for r in rows {
+            trace.record(r);
+        }
+        let kept: Vec<u64> = trace
+            .rows
+            .iter()
+            .map(|r| r.time.as_millis() as u64)
+            .collect();
+        assert_eq!(kept, expect_kept);
+        assert_eq!(trace.to_csv(), expect_csv);
+        assert_eq!(trace.scans, rows.len() as u64);
+    }
+
+    fn lamp_trace() -> Trace {
+        let n = net("
+            s level out int
+            p off 1 >lamp
+            p on 0
+            p count 0 >level
+            t t_on off -> on count if button
+            t t_off on -> off if NOT button
+        ");
+        Trace::new(&n)
+    }
+
+    #[test]
+    fn keeps_changes_and_writes_exact_csv() {
+        let mut trace = lamp_trace();
+        assert_eq!(trace.inputs, ["button"]);
+        assert_eq!(trace.outputs, ["level", "lamp"]);
+        assert_eq!(trace.places, ["off", "on", "count"]);
+        check(
+            &mut trace,
+            &[
+                row(0, &[0], &[0, 1], &[1, 0, 0], &[]),
+                row(10, &[0], &[0, 1], &[1, 0, 0], &[]),
+                // An input change alone is kept for the plot, but not written to the CSV.
+                row(20, &[1], &[0, 1], &[1, 0, 0], &[]),
+                row(30, &[1], &[1, 0], &[0, 1, 1], &["t_on"]),
+                row(40, &[1], &[1, 0], &[0, 1, 1], &[]),
+                // Firing with no net change of marking still shows.
+                row(50, &[1], &[1, 0], &[0, 1, 1], &["t_off", "t_on"]),
+                row(60, &[0], &[1, 0], &[1, 0, 1], &["t_off"]),
+                row(70, &[0], &[1, 0], &[1, 0, 1], &[]),
+            ],
+            &[0, 20, 30, 50, 60],
+            "time,level,lamp,m:off,m:on,m:count,fired\n\
+             0,0,1,1,0,0,\n\
+             0.03,1,0,0,1,1,t_on\n\
+             0.05,1,0,0,1,1,t_off t_on\n\
+             0.06,1,0,1,0,1,t_off\n",
+        );
+        assert_eq!(trace.end, Duration::from_millis(70));
+        assert_eq!(trace.csv_rows(), 4);
+    }
+
+    #[test]
+    fn the_first_row_is_always_written() {
+        let mut trace = lamp_trace();
+        check(
+            &mut trace,
+            &[row(0, &[1], &[0, 1], &[1, 0, 0], &[])],
+            &[0],
+            "time,level,lamp,m:off,m:on,m:count,fired\n0,0,1,1,0,0,\n",
+        );
+        check(&mut Trace::default(), &[], &[], "time,fired\n");
+    }
+
+    #[test]
+    fn quotes_only_when_needed() {
+        let mut trace = Trace {
+            outputs: vec!["Y".into()],
+            output_types: vec![SignalType::Bool],
+            places: vec!["a,b".into(), "say \"hi\"".into()],
+            ..Trace::default()
+        };
+        check(
+            &mut trace,
+            &[row(1500, &[], &[5], &[0, 2], &["t,1", "t2"])],
+            &[1500],
+            "time,Y,\"m:a,b\",\"m:say \"\"hi\"\"\",fired\n1.5,1,0,2,\"t,1 t2\"\n",
+        );
+    }
+}

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Runs every check petriplc has, on a fresh machine: installs what the tests need, then
+# formatting, lints and the whole test suite. CI runs exactly this (.ci/run).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
+
+# xmllint validates what we write against the PNML grammars.
+if ! command -v xmllint >/dev/null 2>&1; then
+  echo "== installing libxml2-utils (xmllint)"
+  as_root apt-get update -qq
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libxml2-utils >/dev/null
+fi
+
+if [ ! -d ../shared/data/mcc ]; then
+  echo "error: ../shared (seeds, schemas, MCC models) must sit beside this checkout" >&2
+  exit 2
+fi
+
+echo "== cargo fmt --check"
+cargo fmt --all -- --check
+echo "== cargo clippy"
+cargo clippy --workspace --all-targets --locked -- -D warnings
+echo "== cargo test"
+cargo test --workspace --locked
