@@ -7,7 +7,11 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use petriplc_net::{Evolution, StepRule};
 
 #[derive(Debug, Parser)]
-#[command(name = "petriplc", version, about = "Petri-net soft PLC toolchain: model, simulate, analyse, generate code, run")]
+#[command(
+    name = "petriplc",
+    version,
+    about = "Petri-net soft PLC toolchain: model, simulate, analyse, generate code, run"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

@@ -182,7 +182,11 @@ impl<S> Expr<S> {
 
     /// Writes the expression in canonical IEC form (`AND`, `OR`, `XOR`, `NOT`), naming
     /// signals with `name`. Parsing the result gives back the same tree.
-    pub fn write_iec(&self, out: &mut impl fmt::Write, name: &impl Fn(&S) -> String) -> fmt::Result {
+    pub fn write_iec(
+        &self,
+        out: &mut impl fmt::Write,
+        name: &impl Fn(&S) -> String,
+    ) -> fmt::Result {
         let child = |out: &mut dyn fmt::Write, e: &Expr<S>, min: u8| -> fmt::Result {
             if e.level() < min {
                 out.write_char('(')?;
@@ -236,7 +240,8 @@ impl<S> Expr<S> {
     /// The canonical IEC text of the expression.
     pub fn to_iec(&self, name: &impl Fn(&S) -> String) -> String {
         let mut s = String::new();
-        self.write_iec(&mut s, name).expect("writing to a String cannot fail");
+        self.write_iec(&mut s, name)
+            .expect("writing to a String cannot fail");
         s
     }
 }
@@ -284,7 +289,10 @@ fn lex(text: &str) -> Result<Vec<(Tok, usize)>, GuardError> {
     let chars: Vec<char> = text.chars().collect();
     let mut toks = Vec::new();
     let mut i = 0;
-    let err = |col: usize, message: String| GuardError { column: col + 1, message };
+    let err = |col: usize, message: String| GuardError {
+        column: col + 1,
+        message,
+    };
     while i < chars.len() {
         let c = chars[i];
         let start = i;
@@ -353,6 +361,9 @@ fn lex(text: &str) -> Result<Vec<(Tok, usize)>, GuardError> {
     Ok(toks)
 }
 
+/// Builds a binary node from its operands (`Expr::And` and the like).
+type MakeBinary = fn(Box<Expr<String>>, Box<Expr<String>>) -> Expr<String>;
+
 struct Parser {
     toks: Vec<(Tok, usize)>,
     pos: usize,
@@ -373,14 +384,17 @@ impl Parser {
         t
     }
     fn error(&self, message: String) -> GuardError {
-        GuardError { column: self.column(), message }
+        GuardError {
+            column: self.column(),
+            message,
+        }
     }
 
     fn binary(
         &mut self,
         op: Tok,
         next: fn(&mut Self) -> Result<Expr<String>, GuardError>,
-        make: fn(Box<Expr<String>>, Box<Expr<String>>) -> Expr<String>,
+        make: MakeBinary,
     ) -> Result<Expr<String>, GuardError> {
         let mut lhs = next(self)?;
         while *self.peek() == op {
@@ -404,7 +418,9 @@ impl Parser {
             && matches!(self.toks.get(self.pos + 1), Some((Tok::Cmp(_), _)));
         if starts_comparison {
             let a = self.operand(None)?;
-            let Tok::Cmp(op) = self.bump() else { unreachable!("checked by the lookahead") };
+            let Tok::Cmp(op) = self.bump() else {
+                unreachable!("checked by the lookahead")
+            };
             let b = self.operand(Some(op))?;
             if let Tok::Cmp(_) = self.peek() {
                 return Err(self.error("comparisons cannot be chained; join them with AND".into()));
@@ -436,7 +452,10 @@ impl Parser {
                         op.symbol(),
                         describe(&t)
                     ),
-                    None => format!("expected a signal name or an integer, found {}", describe(&t)),
+                    None => format!(
+                        "expected a signal name or an integer, found {}",
+                        describe(&t)
+                    ),
                 },
             }),
         }
@@ -493,7 +512,9 @@ pub fn parse(text: &str) -> Result<Expr<String>, GuardError> {
     let e = p.or()?;
     if *p.peek() != Tok::End {
         let what = describe(p.peek());
-        return Err(p.error(format!("unexpected {what}: expected AND, OR, XOR or the end of the guard")));
+        return Err(p.error(format!(
+            "unexpected {what}: expected AND, OR, XOR or the end of the guard"
+        )));
     }
     Ok(e)
 }
@@ -520,7 +541,10 @@ mod tests {
         check("NOT (a AND b)", "NOT (a AND b)");
         check("a AND (b AND c)", "a AND (b AND c)");
         check("not not x", "NOT NOT x");
-        check("Level >= 3 AND NOT (Level > 7)", "Level >= 3 AND NOT (Level > 7)");
+        check(
+            "Level >= 3 AND NOT (Level > 7)",
+            "Level >= 3 AND NOT (Level > 7)",
+        );
         check("3 < Level", "3 < Level");
         check("x <> y OR x != 2", "x <> y OR x <> 2");
         check("", "TRUE");
@@ -531,14 +555,29 @@ mod tests {
     #[test]
     fn errors_point_at_the_column() {
         check("B1 AND", "error: column 7: the guard ends where a signal name, TRUE, FALSE, NOT or `(` is expected");
-        check("(a OR b", "error: column 8: expected `)` to close the `(` at column 1, found the end");
-        check("a b", "error: column 3: unexpected `b`: expected AND, OR, XOR or the end of the guard");
+        check(
+            "(a OR b",
+            "error: column 8: expected `)` to close the `(` at column 1, found the end",
+        );
+        check(
+            "a b",
+            "error: column 3: unexpected `b`: expected AND, OR, XOR or the end of the guard",
+        );
         check("a # b", "error: column 3: unexpected character `#`: a guard uses signal names, AND/OR/XOR/NOT (or & | !), comparisons and parentheses");
-        check("a < b < c", "error: column 7: comparisons cannot be chained; join them with AND");
+        check(
+            "a < b < c",
+            "error: column 7: comparisons cannot be chained; join them with AND",
+        );
         check("5", "error: column 1: a number (5) cannot stand alone; compare it with a signal, e.g. `Level >= 5`");
         check("(a AND b) = 1", "error: column 1: a comparison needs a signal name or an integer on each side; write `NOT (a = b)` rather than `NOT a = b`");
-        check("x >= AND", "error: column 6: expected a signal name or an integer after `>=`, found `AND`");
-        check("99999999999999999999 < x", "error: column 1: the number 99999999999999999999 is too large");
+        check(
+            "x >= AND",
+            "error: column 6: expected a signal name or an integer after `>=`, found `AND`",
+        );
+        check(
+            "99999999999999999999 < x",
+            "error: column 1: the number 99999999999999999999 is too large",
+        );
     }
 
     #[test]
@@ -561,7 +600,12 @@ mod tests {
 
     #[test]
     fn printing_round_trips() {
-        for text in ["a AND (b OR NOT c) XOR d", "NOT (x > 2) OR y", "(a XOR b) AND c", "a OR (b OR c)"] {
+        for text in [
+            "a AND (b OR NOT c) XOR d",
+            "NOT (x > 2) OR y",
+            "(a XOR b) AND c",
+            "a OR (b OR c)",
+        ] {
             let e = parse(text).unwrap();
             assert_eq!(parse(&e.to_string()).unwrap(), e, "{text}");
         }

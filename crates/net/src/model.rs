@@ -280,13 +280,22 @@ impl Net {
         (0..self.transitions.len()).map(TransitionId::from)
     }
     pub fn signal_by_name(&self, name: &str) -> Option<SignalId> {
-        self.signals.iter().position(|s| s.name == name).map(SignalId::from)
+        self.signals
+            .iter()
+            .position(|s| s.name == name)
+            .map(SignalId::from)
     }
     pub fn place_by_id(&self, id: &str) -> Option<PlaceId> {
-        self.places.iter().position(|p| p.id == id).map(PlaceId::from)
+        self.places
+            .iter()
+            .position(|p| p.id == id)
+            .map(PlaceId::from)
     }
     pub fn transition_by_id(&self, id: &str) -> Option<TransitionId> {
-        self.transitions.iter().position(|t| t.id == id).map(TransitionId::from)
+        self.transitions
+            .iter()
+            .position(|t| t.id == id)
+            .map(TransitionId::from)
     }
     /// Input signals, in declaration order.
     pub fn inputs(&self) -> impl Iterator<Item = SignalId> + '_ {
@@ -310,7 +319,7 @@ impl Net {
     }
 
     /// The most tokens place `p` may hold: its capacity, or for an input place the range of
-    /// its signal (1 for a boolean), else unbounded (`u32::MAX`).
+    /// its signal (1 for a boolean), else unbounded (`u32::MAX`, the token counter's limit).
     pub fn capacity(&self, p: PlaceId) -> u32 {
         let place = &self.places[p.index()];
         match (place.capacity, place.input) {
@@ -318,6 +327,15 @@ impl Net {
             (None, Some(s)) if self.signals[s.index()].ty == SignalType::Bool => 1,
             _ => u32::MAX,
         }
+    }
+
+    /// The capacity the firing rule enforces: [`Net::capacity`] for a place with a capacity
+    /// or an input place, `None` for an unbounded place. An unbounded place is never a reason
+    /// not to fire; going past `u32::MAX` tokens is an error ([`TokenOverflow`]), not a
+    /// silently disabled transition.
+    pub fn bound(&self, p: PlaceId) -> Option<u32> {
+        let place = &self.places[p.index()];
+        (place.capacity.is_some() || place.input.is_some()).then(|| self.capacity(p))
     }
 
     /// A label for reports: the name when it is non-empty, has no white space and no other
@@ -345,13 +363,21 @@ impl Net {
 
     /// A guard in canonical IEC text with signal names.
     pub fn guard_text(&self, t: TransitionId) -> String {
-        self.transitions[t.index()].guard.0.to_iec(&|s: &SignalId| self.signals[s.index()].name.clone())
+        self.transitions[t.index()]
+            .guard
+            .0
+            .to_iec(&|s: &SignalId| self.signals[s.index()].name.clone())
     }
 
     /// C(p, t): tokens `t` adds to `p` minus tokens it takes (read and inhibitor arcs count 0).
     pub fn incidence(&self, p: PlaceId, t: TransitionId) -> i64 {
         let a = &self.by_transition[t.index()];
-        let sum = |l: &[(PlaceId, u32)]| l.iter().filter(|(q, _)| *q == p).map(|(_, w)| i64::from(*w)).sum::<i64>();
+        let sum = |l: &[(PlaceId, u32)]| {
+            l.iter()
+                .filter(|(q, _)| *q == p)
+                .map(|(_, w)| i64::from(*w))
+                .sum::<i64>()
+        };
         sum(&a.produce) - sum(&a.consume)
     }
 
@@ -363,30 +389,49 @@ impl Net {
             && a.read.iter().all(|&(p, w)| m[p] >= w)
             && a.inhibit.iter().all(|&(p, w)| m[p] < w)
             && a.produce.iter().all(|&(p, w)| {
-                let after = u64::from(m[p]) - u64::from(self.consumed_from(a, p)) + u64::from(w);
-                after <= u64::from(self.capacity(p))
+                self.bound(p).is_none_or(|cap| {
+                    let after =
+                        u64::from(m[p]) - u64::from(self.consumed_from(a, p)) + u64::from(w);
+                    after <= u64::from(cap)
+                })
             })
     }
 
     fn consumed_from(&self, a: &TransitionArcs, p: PlaceId) -> u32 {
-        a.consume.iter().find(|(q, _)| *q == p).map_or(0, |(_, w)| *w)
+        a.consume
+            .iter()
+            .find(|(q, _)| *q == p)
+            .map_or(0, |(_, w)| *w)
     }
 
-    /// Fires `t` in `m` (the caller has checked it is enabled).
+    /// Fires `t` in `m` (the caller has checked it is enabled). On overflow `m` is left as it
+    /// was.
     pub fn fire(&self, m: &mut Marking, t: TransitionId) -> Result<(), TokenOverflow> {
         let a = &self.by_transition[t.index()];
+        // Check every addition first so that an error leaves no half-fired marking.
+        for &(p, w) in &a.produce {
+            let after = u64::from(m[p]) - u64::from(self.consumed_from(a, p)) + u64::from(w);
+            if after > u64::from(u32::MAX) {
+                return Err(TokenOverflow {
+                    place: self.place_label(p).to_string(),
+                });
+            }
+        }
         for &(p, w) in &a.consume {
             m[p] -= w;
         }
         for &(p, w) in &a.produce {
-            m[p] = m[p].checked_add(w).ok_or_else(|| TokenOverflow { place: self.place_label(p).to_string() })?;
+            m[p] += w;
         }
         Ok(())
     }
 }
 
 fn is_label(name: &str) -> bool {
-    !name.is_empty() && !name.chars().any(|c| c.is_whitespace() || c == ',' || c == '"')
+    !name.is_empty()
+        && !name
+            .chars()
+            .any(|c| c.is_whitespace() || c == ',' || c == '"')
 }
 
 /// A place as an importer describes it, before ids are resolved.
@@ -427,11 +472,23 @@ pub enum ModelError {
     #[error("id `{id}` is used twice; every place, transition and arc needs its own id")]
     DuplicateId { id: String },
     #[error("arc `{arc}`: its {end} `{node}` is not a place or transition of this net")]
-    UnknownNode { arc: String, end: &'static str, node: String },
+    UnknownNode {
+        arc: String,
+        end: &'static str,
+        node: String,
+    },
     #[error("arc `{arc}` joins two places (`{source_id}` → `{target_id}`); an arc joins a place and a transition")]
-    PlaceToPlace { arc: String, source_id: String, target_id: String },
+    PlaceToPlace {
+        arc: String,
+        source_id: String,
+        target_id: String,
+    },
     #[error("arc `{arc}` joins two transitions (`{source_id}` → `{target_id}`); an arc joins a place and a transition")]
-    TransitionToTransition { arc: String, source_id: String, target_id: String },
+    TransitionToTransition {
+        arc: String,
+        source_id: String,
+        target_id: String,
+    },
     #[error("arc `{arc}` has weight 0; weights are whole numbers from 1")]
     ZeroWeight { arc: String },
     #[error("arc `{arc}` is a {kind} arc from transition to place; read and inhibitor arcs go from a place to a transition")]
@@ -440,10 +497,16 @@ pub enum ModelError {
     DelayOnWrongArc { arc: String, kind: ArcKind },
     #[error("arc `{arc}` has a delay but goes from a transition to a place; delays go on arcs from a place")]
     DelayOnOutputArc { arc: String },
-    #[error("place `{place}` has capacity 0; a capacity is at least 1 (leave it out for no bound)")]
+    #[error(
+        "place `{place}` has capacity 0; a capacity is at least 1 (leave it out for no bound)"
+    )]
     ZeroCapacity { place: String },
     #[error("place `{place}` starts with {initial} tokens but its capacity is {capacity}")]
-    InitialAboveCapacity { place: String, initial: u32, capacity: u32 },
+    InitialAboveCapacity {
+        place: String,
+        initial: u32,
+        capacity: u32,
+    },
     #[error("arc `{arc}` is a normal arc on input place `{place}`; an input place mirrors its signal, so only read and inhibitor arcs may leave it")]
     FlowArcOnInputPlace { arc: String, place: String },
     #[error("input place `{place}` has an initial marking ({initial}); it mirrors its input signal, so leave the marking out")]
@@ -451,11 +514,23 @@ pub enum ModelError {
     #[error("place `{place}` is both an input and an output place; make it one or the other")]
     InputAndOutput { place: String },
     #[error("signal `{signal}` is used as an {first} and as an {second}; rename one of them")]
-    DirectionConflict { signal: String, first: SignalDirection, second: SignalDirection },
+    DirectionConflict {
+        signal: String,
+        first: SignalDirection,
+        second: SignalDirection,
+    },
     #[error("signal `{signal}` is declared twice with different types ({first} and {second})")]
-    TypeConflict { signal: String, first: SignalType, second: SignalType },
+    TypeConflict {
+        signal: String,
+        first: SignalType,
+        second: SignalType,
+    },
     #[error("integer output `{signal}` is bound to places `{first}` and `{second}`; an integer output shows one place's marking")]
-    IntOutputTwice { signal: String, first: String, second: String },
+    IntOutputTwice {
+        signal: String,
+        first: String,
+        second: String,
+    },
     #[error("transition `{transition}`: its guard reads output `{signal}`; guards read input signals only")]
     GuardReadsOutput { transition: String, signal: String },
     #[error("`{name}` is not a valid signal name; use letters, digits and `_`, starting with a letter or `_`")]
@@ -493,7 +568,10 @@ pub fn is_signal_name(name: &str) -> bool {
     let mut chars = name.chars();
     matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-        && !matches!(name.to_ascii_uppercase().as_str(), "AND" | "OR" | "XOR" | "NOT" | "TRUE" | "FALSE")
+        && !matches!(
+            name.to_ascii_uppercase().as_str(),
+            "AND" | "OR" | "XOR" | "NOT" | "TRUE" | "FALSE"
+        )
 }
 
 /// Collects places, transitions, arcs and signal declarations, then checks them all at once
@@ -512,7 +590,11 @@ pub struct NetBuilder {
 
 impl NetBuilder {
     pub fn new(id: impl Into<String>, name: impl Into<String>) -> Self {
-        NetBuilder { id: id.into(), name: name.into(), ..Default::default() }
+        NetBuilder {
+            id: id.into(),
+            name: name.into(),
+            ..Default::default()
+        }
     }
     pub fn step(&mut self, step: StepRule) -> &mut Self {
         self.step = step;
@@ -525,7 +607,12 @@ impl NetBuilder {
     /// Declares a signal's direction and type; undeclared signals are booleans whose
     /// direction follows from use (guards and input places read inputs, output places drive
     /// outputs). Declaration order comes first in the signal table.
-    pub fn signal(&mut self, name: impl Into<String>, direction: SignalDirection, ty: SignalType) -> &mut Self {
+    pub fn signal(
+        &mut self,
+        name: impl Into<String>,
+        direction: SignalDirection,
+        ty: SignalType,
+    ) -> &mut Self {
         self.declared.push((name.into(), direction, ty));
         self
     }
@@ -558,7 +645,10 @@ impl NetBuilder {
             }
         }
         for (i, t) in self.transitions.iter().enumerate() {
-            if ids.insert(&t.id, Node::Transition(TransitionId::from(i))).is_some() {
+            if ids
+                .insert(&t.id, Node::Transition(TransitionId::from(i)))
+                .is_some()
+            {
                 errors.push(ModelError::DuplicateId { id: t.id.clone() });
             }
         }
@@ -577,44 +667,82 @@ impl NetBuilder {
         let mut places = Vec::with_capacity(self.places.len());
         for p in &self.places {
             if p.capacity == Some(0) {
-                errors.push(ModelError::ZeroCapacity { place: p.id.clone() });
+                errors.push(ModelError::ZeroCapacity {
+                    place: p.id.clone(),
+                });
             }
             if let Some(c) = p.capacity.filter(|&c| c > 0 && p.initial > c) {
-                errors.push(ModelError::InitialAboveCapacity { place: p.id.clone(), initial: p.initial, capacity: c });
+                errors.push(ModelError::InitialAboveCapacity {
+                    place: p.id.clone(),
+                    initial: p.initial,
+                    capacity: c,
+                });
             }
             if p.input.is_some() && p.output.is_some() {
-                errors.push(ModelError::InputAndOutput { place: p.id.clone() });
+                errors.push(ModelError::InputAndOutput {
+                    place: p.id.clone(),
+                });
             }
             if p.input.is_some() && p.initial > 0 {
-                errors.push(ModelError::MarkedInputPlace { place: p.id.clone(), initial: p.initial });
+                errors.push(ModelError::MarkedInputPlace {
+                    place: p.id.clone(),
+                    initial: p.initial,
+                });
             }
-            let output = p.output.as_deref().and_then(|n| signals.declare(n, SignalDirection::Output, None, &mut errors));
-            let input = p.input.as_deref().and_then(|n| signals.declare(n, SignalDirection::Input, None, &mut errors));
-            places.push(Place { id: p.id.clone(), name: p.name.clone(), initial: p.initial, capacity: p.capacity, output, input });
+            let output = p
+                .output
+                .as_deref()
+                .and_then(|n| signals.declare(n, SignalDirection::Output, None, &mut errors));
+            let input = p
+                .input
+                .as_deref()
+                .and_then(|n| signals.declare(n, SignalDirection::Input, None, &mut errors));
+            places.push(Place {
+                id: p.id.clone(),
+                name: p.name.clone(),
+                initial: p.initial,
+                capacity: p.capacity,
+                output,
+                input,
+            });
         }
 
         let mut transitions = Vec::with_capacity(self.transitions.len());
         for t in &self.transitions {
             let mut e = Vec::new();
             let guard = t.guard.try_map(&mut |name: &String| {
-                signals.declare(name, SignalDirection::Input, None, &mut e).ok_or(())
+                signals
+                    .declare(name, SignalDirection::Input, None, &mut e)
+                    .ok_or(())
             });
             for err in e {
                 let err = match err {
-                    ModelError::DirectionConflict { signal, first: SignalDirection::Output, .. } => {
-                        ModelError::GuardReadsOutput { transition: t.id.clone(), signal }
-                    }
+                    ModelError::DirectionConflict {
+                        signal,
+                        first: SignalDirection::Output,
+                        ..
+                    } => ModelError::GuardReadsOutput {
+                        transition: t.id.clone(),
+                        signal,
+                    },
                     other => other,
                 };
                 errors.push(err);
             }
             let guard = Guard(guard.unwrap_or(Expr::Const(false)));
-            transitions.push(Transition { id: t.id.clone(), name: t.name.clone(), guard });
+            transitions.push(Transition {
+                id: t.id.clone(),
+                name: t.name.clone(),
+                guard,
+            });
         }
 
         let mut int_outputs: HashMap<SignalId, &str> = HashMap::new();
         for p in &places {
-            if let Some(s) = p.output.filter(|s| signals.table[s.index()].ty == SignalType::Int) {
+            if let Some(s) = p
+                .output
+                .filter(|s| signals.table[s.index()].ty == SignalType::Int)
+            {
                 if let Some(first) = int_outputs.insert(s, &p.id) {
                     errors.push(ModelError::IntOutputTwice {
                         signal: signals.table[s.index()].name.clone(),
@@ -628,7 +756,13 @@ impl NetBuilder {
         let mut arcs = Vec::with_capacity(self.arcs.len());
         for a in &self.arcs {
             let find = |end: &'static str, node: &str| {
-                ids.get(node).copied().ok_or_else(|| ModelError::UnknownNode { arc: a.id.clone(), end, node: node.to_string() })
+                ids.get(node)
+                    .copied()
+                    .ok_or_else(|| ModelError::UnknownNode {
+                        arc: a.id.clone(),
+                        end,
+                        node: node.to_string(),
+                    })
             };
             let (src, dst) = match (find("source", &a.source), find("target", &a.target)) {
                 (Ok(s), Ok(d)) => (s, d),
@@ -642,11 +776,19 @@ impl NetBuilder {
                 (Node::Place(p), Node::Transition(t)) => (p, t, ArcDirection::PlaceToTransition),
                 (Node::Transition(t), Node::Place(p)) => (p, t, ArcDirection::TransitionToPlace),
                 (Node::Place(_), Node::Place(_)) => {
-                    errors.push(ModelError::PlaceToPlace { arc: a.id.clone(), source_id: a.source.clone(), target_id: a.target.clone() });
+                    errors.push(ModelError::PlaceToPlace {
+                        arc: a.id.clone(),
+                        source_id: a.source.clone(),
+                        target_id: a.target.clone(),
+                    });
                     continue;
                 }
                 (Node::Transition(_), Node::Transition(_)) => {
-                    errors.push(ModelError::TransitionToTransition { arc: a.id.clone(), source_id: a.source.clone(), target_id: a.target.clone() });
+                    errors.push(ModelError::TransitionToTransition {
+                        arc: a.id.clone(),
+                        source_id: a.source.clone(),
+                        target_id: a.target.clone(),
+                    });
                     continue;
                 }
             };
@@ -654,20 +796,37 @@ impl NetBuilder {
                 errors.push(ModelError::ZeroWeight { arc: a.id.clone() });
             }
             if direction == ArcDirection::TransitionToPlace && a.kind != ArcKind::Normal {
-                errors.push(ModelError::SpecialArcIntoPlace { arc: a.id.clone(), kind: a.kind });
+                errors.push(ModelError::SpecialArcIntoPlace {
+                    arc: a.id.clone(),
+                    kind: a.kind,
+                });
             }
             if a.delay.is_some() {
                 if direction == ArcDirection::TransitionToPlace {
                     errors.push(ModelError::DelayOnOutputArc { arc: a.id.clone() });
                 } else if a.kind == ArcKind::Inhibitor {
-                    errors.push(ModelError::DelayOnWrongArc { arc: a.id.clone(), kind: a.kind });
+                    errors.push(ModelError::DelayOnWrongArc {
+                        arc: a.id.clone(),
+                        kind: a.kind,
+                    });
                 }
             }
             let pl = &places[place.index()];
             if pl.input.is_some() && a.kind == ArcKind::Normal {
-                errors.push(ModelError::FlowArcOnInputPlace { arc: a.id.clone(), place: pl.id.clone() });
+                errors.push(ModelError::FlowArcOnInputPlace {
+                    arc: a.id.clone(),
+                    place: pl.id.clone(),
+                });
             }
-            arcs.push(Arc { id: a.id.clone(), place, transition, direction, kind: a.kind, weight: a.weight, delay: a.delay });
+            arcs.push(Arc {
+                id: a.id.clone(),
+                place,
+                transition,
+                direction,
+                kind: a.kind,
+                weight: a.weight,
+                delay: a.delay,
+            });
         }
 
         if !errors.is_empty() {
@@ -694,7 +853,12 @@ impl NetBuilder {
             }
             if let Some(delay) = a.delay {
                 ta.timed.push(timed_arcs.len());
-                timed_arcs.push(TimedArc { arc: ArcId::from(i), place: a.place, weight: a.weight, delay });
+                timed_arcs.push(TimedArc {
+                    arc: ArcId::from(i),
+                    place: a.place,
+                    weight: a.weight,
+                    delay,
+                });
             }
         }
 
@@ -735,22 +899,36 @@ impl SignalTable {
         errors: &mut Vec<ModelError>,
     ) -> Option<SignalId> {
         if !is_signal_name(name) {
-            errors.push(ModelError::BadSignalName { name: name.to_string() });
+            errors.push(ModelError::BadSignalName {
+                name: name.to_string(),
+            });
             return None;
         }
         if let Some(&id) = self.by_name.get(name) {
             let s = &self.table[id.index()];
             if s.direction != direction {
-                errors.push(ModelError::DirectionConflict { signal: name.to_string(), first: s.direction, second: direction });
+                errors.push(ModelError::DirectionConflict {
+                    signal: name.to_string(),
+                    first: s.direction,
+                    second: direction,
+                });
                 return None;
             }
             if let Some(ty) = ty.filter(|t| *t != s.ty) {
-                errors.push(ModelError::TypeConflict { signal: name.to_string(), first: s.ty, second: ty });
+                errors.push(ModelError::TypeConflict {
+                    signal: name.to_string(),
+                    first: s.ty,
+                    second: ty,
+                });
             }
             return Some(id);
         }
         let id = SignalId::from(self.table.len());
-        self.table.push(Signal { name: name.to_string(), direction, ty: ty.unwrap_or_default() });
+        self.table.push(Signal {
+            name: name.to_string(),
+            direction,
+            ty: ty.unwrap_or_default(),
+        });
         self.by_name.insert(name.to_string(), id);
         Some(id)
     }
@@ -762,13 +940,29 @@ mod tests {
     use crate::guard::parse;
 
     fn place(id: &str, initial: u32) -> PlaceSpec {
-        PlaceSpec { id: id.into(), name: id.into(), initial, ..Default::default() }
+        PlaceSpec {
+            id: id.into(),
+            name: id.into(),
+            initial,
+            ..Default::default()
+        }
     }
     fn transition(id: &str, guard: &str) -> TransitionSpec {
-        TransitionSpec { id: id.into(), name: id.into(), guard: parse(guard).unwrap() }
+        TransitionSpec {
+            id: id.into(),
+            name: id.into(),
+            guard: parse(guard).unwrap(),
+        }
     }
     fn arc(id: &str, s: &str, t: &str, w: u32) -> ArcSpec {
-        ArcSpec { id: id.into(), source: s.into(), target: t.into(), kind: ArcKind::Normal, weight: w, delay: None }
+        ArcSpec {
+            id: id.into(),
+            source: s.into(),
+            target: t.into(),
+            kind: ArcKind::Normal,
+            weight: w,
+            delay: None,
+        }
     }
 
     /// Builds a net and renders either its errors or a summary.
@@ -781,7 +975,10 @@ mod tests {
                 net.places().len(),
                 net.transitions().len(),
                 net.arcs().len(),
-                net.signals().iter().map(|s| format!("{} {} {}", s.direction, s.ty, s.name)).collect::<Vec<_>>()
+                net.signals()
+                    .iter()
+                    .map(|s| format!("{} {} {}", s.direction, s.ty, s.name))
+                    .collect::<Vec<_>>()
             )],
             Err(es) => es.iter().map(|e| format!("{}: {e}", e.element())).collect(),
         };
@@ -854,12 +1051,18 @@ mod tests {
     fn interleaving_firing_respects_capacity_and_special_arcs() {
         let mut b = NetBuilder::new("n", "n");
         b.place(place("a", 2));
-        b.place(PlaceSpec { capacity: Some(1), ..place("b", 0) });
+        b.place(PlaceSpec {
+            capacity: Some(1),
+            ..place("b", 0)
+        });
         b.place(place("c", 0));
         b.transition(transition("t", ""));
         b.arc(arc("x", "a", "t", 1));
         b.arc(arc("y", "t", "b", 1));
-        b.arc(ArcSpec { kind: ArcKind::Inhibitor, ..arc("z", "c", "t", 1) });
+        b.arc(ArcSpec {
+            kind: ArcKind::Inhibitor,
+            ..arc("z", "c", "t", 1)
+        });
         let net = b.build().unwrap();
         let t = TransitionId(0);
         let mut m = net.initial_marking();

@@ -22,7 +22,11 @@ impl ScanOptions {
     pub const DEFAULT_MAX_PASSES: u32 = 1000;
 
     pub fn of(net: &Net) -> Self {
-        ScanOptions { step: net.step, evolve: net.evolve, max_passes: Self::DEFAULT_MAX_PASSES }
+        ScanOptions {
+            step: net.step,
+            evolve: net.evolve,
+            max_passes: Self::DEFAULT_MAX_PASSES,
+        }
     }
 }
 
@@ -36,9 +40,16 @@ pub enum ScanError {
         format_seconds(*time),
         transitions.join(", ")
     )]
-    Unstable { time: Duration, passes: u32, transitions: Vec<String> },
+    Unstable {
+        time: Duration,
+        passes: u32,
+        transitions: Vec<String>,
+    },
     #[error("at t={}s: {source}", format_seconds(*time))]
-    Overflow { time: Duration, source: TokenOverflow },
+    Overflow {
+        time: Duration,
+        source: TokenOverflow,
+    },
     #[error("time went backwards: a scan at {}s after one at {}s", format_seconds(*now), format_seconds(*previous))]
     TimeWentBackwards { previous: Duration, now: Duration },
 }
@@ -53,7 +64,11 @@ pub enum Blocker {
     /// An inhibitor arc's place holds too many tokens.
     Inhibited { place: String, has: u32, limit: u32 },
     /// Firing would overfill a place.
-    Capacity { place: String, would_hold: u64, capacity: u32 },
+    Capacity {
+        place: String,
+        would_hold: u64,
+        capacity: u32,
+    },
     /// A delayed arc's place has not held its tokens long enough.
     Waiting { place: String, remaining: Duration },
 }
@@ -62,15 +77,28 @@ impl fmt::Display for Blocker {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Blocker::Guard { guard } => write!(f, "guard `{guard}` is false"),
-            Blocker::Tokens { place, has, needs } => write!(f, "{place} holds {has}, needs {needs}"),
-            Blocker::Inhibited { place, has, limit } => {
-                write!(f, "{place} holds {has}, inhibitor allows fewer than {limit}")
+            Blocker::Tokens { place, has, needs } => {
+                write!(f, "{place} holds {has}, needs {needs}")
             }
-            Blocker::Capacity { place, would_hold, capacity } => {
+            Blocker::Inhibited { place, has, limit } => {
+                write!(
+                    f,
+                    "{place} holds {has}, inhibitor allows fewer than {limit}"
+                )
+            }
+            Blocker::Capacity {
+                place,
+                would_hold,
+                capacity,
+            } => {
                 write!(f, "{place} would hold {would_hold}, capacity {capacity}")
             }
             Blocker::Waiting { place, remaining } => {
-                write!(f, "{place} must hold its tokens {}s longer", format_seconds(*remaining))
+                write!(
+                    f,
+                    "{place} must hold its tokens {}s longer",
+                    format_seconds(*remaining)
+                )
             }
         }
     }
@@ -82,7 +110,11 @@ pub struct Scanner<'n> {
     net: &'n Net,
     options: ScanOptions,
     marking: Marking,
+    /// Per place: the clamp for an input place's signal.
     capacity: Vec<u32>,
+    /// Per place: the capacity the firing rule checks, `u64::MAX` for an unbounded place
+    /// (whose only limit is the token counter: exceeding it is [`ScanError::Overflow`]).
+    limit: Vec<u64>,
     /// Input places and the signal each mirrors.
     input_places: Vec<(PlaceId, SignalId)>,
     /// Each output signal, its type and the places bound to it.
@@ -93,18 +125,30 @@ pub struct Scanner<'n> {
     fired: Vec<TransitionId>,
     passes: u32,
     avail: Vec<u32>,
-    produced: Vec<u32>,
+    /// Tokens produced so far in a maximal step; `u64` so that an overflow of a place is
+    /// found when the step is applied instead of wrapping.
+    produced: Vec<u64>,
 }
 
 impl<'n> Scanner<'n> {
     /// A scanner at the initial marking, no scan made yet.
     pub fn new(net: &'n Net, options: ScanOptions) -> Self {
         let capacity = net.place_ids().map(|p| net.capacity(p)).collect();
-        let input_places = net.place_ids().filter_map(|p| net.place(p).input.map(|s| (p, s))).collect();
+        let limit = net
+            .place_ids()
+            .map(|p| net.bound(p).map_or(u64::MAX, u64::from))
+            .collect();
+        let input_places = net
+            .place_ids()
+            .filter_map(|p| net.place(p).input.map(|s| (p, s)))
+            .collect();
         let outputs = net
             .outputs()
             .map(|s| {
-                let places = net.place_ids().filter(|&p| net.place(p).output == Some(s)).collect();
+                let places = net
+                    .place_ids()
+                    .filter(|&p| net.place(p).output == Some(s))
+                    .collect();
                 (s, net.signal(s).ty, places)
             })
             .collect();
@@ -113,6 +157,7 @@ impl<'n> Scanner<'n> {
             options,
             marking: net.initial_marking(),
             capacity,
+            limit,
             input_places,
             outputs,
             since: vec![None; net.timed_arcs().len()],
@@ -154,14 +199,20 @@ impl<'n> Scanner<'n> {
         self.read_inputs(signals);
         self.fired.clear();
         self.passes = 0;
-        let mut last_pass_start = 0;
+        // Where in `fired` the second half of the allowed passes starts: what fires there is
+        // what keeps the net from settling (see `unstable`).
+        let mut second_half = 0;
         loop {
-            if self.options.evolve == Evolution::UntilStable && self.passes == self.options.max_passes {
-                return Err(self.unstable(now, last_pass_start));
+            if self.options.evolve == Evolution::UntilStable
+                && self.passes == self.options.max_passes
+            {
+                return Err(self.unstable(now, second_half));
+            }
+            if self.passes == self.options.max_passes / 2 {
+                second_half = self.fired.len();
             }
             self.sample_timers(now);
             let before = self.fired.len();
-            last_pass_start = before;
             match self.options.step {
                 StepRule::MaximalStep => self.maximal_step(now, signals)?,
                 StepRule::Sequential => self.sequential(now, signals)?,
@@ -175,16 +226,20 @@ impl<'n> Scanner<'n> {
         Ok(())
     }
 
-    fn unstable(&self, now: Duration, last_pass_start: usize) -> ScanError {
-        // The last passes show the cycle; look back far enough to see a whole one.
-        let from = last_pass_start.saturating_sub(self.net.transitions().len() * 4);
-        let mut ids: Vec<TransitionId> = self.fired[from..].to_vec();
+    /// Names the transitions that fired in the second half of the allowed passes: transients
+    /// of the first passes are left out, and every transition of a cycle up to half the bound
+    /// long is named (a look-back counted in firings missed parts of long cycles).
+    fn unstable(&self, now: Duration, second_half: usize) -> ScanError {
+        let mut ids: Vec<TransitionId> = self.fired[second_half..].to_vec();
         ids.sort();
         ids.dedup();
         ScanError::Unstable {
             time: now,
             passes: self.passes,
-            transitions: ids.iter().map(|&t| self.net.transition_label(t).to_string()).collect(),
+            transitions: ids
+                .iter()
+                .map(|&t| self.net.transition_label(t).to_string())
+                .collect(),
         }
     }
 
@@ -233,10 +288,15 @@ impl<'n> Scanner<'n> {
                 && a.read.iter().all(|&(p, w)| avail[p.index()] >= w)
                 && a.inhibit.iter().all(|&(p, w)| avail[p.index()] < w)
                 && a.produce.iter().all(|&(p, w)| {
-                    let own = a.consume.iter().find(|(q, _)| *q == p).map_or(0, |(_, c)| *c);
-                    let after = u64::from(self.marking[p]) + u64::from(self.produced[p.index()]) + u64::from(w)
+                    let own = a
+                        .consume
+                        .iter()
+                        .find(|(q, _)| *q == p)
+                        .map_or(0, |(_, c)| *c);
+                    let after = u64::from(self.marking[p]).saturating_add(self.produced[p.index()])
+                        + u64::from(w)
                         - u64::from(own);
-                    after <= u64::from(self.capacity[p.index()])
+                    after <= self.limit[p.index()]
                 })
                 && self.delays_elapsed(t, now)
                 && net.transition(t).guard.eval(signals);
@@ -245,17 +305,28 @@ impl<'n> Scanner<'n> {
                     self.avail[p.index()] -= w;
                 }
                 for &(p, w) in &a.produce {
-                    // Cannot overflow: the capacity check above bounds it by u32::MAX.
-                    self.produced[p.index()] += w;
+                    // Saturating: a sum past u32::MAX is reported as an overflow below anyway.
+                    self.produced[p.index()] =
+                        self.produced[p.index()].saturating_add(u64::from(w));
                 }
                 self.fired.push(t);
             }
         }
-        for (i, m) in self.marking.0.iter_mut().enumerate() {
-            *m = self.avail[i].checked_add(self.produced[i]).ok_or_else(|| ScanError::Overflow {
+        // Check every place before writing any, so an error leaves the pass's start marking.
+        let overflow = (0..self.avail.len()).find(|&i| {
+            u64::from(self.avail[i]).saturating_add(self.produced[i]) > u64::from(u32::MAX)
+        });
+        if let Some(i) = overflow {
+            return Err(ScanError::Overflow {
                 time: now,
-                source: TokenOverflow { place: net.place_label(PlaceId::from(i)).to_string() },
-            })?;
+                source: TokenOverflow {
+                    place: net.place_label(PlaceId::from(i)).to_string(),
+                },
+            });
+        }
+        for (i, m) in self.marking.0.iter_mut().enumerate() {
+            // In range: checked just above.
+            *m = (u64::from(self.avail[i]) + self.produced[i]) as u32;
         }
         Ok(())
     }
@@ -265,7 +336,8 @@ impl<'n> Scanner<'n> {
         let net = self.net;
         for t in net.transition_ids() {
             if self.enabled_now(t, now, signals) {
-                net.fire(&mut self.marking, t).map_err(|source| ScanError::Overflow { time: now, source })?;
+                net.fire(&mut self.marking, t)
+                    .map_err(|source| ScanError::Overflow { time: now, source })?;
                 self.fired.push(t);
             }
         }
@@ -279,8 +351,12 @@ impl<'n> Scanner<'n> {
             && a.read.iter().all(|&(p, w)| m[p] >= w)
             && a.inhibit.iter().all(|&(p, w)| m[p] < w)
             && a.produce.iter().all(|&(p, w)| {
-                let own = a.consume.iter().find(|(q, _)| *q == p).map_or(0, |(_, c)| *c);
-                u64::from(m[p]) + u64::from(w) - u64::from(own) <= u64::from(self.capacity[p.index()])
+                let own = a
+                    .consume
+                    .iter()
+                    .find(|(q, _)| *q == p)
+                    .map_or(0, |(_, c)| *c);
+                u64::from(m[p]) + u64::from(w) - u64::from(own) <= self.limit[p.index()]
             })
             && self.delays_elapsed(t, now)
             && self.net.transition(t).guard.eval(signals)
@@ -295,23 +371,44 @@ impl<'n> Scanner<'n> {
         let label = |p: PlaceId| net.place_label(p).to_string();
         let mut out = Vec::new();
         if !net.transition(t).guard.eval(signals) {
-            out.push(Blocker::Guard { guard: net.guard_text(t) });
+            out.push(Blocker::Guard {
+                guard: net.guard_text(t),
+            });
         }
         for &(p, w) in a.consume.iter().chain(&a.read) {
             if m[p] < w {
-                out.push(Blocker::Tokens { place: label(p), has: m[p], needs: w });
+                out.push(Blocker::Tokens {
+                    place: label(p),
+                    has: m[p],
+                    needs: w,
+                });
             }
         }
         for &(p, w) in &a.inhibit {
             if m[p] >= w {
-                out.push(Blocker::Inhibited { place: label(p), has: m[p], limit: w });
+                out.push(Blocker::Inhibited {
+                    place: label(p),
+                    has: m[p],
+                    limit: w,
+                });
             }
         }
         for &(p, w) in &a.produce {
-            let own = a.consume.iter().find(|(q, _)| *q == p).map_or(0, |(_, c)| *c);
+            let Some(capacity) = net.bound(p) else {
+                continue;
+            };
+            let own = a
+                .consume
+                .iter()
+                .find(|(q, _)| *q == p)
+                .map_or(0, |(_, c)| *c);
             let would_hold = u64::from(m[p]) + u64::from(w) - u64::from(own.min(m[p]));
-            if would_hold > u64::from(self.capacity[p.index()]) {
-                out.push(Blocker::Capacity { place: label(p), would_hold, capacity: self.capacity[p.index()] });
+            if would_hold > u64::from(capacity) {
+                out.push(Blocker::Capacity {
+                    place: label(p),
+                    would_hold,
+                    capacity,
+                });
             }
         }
         for &i in &a.timed {
@@ -319,7 +416,10 @@ impl<'n> Scanner<'n> {
             if m[ta.place] >= ta.weight {
                 let held = self.since[i].map_or(Duration::ZERO, |s| now.saturating_sub(s));
                 if held < ta.delay {
-                    out.push(Blocker::Waiting { place: label(ta.place), remaining: ta.delay - held });
+                    out.push(Blocker::Waiting {
+                        place: label(ta.place),
+                        remaining: ta.delay - held,
+                    });
                 }
             }
         }

@@ -57,10 +57,13 @@ pub fn parse_duration(text: &str) -> Result<Duration, TimeError> {
         .map(|b| b.replace('_', ""));
     let nanos = match body {
         Some(body) => iec_nanos(&body, text)?,
-        None if lower.ends_with(|c: char| c.is_ascii_alphabetic()) => iec_nanos(&lower.replace('_', ""), text)?,
+        None if lower.ends_with(|c: char| c.is_ascii_alphabetic()) => {
+            iec_nanos(&lower.replace('_', ""), text)?
+        }
         None => decimal_nanos(&lower, 1_000_000_000, text)?,
     };
-    let secs = u64::try_from(nanos / 1_000_000_000).map_err(|_| TimeError::Overflow(text.into()))?;
+    let secs =
+        u64::try_from(nanos / 1_000_000_000).map_err(|_| TimeError::Overflow(text.into()))?;
     Ok(Duration::new(secs, (nanos % 1_000_000_000) as u32))
 }
 
@@ -107,7 +110,11 @@ fn decimal_nanos(num: &str, scale: u128, original: &str) -> Result<u128, TimeErr
         return Err(TimeError::Syntax(original.into()));
     }
     let overflow = || TimeError::Overflow(original.into());
-    let int_val: u128 = if int.is_empty() { 0 } else { int.parse().map_err(|_| overflow())? };
+    let int_val: u128 = if int.is_empty() {
+        0
+    } else {
+        int.parse().map_err(|_| overflow())?
+    };
     let mut total = int_val.checked_mul(scale).ok_or_else(overflow)?;
     let mut place = scale;
     for b in frac.bytes() {
@@ -168,7 +175,11 @@ mod tests {
     use super::*;
 
     fn check(input: &str, expect_nanos: u128) {
-        assert_eq!(parse_duration(input).unwrap().as_nanos(), expect_nanos, "{input}");
+        assert_eq!(
+            parse_duration(input).unwrap().as_nanos(),
+            expect_nanos,
+            "{input}"
+        );
     }
 
     #[test]
@@ -190,10 +201,26 @@ mod tests {
 
     #[test]
     fn rejects_bad_durations() {
-        for bad in ["", "abc", "T#", "T#5", "T#1s1m", "T#1s1s", "1.2.3", "T#1.5s3ms", "-1", "T#5x", "ms", "5 s"] {
+        for bad in [
+            "",
+            "abc",
+            "T#",
+            "T#5",
+            "T#1s1m",
+            "T#1s1s",
+            "1.2.3",
+            "T#1.5s3ms",
+            "-1",
+            "T#5x",
+            "ms",
+            "5 s",
+        ] {
             assert!(parse_duration(bad).is_err(), "{bad:?} should not parse");
         }
-        assert!(matches!(parse_duration("0.0000000001"), Err(TimeError::TooFine(_))));
+        assert!(matches!(
+            parse_duration("0.0000000001"),
+            Err(TimeError::TooFine(_))
+        ));
         assert!(matches!(
             parse_duration("T#99999999999999999999999d"),
             Err(TimeError::Overflow(_))
@@ -202,7 +229,14 @@ mod tests {
 
     #[test]
     fn formats_round_trip() {
-        for ns in [0u64, 1, 10_000_000, 500_000_000, 1_500_000_000, 93_784_005_006_007] {
+        for ns in [
+            0u64,
+            1,
+            10_000_000,
+            500_000_000,
+            1_500_000_000,
+            93_784_005_006_007,
+        ] {
             let d = Duration::from_nanos(ns);
             assert_eq!(parse_duration(&format_iec(d)).unwrap(), d);
             assert_eq!(parse_duration(&format_seconds(d)).unwrap(), d);

@@ -22,29 +22,48 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
             Names::Sipn => Naming::Sipn,
         },
     };
-    let net = petriplc_pnml::read_file(&args.net, &read_options).bad_input()?.net;
-    let timeline = args.inputs.as_deref().map(Timeline::read_file).transpose().bad_input()?;
+    let net = petriplc_pnml::read_file(&args.net, &read_options)
+        .bad_input()?
+        .net;
+    let timeline = args
+        .inputs
+        .as_deref()
+        .map(Timeline::read_file)
+        .transpose()
+        .bad_input()?;
     // A plant net is read with the plain convention: its signals are declared in the file.
     let plant_net = match &args.plant {
-        Some(spec) if is_net_path(spec) => {
-            Some(petriplc_pnml::read_file(Path::new(spec), &ReadOptions::default()).bad_input()?.net)
-        }
+        Some(spec) if is_net_path(spec) => Some(
+            petriplc_pnml::read_file(Path::new(spec), &ReadOptions::default())
+                .bad_input()?
+                .net,
+        ),
         _ => None,
     };
     let plant: Option<Box<dyn Plant + '_>> = match (&args.plant, &plant_net) {
         (None, _) => None,
         (Some(_), Some(net)) => Some(Box::new(NetPlant::new(net, ScanOptions::of(net)))),
-        (Some(name), None) => Some(petriplc_sim::builtin(name).ok_or_else(|| unknown_plant(name)).bad_input()?),
+        (Some(name), None) => Some(
+            petriplc_sim::builtin(name)
+                .ok_or_else(|| unknown_plant(name))
+                .bad_input()?,
+        ),
     };
     let scan = ScanOptions {
         step: args.step.map_or(net.step, Into::into),
         evolve: args.evolve.map_or(net.evolve, Into::into),
         max_passes: args.max_passes,
     };
-    let until = args
-        .until
-        .unwrap_or_else(|| timeline.as_ref().map_or(Duration::from_secs(10), |t| t.end() + Duration::from_secs(1)));
-    let options = SimOptions { period: args.period, until, scan };
+    let until = args.until.unwrap_or_else(|| {
+        timeline.as_ref().map_or(Duration::from_secs(10), |t| {
+            t.end() + Duration::from_secs(1)
+        })
+    });
+    let options = SimOptions {
+        period: args.period,
+        until,
+        scan,
+    };
     let mut sim = Simulation::new(&net, options, timeline, plant)
         .with_context(|| format!("cannot simulate {}", args.net.display()))
         .bad_input()?;
@@ -63,13 +82,19 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         (None, None) => {
             let stdout = io::stdout();
             let mut lock = stdout.lock();
-            trace.write_csv(&mut lock).and_then(|()| lock.flush()).context("cannot write the trace").run_failure()?;
+            trace
+                .write_csv(&mut lock)
+                .and_then(|()| lock.flush())
+                .context("cannot write the trace")
+                .run_failure()?;
         }
         (out, plot) => {
             if let Some(path) = out {
                 create_parent(path)?;
                 let mut file = io::BufWriter::new(
-                    fs::File::create(path).with_context(|| format!("cannot create {}", path.display())).run_failure()?,
+                    fs::File::create(path)
+                        .with_context(|| format!("cannot create {}", path.display()))
+                        .run_failure()?,
                 );
                 trace
                     .write_csv(&mut file)
@@ -99,7 +124,10 @@ fn is_net_path(spec: &str) -> bool {
 }
 
 fn unknown_plant(name: &str) -> anyhow::Error {
-    let known: Vec<String> = petriplc_sim::BUILTINS.iter().map(|(n, d)| format!("  {n}: {d}")).collect();
+    let known: Vec<String> = petriplc_sim::BUILTINS
+        .iter()
+        .map(|(n, d)| format!("  {n}: {d}"))
+        .collect();
     anyhow!(
         "unknown plant `{name}`; give a plant net (a .pnml file) or one of the built-in plants:\n{}",
         known.join("\n")
@@ -108,7 +136,9 @@ fn unknown_plant(name: &str) -> anyhow::Error {
 
 fn create_parent(path: &Path) -> Result<(), Failure> {
     match path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        Some(dir) => fs::create_dir_all(dir).with_context(|| format!("cannot create the folder {}", dir.display())).run_failure(),
+        Some(dir) => fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the folder {}", dir.display()))
+            .run_failure(),
         None => Ok(()),
     }
 }

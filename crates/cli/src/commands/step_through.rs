@@ -10,7 +10,8 @@ use petriplc_sim::Simulation;
 
 use crate::failure::{Failure, RunExt};
 
-const HELP: &str = "Enter: run one scan | NAME: toggle a boolean input | NAME=VALUE: set an input | q: quit";
+const HELP: &str =
+    "Enter: run one scan | NAME: toggle a boolean input | NAME=VALUE: set an input | q: quit";
 
 pub fn run(sim: &mut Simulation<'_>) -> Result<(), Failure> {
     let stdin = io::stdin();
@@ -21,7 +22,13 @@ pub fn run(sim: &mut Simulation<'_>) -> Result<(), Failure> {
     loop {
         write!(out, "> ").and_then(|()| out.flush()).run_failure()?;
         line.clear();
-        if stdin.lock().read_line(&mut line).context("cannot read standard input").run_failure()? == 0 {
+        if stdin
+            .lock()
+            .read_line(&mut line)
+            .context("cannot read standard input")
+            .run_failure()?
+            == 0
+        {
             writeln!(out).run_failure()?;
             return Ok(());
         }
@@ -52,16 +59,23 @@ fn set_input(sim: &mut Simulation<'_>, command: &str) -> Result<String, String> 
             let value = match v.to_ascii_uppercase().as_str() {
                 "TRUE" => 1,
                 "FALSE" => 0,
-                _ => v.parse::<i64>().map_err(|_| format!("`{v}` is not a value: write 0, 1, TRUE, FALSE or an integer"))?,
+                _ => v.parse::<i64>().map_err(|_| {
+                    format!("`{v}` is not a value: write 0, 1, TRUE, FALSE or an integer")
+                })?,
             };
             (n.trim(), value)
         }
         None => {
             let id = input_named(net, command)?;
             if net.signal(id).ty != SignalType::Bool {
-                return Err(format!("{command} is an integer input: set it with {command}=VALUE"));
+                return Err(format!(
+                    "{command} is an integer input: set it with {command}=VALUE"
+                ));
             }
-            (command, i64::from(sim.pending_input(command).unwrap_or(0) == 0))
+            (
+                command,
+                i64::from(sim.pending_input(command).unwrap_or(0) == 0),
+            )
         }
     };
     input_named(net, name)?;
@@ -74,7 +88,10 @@ fn input_named(net: &Net, name: &str) -> Result<petriplc_net::SignalId, String> 
         Some(id) if net.signal(id).direction == SignalDirection::Input => Ok(id),
         _ => {
             let inputs: Vec<&str> = net.inputs().map(|s| net.signal(s).name.as_str()).collect();
-            Err(format!("`{name}` is not an input of this net; inputs: {}. {HELP}", inputs.join(", ")))
+            Err(format!(
+                "`{name}` is not an input of this net; inputs: {}. {HELP}",
+                inputs.join(", ")
+            ))
         }
     }
 }
@@ -92,14 +109,33 @@ fn show(sim: &Simulation<'_>, out: &mut impl Write) -> io::Result<()> {
             .collect::<Vec<_>>()
             .join(" ")
     };
-    writeln!(out, "t={}s  scans so far: {}", format_seconds(sim.now()), sim.scans())?;
-    let marking: Vec<String> =
-        net.place_ids().map(|p| format!("{}={}", net.place_label(p), scanner.marking()[p])).collect();
+    writeln!(
+        out,
+        "t={}s  scans so far: {}",
+        format_seconds(sim.now()),
+        sim.scans()
+    )?;
+    let marking: Vec<String> = net
+        .place_ids()
+        .map(|p| format!("{}={}", net.place_label(p), scanner.marking()[p]))
+        .collect();
     writeln!(out, "  marking: {}", marking.join(" "))?;
     writeln!(out, "  inputs:  {}", values(SignalDirection::Input))?;
     writeln!(out, "  outputs: {}", values(SignalDirection::Output))?;
-    let fired: Vec<&str> = scanner.fired().iter().map(|&t| net.transition_label(t)).collect();
-    writeln!(out, "  fired last scan: {}", if fired.is_empty() { "-".to_string() } else { fired.join(" ") })?;
+    let fired: Vec<&str> = scanner
+        .fired()
+        .iter()
+        .map(|&t| net.transition_label(t))
+        .collect();
+    writeln!(
+        out,
+        "  fired last scan: {}",
+        if fired.is_empty() {
+            "-".to_string()
+        } else {
+            fired.join(" ")
+        }
+    )?;
     let preview = sim.preview_signals();
     let next = sim.next_time();
     let mut enabled = Vec::new();
@@ -110,10 +146,22 @@ fn show(sim: &Simulation<'_>, out: &mut impl Write) -> io::Result<()> {
             enabled.push(net.transition_label(t));
         } else {
             let reasons: Vec<String> = why.iter().map(ToString::to_string).collect();
-            blocked.push(format!("    {}: {}", net.transition_label(t), reasons.join("; ")));
+            blocked.push(format!(
+                "    {}: {}",
+                net.transition_label(t),
+                reasons.join("; ")
+            ));
         }
     }
-    writeln!(out, "  enabled: {}", if enabled.is_empty() { "-".to_string() } else { enabled.join(" ") })?;
+    writeln!(
+        out,
+        "  enabled: {}",
+        if enabled.is_empty() {
+            "-".to_string()
+        } else {
+            enabled.join(" ")
+        }
+    )?;
     if !blocked.is_empty() {
         writeln!(out, "  blocked:")?;
         for b in blocked {
