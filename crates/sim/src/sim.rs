@@ -52,8 +52,6 @@ pub enum SimError {
         first: String,
         second: String,
     },
-    #[error("plant `{plant}` reads `{input}`, which is neither an output of the controller nor a timeline column; add a `{input}` column to the timeline")]
-    UnwiredPlantInput { plant: String, input: String },
     #[error("timeline column `{column}` sets boolean input `{column}` to {value} at t={}s; write 0/1 or TRUE/FALSE, or declare the input as int", format_seconds(*time))]
     NotBoolean {
         column: String,
@@ -111,6 +109,8 @@ enum Source {
     Controller(SignalId),
     /// A timeline column.
     Timeline(usize),
+    /// Nothing: the input stays 0 unless forced (a warning says so).
+    Unwired,
 }
 
 struct PlantWiring<'n> {
@@ -218,9 +218,11 @@ impl<'n> Simulation<'n> {
         }
         let column = |name: &str| timeline.as_ref().and_then(|tl| tl.column_index(name));
 
+        let mut unwired_plant_inputs = Vec::new();
         let plant = match plant {
             None => None,
             Some(plant) => {
+                let mut unwired = Vec::new();
                 let mut sources = Vec::with_capacity(plant_inputs.len());
                 for name in &plant_inputs {
                     sources.push(match (output_of(name), column(name)) {
@@ -234,12 +236,17 @@ impl<'n> Simulation<'n> {
                             })
                         }
                         (None, None) => {
-                            return Err(SimError::UnwiredPlantInput {
-                                plant: plant.name().to_string(),
-                                input: name.clone(),
-                            })
+                            unwired.push(name.as_str());
+                            Source::Unwired
                         }
                     });
+                }
+                if !unwired.is_empty() {
+                    unwired_plant_inputs.push(format!(
+                        "plant `{}` reads {}, which neither the controller nor the timeline drives; they stay 0 (add timeline columns to drive them)",
+                        plant.name(),
+                        unwired.join(", ")
+                    ));
                 }
                 let mut drives = Vec::new();
                 for (i, name) in plant_outputs.iter().enumerate() {
@@ -273,7 +280,7 @@ impl<'n> Simulation<'n> {
             }
         };
 
-        let warnings = net
+        let warnings: Vec<String> = net
             .inputs()
             .filter(|s| {
                 !timeline_inputs.iter().any(|(_, t)| t == s)
@@ -294,6 +301,7 @@ impl<'n> Simulation<'n> {
                 )
             })
             .collect();
+        let warnings = [warnings, unwired_plant_inputs].concat();
 
         let cursor = timeline.as_ref().map(CursorState::new).unwrap_or_default();
         Ok(Simulation {
@@ -376,6 +384,7 @@ impl<'n> Simulation<'n> {
                 let v = match *src {
                     Source::Controller(s) => Some(self.signals[s.index()]),
                     Source::Timeline(col) => values[col],
+                    Source::Unwired => None,
                 };
                 if let Some(v) = pw.forced[i].or(v) {
                     pw.inputs[i] = v;

@@ -225,7 +225,10 @@ fn rejects_bad_wiring() {
         tank(),
         "1",
         "1",
-        "error: plant `tank` reads `V2`, which is neither an output of the controller nor a timeline column; add a `V2` column to the timeline",
+        "warning: plant `tank` reads V2, V3, which neither the controller nor the timeline drives; they stay 0 (add timeline columns to drive them)\n\
+         time,V1,m:fill,fired\n\
+         0,1,1,\n\
+         plant: tank level 20 %, 0 fill/drain cycles completed\n",
     );
     check(
         &net("
@@ -461,14 +464,18 @@ fn keyboard_lines_follow_powered_columns_and_timeline_keys() {
          0.04,1,0,0,0,1,1,0,0,0,1,d4\n\
          plant: no key pressed\n",
     );
-    // Every key is needed: the keyboard reads them all.
+    // Keys the timeline leaves out stay released, with one warning naming them.
     check(
         &n,
         Some("time,key1\n0,1\n"),
         builtin("keyboard"),
         "1",
         "1",
-        "error: plant `keyboard` reads `key2`, which is neither an output of the controller nor a timeline column; add a `key2` column to the timeline",
+        "warning: plant `keyboard` reads key2, key3, key4, key5, key6, key7, key8, key9, key10, key11, key12, which neither the controller nor the timeline drives; they stay 0 (add timeline columns to drive them)\n\
+         time,col1,col2,col3,got1,got4,m:power,m:c2,m:c3,m:k1,m:k4,fired\n\
+         0,1,0,0,0,0,1,0,0,0,0,\n\
+         1,1,0,0,1,0,1,0,0,1,0,d1\n\
+         plant: keys pressed: 1\n",
     );
     // Keys fed by the timeline can be forced by hand too.
     let mut s = sim(&n, Some(&tl), builtin("keyboard"), "0.01", "0.08").unwrap();
