@@ -315,7 +315,11 @@ fn lex(text: &str) -> Result<Vec<(Tok, usize)>, GuardError> {
                 "XOR" => Tok::Xor,
                 _ => Tok::Ident(word),
             }
-        } else if c.is_ascii_digit() {
+        } else if c.is_ascii_digit()
+            || (c == '-' && chars.get(i + 1).is_some_and(|d| d.is_ascii_digit()))
+        {
+            // `-` only ever starts a negative number: guards have no arithmetic.
+            i += 1;
             while i < chars.len() && (chars[i].is_ascii_digit() || chars[i] == '_') {
                 i += 1;
             }
@@ -364,9 +368,14 @@ fn lex(text: &str) -> Result<Vec<(Tok, usize)>, GuardError> {
 /// Builds a binary node from its operands (`Expr::And` and the like).
 type MakeBinary = fn(Box<Expr<String>>, Box<Expr<String>>) -> Expr<String>;
 
+/// How deeply parentheses and `NOT`s may nest: deep enough for any real guard, shallow
+/// enough that the recursive parser, evaluator and printer cannot exhaust the stack.
+pub const MAX_DEPTH: usize = 64;
+
 struct Parser {
     toks: Vec<(Tok, usize)>,
     pos: usize,
+    depth: usize,
 }
 
 impl Parser {
@@ -460,10 +469,28 @@ impl Parser {
             }),
         }
     }
+    fn nested<T>(
+        &mut self,
+        f: impl FnOnce(&mut Self) -> Result<T, GuardError>,
+    ) -> Result<T, GuardError> {
+        if self.depth == MAX_DEPTH {
+            // Point at the `(` or `NOT` just read, the one that goes too deep.
+            return Err(GuardError {
+                column: self.toks[self.pos.saturating_sub(1)].1,
+                message: format!(
+                    "the guard nests parentheses and NOTs more than {MAX_DEPTH} deep; simplify it"
+                ),
+            });
+        }
+        self.depth += 1;
+        let r = f(self);
+        self.depth -= 1;
+        r
+    }
     fn unary(&mut self) -> Result<Expr<String>, GuardError> {
         if *self.peek() == Tok::Not {
             self.bump();
-            return Ok(Expr::Not(Box::new(self.unary()?)));
+            return self.nested(|p| Ok(Expr::Not(Box::new(p.unary()?))));
         }
         self.primary()
     }
@@ -480,7 +507,7 @@ impl Parser {
                 ),
             }),
             Tok::LParen => {
-                let e = self.or()?;
+                let e = self.nested(Self::or)?;
                 if *self.peek() != Tok::RParen {
                     return Err(self.error(format!(
                         "expected `)` to close the `(` at column {col}, found {}",
@@ -508,7 +535,11 @@ pub fn parse(text: &str) -> Result<Expr<String>, GuardError> {
     if toks.len() == 1 {
         return Ok(Expr::Const(true));
     }
-    let mut p = Parser { toks, pos: 0 };
+    let mut p = Parser {
+        toks,
+        pos: 0,
+        depth: 0,
+    };
     let e = p.or()?;
     if *p.peek() != Tok::End {
         let what = describe(p.peek());
@@ -547,6 +578,8 @@ mod tests {
         );
         check("3 < Level", "3 < Level");
         check("x <> y OR x != 2", "x <> y OR x <> 2");
+        check("Level >= -3", "Level >= -3");
+        check("-3 < Level", "-3 < Level");
         check("", "TRUE");
         check("  true ", "TRUE");
         check("False", "FALSE");
@@ -574,6 +607,16 @@ mod tests {
             "x >= AND",
             "error: column 6: expected a signal name or an integer after `>=`, found `AND`",
         );
+        check("a - 3", "error: column 3: unexpected character `-`: a guard uses signal names, AND/OR/XOR/NOT (or & | !), comparisons and parentheses");
+        let deep = format!(
+            "{}x{}",
+            "(".repeat(MAX_DEPTH + 1),
+            ")".repeat(MAX_DEPTH + 1)
+        );
+        check(&deep, &format!("error: column {}: the guard nests parentheses and NOTs more than 64 deep; simplify it", MAX_DEPTH + 1));
+        let ok = format!("{}x{}", "(".repeat(MAX_DEPTH), ")".repeat(MAX_DEPTH));
+        check(&ok, "x");
+        check(&"NOT ".repeat(MAX_DEPTH + 1), "error: column 257: the guard nests parentheses and NOTs more than 64 deep; simplify it");
         check(
             "99999999999999999999 < x",
             "error: column 1: the number 99999999999999999999 is too large",

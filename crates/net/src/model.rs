@@ -491,7 +491,7 @@ pub enum ModelError {
     },
     #[error("arc `{arc}` has weight 0; weights are whole numbers from 1")]
     ZeroWeight { arc: String },
-    #[error("arc `{arc}` is a {kind} arc from transition to place; read and inhibitor arcs go from a place to a transition")]
+    #[error("arc `{arc}` goes from a transition to a place but is marked {kind}; read and inhibitor arcs go from a place to a transition")]
     SpecialArcIntoPlace { arc: String, kind: ArcKind },
     #[error("arc `{arc}` has a delay but is an {kind} arc; delays go on normal or read arcs from a place")]
     DelayOnWrongArc { arc: String, kind: ArcKind },
@@ -657,6 +657,13 @@ impl NetBuilder {
             if ids.contains_key(a.id.as_str()) || arc_ids.insert(&a.id, ()).is_some() {
                 errors.push(ModelError::DuplicateId { id: a.id.clone() });
             }
+        }
+
+        // PNML ids are XML IDs: the net's id must differ from every element's too.
+        if ids.contains_key(self.id.as_str()) || arc_ids.contains_key(self.id.as_str()) {
+            errors.push(ModelError::DuplicateId {
+                id: self.id.clone(),
+            });
         }
 
         let mut signals = SignalTable::default();
@@ -1021,10 +1028,18 @@ mod tests {
                 "a2: arc `a2` joins two places (`p1` → `p3`); an arc joins a place and a transition",
                 "a3: arc `a3` joins two transitions (`t1` → `t1`); an arc joins a place and a transition",
                 "a4: arc `a4` has weight 0; weights are whole numbers from 1",
-                "a5: arc `a5` is a inhibitor arc from transition to place; read and inhibitor arcs go from a place to a transition",
+                "a5: arc `a5` goes from a transition to a place but is marked inhibitor; read and inhibitor arcs go from a place to a transition",
                 "a6: arc `a6` has a delay but is an inhibitor arc; delays go on normal or read arcs from a place",
             ],
         );
+    }
+
+    #[test]
+    fn net_id_must_differ_from_element_ids() {
+        let mut b = NetBuilder::new("p1", "n");
+        b.place(place("p1", 0));
+        let errors = b.build().unwrap_err();
+        assert_eq!(errors, vec![ModelError::DuplicateId { id: "p1".into() }]);
     }
 
     #[test]
