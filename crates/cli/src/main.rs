@@ -8,14 +8,37 @@ mod failure;
 use std::process::ExitCode;
 
 use clap::Parser;
+use petriplc_pnml::PnmlError;
 
 fn main() -> ExitCode {
     let cli = args::Cli::parse();
     match commands::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
-            eprintln!("error: {:#}", failure.error());
+            report(failure.error());
             ExitCode::from(failure.exit_code())
         }
+    }
+}
+
+/// Prints an error for a person: file diagnostics one per line, compiler style, then a
+/// closing line; anything else as `error: ` and its chain of causes.
+fn report(error: &anyhow::Error) {
+    match error
+        .downcast_ref::<PnmlError>()
+        .map(PnmlError::diagnostics)
+    {
+        Some(diagnostics) if !diagnostics.is_empty() => {
+            for d in diagnostics {
+                eprintln!("{d}");
+            }
+            let n = diagnostics.len();
+            let file = &diagnostics[0].file;
+            eprintln!(
+                "error: {file} is not a valid net ({n} problem{}); nothing was run",
+                if n == 1 { "" } else { "s" }
+            );
+        }
+        _ => eprintln!("error: {error:#}"),
     }
 }

@@ -45,10 +45,10 @@ pub enum ScanError {
         passes: u32,
         transitions: Vec<String>,
     },
-    #[error("at t={}s: {source}", format_seconds(*time))]
+    #[error("at t={}s: {overflow}", format_seconds(*time))]
     Overflow {
         time: Duration,
-        source: TokenOverflow,
+        overflow: TokenOverflow,
     },
     #[error("time went backwards: a scan at {}s after one at {}s", format_seconds(*now), format_seconds(*previous))]
     TimeWentBackwards { previous: Duration, now: Duration },
@@ -319,7 +319,7 @@ impl<'n> Scanner<'n> {
         if let Some(i) = overflow {
             return Err(ScanError::Overflow {
                 time: now,
-                source: TokenOverflow {
+                overflow: TokenOverflow {
                     place: net.place_label(PlaceId::from(i)).to_string(),
                 },
             });
@@ -337,7 +337,10 @@ impl<'n> Scanner<'n> {
         for t in net.transition_ids() {
             if self.enabled_now(t, now, signals) {
                 net.fire(&mut self.marking, t)
-                    .map_err(|source| ScanError::Overflow { time: now, source })?;
+                    .map_err(|overflow| ScanError::Overflow {
+                        time: now,
+                        overflow,
+                    })?;
                 self.fired.push(t);
             }
         }

@@ -32,13 +32,13 @@ impl fmt::Display for Diagnostic {
 /// Why a file could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum PnmlError {
-    #[error("could not read `{}`: {source}", path.display())]
+    #[error("could not read `{}`", path.display())]
     Io {
         path: PathBuf,
         #[source]
         source: std::io::Error,
     },
-    #[error("could not write `{}`: {source}", path.display())]
+    #[error("could not write `{}`", path.display())]
     Write {
         path: PathBuf,
         #[source]

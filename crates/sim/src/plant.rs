@@ -31,7 +31,7 @@ pub trait Plant {
 /// Why a plant step failed.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum PlantError {
-    #[error("plant `{plant}`: {source}")]
+    #[error("plant `{plant}`")]
     Scan {
         plant: String,
         #[source]

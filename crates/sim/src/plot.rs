@@ -16,7 +16,7 @@ use petriplc_net::SignalType;
 pub enum PlotError {
     #[error("cannot draw the plot: {0}")]
     Draw(String),
-    #[error("cannot write the plot to {path}: {source}")]
+    #[error("cannot write the plot to {path}")]
     Io {
         path: String,
         #[source]

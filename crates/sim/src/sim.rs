@@ -64,13 +64,13 @@ pub enum SimError {
     SetOutput { name: String },
     #[error("boolean input `{name}` cannot be set to {value}; use 0 or 1")]
     NotBooleanValue { name: String, value: i64 },
-    #[error("controller: {source}")]
+    #[error("controller")]
     Scan {
         time: Duration,
         #[source]
         source: ScanError,
     },
-    #[error("at t={}s: {source}", format_seconds(*time))]
+    #[error("at t={}s", format_seconds(*time))]
     Plant {
         time: Duration,
         #[source]

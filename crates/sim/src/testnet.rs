@@ -106,3 +106,14 @@ pub(crate) fn net(text: &str) -> Net {
     b.build()
         .unwrap_or_else(|e| panic!("test net does not build: {e:?}"))
 }
+
+/// An error and its causes joined by `: `, as the CLI prints them (`{:#}` in anyhow).
+pub(crate) fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut out = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        out += &format!(": {c}");
+        cause = c.source();
+    }
+    out
+}

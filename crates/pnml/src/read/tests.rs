@@ -292,8 +292,9 @@ arc a2 t1->p2 normal"#,
         std::fs::create_dir_all(&dir).unwrap();
         let missing = dir.join("missing.pnml");
         let err = crate::read_file(&missing, &ReadOptions::default()).unwrap_err();
+        // The cause is the error's source, printed once by `{:#}` chains (anyhow).
         assert_eq!(
-            err.to_string(),
+            format!("{}: {}", err, std::error::Error::source(&err).unwrap()),
             format!(
                 "could not read `{}`: No such file or directory (os error 2)",
                 missing.display()

@@ -169,10 +169,10 @@ mod tests {
         ");
         let mut plant = NetPlant::new(&model, ScanOptions::of(&model));
         let e = plant.step(Duration::ZERO, &[], &mut []).unwrap_err();
+        let text = crate::testnet::error_chain(&e);
         assert!(
-            e.to_string()
-                .starts_with("plant `test`: the net is unstable at t=0s"),
-            "{e}"
+            text.starts_with("plant `test`: the net is unstable at t=0s"),
+            "{text}"
         );
     }
 }

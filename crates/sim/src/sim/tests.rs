@@ -39,7 +39,7 @@ fn outcome(s: Result<Simulation<'_>, SimError>) -> String {
         .map(|w| format!("warning: {w}\n"))
         .collect();
     if let Err(e) = s.finish() {
-        return format!("{out}error: {e}");
+        return format!("{out}error: {}", crate::testnet::error_chain(&e));
     }
     out += &s.trace().to_csv();
     if let Some(summary) = s.plant_summary() {
