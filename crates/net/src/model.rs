@@ -221,6 +221,35 @@ pub struct TransitionArcs {
     pub timed: Vec<usize>,
 }
 
+impl TransitionArcs {
+    /// The tokens this transition takes from `p` (0 when `p` is not in its preset).
+    pub fn consumed_from(&self, p: PlaceId) -> u32 {
+        self.consume
+            .iter()
+            .find(|(q, _)| *q == p)
+            .map_or(0, |(_, w)| *w)
+    }
+
+    /// The arc conditions every semantics shares (seed 004's check order: test arcs, inhibitor
+    /// arcs, preset, postset): `tokens(p)` is what read, inhibitor and preset arcs see;
+    /// `held(p)` is what counts against the capacity `limit(p)` before this firing, which then
+    /// takes its own preset and adds its postset. Guards and delays are the caller's.
+    #[inline]
+    pub fn allow(
+        &self,
+        tokens: impl Fn(PlaceId) -> u32,
+        held: impl Fn(PlaceId) -> u64,
+        limit: impl Fn(PlaceId) -> u64,
+    ) -> bool {
+        self.read.iter().all(|&(p, w)| tokens(p) >= w)
+            && self.inhibit.iter().all(|&(p, w)| tokens(p) < w)
+            && self.consume.iter().all(|&(p, w)| tokens(p) >= w)
+            && self.produce.iter().all(|&(p, w)| {
+                held(p).saturating_add(u64::from(w)) - u64::from(self.consumed_from(p)) <= limit(p)
+            })
+    }
+}
+
 /// A checked Petri net with inputs and outputs. Build one with [`NetBuilder`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Net {
@@ -384,24 +413,11 @@ impl Net {
     /// Interleaving enabling (analysis semantics): preset, read, inhibitor and capacity
     /// conditions in marking `m`. Guards and delays are ignored: they need a scan.
     pub fn is_enabled(&self, m: &Marking, t: TransitionId) -> bool {
-        let a = &self.by_transition[t.index()];
-        a.consume.iter().all(|&(p, w)| m[p] >= w)
-            && a.read.iter().all(|&(p, w)| m[p] >= w)
-            && a.inhibit.iter().all(|&(p, w)| m[p] < w)
-            && a.produce.iter().all(|&(p, w)| {
-                self.bound(p).is_none_or(|cap| {
-                    let after =
-                        u64::from(m[p]) - u64::from(self.consumed_from(a, p)) + u64::from(w);
-                    after <= u64::from(cap)
-                })
-            })
-    }
-
-    fn consumed_from(&self, a: &TransitionArcs, p: PlaceId) -> u32 {
-        a.consume
-            .iter()
-            .find(|(q, _)| *q == p)
-            .map_or(0, |(_, w)| *w)
+        self.by_transition[t.index()].allow(
+            |p| m[p],
+            |p| u64::from(m[p]),
+            |p| self.bound(p).map_or(u64::MAX, u64::from),
+        )
     }
 
     /// Fires `t` in `m` (the caller has checked it is enabled). On overflow `m` is left as it
@@ -410,7 +426,7 @@ impl Net {
         let a = &self.by_transition[t.index()];
         // Check every addition first so that an error leaves no half-fired marking.
         for &(p, w) in &a.produce {
-            let after = u64::from(m[p]) - u64::from(self.consumed_from(a, p)) + u64::from(w);
+            let after = u64::from(m[p]) - u64::from(a.consumed_from(p)) + u64::from(w);
             if after > u64::from(u32::MAX) {
                 return Err(TokenOverflow {
                     place: self.place_label(p).to_string(),

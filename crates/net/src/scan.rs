@@ -283,22 +283,15 @@ impl<'n> Scanner<'n> {
         self.produced.iter_mut().for_each(|x| *x = 0);
         for t in net.transition_ids() {
             let a = net.arcs_of(t);
-            let avail = &self.avail;
-            let enabled = a.consume.iter().all(|&(p, w)| avail[p.index()] >= w)
-                && a.read.iter().all(|&(p, w)| avail[p.index()] >= w)
-                && a.inhibit.iter().all(|&(p, w)| avail[p.index()] < w)
-                && a.produce.iter().all(|&(p, w)| {
-                    let own = a
-                        .consume
-                        .iter()
-                        .find(|(q, _)| *q == p)
-                        .map_or(0, |(_, c)| *c);
-                    let after = u64::from(self.marking[p]).saturating_add(self.produced[p.index()])
-                        + u64::from(w)
-                        - u64::from(own);
-                    after <= self.limit[p.index()]
-                })
-                && self.delays_elapsed(t, now)
+            let (avail, produced, marking, limit) =
+                (&self.avail, &self.produced, &self.marking, &self.limit);
+            // Preset, read and inhibitor arcs see the tokens left by higher-priority members of
+            // the step; capacities count the start marking plus everything produced so far.
+            let enabled = a.allow(
+                |p| avail[p.index()],
+                |p| u64::from(marking[p]).saturating_add(produced[p.index()]),
+                |p| limit[p.index()],
+            ) && self.delays_elapsed(t, now)
                 && net.transition(t).guard.eval(signals);
             if enabled {
                 for &(p, w) in &a.consume {
@@ -348,19 +341,10 @@ impl<'n> Scanner<'n> {
     }
 
     fn enabled_now(&self, t: TransitionId, now: Duration, signals: &[i64]) -> bool {
-        let a = self.net.arcs_of(t);
         let m = &self.marking;
-        a.consume.iter().all(|&(p, w)| m[p] >= w)
-            && a.read.iter().all(|&(p, w)| m[p] >= w)
-            && a.inhibit.iter().all(|&(p, w)| m[p] < w)
-            && a.produce.iter().all(|&(p, w)| {
-                let own = a
-                    .consume
-                    .iter()
-                    .find(|(q, _)| *q == p)
-                    .map_or(0, |(_, c)| *c);
-                u64::from(m[p]) + u64::from(w) - u64::from(own) <= self.limit[p.index()]
-            })
+        self.net
+            .arcs_of(t)
+            .allow(|p| m[p], |p| u64::from(m[p]), |p| self.limit[p.index()])
             && self.delays_elapsed(t, now)
             && self.net.transition(t).guard.eval(signals)
     }
@@ -400,11 +384,7 @@ impl<'n> Scanner<'n> {
             let Some(capacity) = net.bound(p) else {
                 continue;
             };
-            let own = a
-                .consume
-                .iter()
-                .find(|(q, _)| *q == p)
-                .map_or(0, |(_, c)| *c);
+            let own = a.consumed_from(p);
             let would_hold = u64::from(m[p]) + u64::from(w) - u64::from(own.min(m[p]));
             if would_hold > u64::from(capacity) {
                 out.push(Blocker::Capacity {
