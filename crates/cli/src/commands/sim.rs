@@ -67,11 +67,12 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     let mut sim = Simulation::new(&net, options, timeline, plant)
         .with_context(|| format!("cannot simulate {}", args.net.display()))
         .bad_input()?;
+    if args.step_through {
+        // Inputs nothing drives are the user's to toggle here, so no warnings about them.
+        return step_through::run(&mut sim);
+    }
     for w in sim.warnings() {
         eprintln!("warning: {w}");
-    }
-    if args.step_through {
-        return step_through::run(&mut sim);
     }
 
     while sim.step().run_failure()?.is_some() {}

@@ -109,12 +109,19 @@ fn show(sim: &Simulation<'_>, out: &mut impl Write) -> io::Result<()> {
             .collect::<Vec<_>>()
             .join(" ")
     };
-    writeln!(
-        out,
-        "t={}s  scans so far: {}",
-        format_seconds(sim.now()),
-        sim.scans()
-    )?;
+    match sim.scans() {
+        0 => writeln!(
+            out,
+            "before the first scan (at t={}s)",
+            format_seconds(sim.next_time())
+        )?,
+        n => writeln!(
+            out,
+            "after scan {n} at t={}s (next at t={}s)",
+            format_seconds(sim.now()),
+            format_seconds(sim.next_time())
+        )?,
+    }
     let marking: Vec<String> = net
         .place_ids()
         .map(|p| format!("{}={}", net.place_label(p), scanner.marking()[p]))
