@@ -68,6 +68,11 @@ impl From<EvolveArg> for Evolution {
 }
 
 #[derive(Debug, Args)]
+#[command(after_long_help = "Examples:\n  \
+    petriplc sim examples/mixer/mixer.pnml --names sipn --inputs examples/mixer/timeline.csv --out trace.csv --plot trace.svg\n  \
+    petriplc sim examples/busy-beaver/busy-beaver.pnml --plant tape --until 1s\n  \
+    petriplc sim examples/mixer/mixer.pnml --names sipn --step-through\n\n\
+    Exit codes: 0 success, 1 the simulation failed (e.g. an unstable net), 2 bad input.")]
 pub struct SimArgs {
     /// The controller net (PNML).
     pub net: PathBuf,

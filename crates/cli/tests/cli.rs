@@ -216,29 +216,81 @@ fn unstable_net_fails_with_the_cycling_transitions() {
     );
 }
 
+/// A chain p1 → t1 → p2 → t2 → p3 whose net asks for the sequential rule.
+const CHAIN: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<pnml xmlns="http://www.pnml.org/version-2009/grammar/pnml">
+  <net id="chain" type="http://www.pnml.org/version-2009/grammar/ptnet">
+    <toolspecific tool="petriplc" version="1"><step>sequential</step></toolspecific>
+    <page id="page0">
+      <place id="p1"><name><text>p1</text></name><initialMarking><text>1</text></initialMarking></place>
+      <place id="p2"><name><text>p2</text></name></place>
+      <place id="p3"><name><text>p3</text></name></place>
+      <transition id="t1"><name><text>t1</text></name></transition>
+      <transition id="t2"><name><text>t2</text></name></transition>
+      <arc id="a1" source="p1" target="t1"/><arc id="a2" source="t1" target="p2"/>
+      <arc id="a3" source="p2" target="t2"/><arc id="a4" source="t2" target="p3"/>
+    </page>
+  </net>
+</pnml>
+"#;
+
 #[test]
-fn command_line_overrides_the_net_step_rule() {
-    // Sequential fires go and then... nothing more: stop needs Stop. Same trace either way here,
-    // so check the option is accepted and the run is deterministic.
-    let fx = Fixture::new(&[
-        ("toggle.pnml", TOGGLE),
-        ("in.csv", "time,Start,Stop\n0,1,0\n0.03,0,1\n"),
-    ]);
-    let run = || {
-        fx.petriplc(&[
+fn the_net_chooses_its_step_rule_and_the_command_line_overrides_it() {
+    let files = [("chain.pnml", CHAIN)];
+    // The net's own rule, sequential: t2 sees t1's token in the same pass.
+    check(
+        &files,
+        &["sim", "chain.pnml", "--until", "0.02"],
+        0,
+        "time,m:p1,m:p2,m:p3,fired\n0,0,0,1,t1 t2\n",
+        "",
+    );
+    // Overridden: maximal-step needs a pass per transition.
+    check(
+        &files,
+        &[
             "sim",
-            "toggle.pnml",
-            "--inputs",
-            "in.csv",
+            "chain.pnml",
+            "--until",
+            "0.02",
             "--step",
-            "sequential",
+            "maximal-step",
+        ],
+        0,
+        "time,m:p1,m:p2,m:p3,fired\n0,0,1,0,t1\n0.01,0,0,1,t2\n",
+        "",
+    );
+    // until-stable runs both passes within the first scan.
+    check(
+        &files,
+        &[
+            "sim",
+            "chain.pnml",
+            "--until",
+            "0.02",
+            "--step",
+            "maximal-step",
             "--evolve",
             "until-stable",
-        ])
-        .success()
-        .get_output()
-        .stdout
-        .clone()
+        ],
+        0,
+        "time,m:p1,m:p2,m:p3,fired\n0,0,0,1,t1 t2\n",
+        "",
+    );
+}
+
+#[test]
+fn traces_are_byte_identical_across_runs() {
+    let fx = Fixture::new(&[
+        ("toggle.pnml", TOGGLE),
+        ("in.csv", "time,Start,Stop\n0,1,0\n0.03,0,1\n0.05,1,0\n"),
+    ]);
+    let run = || {
+        fx.petriplc(&["sim", "toggle.pnml", "--inputs", "in.csv"])
+            .success()
+            .get_output()
+            .stdout
+            .clone()
     };
     assert_eq!(run(), run());
 }
