@@ -234,15 +234,19 @@ impl TransitionArcs {
     /// arcs, preset, postset): `tokens(p)` is what read, inhibitor and preset arcs see;
     /// `held(p)` is what counts against the capacity `limit(p)` before this firing, which then
     /// takes its own preset and adds its postset. Guards and delays are the caller's.
+    ///
+    /// `free(p)` lets read and inhibitor arcs on place `p` hold whatever it holds: the
+    /// interleaving semantics uses it for input places, whose signals may take any value.
     #[inline]
     pub fn allow(
         &self,
         tokens: impl Fn(PlaceId) -> u32,
         held: impl Fn(PlaceId) -> u64,
         limit: impl Fn(PlaceId) -> u64,
+        free: impl Fn(PlaceId) -> bool,
     ) -> bool {
-        self.read.iter().all(|&(p, w)| tokens(p) >= w)
-            && self.inhibit.iter().all(|&(p, w)| tokens(p) < w)
+        self.read.iter().all(|&(p, w)| free(p) || tokens(p) >= w)
+            && self.inhibit.iter().all(|&(p, w)| free(p) || tokens(p) < w)
             && self.consume.iter().all(|&(p, w)| tokens(p) >= w)
             && self.produce.iter().all(|&(p, w)| {
                 held(p).saturating_add(u64::from(w)) - u64::from(self.consumed_from(p)) <= limit(p)
@@ -411,12 +415,14 @@ impl Net {
     }
 
     /// Interleaving enabling (analysis semantics): preset, read, inhibitor and capacity
-    /// conditions in marking `m`. Guards and delays are ignored: they need a scan.
+    /// conditions in marking `m`. Inputs are abstracted: guards count as TRUE and arcs from
+    /// input places always hold, as if the signals could take any value; delays are ignored.
     pub fn is_enabled(&self, m: &Marking, t: TransitionId) -> bool {
         self.by_transition[t.index()].allow(
             |p| m[p],
             |p| u64::from(m[p]),
             |p| self.bound(p).map_or(u64::MAX, u64::from),
+            |p| self.places[p.index()].input.is_some(),
         )
     }
 
@@ -1047,6 +1053,40 @@ mod tests {
                 "a5: arc `a5` goes from a transition to a place but is marked inhibitor; read and inhibitor arcs go from a place to a transition",
                 "a6: arc `a6` has a delay but is an inhibitor arc; delays go on normal or read arcs from a place",
             ],
+        );
+    }
+
+    #[test]
+    fn interleaving_abstracts_inputs() {
+        let mut b = NetBuilder::new("n", "n");
+        b.place(PlaceSpec {
+            input: Some("Go".into()),
+            ..place("go", 0)
+        });
+        b.place(PlaceSpec {
+            input: Some("Stop".into()),
+            ..place("stop", 0)
+        });
+        b.place(place("a", 1));
+        b.transition(transition("t", "Other"));
+        b.arc(ArcSpec {
+            kind: ArcKind::Read,
+            ..arc("r", "go", "t", 1)
+        });
+        b.arc(ArcSpec {
+            kind: ArcKind::Inhibitor,
+            ..arc("i", "stop", "t", 1)
+        });
+        b.arc(arc("x", "a", "t", 1));
+        let net = b.build().unwrap();
+        let t = TransitionId(0);
+        // Whatever the input places hold, their arcs hold; the guard is not looked at.
+        for m in [vec![0, 0, 1], vec![1, 1, 1], vec![0, 1, 1]] {
+            assert!(net.is_enabled(&Marking(m.clone()), t), "{m:?}");
+        }
+        assert!(
+            !net.is_enabled(&Marking(vec![1, 0, 0]), t),
+            "the flow arc still counts"
         );
     }
 

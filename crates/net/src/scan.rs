@@ -122,6 +122,9 @@ pub struct Scanner<'n> {
     /// Per delayed arc: since when its place has held the arc's weight, if it does.
     since: Vec<Option<Duration>>,
     last_time: Option<Duration>,
+    /// When set, every delayed arc holds (`true`) or none does (`false`), whatever the timers
+    /// say: state-space exploration abstracts time this way.
+    assume_delays: Option<bool>,
     fired: Vec<TransitionId>,
     passes: u32,
     avail: Vec<u32>,
@@ -162,6 +165,7 @@ impl<'n> Scanner<'n> {
             outputs,
             since: vec![None; net.timed_arcs().len()],
             last_time: None,
+            assume_delays: None,
             fired: Vec::new(),
             passes: 0,
             avail: vec![0; net.places().len()],
@@ -186,6 +190,19 @@ impl<'n> Scanner<'n> {
     /// The number of passes the last scan made.
     pub fn passes(&self) -> u32 {
         self.passes
+    }
+
+    /// Puts the net in marking `m` (timers restart), for exploring scans from any state.
+    pub fn set_marking(&mut self, m: &Marking) {
+        self.marking.0.copy_from_slice(&m.0);
+        self.since.iter_mut().for_each(|s| *s = None);
+    }
+
+    /// Makes every delayed arc hold (`Some(true)`) or never hold (`Some(false)`) as soon as
+    /// its token condition does, instead of timing it; `None` restores real timers. State-space
+    /// exploration uses it to abstract time away.
+    pub fn assume_delays(&mut self, elapsed: Option<bool>) {
+        self.assume_delays = elapsed;
     }
 
     /// One PLC scan at time `now`: input places take the values of their input signals,
@@ -271,6 +288,9 @@ impl<'n> Scanner<'n> {
     }
 
     fn delays_elapsed(&self, t: TransitionId, now: Duration) -> bool {
+        if let Some(assumed) = self.assume_delays {
+            return assumed || self.net.arcs_of(t).timed.is_empty();
+        }
         self.net.arcs_of(t).timed.iter().all(|&i| {
             self.since[i].is_some_and(|s| now.saturating_sub(s) >= self.net.timed_arcs()[i].delay)
         })
@@ -291,6 +311,7 @@ impl<'n> Scanner<'n> {
                 |p| avail[p.index()],
                 |p| u64::from(marking[p]).saturating_add(produced[p.index()]),
                 |p| limit[p.index()],
+                |_| false,
             ) && self.delays_elapsed(t, now)
                 && net.transition(t).guard.eval(signals);
             if enabled {
@@ -342,10 +363,12 @@ impl<'n> Scanner<'n> {
 
     fn enabled_now(&self, t: TransitionId, now: Duration, signals: &[i64]) -> bool {
         let m = &self.marking;
-        self.net
-            .arcs_of(t)
-            .allow(|p| m[p], |p| u64::from(m[p]), |p| self.limit[p.index()])
-            && self.delays_elapsed(t, now)
+        self.net.arcs_of(t).allow(
+            |p| m[p],
+            |p| u64::from(m[p]),
+            |p| self.limit[p.index()],
+            |_| false,
+        ) && self.delays_elapsed(t, now)
             && self.net.transition(t).guard.eval(signals)
     }
 
@@ -407,5 +430,78 @@ impl<'n> Scanner<'n> {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The hooks state-space exploration uses: placing the scanner at a marking and assuming
+    //! delays elapsed or not.
+
+    use super::*;
+    use crate::guard::parse;
+    use crate::model::{ArcKind, ArcSpec, NetBuilder, PlaceSpec, TransitionSpec};
+
+    /// p1 --(delay 1 s)--> t --> p2
+    fn delayed() -> Net {
+        let mut b = NetBuilder::new("n", "n");
+        b.place(PlaceSpec {
+            id: "p1".into(),
+            name: "p1".into(),
+            initial: 1,
+            ..Default::default()
+        });
+        b.place(PlaceSpec {
+            id: "p2".into(),
+            name: "p2".into(),
+            ..Default::default()
+        });
+        b.transition(TransitionSpec {
+            id: "t".into(),
+            name: "t".into(),
+            guard: parse("").unwrap(),
+        });
+        let arc = |id: &str, s: &str, t: &str, delay| ArcSpec {
+            id: id.into(),
+            source: s.into(),
+            target: t.into(),
+            kind: ArcKind::Normal,
+            weight: 1,
+            delay,
+        };
+        b.arc(arc("a1", "p1", "t", Some(Duration::from_secs(1))));
+        b.arc(arc("a2", "t", "p2", None));
+        b.build().unwrap()
+    }
+
+    fn check(assume: Option<bool>, expect: &[u32]) {
+        let net = delayed();
+        let mut s = Scanner::new(&net, ScanOptions::of(&net));
+        s.assume_delays(assume);
+        s.scan(Duration::ZERO, &mut []).unwrap();
+        assert_eq!(s.marking().0, expect, "assume_delays({assume:?})");
+    }
+
+    #[test]
+    fn delays_can_be_assumed_elapsed_or_not() {
+        check(None, &[1, 0]);
+        check(Some(true), &[0, 1]);
+        check(Some(false), &[1, 0]);
+    }
+
+    #[test]
+    fn set_marking_restarts_from_any_state() {
+        let net = delayed();
+        let mut s = Scanner::new(&net, ScanOptions::of(&net));
+        s.scan(Duration::ZERO, &mut []).unwrap();
+        s.set_marking(&Marking(vec![0, 5]));
+        s.scan(Duration::from_secs(2), &mut []).unwrap();
+        assert_eq!(s.marking().0, vec![0, 5]);
+        s.set_marking(&Marking(vec![1, 0]));
+        // Timers restarted: the token must wait its second again.
+        s.scan(Duration::from_secs(2), &mut []).unwrap();
+        assert_eq!(s.marking().0, vec![1, 0]);
+        s.scan(Duration::from_secs(3), &mut []).unwrap();
+        assert_eq!(s.marking().0, vec![0, 1]);
     }
 }

@@ -142,8 +142,19 @@ fn build(d: &Desc, step: StepRule, evolve: Evolution) -> Net {
 
 /// Whether `t` could fire alone in `m` under these signals: the interleaving rule plus the
 /// guard (the random nets have no delays).
+/// Whether `t` could fire alone in a scan from `m`: the interleaving rule, plus what it
+/// abstracts away (guards, and read/inhibitor arcs on input places, which hold the input's
+/// value during a scan).
 fn fireable(net: &Net, m: &Marking, t: TransitionId, signals: &[i64]) -> bool {
-    net.is_enabled(m, t) && net.transition(t).guard.eval(signals)
+    let a = net.arcs_of(t);
+    let inputs_hold = a
+        .read
+        .iter()
+        .all(|&(p, w)| net.place(p).input.is_none() || m[p] >= w)
+        && a.inhibit
+            .iter()
+            .all(|&(p, w)| net.place(p).input.is_none() || m[p] < w);
+    net.is_enabled(m, t) && inputs_hold && net.transition(t).guard.eval(signals)
 }
 
 fn assert_within_capacities(net: &Net, m: &Marking) -> Result<(), TestCaseError> {
