@@ -1,0 +1,759 @@
+//! Minimal semi-positive P- and T-invariants (semiflows) by the Farkas algorithm with
+//! Martinez–Silva minimal-support pruning, and what follows from them: conservation laws,
+//! the places they cover and structural bounds.
+//!
+//! A P-invariant is y ≥ 0, y ≠ 0 with yᵀC = 0: the weighted token count y·M is the same in
+//! every reachable marking. A T-invariant is x ≥ 0, x ≠ 0 with Cx = 0: a firing count vector
+//! that leads back to the marking it started from. C is [`Net::incidence`]: read and
+//! inhibitor arcs count 0 and capacities are left out, since they only ever stop a firing and
+//! never change what a firing does.
+//!
+//! # The algorithm
+//!
+//! The semiflows form the pointed cone K = {y ≥ 0 : yᵀC = 0}. Its extreme rays are exactly
+//! its elements of minimal support, each unique up to a positive factor, and every semiflow
+//! is a non-negative combination of them; those rays, scaled to integers with gcd 1, are the
+//! "minimal semi-positive invariants" returned here.
+//!
+//! Farkas' algorithm starts from the identity (the rays of y ≥ 0) and adds the constraints
+//! yᵀC(·, j) = 0 one column j at a time: a row that is 0 in column j stays; each pair of a
+//! positive and a negative row is combined to cancel column j. Keeping only rows of minimal
+//! support after every step (Martinez & Silva, 1982) keeps exactly the extreme rays of the
+//! intermediate cone, so rows do not multiply needlessly. The pruning is done before a
+//! combination is built, as the double-description method's combinatorial adjacency test:
+//! the combination of p and n (support supp(p) ∪ supp(n), as all weights are positive) is
+//! an extreme ray of the new cone iff no other current row has its support inside
+//! supp(p) ∪ supp(n). A cheaper necessary condition comes first: the vectors supported in
+//! the support S of an extreme ray form a line, so |S| ≤ 1 + the number of constraints that
+//! cut that space. A column that was 0 or of one sign on every row when it was eliminated
+//! cuts nothing there (a point of the cone positive on S can move a little in any direction
+//! within that space and stay in the cone before the column, on which the column is ≥ 0; so
+//! the column is 0 on the whole space), hence only the columns that had both signs count.
+//!
+//! Columns of one sign go first (they only remove rows), then the one that adds the fewest
+//! rows (|pos|·|neg| − |pos| − |neg|, the usual heuristic), the lowest index on ties, so
+//! results are deterministic. Columns that are 0 or a multiple of an earlier one constrain
+//! nothing new and are dropped at the start.
+//!
+//! # Limits
+//!
+//! The number of minimal invariants can grow exponentially with the net, so the computation
+//! stops cleanly at [`Limits`]: a cap on the rows held at once and on the work done (support
+//! comparisons and combinations, a deterministic stand-in for time). Arithmetic is exact:
+//! combinations are computed in `i128` (a product of two `i64` cannot overflow it), divided
+//! by their gcd and stored as `i64`; a weight that does not fit stops the computation too.
+//! A stopped computation still returns the rows that already satisfy every constraint: each
+//! is an extreme ray of a cone that contains K and lies in K, hence one of K's, so what is
+//! listed is correct and minimal, only perhaps not everything ([`Invariants::complete`]).
+
+use std::collections::HashSet;
+use std::fmt::Write as _;
+
+use petriplc_net::{Net, PlaceId, TransitionId};
+
+/// Bounds on one invariant computation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// The most rows (candidate invariants) held at once.
+    pub max_rows: usize,
+    /// The most elementary steps (support comparisons and row combinations).
+    pub max_work: u64,
+}
+
+impl Limits {
+    /// For a cheap first pass, such as bounds for a state-space encoding: at most about
+    /// 0.1 s in release mode on the MCC models. What it finds is still correct and minimal,
+    /// so the bounds it gives hold even when it is incomplete.
+    pub const QUICK: Limits = Limits {
+        max_rows: 20_000,
+        max_work: 20_000_000,
+    };
+}
+
+impl Default for Limits {
+    /// 100 000 rows and 10⁹ steps: a few seconds in release mode at worst.
+    fn default() -> Self {
+        Limits {
+            max_rows: 100_000,
+            max_work: 1_000_000_000,
+        }
+    }
+}
+
+/// Minimal semi-positive invariants, each a sparse vector of (index, weight) sorted by index,
+/// with weights ≥ 1 and gcd 1; the vectors are sorted lexicographically. Indices are
+/// [`PlaceId`] indices for P-invariants and [`TransitionId`] indices for T-invariants.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub struct Invariants {
+    pub vectors: Vec<Vec<(usize, u64)>>,
+    /// False when the computation stopped at a limit: every vector listed is a minimal
+    /// invariant, but there may be more.
+    pub complete: bool,
+    /// Why the computation stopped, when it did.
+    pub reason: Option<String>,
+}
+
+/// Why a Farkas computation stopped before the end.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+enum Stop {
+    #[error("stopped at {limit} intermediate rows after eliminating {done} of {total} distinct {what} of the incidence matrix; the invariants listed are minimal, but there may be more (raise the row limit)")]
+    TooManyRows {
+        limit: usize,
+        done: usize,
+        total: usize,
+        what: &'static str,
+    },
+    #[error("stopped after {limit} steps after eliminating {done} of {total} distinct {what} of the incidence matrix; the invariants listed are minimal, but there may be more (raise the work limit)")]
+    TooMuchWork {
+        limit: u64,
+        done: usize,
+        total: usize,
+        what: &'static str,
+    },
+    #[error("stopped after eliminating {done} of {total} distinct {what} of the incidence matrix: a weight does not fit in 64 bits; the invariants listed are minimal, but there may be more")]
+    Overflow {
+        done: usize,
+        total: usize,
+        what: &'static str,
+    },
+}
+
+/// Minimal semi-positive P-invariants: y ≥ 0 with yᵀC = 0.
+///
+/// Input places are left out: their marking follows the input signal every scan (S1), not
+/// the incidence matrix, so no conservation law holds for them under the PLC semantics.
+pub fn p_invariants(net: &Net, limits: Limits) -> Invariants {
+    let vars: Vec<PlaceId> = net
+        .place_ids()
+        .filter(|&p| net.place(p).input.is_none())
+        .collect();
+    let mut var_of = vec![None; net.places().len()];
+    for (i, p) in vars.iter().enumerate() {
+        var_of[p.index()] = Some(i);
+    }
+    let mut rows = vec![Vec::new(); vars.len()];
+    for t in net.transition_ids() {
+        for (p, v) in column(net, t) {
+            // An input place has no normal arcs, so no entry in C.
+            if let Some(i) = var_of[p.index()] {
+                rows[i].push((t.0, v));
+            }
+        }
+    }
+    let mut inv = farkas(rows, net.transitions().len(), limits, "transition columns");
+    for v in &mut inv.vectors {
+        for (i, _) in v.iter_mut() {
+            *i = vars[*i].index();
+        }
+    }
+    inv.vectors.sort();
+    inv
+}
+
+/// Minimal semi-positive T-invariants: x ≥ 0 with Cx = 0.
+pub fn t_invariants(net: &Net, limits: Limits) -> Invariants {
+    let rows = net
+        .transition_ids()
+        .map(|t| column(net, t).into_iter().map(|(p, v)| (p.0, v)).collect())
+        .collect();
+    let mut inv = farkas(rows, net.places().len(), limits, "place rows");
+    inv.vectors.sort();
+    inv
+}
+
+/// Column t of C, sparse and sorted by place.
+fn column(net: &Net, t: TransitionId) -> Vec<(PlaceId, i64)> {
+    let a = net.arcs_of(t);
+    let mut places: Vec<PlaceId> = a.consume.iter().chain(&a.produce).map(|x| x.0).collect();
+    places.sort_unstable();
+    places.dedup();
+    places
+        .into_iter()
+        .map(|p| (p, net.incidence(p, t)))
+        .filter(|&(_, v)| v != 0)
+        .collect()
+}
+
+/// One row of the Farkas tableau: a combination of the variables (`comb`, all weights > 0)
+/// and its value in the constraint columns not yet eliminated (`rest`), both sparse.
+#[derive(Clone, Debug)]
+struct Row {
+    comb: Vec<(u32, i64)>,
+    rest: Vec<(u32, i64)>,
+    /// The support of `comb` as a bit set.
+    support: Vec<u64>,
+    /// |support|.
+    size: u32,
+}
+
+impl Row {
+    fn value(&self, col: u32) -> i64 {
+        self.rest
+            .binary_search_by_key(&col, |x| x.0)
+            .map_or(0, |i| self.rest[i].1)
+    }
+}
+
+fn subset(a: &[u64], b: &[u64]) -> bool {
+    a.iter().zip(b).all(|(x, y)| x & !y == 0)
+}
+
+/// The Farkas algorithm on `rows[i]` = the constraint coefficients of variable i (sparse,
+/// sorted by column, columns < `ncols`). Returns the minimal-support semi-positive vectors y
+/// with Σ y_i rows[i] = 0.
+fn farkas(
+    rows: Vec<Vec<(u32, i64)>>,
+    ncols: usize,
+    limits: Limits,
+    what: &'static str,
+) -> Invariants {
+    let n = rows.len();
+    let words = n.div_ceil(64).max(1);
+
+    // Columns that are 0 or a multiple of an earlier one constrain nothing new.
+    let mut cols: Vec<Vec<(usize, i64)>> = vec![Vec::new(); ncols];
+    for (i, r) in rows.iter().enumerate() {
+        for &(c, v) in r {
+            cols[c as usize].push((i, v));
+        }
+    }
+    let mut active: Vec<u32> = Vec::new();
+    let mut is_active = vec![false; ncols];
+    let mut seen: HashSet<Vec<(usize, i64)>> = HashSet::new();
+    for (c, col) in cols.iter().enumerate() {
+        if col.is_empty() {
+            continue;
+        }
+        let g = col.iter().fold(0, |g, &(_, v)| gcd(g, v.unsigned_abs()));
+        let sign = if col[0].1 < 0 { -1 } else { 1 };
+        // g ≤ |v|, so the quotient fits.
+        let norm: Vec<(usize, i64)> = col
+            .iter()
+            .map(|&(i, v)| (i, sign * (i128::from(v) / i128::from(g)) as i64))
+            .collect();
+        if seen.insert(norm) {
+            active.push(c as u32);
+            is_active[c] = true;
+        }
+    }
+    let total = active.len();
+
+    let mut current: Vec<Row> = rows
+        .into_iter()
+        .enumerate()
+        .map(|(i, rest)| {
+            let mut support = vec![0u64; words];
+            support[i / 64] |= 1 << (i % 64);
+            Row {
+                comb: vec![(i as u32, 1)],
+                rest: rest
+                    .into_iter()
+                    .filter(|&(c, v)| v != 0 && is_active[c as usize])
+                    .collect(),
+                support,
+                size: 1,
+            }
+        })
+        .collect();
+
+    let mut work: u64 = 0;
+    let mut done = 0;
+    let mut rank: u32 = 0;
+    let mut stop = None;
+    while !active.is_empty() {
+        // One-signed columns first, then the one that adds the fewest rows.
+        let mut pos = vec![0i64; ncols];
+        let mut neg = vec![0i64; ncols];
+        for r in &current {
+            for &(c, v) in &r.rest {
+                if v > 0 {
+                    pos[c as usize] += 1;
+                } else {
+                    neg[c as usize] += 1;
+                }
+            }
+        }
+        let (k, &col) = active
+            .iter()
+            .enumerate()
+            .min_by_key(|&(_, &c)| {
+                let (p, q) = (pos[c as usize], neg[c as usize]);
+                (p * q != 0, p * q - p - q, c)
+            })
+            .expect("active is not empty");
+        active.swap_remove(k);
+        done += 1;
+
+        let mut next: Vec<Row> = Vec::new();
+        let (mut plus, mut minus) = (Vec::new(), Vec::new());
+        for (i, r) in current.iter().enumerate() {
+            match r.value(col) {
+                0 => next.push(r.clone()),
+                v if v > 0 => plus.push(i),
+                _ => minus.push(i),
+            }
+        }
+        // Only a column with both signs can cut the space of vectors supported in a
+        // support of the cone (see the module comment).
+        if !plus.is_empty() && !minus.is_empty() {
+            rank += 1;
+        }
+        let max_size = rank + 1;
+        let mut union = vec![0u64; words];
+        'pairs: for &i in &plus {
+            for &j in &minus {
+                let (p, q) = (&current[i], &current[j]);
+                work += 1;
+                let mut size = 0;
+                for (w, (a, b)) in union.iter_mut().zip(p.support.iter().zip(&q.support)) {
+                    *w = a | b;
+                    size += w.count_ones();
+                }
+                if size > max_size {
+                    continue;
+                }
+                // Adjacency: no other row's support lies within the union. Rows are sorted
+                // by support size, so the scan ends at the first one larger than the union.
+                let mut adjacent = true;
+                for (m, r) in current.iter().enumerate() {
+                    if r.size > size {
+                        break;
+                    }
+                    if m != i && m != j {
+                        work += 1;
+                        if subset(&r.support, &union) {
+                            adjacent = false;
+                            break;
+                        }
+                    }
+                }
+                if work > limits.max_work {
+                    stop = Some(Stop::TooMuchWork {
+                        limit: limits.max_work,
+                        done: done - 1,
+                        total,
+                        what,
+                    });
+                    break 'pairs;
+                }
+                if !adjacent {
+                    continue;
+                }
+                match combine(p, q, col, &union, size) {
+                    Some(row) => next.push(row),
+                    None => {
+                        stop = Some(Stop::Overflow {
+                            done: done - 1,
+                            total,
+                            what,
+                        });
+                        break 'pairs;
+                    }
+                }
+                if next.len() > limits.max_rows {
+                    stop = Some(Stop::TooManyRows {
+                        limit: limits.max_rows,
+                        done: done - 1,
+                        total,
+                        what,
+                    });
+                    break 'pairs;
+                }
+            }
+        }
+        if stop.is_some() {
+            break;
+        }
+        // Stable, so the order stays deterministic.
+        next.sort_by_key(|r| r.size);
+        current = next;
+    }
+
+    let vectors = current
+        .iter()
+        .filter(|r| r.rest.is_empty())
+        .map(|r| {
+            r.comb
+                .iter()
+                .map(|&(i, v)| (i as usize, v as u64))
+                .collect()
+        })
+        .collect();
+    Invariants {
+        vectors,
+        complete: stop.is_none(),
+        reason: stop.map(|s| s.to_string()),
+    }
+}
+
+/// The row a·p + b·q that cancels column `col` (p positive there, q negative), divided by
+/// the gcd of its weights; `None` when a weight does not fit in an `i64`.
+fn combine(p: &Row, q: &Row, col: u32, support: &[u64], size: u32) -> Option<Row> {
+    let (x, y) = (p.value(col), q.value(col));
+    let g = gcd(x.unsigned_abs(), y.unsigned_abs());
+    let a = i128::from(-y) / i128::from(g);
+    let b = i128::from(x) / i128::from(g);
+    let comb = merge(&p.comb, &q.comb, a, b)?;
+    let rest = merge(&p.rest, &q.rest, a, b)?;
+    // The weights' gcd divides every entry of `rest` too: rest is an integer combination of
+    // the weights.
+    let g = comb
+        .iter()
+        .fold(0u128, |g, &(_, v)| gcd128(g, v.unsigned_abs()));
+    let shrink = |v: Vec<(u32, i128)>| -> Option<Vec<(u32, i64)>> {
+        v.into_iter()
+            .map(|(c, v)| i64::try_from(v / g as i128).ok().map(|v| (c, v)))
+            .collect()
+    };
+    Some(Row {
+        comb: shrink(comb)?,
+        rest: shrink(rest.into_iter().filter(|&(c, _)| c != col).collect())?,
+        support: support.to_vec(),
+        size,
+    })
+}
+
+/// a·u + b·v for sparse vectors sorted by index, without zeros; `None` on overflow. With
+/// 1 ≤ a, b ≤ 2⁶³ and `i64` entries every product lies in [−2¹²⁶, 2¹²⁶), so only the sum
+/// needs checking (and it cannot actually overflow either).
+fn merge(u: &[(u32, i64)], v: &[(u32, i64)], a: i128, b: i128) -> Option<Vec<(u32, i128)>> {
+    let mut out = Vec::with_capacity(u.len() + v.len());
+    let (mut i, mut j) = (0, 0);
+    loop {
+        let (c, x) = match (u.get(i), v.get(j)) {
+            (Some(&(cu, xu)), Some(&(cv, xv))) if cu == cv => {
+                i += 1;
+                j += 1;
+                (cu, (a * i128::from(xu)).checked_add(b * i128::from(xv))?)
+            }
+            (Some(&(cu, xu)), Some(&(cv, _))) if cu < cv => {
+                i += 1;
+                (cu, a * i128::from(xu))
+            }
+            (Some(&(cu, xu)), None) => {
+                i += 1;
+                (cu, a * i128::from(xu))
+            }
+            (_, Some(&(cv, xv))) => {
+                j += 1;
+                (cv, b * i128::from(xv))
+            }
+            (None, None) => return Some(out),
+        };
+        if x != 0 {
+            out.push((c, x));
+        }
+    }
+}
+
+fn gcd(mut a: u64, mut b: u64) -> u64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
+fn gcd128(mut a: u128, mut b: u128) -> u128 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
+/// y·M0 for a P-invariant, exactly.
+fn weighted_initial(net: &Net, y: &[(usize, u64)]) -> u128 {
+    y.iter()
+        .map(|&(p, w)| u128::from(w) * u128::from(net.places()[p].initial))
+        .sum()
+}
+
+/// Each P-invariant as the conservation law it states, with place labels:
+/// `M(idle) + M(busy) + 2·M(pair) = 3` (the constant is y·M0).
+pub fn conservation_laws(net: &Net, inv: &Invariants) -> Vec<String> {
+    inv.vectors
+        .iter()
+        .map(|y| {
+            let mut s = String::new();
+            for (k, &(p, w)) in y.iter().enumerate() {
+                if k > 0 {
+                    s.push_str(" + ");
+                }
+                if w != 1 {
+                    let _ = write!(s, "{w}·");
+                }
+                let _ = write!(s, "M({})", net.place_label(PlaceId::from(p)));
+            }
+            let _ = write!(s, " = {}", weighted_initial(net, y));
+            s
+        })
+        .collect()
+}
+
+/// Per place: whether some P-invariant covers it (gives it a positive weight).
+pub fn covered_places(net: &Net, inv: &Invariants) -> Vec<bool> {
+    let mut covered = vec![false; net.places().len()];
+    for y in &inv.vectors {
+        for &(p, _) in y {
+            covered[p] = true;
+        }
+    }
+    covered
+}
+
+/// Whether every place other than an input place is covered by a P-invariant (the net is
+/// conservative, which makes it structurally bounded: bounded from any initial marking).
+/// With incomplete invariants, `false` means "not shown".
+pub fn structurally_bounded(net: &Net, inv: &Invariants) -> bool {
+    let covered = covered_places(net, inv);
+    net.place_ids()
+        .all(|p| covered[p.index()] || net.place(p).input.is_some())
+}
+
+/// Per place, an upper bound on its tokens in every reachable marking, or `None` when none
+/// is known: the least over the P-invariants y with y_p > 0 of ⌊y·M0 / y_p⌋ (from
+/// y_p·M(p) ≤ y·M = y·M0), and the place's capacity ([`Net::bound`], which for an input
+/// place is the range of its signal). Never more than `u32::MAX`, the token counter's limit.
+///
+/// The bounds hold under the PLC scan too: a step of several transitions changes the
+/// marking by the sum of their columns of C.
+pub fn structural_bounds(net: &Net, inv: &Invariants) -> Vec<Option<u64>> {
+    let mut bounds: Vec<Option<u64>> = net
+        .place_ids()
+        .map(|p| net.bound(p).map(u64::from))
+        .collect();
+    for y in &inv.vectors {
+        let total = weighted_initial(net, y);
+        for &(p, w) in y {
+            let b = (total / u128::from(w)).min(u128::from(u32::MAX)) as u64;
+            bounds[p] = Some(bounds[p].map_or(b, |old| old.min(b)));
+        }
+    }
+    bounds
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testnet::net;
+
+    /// Renders the P-invariants as laws, the T-invariants as firing counts, the structural
+    /// bounds and the verdict, one line each.
+    fn check_with(text: &str, limits: Limits, expect: &[&str]) {
+        let net = net(text);
+        let p = p_invariants(&net, limits);
+        let t = t_invariants(&net, limits);
+        let mut got: Vec<String> = conservation_laws(&net, &p)
+            .into_iter()
+            .map(|l| format!("P: {l}"))
+            .collect();
+        for x in &t.vectors {
+            let terms: Vec<String> = x
+                .iter()
+                .map(|&(i, w)| {
+                    let name = net.transition_label(TransitionId::from(i));
+                    if w == 1 {
+                        name.to_string()
+                    } else {
+                        format!("{w}·{name}")
+                    }
+                })
+                .collect();
+            got.push(format!("T: {}", terms.join(" + ")));
+        }
+        let bounds: Vec<String> = structural_bounds(&net, &p)
+            .iter()
+            .zip(net.place_ids())
+            .map(|(b, q)| {
+                let b = b.map_or("-".to_string(), |b| b.to_string());
+                format!("{}≤{b}", net.place_label(q))
+            })
+            .collect();
+        got.push(format!("bounds: {}", bounds.join(" ")));
+        got.push(format!(
+            "structurally bounded: {}",
+            structurally_bounded(&net, &p)
+        ));
+        for (kind, inv) in [("P", &p), ("T", &t)] {
+            if let Some(r) = &inv.reason {
+                got.push(format!("{kind} incomplete: {r}"));
+            }
+        }
+        assert_eq!(got, expect);
+    }
+
+    fn check(text: &str, expect: &[&str]) {
+        check_with(text, Limits::default(), expect)
+    }
+
+    #[test]
+    fn mutex_has_one_law_per_resource() {
+        check(
+            "place idle1 1
+             place busy1
+             place idle2 1
+             place busy2
+             place lock 1
+             trans enter1: idle1 lock -> busy1
+             trans leave1: busy1 -> idle1 lock
+             trans enter2: idle2 lock -> busy2
+             trans leave2: busy2 -> idle2 lock",
+            &[
+                "P: M(idle1) + M(busy1) = 1",
+                "P: M(busy1) + M(busy2) + M(lock) = 1",
+                "P: M(idle2) + M(busy2) = 1",
+                "T: enter1 + leave1",
+                "T: enter2 + leave2",
+                "bounds: idle1≤1 busy1≤1 idle2≤1 busy2≤1 lock≤1",
+                "structurally bounded: true",
+            ],
+        );
+    }
+
+    #[test]
+    fn weights_appear_in_laws_and_bounds() {
+        // Two singles make a pair and back: M(single) + 2·M(pair) is constant.
+        check(
+            "place single 3
+             place pair
+             trans join: single*2 -> pair
+             trans split: pair -> single*2",
+            &[
+                "P: M(single) + 2·M(pair) = 3",
+                "T: join + split",
+                "bounds: single≤3 pair≤1",
+                "structurally bounded: true",
+            ],
+        );
+    }
+
+    #[test]
+    fn a_source_transition_leaves_places_uncovered() {
+        check(
+            "place a 1
+             place b
+             trans gen: -> a
+             trans move: a -> b",
+            &["bounds: a≤- b≤-", "structurally bounded: false"],
+        );
+    }
+
+    #[test]
+    fn read_inhibitor_arcs_and_input_places_do_not_count() {
+        // The read and inhibitor arcs change nothing; the input place has no law of its own.
+        // Capacities bound places the invariants do not cover.
+        check(
+            "place go in=Go
+             place a 1
+             place b
+             place log cap=4
+             trans t1: a -> b ? go ! log*4
+             trans t2: b -> a log ? go",
+            &[
+                "P: M(a) + M(b) = 1",
+                "bounds: go≤1 a≤1 b≤1 log≤4",
+                "structurally bounded: false",
+            ],
+        );
+    }
+
+    #[test]
+    fn a_self_loop_and_an_isolated_place_are_invariant_alone() {
+        check(
+            "place a 2
+             place alone 7
+             trans t: a -> a",
+            &[
+                "P: M(a) = 2",
+                "P: M(alone) = 7",
+                "T: t",
+                "bounds: a≤2 alone≤7",
+                "structurally bounded: true",
+            ],
+        );
+    }
+
+    #[test]
+    fn a_shared_place_gives_two_weighted_laws() {
+        check(
+            "place a 1
+             place b
+             place c 1
+             trans t1: a c -> b*2
+             trans t2: b*2 -> a c",
+            &[
+                "P: 2·M(a) + M(b) = 2",
+                "P: M(b) + 2·M(c) = 2",
+                "T: t1 + t2",
+                "bounds: a≤1 b≤2 c≤1",
+                "structurally bounded: true",
+            ],
+        );
+    }
+
+    #[test]
+    fn the_row_limit_stops_cleanly_and_keeps_what_is_done() {
+        // t alone has 4 × 4 minimal laws a_i + b_j; the x–y loop is eliminated first (it
+        // removes a row) and its law is complete before the limit strikes.
+        check_with(
+            "place a0 1
+             place a1 1
+             place a2 1
+             place a3 1
+             place b0
+             place b1
+             place b2
+             place b3
+             place x 1
+             place y
+             trans t: a0 a1 a2 a3 -> b0 b1 b2 b3
+             trans f: x -> y
+             trans g: y -> x",
+            Limits {
+                max_rows: 10,
+                max_work: u64::MAX,
+            },
+            &[
+                "P: M(x) + M(y) = 1",
+                "T: f + g",
+                "bounds: a0≤- a1≤- a2≤- a3≤- b0≤- b1≤- b2≤- b3≤- x≤1 y≤1",
+                "structurally bounded: false",
+                "P incomplete: stopped at 10 intermediate rows after eliminating 1 of 2 distinct transition columns of the incidence matrix; the invariants listed are minimal, but there may be more (raise the row limit)",
+            ],
+        );
+        check_with(
+            "place a0 1
+             place a1 1
+             place b0
+             place b1
+             trans t: a0 a1 -> b0 b1",
+            Limits {
+                max_rows: 100,
+                max_work: 3,
+            },
+            &[
+                "bounds: a0≤- a1≤- b0≤- b1≤-",
+                "structurally bounded: false",
+                "P incomplete: stopped after 3 steps after eliminating 0 of 1 distinct transition columns of the incidence matrix; the invariants listed are minimal, but there may be more (raise the work limit)",
+            ],
+        );
+    }
+
+    #[test]
+    fn combinations_are_exact_at_64_bits() {
+        let mut big = vec![(0, i64::MAX)];
+        let mut other = vec![(0, -1)];
+        let (a, b) = (1, i128::from(i64::MAX));
+        assert_eq!(
+            merge(&big, &other, a, b),
+            Some(vec![]),
+            "i64::MAX·1 + 1·(−1)·i64::MAX = 0"
+        );
+        big[0].1 = i64::MIN;
+        other[0].1 = i64::MIN;
+        let two63 = 1i128 << 63;
+        assert_eq!(
+            merge(&big, &other, two63, two63),
+            Some(vec![(0, i128::MIN)])
+        );
+    }
+}
