@@ -584,7 +584,7 @@ mod tests {
     use petriplc_sim::{SimOptions, Simulation, Timeline};
 
     use super::*;
-    use crate::testnet::net;
+    use petriplc_testnet::net;
 
     /// `never(place)` in one line: `proved N states`, `incomplete`, or the moves joined by `; `
     /// with `(replays)` / `(needs other timing)`.

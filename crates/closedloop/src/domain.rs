@@ -242,7 +242,7 @@ mod tests {
     //! Representatives per input, and exactness by brute force on small ranges.
 
     use super::*;
-    use crate::testnet::net;
+    use petriplc_testnet::net;
 
     fn check(text: &str, expect: &str) {
         let n = net(text);

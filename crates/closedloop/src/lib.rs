@@ -24,9 +24,6 @@ mod sipn;
 mod space;
 mod witness;
 
-#[cfg(test)]
-mod testnet;
-
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;

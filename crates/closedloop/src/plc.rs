@@ -478,7 +478,7 @@ mod tests {
     //! Scans with delay choices against the real scanner's timers.
 
     use super::*;
-    use crate::testnet::net;
+    use petriplc_testnet::net;
 
     /// Scans once from the initial marking with input vector `inputs` and every choice of the
     /// eligible delays; lists "choice: fired → marked places".

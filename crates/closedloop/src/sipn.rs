@@ -411,8 +411,8 @@ mod tests {
     use petriplc_net::{Evolution, ScanError, ScanOptions, Scanner};
 
     use super::*;
-    use crate::testnet::net;
     use crate::{explore_controller, PlcOptions};
+    use petriplc_testnet::net;
 
     /// The report in one line per finding: `unsafe P=n after [inputs per scan]`,
     /// `unstable {inputs} from {marked places}: cycle`, `conflict A B after [..]`.

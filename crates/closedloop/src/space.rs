@@ -235,7 +235,7 @@ mod tests {
     use std::sync::Arc;
 
     use super::*;
-    use crate::testnet::net;
+    use petriplc_testnet::net;
 
     /// `states/edges/complete` and the input rows of the witness to the last state.
     fn check(text: &str, opts: impl Fn(&mut PlcOptions), expect: &str) {

@@ -17,6 +17,3 @@ pub use plot::{render_svg, write_svg, PlotError};
 pub use sim::{SimError, SimOptions, Simulation};
 pub use timeline::{Timeline, TimelineCursor, TimelineError, TimelineProblem};
 pub use trace::{Trace, TraceRow};
-
-#[cfg(test)]
-pub(crate) mod testnet;

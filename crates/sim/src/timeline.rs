@@ -508,7 +508,7 @@ mod tests {
         ));
         let e = Timeline::read_file("/nonexistent/petriplc/tl.csv").unwrap_err();
         assert!(e.problem().is_none());
-        assert!(crate::testnet::error_chain(&e)
+        assert!(petriplc_testnet::error_chain(&e)
             .starts_with("cannot read timeline /nonexistent/petriplc/tl.csv: "));
     }
 

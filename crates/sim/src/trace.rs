@@ -166,7 +166,7 @@ fn quote(field: &str) -> Cow<'_, str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testnet::net;
+    use petriplc_testnet::net;
 
     fn row(ms: u64, inputs: &[i64], outputs: &[i64], marking: &[u32], fired: &[&str]) -> TraceRow {
         TraceRow {

@@ -105,7 +105,7 @@ impl Plant for NetPlant<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testnet::net;
+    use petriplc_testnet::net;
 
     /// Steps the model once per input vector (one per second) and renders each step's outputs
     /// and the final summary.
@@ -169,7 +169,7 @@ mod tests {
         ");
         let mut plant = NetPlant::new(&model, ScanOptions::of(&model));
         let e = plant.step(Duration::ZERO, &[], &mut []).unwrap_err();
-        let text = crate::testnet::error_chain(&e);
+        let text = petriplc_testnet::error_chain(&e);
         assert!(
             text.starts_with("plant `test`: the net is unstable at t=0s"),
             "{text}"

@@ -2,9 +2,9 @@
 
 use super::*;
 use crate::plants::NetPlant;
-use crate::testnet::net;
 use crate::{builtin, render_svg};
 use petriplc_net::time::parse_duration;
+use petriplc_testnet::net;
 
 fn d(text: &str) -> Duration {
     parse_duration(text).unwrap()
@@ -39,7 +39,7 @@ fn outcome(s: Result<Simulation<'_>, SimError>) -> String {
         .map(|w| format!("warning: {w}\n"))
         .collect();
     if let Err(e) = s.finish() {
-        return format!("{out}error: {}", crate::testnet::error_chain(&e));
+        return format!("{out}error: {}", petriplc_testnet::error_chain(&e));
     }
     out += &s.trace().to_csv();
     if let Some(summary) = s.plant_summary() {

@@ -1,8 +1,9 @@
-//! A compact text form for the small nets the tests build, so each test shows its net at a
-//! glance.
+//! A compact text form for the small nets unit tests build, so each test shows its net at a
+//! glance. Test-only (a dev-dependency); not published.
 //!
 //! ```text
-//! p NAME INITIAL [>OUTPUT] [<INPUT]     a place, optionally driving an output / mirroring an input
+//! p NAME INITIAL [>OUTPUT] [<INPUT] [cap=N]   a place, optionally driving an output / mirroring
+//!                                             an input, with a capacity
 //! t NAME PRE… -> POST… [if GUARD]        arcs: `p`, `p*2` (weight), `p@0.5` (delay), `?p` read, `!p` inhibitor
 //! s NAME in|out bool|int                 a signal declaration
 //! step sequential | evolve until-stable  the net's scan options
@@ -16,7 +17,7 @@ use petriplc_net::{
     TransitionSpec,
 };
 
-pub(crate) fn net(text: &str) -> Net {
+pub fn net(text: &str) -> Net {
     let mut b = NetBuilder::new("test", "test");
     let mut arcs = 0;
     for line in text.lines().map(str::trim).filter(|l| !l.is_empty()) {
@@ -35,6 +36,8 @@ pub(crate) fn net(text: &str) -> Net {
                         p.output = Some(o.into());
                     } else if let Some(i) = w.strip_prefix('<') {
                         p.input = Some(i.into());
+                    } else if let Some(c) = w.strip_prefix("cap=") {
+                        p.capacity = Some(c.parse().unwrap());
                     }
                 }
                 b.place(p);
@@ -108,7 +111,7 @@ pub(crate) fn net(text: &str) -> Net {
 }
 
 /// An error and its causes joined by `: `, as the CLI prints them (`{:#}` in anyhow).
-pub(crate) fn error_chain(e: &dyn std::error::Error) -> String {
+pub fn error_chain(e: &dyn std::error::Error) -> String {
     let mut out = e.to_string();
     let mut cause = e.source();
     while let Some(c) = cause {
@@ -116,4 +119,29 @@ pub(crate) fn error_chain(e: &dyn std::error::Error) -> String {
         cause = c.source();
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_every_kind_of_line() {
+        let n = net("
+            s Level in int
+            step sequential
+            evolve until-stable
+            p a 2 >Lamp cap=3
+            p b 0
+            p lvl 0 <Level
+            t go a*2 ?lvl !b -> b if Level > 3
+            t back b@0.5 -> a
+        ");
+        assert_eq!(n.places().len(), 3);
+        assert_eq!(n.transitions().len(), 2);
+        assert_eq!(n.arcs().len(), 6);
+        assert_eq!(n.place(petriplc_net::PlaceId(0)).capacity, Some(3));
+        assert_eq!(n.guard_text(petriplc_net::TransitionId(0)), "Level > 3");
+        assert_eq!(n.timed_arcs().len(), 1);
+    }
 }
