@@ -6,11 +6,15 @@ cd "$(dirname "$0")/.."
 
 as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
 
-# xmllint validates what we write against the PNML grammars.
-if ! command -v xmllint >/dev/null 2>&1; then
-  echo "== installing libxml2-utils (xmllint)"
+# xmllint validates what we write against the PNML grammars; Graphviz's dot lays out the
+# reachability graphs `petriplc analyze --svg` draws.
+missing=()
+command -v xmllint >/dev/null 2>&1 || missing+=(libxml2-utils)
+command -v dot >/dev/null 2>&1 || missing+=(graphviz)
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "== installing ${missing[*]}"
   as_root apt-get update -qq
-  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libxml2-utils >/dev/null
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
 if [ ! -d ../shared/data/mcc ]; then

@@ -21,6 +21,9 @@ pub struct Cli {
 pub enum Command {
     /// Simulate a net scan by scan against a timeline of inputs and/or a plant.
     Sim(SimArgs),
+    /// Check a net: invariants, boundedness, reachability graph, deadlocks, liveness,
+    /// conflicts, SIPN checks, and closed-loop properties against a plant net.
+    Analyze(AnalyzeArgs),
 }
 
 /// How names in the PNML file are read.
@@ -110,6 +113,43 @@ pub struct SimArgs {
     /// Interactive stepwise simulation: Enter runs a scan, a signal name toggles it.
     #[arg(long, conflicts_with_all = ["out", "plot"])]
     pub step_through: bool,
+}
+
+#[derive(Debug, Args)]
+#[command(after_long_help = "Examples:\n  \
+    petriplc analyze ../shared/data/mcc/Kanban-PT-00005/model.pnml --json\n  \
+    petriplc analyze examples/mixer/mixer.pnml --names sipn --svg out/mixer-rg.svg\n  \
+    petriplc analyze examples/mixer/mixer.pnml --names sipn --plant examples/mixer/tank.pnml --never overfill\n\n\
+    Exit codes: 0 analysed; 1 --never found the place reachable, or the analysis failed; 2 bad input.\n\
+    The JSON format is documented in docs/analysis.md.")]
+pub struct AnalyzeArgs {
+    /// The net (PNML).
+    pub net: PathBuf,
+    /// How names in the net are read.
+    #[arg(long, value_enum, default_value = "plain")]
+    pub names: Names,
+    /// Print the report as JSON (docs/analysis.md) instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the reachability graph in Graphviz DOT.
+    #[arg(long, value_name = "FILE")]
+    pub dot: Option<PathBuf>,
+    /// Write the reachability graph as SVG (needs Graphviz's `dot`).
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// The most states a drawn graph may have.
+    #[arg(long, default_value_t = 1000, value_name = "N")]
+    pub graph_limit: u64,
+    /// Stop exploring after this many states (the report is then marked incomplete).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_states: Option<u64>,
+    /// A plant net whose outputs feed the controller's inputs by name (closed loop).
+    #[arg(long, value_name = "PNML")]
+    pub plant: Option<PathBuf>,
+    /// Prove that this place (`NAME`, `plant:NAME` or `controller:NAME`) is never marked in
+    /// the closed loop, or print a counterexample timeline.
+    #[arg(long, value_name = "PLACE", requires = "plant")]
+    pub never: Option<String>,
 }
 
 fn parse_time(s: &str) -> Result<Duration, String> {

@@ -2,6 +2,8 @@
 //! conflicts"): structural ones, read off the arcs, and effective ones, seen in reachable
 //! markings with guards and input arcs that can hold together.
 
+use std::borrow::Borrow;
+
 use petriplc_net::{Marking, Net, PlaceId, SignalId, TransitionId};
 
 use crate::satisfy::{and, input_condition, satisfiable};
@@ -78,9 +80,9 @@ pub struct EffectiveConflict {
 ///
 /// One conflict per pair, with the first witness marking in iteration order, in order of
 /// (a, b). Stops reading `markings` once every candidate pair is found.
-pub fn effective_conflicts<'a>(
+pub fn effective_conflicts<M: Borrow<Marking>>(
     net: &Net,
-    markings: impl Iterator<Item = &'a Marking>,
+    markings: impl IntoIterator<Item = M>,
 ) -> Vec<EffectiveConflict> {
     struct Candidate {
         conflict: StructuralConflict,
@@ -114,6 +116,7 @@ pub fn effective_conflicts<'a>(
         if open.is_empty() {
             break;
         }
+        let m: &Marking = m.borrow();
         enabled.fill(None);
         let mut is_enabled =
             |t: TransitionId| *enabled[t.index()].get_or_insert_with(|| net.is_enabled(m, t));

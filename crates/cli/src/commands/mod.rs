@@ -1,5 +1,6 @@
 //! One module per subcommand; `run` dispatches.
 
+mod analyze;
 mod sim;
 mod step_through;
 
@@ -9,5 +10,6 @@ use crate::failure::Failure;
 pub fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
         Command::Sim(args) => sim::run(args),
+        Command::Analyze(args) => analyze::run(args),
     }
 }

@@ -80,15 +80,7 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     let trace = sim.into_trace();
 
     match (&args.out, &args.plot) {
-        (None, None) => {
-            let stdout = io::stdout();
-            let mut lock = stdout.lock();
-            trace
-                .write_csv(&mut lock)
-                .and_then(|()| lock.flush())
-                .context("cannot write the trace")
-                .run_failure()?;
-        }
+        (None, None) => crate::output::to_stdout(|out| trace.write_csv(out))?,
         (out, plot) => {
             if let Some(path) = out {
                 create_parent(path)?;

@@ -1,0 +1,432 @@
+//! `petriplc analyze`: invariants, boundedness, the reachability graph and its properties,
+//! conflicts, SIPN checks under PLC semantics and closed-loop checks against a plant.
+
+mod graph;
+mod report;
+
+use std::fs;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use anyhow::{anyhow, Context};
+use indicatif::{ProgressBar, ProgressStyle};
+use petriplc_closedloop::{self as closedloop, NeverResult, PlcOptions};
+use petriplc_net::{Marking, Net, PlaceId, SignalId, TransitionId};
+use petriplc_pnml::{Naming, ReadOptions};
+use petriplc_reach::{self as reach, ExploreOptions, StateId};
+use petriplc_structure::{self as structure, Limits};
+
+use self::report::{
+    ConflictFacts, EffectiveConflict, InvariantFacts, Never, NeverFacts, Report, SipnFacts,
+    SpaceFacts, StructuralConflict, Unstable,
+};
+use crate::args::{AnalyzeArgs, Names};
+use crate::failure::{BadInputExt, Failure, RunExt};
+
+pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
+    let naming = match args.names {
+        Names::Plain => Naming::Plain,
+        Names::Sipn => Naming::Sipn,
+    };
+    let net = petriplc_pnml::read_file(&args.net, &ReadOptions { naming })
+        .bad_input()?
+        .net;
+    let plant = match &args.plant {
+        Some(path) => Some(
+            petriplc_pnml::read_file(path, &ReadOptions::default())
+                .bad_input()?
+                .net,
+        ),
+        None => None,
+    };
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let cancel = cancel.clone();
+        // A second Ctrl-C while the first is being handled kills the process as usual.
+        let _ = ctrlc::set_handler(move || {
+            if cancel.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
+    }
+
+    let mut report = Report {
+        net: net.id.clone(),
+        complete: true,
+        ..Report::default()
+    };
+    let label = |p: PlaceId| net.place_label(p).to_string();
+    let tlabel = |t: TransitionId| net.transition_label(t).to_string();
+
+    // 1. Invariants: cheap, and they may prove boundedness before any exploration.
+    let p_inv = structure::p_invariants(&net, Limits::default());
+    let t_inv = structure::t_invariants(&net, Limits::default());
+    let structurally_bounded = structure::structurally_bounded(&net, &p_inv);
+    let covered = structure::covered_places(&net, &p_inv);
+    report.invariants = InvariantFacts {
+        p: p_inv
+            .vectors
+            .iter()
+            .map(|v| {
+                v.iter()
+                    .map(|&(i, w)| (label(PlaceId::from(i)), w))
+                    .collect()
+            })
+            .collect(),
+        t: t_inv
+            .vectors
+            .iter()
+            .map(|v| {
+                v.iter()
+                    .map(|&(i, w)| (tlabel(TransitionId::from(i)), w))
+                    .collect()
+            })
+            .collect(),
+        p_complete: p_inv.complete,
+        t_complete: t_inv.complete,
+        conservation_laws: structure::conservation_laws(&net, &p_inv),
+        structurally_bounded,
+        uncovered_places: net
+            .place_ids()
+            .filter(|&p| !covered[p.index()] && net.place(p).input.is_none())
+            .map(label)
+            .collect(),
+    };
+    for (what, inv) in [("P-invariants", &p_inv), ("T-invariants", &t_inv)] {
+        if !inv.complete {
+            report.complete = false;
+            report.incomplete.push(format!(
+                "{what}: {}",
+                inv.reason.as_deref().unwrap_or("limit reached")
+            ));
+        }
+    }
+
+    // 2. Boundedness: structural, else Karp–Miller.
+    let max_states = args.max_states;
+    report.bounded = if structurally_bounded {
+        Some(true)
+    } else {
+        let cov = reach::coverability(
+            &net,
+            max_states.unwrap_or(DEFAULT_COVERABILITY_NODES),
+            Some(&cancel),
+        );
+        if !cov.unbounded_places.is_empty() {
+            report.unbounded_places = cov.unbounded_places.iter().map(|&p| label(p)).collect();
+            report.place_bounds = net
+                .place_ids()
+                .map(|p| (label(p), cov.place_bounds[p.index()]))
+                .collect();
+            Some(false)
+        } else if cov.complete {
+            Some(cov.bounded)
+        } else {
+            report.complete = false;
+            report.incomplete.push(format!(
+                "coverability stopped after {} nodes: boundedness undecided",
+                cov.nodes
+            ));
+            None
+        }
+    };
+
+    // 3. The reachability graph, for a net not known to be unbounded.
+    let mut space = None;
+    if report.bounded != Some(false) {
+        let progress = Progress::new();
+        let opts = ExploreOptions {
+            max_states: max_states
+                .or((report.bounded.is_none()).then_some(DEFAULT_UNDECIDED_STATES)),
+            threads: 0,
+            keep_graph: true,
+            cancel: Some(cancel.clone()),
+            progress: Some(progress.callback()),
+        };
+        let explored = reach::explore(&net, &opts).run_failure();
+        progress.finish();
+        let explored = explored?;
+        let props = reach::properties(&net, &explored);
+        if !explored.complete() {
+            report.complete = false;
+            report.incomplete.push(if cancel.load(Ordering::SeqCst) {
+                format!("interrupted after {} states", explored.states())
+            } else {
+                format!(
+                    "stopped at --max-states ({} states explored)",
+                    explored.states()
+                )
+            });
+        }
+        if report.place_bounds.is_empty() {
+            report.place_bounds = net
+                .place_ids()
+                .map(|p| (label(p), Some(props.place_bounds[p.index()])))
+                .collect();
+        }
+        report.space = Some(SpaceFacts {
+            states: props.states,
+            edges: props.edges,
+            max_tokens_place: props.max_tokens_place,
+            max_tokens_marking: props.max_tokens_marking,
+            safe: props.safe,
+            deadlock: props.deadlock,
+            deadlock_trace: props
+                .deadlock_trace
+                .map(|ts| ts.into_iter().map(tlabel).collect()),
+            quasi_live: props.quasi_live,
+            dead_transitions: props.dead_transitions.into_iter().map(tlabel).collect(),
+            live: props.live,
+            reversible: props.reversible,
+            home_marking: props.home_marking,
+        });
+        space = Some(explored);
+    }
+
+    // 4. Conflicts.
+    report.conflicts = ConflictFacts {
+        structural: structure::structural_conflicts(&net)
+            .into_iter()
+            .map(|c| StructuralConflict {
+                a: tlabel(c.a),
+                b: tlabel(c.b),
+                places: c.places.into_iter().map(label).collect(),
+            })
+            .collect(),
+        effective: space.as_ref().map(|s| {
+            structure::effective_conflicts(&net, s.iter_markings().map(|(_, m)| m))
+                .into_iter()
+                .map(|c| EffectiveConflict {
+                    a: tlabel(c.a),
+                    b: tlabel(c.b),
+                    places: c.places.into_iter().map(label).collect(),
+                    winner: tlabel(c.winner),
+                    marking: marked(&net, &c.witness_marking),
+                    inputs: signal_values(&net, &c.witness_inputs),
+                })
+                .collect()
+        }),
+    };
+
+    // 5. The graph drawing, if asked.
+    if args.dot.is_some() || args.svg.is_some() {
+        let s = space
+            .as_ref()
+            .ok_or_else(|| {
+                anyhow!("the net is unbounded: there is no finite reachability graph to draw")
+            })
+            .bad_input()?;
+        if s.states() > args.graph_limit {
+            return Err(anyhow!(
+                "the reachability graph has {} states, more than --graph-limit {}; raise the limit (e.g. --graph-limit {}) if you really want to draw it",
+                s.states(),
+                args.graph_limit,
+                s.states()
+            ))
+            .bad_input();
+        }
+        let marking = |i: u64| s.marking(StateId(i as u32));
+        let successors = |i: u64| {
+            s.successors(StateId(i as u32))
+                .map(|(t, d)| (t, u64::from(d.0)))
+                .collect()
+        };
+        let dot = graph::to_dot(
+            &net,
+            &graph::GraphView {
+                states: s.states(),
+                marking: &marking,
+                successors: &successors,
+            },
+        );
+        if let Some(path) = &args.dot {
+            write_file(path, &dot)?;
+        }
+        if let Some(path) = &args.svg {
+            let svg = graph::to_svg(&dot).run_failure()?;
+            write_file(path, &svg)?;
+        }
+    }
+    drop(space);
+
+    // 6. SIPN checks under PLC semantics, for nets that read inputs.
+    let plc = PlcOptions {
+        cancel: Some(cancel.clone()),
+        ..PlcOptions::of(&net)
+    };
+    let plc = PlcOptions {
+        max_states: max_states.unwrap_or(plc.max_states),
+        ..plc
+    };
+    if net.inputs().next().is_some() && plant.is_none() {
+        let space = closedloop::explore_controller(&net, &plc).bad_input()?;
+        let sipn = closedloop::sipn_checks(&space, &[]).run_failure()?;
+        if !sipn.complete {
+            report.complete = false;
+            report.incomplete.push(format!(
+                "PLC state space stopped after {} states",
+                sipn.states
+            ));
+        }
+        report.sipn = Some(SipnFacts {
+            states: sipn.states,
+            complete: sipn.complete,
+            unsafe_places: sipn
+                .unsafe_places
+                .iter()
+                .map(|u| (label(u.place), u.witness.timeline_csv.clone()))
+                .collect(),
+            unstable: sipn
+                .unstable
+                .iter()
+                .map(|u| Unstable {
+                    marking: marked(&net, &u.marking),
+                    inputs: signal_values(&net, &u.inputs),
+                    cycle: u.cycle.iter().map(|&t| tlabel(t)).collect(),
+                })
+                .collect(),
+        });
+    }
+
+    // 7. Closed loop with a plant.
+    let mut violated = None;
+    if let Some(plant) = &plant {
+        let cl = closedloop::closed_loop(&net, plant, &plc).bad_input()?;
+        if let Some(place) = &args.never {
+            let verdict = closedloop::never(&cl, place).bad_input()?;
+            let (states, verdict) = match verdict {
+                NeverResult::Proved { states, .. } => (states, Never::Proved),
+                NeverResult::Incomplete { states } => {
+                    report.complete = false;
+                    report
+                        .incomplete
+                        .push(format!("closed-loop search stopped after {states} states"));
+                    (states, Never::Unknown)
+                }
+                NeverResult::Reached {
+                    states,
+                    moves,
+                    timeline_csv,
+                    ..
+                } => {
+                    let mut scans = 0;
+                    let steps = moves
+                        .iter()
+                        .map(|m| {
+                            let line = m.describe(&net, plant, scans);
+                            if matches!(m, closedloop::Move::Scan(_)) {
+                                scans += 1;
+                            }
+                            line
+                        })
+                        .collect();
+                    violated = Some(place.clone());
+                    (
+                        states,
+                        Never::Reached {
+                            steps,
+                            timeline: timeline_csv,
+                        },
+                    )
+                }
+            };
+            report.never = Some(NeverFacts {
+                place: place.clone(),
+                states,
+                verdict,
+            });
+        }
+    }
+
+    let text = if args.json {
+        let json = serde_json::to_string_pretty(&report.to_json())
+            .context("cannot write JSON")
+            .run_failure()?;
+        json + "\n"
+    } else {
+        report.to_text()
+    };
+    crate::output::to_stdout(|out| out.write_all(text.as_bytes()))?;
+    match violated {
+        Some(place) => Err(Failure::Run(anyhow!(
+            "`{place}` can be marked: see the counterexample above"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Karp–Miller nodes tried before boundedness is declared undecided.
+const DEFAULT_COVERABILITY_NODES: u64 = 1_000_000;
+/// States explored when boundedness is undecided, so exploration cannot run forever.
+const DEFAULT_UNDECIDED_STATES: u64 = 10_000_000;
+
+fn marked(net: &Net, m: &Marking) -> Vec<(String, u64)> {
+    net.place_ids()
+        .filter(|&p| m[p] > 0)
+        .map(|p| (net.place_label(p).to_string(), u64::from(m[p])))
+        .collect()
+}
+
+fn signal_values(net: &Net, values: &[(SignalId, i64)]) -> Vec<(String, i64)> {
+    values
+        .iter()
+        .map(|&(s, v)| (net.signal(s).name.clone(), v))
+        .collect()
+}
+
+fn write_file(path: &Path, text: &str) -> Result<(), Failure> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create {}", dir.display()))
+            .run_failure()?;
+    }
+    fs::write(path, text)
+        .with_context(|| format!("cannot write {}", path.display()))
+        .run_failure()
+}
+
+/// A progress bar on standard error, shown only once an exploration has run for a second
+/// (and only on a terminal: indicatif hides it otherwise).
+struct Progress {
+    bar: Arc<Mutex<Option<ProgressBar>>>,
+}
+
+impl Progress {
+    fn new() -> Self {
+        Progress {
+            bar: Arc::new(Mutex::new(None)),
+        }
+    }
+
+    fn callback(&self) -> Arc<dyn Fn(reach::Progress) + Send + Sync> {
+        let bar = self.bar.clone();
+        Arc::new(move |p: reach::Progress| {
+            if p.elapsed < Duration::from_secs(1) {
+                return;
+            }
+            let mut guard = bar.lock().unwrap_or_else(|e| e.into_inner());
+            let bar = guard.get_or_insert_with(|| {
+                let b = ProgressBar::new_spinner();
+                b.set_style(
+                    ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+                        .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+                );
+                b
+            });
+            let rate = p.states as f64 / p.elapsed.as_secs_f64();
+            bar.set_message(format!(
+                "{} states, {} edges, {:.0} states/s (Ctrl-C stops)",
+                p.states, p.edges, rate
+            ));
+            bar.tick();
+        })
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            bar.finish_and_clear();
+        }
+    }
+}

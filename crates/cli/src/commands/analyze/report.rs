@@ -1,0 +1,443 @@
+//! What `petriplc analyze` found, in names rather than ids, rendered as text for people or
+//! as the stable JSON documented in docs/analysis.md.
+
+use std::fmt::Write as _;
+
+use serde_json::{json, Map, Value};
+
+/// Everything one analysis found. `None` means "not computed" (e.g. the net is unbounded, or
+/// the graph was not kept), never "false".
+#[derive(Debug, Default)]
+pub struct Report {
+    pub net: String,
+    /// False when a limit or Ctrl-C cut an exploration short; `incomplete` says which.
+    pub complete: bool,
+    pub incomplete: Vec<String>,
+    pub bounded: Option<bool>,
+    pub unbounded_places: Vec<String>,
+    pub space: Option<SpaceFacts>,
+    /// Per place in declaration order: its bound, `None` for ω (unbounded).
+    pub place_bounds: Vec<(String, Option<u64>)>,
+    pub invariants: InvariantFacts,
+    pub conflicts: ConflictFacts,
+    pub sipn: Option<SipnFacts>,
+    pub never: Option<NeverFacts>,
+}
+
+/// Facts from the reachability graph.
+#[derive(Debug, Default)]
+pub struct SpaceFacts {
+    pub states: u64,
+    pub edges: u64,
+    pub max_tokens_place: u64,
+    pub max_tokens_marking: u64,
+    pub safe: bool,
+    pub deadlock: bool,
+    pub deadlock_trace: Option<Vec<String>>,
+    pub quasi_live: bool,
+    pub dead_transitions: Vec<String>,
+    pub live: Option<bool>,
+    pub reversible: Option<bool>,
+    pub home_marking: Option<bool>,
+}
+
+/// One invariant: (element name, weight), weights > 0.
+pub type Vector = Vec<(String, u64)>;
+
+#[derive(Debug, Default)]
+pub struct InvariantFacts {
+    pub p: Vec<Vector>,
+    pub t: Vec<Vector>,
+    pub p_complete: bool,
+    pub t_complete: bool,
+    pub conservation_laws: Vec<String>,
+    pub structurally_bounded: bool,
+    pub uncovered_places: Vec<String>,
+}
+
+#[derive(Debug, Default)]
+pub struct ConflictFacts {
+    pub structural: Vec<StructuralConflict>,
+    /// `None` when no state space was built to find them in.
+    pub effective: Option<Vec<EffectiveConflict>>,
+}
+
+#[derive(Debug)]
+pub struct StructuralConflict {
+    pub a: String,
+    pub b: String,
+    pub places: Vec<String>,
+}
+
+#[derive(Debug)]
+pub struct EffectiveConflict {
+    pub a: String,
+    pub b: String,
+    pub places: Vec<String>,
+    /// The transition the priority rule lets fire (the lower index).
+    pub winner: String,
+    pub marking: Vec<(String, u64)>,
+    pub inputs: Vec<(String, i64)>,
+}
+
+/// Seed 002/Frey's checks under PLC semantics.
+#[derive(Debug, Default)]
+pub struct SipnFacts {
+    pub states: u64,
+    pub complete: bool,
+    /// Places that can hold more than one token, with an input timeline reaching it.
+    pub unsafe_places: Vec<(String, String)>,
+    /// (marking, inputs, transitions cycling) for which until-stable would never settle.
+    pub unstable: Vec<Unstable>,
+}
+
+#[derive(Debug)]
+pub struct Unstable {
+    pub marking: Vec<(String, u64)>,
+    pub inputs: Vec<(String, i64)>,
+    pub cycle: Vec<String>,
+}
+
+/// The answer to `--never PLACE`.
+#[derive(Debug)]
+pub struct NeverFacts {
+    pub place: String,
+    pub states: u64,
+    pub verdict: Never,
+}
+
+#[derive(Debug)]
+pub enum Never {
+    /// No reachable state marks the place (within the documented abstraction).
+    Proved,
+    /// A run reaching it, as steps and as a timeline `petriplc sim` replays.
+    Reached {
+        steps: Vec<String>,
+        timeline: String,
+    },
+    /// A limit stopped the search first.
+    Unknown,
+}
+
+fn map<T: Into<Value> + Clone>(pairs: &[(String, T)]) -> Value {
+    let mut m = Map::new();
+    for (k, v) in pairs {
+        m.insert(k.clone(), v.clone().into());
+    }
+    Value::Object(m)
+}
+
+fn opt<T: Into<Value>>(v: Option<T>) -> Value {
+    v.map_or(Value::Null, Into::into)
+}
+
+impl Report {
+    /// The stable JSON form (docs/analysis.md); keys keep this order.
+    pub fn to_json(&self) -> Value {
+        let s = self.space.as_ref();
+        let bounds: Vec<(String, Value)> = self
+            .place_bounds
+            .iter()
+            .map(|(p, b)| (p.clone(), b.map_or_else(|| json!("inf"), |b| json!(b))))
+            .collect();
+        let mut out = Map::new();
+        let mut put = |k: &str, v: Value| {
+            out.insert(k.to_string(), v);
+        };
+        put("net", json!(self.net));
+        put("complete", json!(self.complete));
+        if !self.incomplete.is_empty() {
+            put("incomplete", json!(self.incomplete));
+        }
+        put("bounded", opt(self.bounded));
+        put("unbounded_places", json!(self.unbounded_places));
+        put("states", opt(s.map(|s| s.states)));
+        put("edges", opt(s.map(|s| s.edges)));
+        put("max_tokens_place", opt(s.map(|s| s.max_tokens_place)));
+        put("max_tokens_marking", opt(s.map(|s| s.max_tokens_marking)));
+        put("place_bounds", map(&bounds));
+        put("safe", opt(s.map(|s| s.safe)));
+        put("deadlock", opt(s.map(|s| s.deadlock)));
+        put(
+            "deadlock_trace",
+            opt(s.and_then(|s| s.deadlock_trace.clone())),
+        );
+        put("quasi_live", opt(s.map(|s| s.quasi_live)));
+        put(
+            "dead_transitions",
+            opt(s.map(|s| s.dead_transitions.clone())),
+        );
+        put("live", opt(s.and_then(|s| s.live)));
+        put("reversible", opt(s.and_then(|s| s.reversible)));
+        put("home_marking", opt(s.and_then(|s| s.home_marking)));
+        let vectors = |vs: &[Vector]| Value::Array(vs.iter().map(|v| map(v)).collect());
+        put("p_invariants", vectors(&self.invariants.p));
+        put("t_invariants", vectors(&self.invariants.t));
+        put(
+            "invariants_complete",
+            json!(self.invariants.p_complete && self.invariants.t_complete),
+        );
+        put(
+            "conservation_laws",
+            json!(self.invariants.conservation_laws),
+        );
+        put(
+            "structurally_bounded",
+            json!(self.invariants.structurally_bounded),
+        );
+        let structural: Vec<Value> = self
+            .conflicts
+            .structural
+            .iter()
+            .map(|c| json!({"transitions": [c.a, c.b], "places": c.places}))
+            .collect();
+        let effective = self.conflicts.effective.as_ref().map(|es| {
+            es.iter()
+                .map(|c| {
+                    json!({
+                        "transitions": [c.a, c.b],
+                        "places": c.places,
+                        "winner": c.winner,
+                        "marking": map(&c.marking),
+                        "inputs": map(&c.inputs),
+                    })
+                })
+                .collect::<Vec<_>>()
+        });
+        put(
+            "conflicts",
+            json!({"structural": structural, "effective": effective}),
+        );
+        if let Some(sipn) = &self.sipn {
+            let unstable: Vec<Value> = sipn
+                .unstable
+                .iter()
+                .map(|u| json!({"marking": map(&u.marking), "inputs": map(&u.inputs), "cycle": u.cycle}))
+                .collect();
+            let unsafe_places: Vec<Value> = sipn
+                .unsafe_places
+                .iter()
+                .map(|(p, tl)| json!({"place": p, "timeline": tl}))
+                .collect();
+            put(
+                "sipn",
+                json!({
+                    "states": sipn.states,
+                    "complete": sipn.complete,
+                    "safe": sipn.unsafe_places.is_empty(),
+                    "unsafe_places": unsafe_places,
+                    "stable": sipn.unstable.is_empty(),
+                    "unstable": unstable,
+                    "contradictory_outputs": false,
+                }),
+            );
+        }
+        if let Some(n) = &self.never {
+            let (verdict, steps, timeline) = match &n.verdict {
+                Never::Proved => ("never", Value::Null, Value::Null),
+                Never::Reached { steps, timeline } => ("reached", json!(steps), json!(timeline)),
+                Never::Unknown => ("unknown", Value::Null, Value::Null),
+            };
+            put(
+                "never",
+                json!({"place": n.place, "verdict": verdict, "states": n.states, "steps": steps, "timeline": timeline}),
+            );
+        }
+        Value::Object(out)
+    }
+
+    /// The report for people: properties first, then invariants, then conflicts.
+    pub fn to_text(&self) -> String {
+        let mut o = String::new();
+        let yes_no = |b: bool| if b { "yes" } else { "no" };
+        let maybe = |b: Option<bool>| b.map_or("not computed", yes_no);
+        let _ = writeln!(o, "net {}", self.net);
+        if !self.complete {
+            let _ = writeln!(o, "INCOMPLETE: {}", self.incomplete.join("; "));
+        }
+        let _ = writeln!(o, "\nproperties (interleaving semantics)");
+        match (self.bounded, &self.space) {
+            (Some(false), _) => {
+                let _ = writeln!(
+                    o,
+                    "  bounded:            no — unbounded places: {}",
+                    self.unbounded_places.join(", ")
+                );
+            }
+            (_, Some(s)) => {
+                let _ = writeln!(o, "  states:             {}", s.states);
+                let _ = writeln!(o, "  edges:              {}", s.edges);
+                let _ = writeln!(o, "  bounded:            {}", maybe(self.bounded));
+                let _ = writeln!(o, "  max tokens/place:   {}", s.max_tokens_place);
+                let _ = writeln!(o, "  max tokens/marking: {}", s.max_tokens_marking);
+                let _ = writeln!(o, "  safe (1-bounded):   {}", yes_no(s.safe));
+                let _ = match &s.deadlock_trace {
+                    Some(t) if s.deadlock => writeln!(
+                        o,
+                        "  deadlock:           yes, after {}",
+                        if t.is_empty() {
+                            "no firing (M0 is dead)".to_string()
+                        } else {
+                            t.join(" ")
+                        }
+                    ),
+                    _ => writeln!(o, "  deadlock:           {}", yes_no(s.deadlock)),
+                };
+                let _ = writeln!(o, "  quasi-live:         {}", yes_no(s.quasi_live));
+                if !s.dead_transitions.is_empty() {
+                    let _ = writeln!(o, "    never fire:       {}", s.dead_transitions.join(", "));
+                }
+                let _ = writeln!(o, "  live (L4):          {}", maybe(s.live));
+                let _ = writeln!(o, "  reversible:         {}", maybe(s.reversible));
+                let _ = writeln!(o, "  home marking:       {}", maybe(s.home_marking));
+            }
+            _ => {
+                let _ = writeln!(o, "  bounded:            {}", maybe(self.bounded));
+            }
+        }
+        if !self.place_bounds.is_empty() {
+            let bounds: Vec<String> = self
+                .place_bounds
+                .iter()
+                .map(|(p, b)| {
+                    format!(
+                        "{p}={}",
+                        b.map_or_else(|| "ω".to_string(), |b| b.to_string())
+                    )
+                })
+                .collect();
+            let _ = writeln!(o, "  place bounds:       {}", bounds.join(" "));
+        }
+
+        let inv = &self.invariants;
+        let _ = writeln!(
+            o,
+            "\nP-invariants: {}{}",
+            inv.p.len(),
+            if inv.p_complete {
+                ""
+            } else {
+                " (incomplete: limit reached)"
+            }
+        );
+        for law in &inv.conservation_laws {
+            let _ = writeln!(o, "  {law}");
+        }
+        let _ = writeln!(
+            o,
+            "  structurally bounded: {}{}",
+            yes_no(inv.structurally_bounded),
+            if inv.uncovered_places.is_empty() {
+                String::new()
+            } else {
+                format!(" (not covered: {})", inv.uncovered_places.join(", "))
+            }
+        );
+        let _ = writeln!(
+            o,
+            "T-invariants: {}{}",
+            inv.t.len(),
+            if inv.t_complete {
+                ""
+            } else {
+                " (incomplete: limit reached)"
+            }
+        );
+        for v in &inv.t {
+            let terms: Vec<String> = v
+                .iter()
+                .map(|(n, w)| {
+                    if *w == 1 {
+                        n.clone()
+                    } else {
+                        format!("{w}·{n}")
+                    }
+                })
+                .collect();
+            let _ = writeln!(o, "  {}", terms.join(" + "));
+        }
+
+        let c = &self.conflicts;
+        let _ = writeln!(o, "\nconflicts");
+        let _ = writeln!(o, "  structural: {}", c.structural.len());
+        for s in &c.structural {
+            let _ = writeln!(o, "    {} / {} share {}", s.a, s.b, s.places.join(", "));
+        }
+        match &c.effective {
+            None => {
+                let _ = writeln!(o, "  effective: not computed (no state space)");
+            }
+            Some(es) => {
+                let _ = writeln!(o, "  effective: {}", es.len());
+                for e in es {
+                    let inputs: Vec<String> =
+                        e.inputs.iter().map(|(n, v)| format!("{n}={v}")).collect();
+                    let _ = writeln!(
+                        o,
+                        "    {} / {} on {}: both can fire{}; priority picks {}",
+                        e.a,
+                        e.b,
+                        e.places.join(", "),
+                        if inputs.is_empty() {
+                            String::new()
+                        } else {
+                            format!(" with {}", inputs.join(" "))
+                        },
+                        e.winner
+                    );
+                }
+            }
+        }
+
+        if let Some(s) = &self.sipn {
+            let _ = writeln!(
+                o,
+                "\nPLC semantics (SIPN checks, {} states{})",
+                s.states,
+                if s.complete { "" } else { ", incomplete" }
+            );
+            let _ = writeln!(
+                o,
+                "  safe under PLC scans:   {}",
+                yes_no(s.unsafe_places.is_empty())
+            );
+            for (p, _) in &s.unsafe_places {
+                let _ = writeln!(o, "    {p} can hold more than one token");
+            }
+            let _ = writeln!(
+                o,
+                "  stable for all inputs:  {}",
+                yes_no(s.unstable.is_empty())
+            );
+            for u in &s.unstable {
+                let inputs: Vec<String> =
+                    u.inputs.iter().map(|(n, v)| format!("{n}={v}")).collect();
+                let _ = writeln!(
+                    o,
+                    "    with {} the firings {} repeat forever",
+                    inputs.join(" "),
+                    u.cycle.join(" ")
+                );
+            }
+            let _ = writeln!(
+                o,
+                "  contradictory outputs:  impossible (an output is the OR of its places)"
+            );
+        }
+        if let Some(n) = &self.never {
+            let _ = writeln!(o, "\nnever {} ({} states explored)", n.place, n.states);
+            let _ = match &n.verdict {
+                Never::Proved => writeln!(o, "  proved: {} is never marked", n.place),
+                Never::Unknown => writeln!(o, "  unknown: a limit stopped the search"),
+                Never::Reached { steps, timeline } => writeln!(
+                    o,
+                    "  VIOLATED: {} is marked after\n    {}\n  replay with this timeline (petriplc sim --inputs):\n{}",
+                    n.place,
+                    steps.join("\n    "),
+                    timeline
+                ),
+            };
+        }
+        o
+    }
+}

@@ -1,0 +1,20 @@
+//! Writing results to standard output the way command-line tools should: a reader that
+//! stops early (`| head`) ends the program quietly instead of making it panic or complain.
+
+use std::io::{self, Write};
+
+use anyhow::Context;
+
+use crate::failure::{Failure, RunExt};
+
+/// Writes `produce`'s output to standard output; a closed pipe is not an error.
+pub fn to_stdout(produce: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> Result<(), Failure> {
+    let stdout = io::stdout();
+    let mut lock = stdout.lock();
+    match produce(&mut lock).and_then(|()| lock.flush()) {
+        Err(e) if e.kind() == io::ErrorKind::BrokenPipe => Ok(()),
+        other => other
+            .context("cannot write to standard output")
+            .run_failure(),
+    }
+}
