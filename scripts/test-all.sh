@@ -28,3 +28,5 @@ echo "== cargo clippy"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 echo "== cargo test"
 cargo test --workspace --locked
+echo "== the five big Model Checking Contest models (0.7 to 6.1 million states), release build"
+cargo test --release --locked -p petriplc-reach --test mcc_big
