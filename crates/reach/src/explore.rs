@@ -1073,9 +1073,8 @@ mod tests {
     /// numbering and the graph do not depend on the thread count.
     fn check(net_text: &str, opts: ExploreOptions, expect: &str) {
         let net = parse(net_text);
-        // (markings, edges per state) of the first thread count, to compare the others with.
-        type Graph = (Vec<Marking>, Vec<Vec<(TransitionId, crate::StateId)>>);
-        let mut seen: Option<Graph> = None;
+        type Graph = Vec<Vec<(TransitionId, crate::StateId)>>;
+        let mut seen: Option<(Vec<Marking>, Graph)> = None;
         let mut got = String::new();
         for threads in [1, 2, 3] {
             let o = ExploreOptions {

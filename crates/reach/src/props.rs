@@ -237,6 +237,14 @@ mod tests {
     }
 
     #[test]
+    fn no_transitions_is_one_deadlock_with_an_empty_trace() {
+        check(
+            "a=2",
+            "states 1 edges 0 max 2/2 bounds [2] safe false deadlock true trace [] quasi-live true dead [] live Some(true) reversible Some(true) home Some(true)",
+        );
+    }
+
+    #[test]
     fn without_the_graph_liveness_is_unknown() {
         let net = parse("a=1 b ; t: a -> b ; u: b -> a");
         let p = properties(&net, &explore(&net, &ExploreOptions::default()).unwrap());

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use petriplc_net::{Marking, TransitionId};
 
-use crate::explore::{shard_of, Rules, Stats, SHARDS};
+use crate::explore::{shard_of, Rules, Stats};
 use crate::layout::{hash, Dyn, Fixed, Layout, Stride};
 use crate::shard::Shard;
 
@@ -32,11 +32,43 @@ struct Seg {
     len: u32,
 }
 
-/// Compressed sparse rows: the successors of state `s` are
-/// `targets[offsets[s]..offsets[s + 1]]`, in transition order.
+/// States per block of the graph, at most (fewer when a block's edges could pass `u32`).
+const BLOCK: usize = 1 << 16;
+/// States expanded together when building the graph (their look-ups overlap).
+const GRAPH_BATCH: usize = 8;
+
+/// Compressed sparse rows in blocks of `len` states (built in parallel, one block at a time,
+/// without a second pass or a copy): the successors of state `s` are
+/// `targets[offsets[i]..offsets[i + 1]]` of block `s / len`, `i = s % len`, in transition
+/// order. States not expanded have none.
 pub(crate) struct Graph {
-    pub offsets: Vec<u64>,
-    pub targets: Vec<u32>,
+    len: usize,
+    blocks: Vec<Block>,
+}
+
+struct Block {
+    offsets: Vec<u32>,
+    targets: Vec<u32>,
+}
+
+impl Graph {
+    fn targets(&self, s: usize) -> &[u32] {
+        let Some(b) = self.blocks.get(s / self.len) else {
+            return &[];
+        };
+        let i = s % self.len;
+        match (b.offsets.get(i), b.offsets.get(i + 1)) {
+            (Some(&a), Some(&z)) => &b.targets[a as usize..z as usize],
+            _ => &[],
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        self.blocks
+            .iter()
+            .map(|b| (b.offsets.capacity() + b.targets.capacity()) * 4)
+            .sum()
+    }
 }
 
 /// The reachable markings found by [`crate::explore`], and their graph when it was kept.
@@ -72,18 +104,16 @@ impl StateSpace {
         let mut level_first = Vec::new();
         let mut id = 0u64;
         for pair in marks.windows(2) {
-            let (here, next) = (&pair[0], &pair[1]);
             level_first.push(id);
-            for g in 0..SHARDS {
-                let len = next[g] - here[g];
-                if len > 0 {
+            for (g, (&lo, &hi)) in pair[0].iter().zip(&pair[1]).enumerate() {
+                if hi > lo {
                     segs.push(Seg {
                         first: id,
                         shard: g as u32,
-                        lo: here[g],
-                        len,
+                        lo,
+                        len: hi - lo,
                     });
-                    id += u64::from(len);
+                    id += u64::from(hi - lo);
                 }
             }
         }
@@ -166,10 +196,7 @@ impl StateSpace {
 
     /// Bytes held by states and graph (for reports).
     pub fn memory_bytes(&self) -> usize {
-        let g = self
-            .graph
-            .as_ref()
-            .map_or(0, |g| g.offsets.capacity() * 8 + g.targets.capacity() * 4);
+        let g = self.graph.as_ref().map_or(0, Graph::bytes);
         self.shards.iter().map(Shard::bytes).sum::<usize>() + g
     }
 
@@ -251,27 +278,24 @@ impl StateSpace {
             .graph
             .as_ref()
             .expect("successors() needs ExploreOptions::keep_graph");
-        let (a, b) = (
-            g.offsets[s.index()] as usize,
-            g.offsets[s.index() + 1] as usize,
-        );
-        let ts = if a == b { Vec::new() } else { self.enabled(s) };
-        debug_assert_eq!(ts.len(), b - a);
-        ts.into_iter()
-            .zip(g.targets[a..b].iter().map(|&x| StateId(x)))
+        let targets = g.targets(s.index());
+        let ts = if targets.is_empty() {
+            Vec::new()
+        } else {
+            self.enabled(s)
+        };
+        debug_assert_eq!(ts.len(), targets.len());
+        ts.into_iter().zip(targets.iter().map(|&x| StateId(x)))
     }
 
     /// The successor state numbers of `s` (graph kept).
     pub(crate) fn targets(&self, s: usize) -> &[u32] {
-        let g = self.graph.as_ref().expect("graph");
-        &g.targets[g.offsets[s] as usize..g.offsets[s + 1] as usize]
+        self.graph.as_ref().expect("graph").targets(s)
     }
 
-    /// Builds the graph of the expanded states on `threads` threads: degrees first (so rows
-    /// are written in place), then each row's targets by looking successors up.
+    /// Builds the graph of the expanded states on `threads` threads, which take blocks of
+    /// states in turn and look every successor up.
     pub(crate) fn build_graph(&mut self, threads: usize) {
-        let n = self.states() as usize;
-        let exp = self.expanded as usize;
         // Slot → state number, per shard.
         let mut ids: Vec<Vec<u32>> = self
             .shards
@@ -285,82 +309,96 @@ impl StateSpace {
                     (s.first + u64::from(j)) as u32;
             }
         }
-        let threads = threads.max(1);
-        let per = exp.div_ceil(threads).max(1);
-        let mut offsets = vec![0u64; n + 1];
-        std::thread::scope(|sc| {
-            for (c, part) in offsets[1..=exp].chunks_mut(per).enumerate() {
-                let me = &*self;
-                sc.spawn(move || {
-                    let a = (c * per) as u64;
-                    let mut m = me.layout.base.clone();
-                    me.for_range(a, a + part.len() as u64, |id, key| {
-                        me.layout.decode(key, &mut m);
-                        part[(id - a) as usize] = (0..me.rules.transitions())
-                            .filter(|&t| me.rules.enabled(t, &m))
-                            .count() as u64;
-                    });
-                });
-            }
-        });
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut targets = vec![0u32; offsets[n] as usize];
-        match self.layout.words {
-            1 => self.fill(Fixed::<1>, &offsets, &mut targets, &ids, per),
-            2 => self.fill(Fixed::<2>, &offsets, &mut targets, &ids, per),
-            3 => self.fill(Fixed::<3>, &offsets, &mut targets, &ids, per),
-            4 => self.fill(Fixed::<4>, &offsets, &mut targets, &ids, per),
-            k => self.fill(Dyn(k), &offsets, &mut targets, &ids, per),
-        }
-        self.graph = Some(Graph { offsets, targets });
+        let len = (u32::MAX as usize / self.rules.transitions().max(1)).clamp(1, BLOCK);
+        let blocks = match self.layout.words {
+            1 => self.blocks(Fixed::<1>, &ids, threads, len),
+            2 => self.blocks(Fixed::<2>, &ids, threads, len),
+            3 => self.blocks(Fixed::<3>, &ids, threads, len),
+            4 => self.blocks(Fixed::<4>, &ids, threads, len),
+            k => self.blocks(Dyn(k), &ids, threads, len),
+        };
+        self.graph = Some(Graph { len, blocks });
     }
 
-    fn fill<S: Stride>(
-        &self,
-        s: S,
-        offsets: &[u64],
-        targets: &mut [u32],
-        ids: &[Vec<u32>],
-        per: usize,
-    ) {
+    fn blocks<S: Stride>(&self, s: S, ids: &[Vec<u32>], threads: usize, len: usize) -> Vec<Block> {
         let exp = self.expanded as usize;
-        let k = s.k();
-        std::thread::scope(|sc| {
-            let mut rest = targets;
-            let mut a = 0usize;
-            while a < exp {
-                let b = (a + per).min(exp);
-                let (mine, tail) = rest.split_at_mut((offsets[b] - offsets[a]) as usize);
-                rest = tail;
-                sc.spawn(move || {
-                    let mut m = self.layout.base.clone();
-                    let mut succ = vec![0u64; k];
-                    let mut at = 0usize;
-                    self.for_range(a as u64, b as u64, |_, key| {
-                        self.layout.decode(key, &mut m);
-                        for t in 0..self.rules.transitions() {
-                            if !self.rules.enabled(t, &m) {
-                                continue;
+        let count = exp.div_ceil(len);
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let mut done: Vec<(usize, Block)> = std::thread::scope(|sc| {
+            let handles: Vec<_> = (0..threads.max(1))
+                .map(|_| {
+                    sc.spawn(|| {
+                        let mut mine = Vec::new();
+                        loop {
+                            let b = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            if b >= count {
+                                return mine;
                             }
-                            let d = &self.deltas[t * k..t * k + k];
-                            for j in 0..k {
-                                succ[j] = key[j].wrapping_add(d[j]);
-                            }
-                            let h = hash(&succ);
-                            let g = shard_of(h);
-                            let slot = self.shards[g]
-                                .find(s, &succ, h)
-                                .expect("every successor of an expanded state is stored");
-                            mine[at] = ids[g][slot];
-                            at += 1;
+                            let (lo, hi) = (b * len, ((b + 1) * len).min(exp));
+                            mine.push((b, self.block(s, ids, lo as u64, hi as u64)));
                         }
-                    });
-                });
-                a = b;
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .flat_map(|h| h.join().expect("graph thread panicked"))
+                .collect()
+        });
+        done.sort_by_key(|(b, _)| *b);
+        done.into_iter().map(|(_, b)| b).collect()
+    }
+
+    /// The rows of states `lo..hi`.
+    fn block<S: Stride>(&self, s: S, ids: &[Vec<u32>], lo: u64, hi: u64) -> Block {
+        let k = s.k();
+        let t_count = self.rules.transitions();
+        let mut m = self.layout.base.clone();
+        let mut offsets = Vec::with_capacity((hi - lo) as usize + 1);
+        offsets.push(0u32);
+        let mut targets: Vec<u32> = Vec::new();
+        let mut succ: Vec<u64> = Vec::new();
+        let mut hashes: Vec<u64> = Vec::new();
+        let mut pending = 0;
+        let finish = |succ: &mut Vec<u64>, hashes: &mut Vec<u64>, targets: &mut Vec<u32>| {
+            let mut sink = 0u64;
+            for &h in hashes.iter() {
+                sink ^= self.shards[shard_of(h)].touch(s, h);
+            }
+            std::hint::black_box(sink);
+            for (j, &h) in hashes.iter().enumerate() {
+                let g = shard_of(h);
+                let slot = self.shards[g]
+                    .find(s, &succ[j * k..(j + 1) * k], h)
+                    .expect("every successor of an expanded state is stored");
+                targets.push(ids[g][slot]);
+            }
+            succ.clear();
+            hashes.clear();
+        };
+        self.for_range(lo, hi, |_, key| {
+            self.layout.decode(key, &mut m);
+            let mut degree = 0u32;
+            for t in 0..t_count {
+                if !self.rules.enabled(t, &m) {
+                    continue;
+                }
+                degree += 1;
+                let d = &self.deltas[t * k..t * k + k];
+                let at = succ.len();
+                succ.extend(key.iter().zip(d).map(|(a, b)| a.wrapping_add(*b)));
+                hashes.push(hash(&succ[at..]));
+            }
+            let last = *offsets.last().expect("offsets");
+            offsets.push(last + degree);
+            pending += 1;
+            if pending == GRAPH_BATCH {
+                finish(&mut succ, &mut hashes, &mut targets);
+                pending = 0;
             }
         });
+        finish(&mut succ, &mut hashes, &mut targets);
+        Block { offsets, targets }
     }
 }
 

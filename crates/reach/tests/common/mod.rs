@@ -10,6 +10,15 @@ pub const MCC: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data
 /// Models up to this many states run in the debug suite.
 pub const SMALL: u64 = 100_000;
 
+/// Unbounded models whose coverability analysis takes seconds in release and minutes in a
+/// debug build: they run in the release suite.
+const SLOW_UNBOUNDED: [&str; 2] = ["DoubleLock-PT-p1s1", "Planning-PT-none"];
+
+/// Whether a model belongs in the release-only suite (tests/mcc_big.rs).
+pub fn big(name: &str) -> bool {
+    Expect::of(name).states.is_some_and(|s| s > SMALL) || SLOW_UNBOUNDED.contains(&name)
+}
+
 /// A model's answers; `None` where the contest's answer is unknown (`?` or no file).
 #[derive(Debug, Default)]
 pub struct Expect {
