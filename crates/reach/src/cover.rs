@@ -203,6 +203,16 @@ struct Ctx<'n> {
 }
 
 impl<'n> Ctx<'n> {
+    /// The initial marking, widened to the ω-capable counters.
+    fn initial(&self) -> Vec<u64> {
+        self.net
+            .initial_marking()
+            .0
+            .iter()
+            .map(|&v| u64::from(v))
+            .collect()
+    }
+
     fn new(net: &'n Net) -> Ctx<'n> {
         let np = net.places().len();
         let free: Vec<bool> = net.places().iter().map(|p| p.input.is_some()).collect();
@@ -291,13 +301,7 @@ impl<'n> Ctx<'n> {
                 .filter(|(_, &v)| v > 0)
                 .fold(0u64, |s, (p, _)| s | 1 << (p % 64))
         };
-        let m0: Vec<u64> = self
-            .net
-            .initial_marking()
-            .0
-            .iter()
-            .map(|&v| u64::from(v))
-            .collect();
+        let m0 = self.initial();
         let mut labels: Vec<u64> = m0.clone();
         let mut sig: Vec<u64> = vec![support(&m0)];
         let mut parent: Vec<u32> = vec![u32::MAX];
@@ -389,13 +393,7 @@ impl<'n> Ctx<'n> {
             rng ^= rng << 17;
             rng
         };
-        let m0: Vec<u64> = self
-            .net
-            .initial_marking()
-            .0
-            .iter()
-            .map(|&v| u64::from(v))
-            .collect();
+        let m0 = self.initial();
         let mut path: Vec<u64> = Vec::with_capacity(np * (WALK_LEN + 1));
         // Per marking on the path: ω count and finite token sum, a cheap test before `le`.
         let mut shape: Vec<(usize, u64)> = Vec::new();
