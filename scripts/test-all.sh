@@ -6,11 +6,13 @@ cd "$(dirname "$0")/.."
 
 as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
 
-# xmllint validates what we write against the PNML grammars; Graphviz's dot lays out the
-# reachability graphs `petriplc analyze --svg` draws.
+# xmllint validates what we write against the PNML and PLCopen grammars; Graphviz's dot lays
+# out the reachability graphs `petriplc analyze --svg` draws; cc builds the generated C that
+# the differential tests run against the simulator.
 missing=()
 command -v xmllint >/dev/null 2>&1 || missing+=(libxml2-utils)
 command -v dot >/dev/null 2>&1 || missing+=(graphviz)
+command -v cc >/dev/null 2>&1 || missing+=(gcc libc6-dev)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "== installing ${missing[*]}"
   as_root apt-get update -qq

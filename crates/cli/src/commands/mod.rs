@@ -1,6 +1,7 @@
 //! One module per subcommand; `run` dispatches.
 
 mod analyze;
+mod compile;
 mod sim;
 mod step_through;
 
@@ -11,5 +12,6 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
         Command::Sim(args) => sim::run(args),
         Command::Analyze(args) => analyze::run(args),
+        Command::Compile(args) => compile::run(args),
     }
 }
