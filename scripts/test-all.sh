@@ -19,6 +19,19 @@ if [ ${#missing[@]} -gt 0 ]; then
   as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
+# blark, a third-party IEC 61131-3 ST parser (pinned), checks the ST petriplc generates.
+BLARK_VERSION=0.8.3
+if ! target/py/bin/blark --version 2>/dev/null | grep -q "$BLARK_VERSION"; then
+  echo "== installing blark $BLARK_VERSION into target/py"
+  if ! python3 -m venv target/py >/dev/null 2>&1; then
+    as_root apt-get update -qq
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null
+    python3 -m venv target/py
+  fi
+  target/py/bin/pip install -q "blark==$BLARK_VERSION"
+fi
+export PETRIPLC_BLARK="$PWD/target/py/bin/blark"
+
 if [ ! -d ../shared/data/mcc ]; then
   echo "error: ../shared (seeds, schemas, MCC models) must sit beside this checkout" >&2
   exit 2

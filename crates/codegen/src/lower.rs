@@ -666,3 +666,61 @@ pub(crate) fn unsafe_place(net: &Net) -> Option<(String, String)> {
     }
     None
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use petriplc_testnet::net;
+
+    fn lower(text: &str, markings: Markings) -> Result<Program, CodegenError> {
+        let n = net(text);
+        let mut options = Options::of(&n);
+        options.markings = markings;
+        Program::lower(&n, &options)
+    }
+
+    #[test]
+    fn names_never_collide_whatever_the_case() {
+        let mut n = net(
+            "s test in bool\ns Test_Local out bool\np TEST 1 >Test_Local\nt t TEST -> TEST if test",
+        );
+        n.name = "Test".into();
+        let p = Program::lower(&n, &Options::of(&n)).unwrap();
+        let mut all: Vec<String> = [p.pou.clone()]
+            .into_iter()
+            .chain(p.inputs.iter().map(|s| s.ident.clone()))
+            .chain(p.outputs.iter().map(|s| s.ident.clone()))
+            .chain(p.places.iter().map(|s| s.ident.clone()))
+            .chain(p.transitions.iter().map(|s| s.ident.clone()))
+            .map(|s| s.to_ascii_uppercase())
+            .collect();
+        let n_names = all.len();
+        all.sort();
+        all.dedup();
+        assert_eq!(all.len(), n_names, "{p:#?}");
+        assert_eq!(p.pou, "Test");
+        assert_eq!(p.inputs[0].ident, "test_2");
+        assert_eq!(p.renamed, vec![("test".to_string(), "test_2".to_string())]);
+    }
+
+    #[test]
+    fn bool_markings_need_a_provably_safe_net() {
+        let safe = "p a 1 cap=1\np b 0 cap=1\nt t a -> b";
+        assert!(lower(safe, Markings::Auto).unwrap().boolean);
+        assert!(!lower(safe, Markings::Int).unwrap().boolean);
+        // Bounded by the invariant a + b = 1, without capacities.
+        assert!(
+            lower("p a 1\np b 0\nt t a -> b\nt u b -> a", Markings::Auto)
+                .unwrap()
+                .boolean
+        );
+        let unsafe_net = "p a 1\np b 0\nt t a -> b*2";
+        assert!(!lower(unsafe_net, Markings::Auto).unwrap().boolean);
+        let err = lower(unsafe_net, Markings::Bool).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "--markings bool: place b is not provably safe (arc arc2 has weight 2); give it \
+             capacity 1, or use --markings int"
+        );
+    }
+}
