@@ -1,0 +1,178 @@
+//! The typed PLC configuration a configuration file describes: points, modules with their
+//! settings, and the synchronisation net (advanced form and simple `synch` rules).
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+/// Where something was written: for error messages that name file and line.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub struct Origin {
+    pub file: String,
+    /// 1-based.
+    pub line: usize,
+}
+
+impl std::fmt::Display for Origin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}", self.file, self.line)
+    }
+}
+
+/// How a point's bits are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PointKind {
+    /// `u` (the default): unsigned; a 1-bit point is a boolean.
+    Unsigned,
+    /// `i`: two's complement signed.
+    Signed,
+    /// `f`: an IEEE 754 `f32` (always 32 bits).
+    Float,
+}
+
+/// A point's initial value, as written.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PointValue {
+    Unsigned(u32),
+    Signed(i32),
+    Float(f32),
+}
+
+/// `point NAME "description" OWNER [at W.B] [i|u|f][bits] [init V]`
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointDecl {
+    pub name: String,
+    pub description: String,
+    /// The one module allowed to write the point.
+    pub owner: String,
+    /// `at WORD.BIT`: a fixed place in the map; otherwise the runtime allocates one.
+    pub at: Option<(u32, u8)>,
+    pub kind: PointKind,
+    /// 1 to 32; `bit + bits <= 32`.
+    pub bits: u8,
+    pub init: PointValue,
+    pub origin: Origin,
+}
+
+/// How a module reaches the global map (MatPLC's `location`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Location {
+    /// A private map, synchronised by `update()` (the default).
+    #[default]
+    Local,
+    /// Direct access to the global map, for modules the synchronisation runs alone.
+    Shared,
+    /// The module's process never maps the global map; a proxy does `update()`.
+    Isolate,
+}
+
+/// What happens when a module fails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum OnFailure {
+    /// Write the configured safe values and stop the PLC (the default).
+    #[default]
+    Stop,
+    /// Start the module again.
+    Restart,
+    /// Report it and let the others run.
+    Ignore,
+}
+
+/// `module NAME KIND-or-PATH [args]` and the module's own section.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModuleDecl {
+    pub name: String,
+    /// A built-in kind (`petrinet`, `plant`, …) or the path of a program.
+    pub kind: String,
+    pub args: Vec<String>,
+    /// `scan_period` (seconds or an IEC literal); `None`: as fast as synchronisation allows.
+    pub scan_period: Option<Duration>,
+    pub location: Location,
+    /// `priority`: a real-time (SCHED_FIFO) priority 1–99, when permitted.
+    pub priority: Option<u8>,
+    pub on_failure: OnFailure,
+    /// `scan_beg` / `scan_end`: transitions of the synchronisation net (`NULL` when absent).
+    pub scan_beg: Option<String>,
+    pub scan_end: Option<String>,
+    /// Every `name = value` of the module's section (including the ones above), for the
+    /// module's own settings.
+    pub settings: BTreeMap<String, Setting>,
+    pub origin: Origin,
+}
+
+/// A value from a `name = value` line, with where it was written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Setting {
+    pub value: String,
+    pub origin: Origin,
+}
+
+/// `place NAME [TOKENS]`
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PlaceDecl {
+    pub name: String,
+    pub tokens: u32,
+    pub origin: Origin,
+}
+
+/// `arc FROM -N-> TO`: place → transition or transition → place. Weight 0 (only from a
+/// place) means "only while the place is empty".
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ArcDecl {
+    pub from: String,
+    pub to: String,
+    pub weight: u32,
+    pub origin: Origin,
+}
+
+/// `synch A -N-> B`: whenever A ends a scan, B may start one (N ≥ 1).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SynchRule {
+    pub from: String,
+    pub to: String,
+    pub weight: u32,
+    pub origin: Origin,
+}
+
+/// The synchronisation net as written: the advanced form (places, transitions, arcs) and/or
+/// the simple form (`synch`, `synch_start`), which the runtime expands into the same net.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub struct SynchDecl {
+    pub places: Vec<PlaceDecl>,
+    pub transitions: Vec<(String, Origin)>,
+    pub arcs: Vec<ArcDecl>,
+    pub rules: Vec<SynchRule>,
+    /// `synch_start A B …`: modules that may make their first scan at once.
+    pub starts: Vec<(String, Origin)>,
+}
+
+/// A whole PLC configuration.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct PlcConfig {
+    /// The file it was read from.
+    pub file: String,
+    /// Every `name = value` of the `[PLC]` section (e.g. `plc_id`).
+    pub plc: BTreeMap<String, Setting>,
+    pub points: Vec<PointDecl>,
+    pub modules: Vec<ModuleDecl>,
+    pub synch: SynchDecl,
+    /// Every section by name, as read (`[PLC]` and module sections included): modules read
+    /// their own tables (e.g. a logger's `log` rows) from here.
+    pub sections: BTreeMap<String, Section>,
+}
+
+/// A section as written: its `name = value` pairs and table rows, in file order (sections
+/// with the same name, and `Module: name = value` lines, are merged into one).
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub struct Section {
+    pub name: String,
+    pub pairs: Vec<(String, Setting)>,
+    pub rows: Vec<Row>,
+}
+
+/// A table row: `table cell cell …` (a quoted cell keeps its spaces, without the quotes).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Row {
+    pub table: String,
+    pub cells: Vec<String>,
+    pub origin: Origin,
+}

@@ -1,0 +1,84 @@
+//! Arbitrary text never makes the reader panic, and whatever it accepts keeps the model's
+//! promises (one writer per point, every owner declared).
+
+use std::collections::HashSet;
+use std::path::Path;
+
+use proptest::prelude::*;
+
+use petriplc_config::parse_str;
+
+/// Words and fragments of configuration syntax, so random lines often get deep into the
+/// parser rather than failing on the first character.
+fn fragment() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("[PLC]".to_string()),
+        Just("[m]".to_string()),
+        Just("\n".to_string()),
+        Just("\n".to_string()),
+        Just("point".to_string()),
+        Just("module".to_string()),
+        Just("place".to_string()),
+        Just("transition".to_string()),
+        Just("arc".to_string()),
+        Just("synch".to_string()),
+        Just("synch_start".to_string()),
+        Just("*include x.conf".to_string()),
+        Just("m:".to_string()),
+        Just("=".to_string()),
+        Just("at".to_string()),
+        Just("init".to_string()),
+        Just("NULL".to_string()),
+        Just("scan_period".to_string()),
+        Just("scan_beg".to_string()),
+        Just("\"".to_string()),
+        Just("#".to_string()),
+        Just("\\".to_string()),
+        "[a-z]{1,3}",
+        "[iuf]?[0-9]{1,3}",
+        "[0-9]{1,6}\\.[0-9]{1,3}",
+        "-?\\(?[0-9]{0,2}\\)?-?>",
+        "[ \t]{1,2}",
+        "\\PC{1,4}",
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1000))]
+
+    #[test]
+    fn fragments_never_panic(parts in prop::collection::vec(fragment(), 0..80)) {
+        let text = parts.join(" ");
+        check(&text);
+    }
+
+    #[test]
+    fn any_text_never_panics(text in "\\PC*") {
+        check(&text);
+    }
+}
+
+fn check(text: &str) {
+    let lines = text.lines().count().max(1);
+    match parse_str(text, "p.conf", Path::new("/nonexistent-dir")) {
+        Ok(c) => {
+            let modules: HashSet<&str> = c.modules.iter().map(|m| m.name.as_str()).collect();
+            let mut names = HashSet::new();
+            for p in &c.points {
+                assert!(modules.contains(p.owner.as_str()), "{text}");
+                assert!(names.insert(&p.name), "{text}");
+                assert!((1..=32).contains(&p.bits), "{text}");
+                if let Some((_, bit)) = p.at {
+                    assert!(u32::from(bit) + u32::from(p.bits) <= 32, "{text}");
+                }
+            }
+        }
+        Err(e) => {
+            assert!(!e.diagnostics.is_empty());
+            for d in &e.diagnostics {
+                assert_eq!(d.origin.file, "p.conf");
+                assert!((1..=lines).contains(&d.origin.line), "{d} in\n{text}");
+            }
+        }
+    }
+}

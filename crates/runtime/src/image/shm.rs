@@ -1,0 +1,434 @@
+//! The global map: a header and the image's words in POSIX shared memory named after the
+//! plc id, guarded by a futex mutex in the header that works across processes and threads.
+
+use std::fs::File;
+use std::os::unix::fs::MetadataExt;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::Arc;
+
+use memmap2::{MmapOptions, MmapRaw};
+use nix::errno::Errno;
+use nix::fcntl::OFlag;
+use nix::sys::mman::{shm_open, shm_unlink};
+use nix::sys::stat::Mode;
+
+use super::layout::{Layout, PointId};
+use super::{ImageError, PointValue};
+
+const MAGIC: u64 = u64::from_le_bytes(*b"PPLCIMG\0");
+/// Bumped whenever the header or the word encoding changes, so that an old module is refused
+/// rather than misreading a newer PLC's image.
+const VERSION: u32 = 1;
+/// The words start one cache line in, away from the contended lock word.
+const HEADER: usize = 64;
+/// Where the words start within a page, for module maps that align their private copy alike.
+pub(crate) const WORDS_PAGE_OFFSET: usize = HEADER % 4096;
+/// How many times to look at a held lock before sleeping: an update holds it for
+/// microseconds, far less than a futex round trip through the scheduler.
+const SPIN: u32 = 100;
+
+// Everything is atomic: other processes read the header while we write it, and the lock word
+// is the synchronisation itself.
+#[repr(C)]
+struct Header {
+    magic: AtomicU64,
+    version: AtomicU32,
+    words: AtomicU32,
+    fingerprint: AtomicU64,
+    /// 0 free, 1 held, 2 held with (possibly) sleepers.
+    lock: AtomicU32,
+    /// The creating process, to tell a stale image from a running PLC.
+    creator: AtomicU32,
+    _reserved: [AtomicU32; 8],
+}
+
+const _: () = assert!(std::mem::size_of::<Header>() == HEADER);
+
+/// The shared process image of one PLC. Cheap to clone (threads of one process share the
+/// mapping); the creator's last clone removes the shared memory name when dropped.
+#[derive(Clone)]
+pub struct GlobalMap {
+    inner: Arc<Inner>,
+}
+
+struct Inner {
+    map: MmapRaw,
+    shm: String,
+    plc_id: String,
+    words: usize,
+    fingerprint: u64,
+    /// The inode of the object we created, if we did: only that one is ours to unlink.
+    created: Option<u64>,
+}
+
+impl std::fmt::Debug for GlobalMap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GlobalMap")
+            .field("shm", &self.inner.shm)
+            .field("words", &self.inner.words)
+            .field("creator", &self.inner.created.is_some())
+            .finish()
+    }
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        let Some(ino) = self.created else { return };
+        // If the name was removed and reused by another PLC meanwhile, leave that one alone.
+        if let Ok(fd) = shm_open(self.shm.as_str(), OFlag::O_RDONLY, Mode::empty()) {
+            let same = File::from(fd).metadata().is_ok_and(|m| m.ino() == ino);
+            if same {
+                let _ = shm_unlink(self.shm.as_str());
+            }
+        }
+    }
+}
+
+/// The shared memory name of a PLC's image.
+pub fn shm_name(plc_id: &str) -> Result<String, ImageError> {
+    let bad = |reason: &str| ImageError::BadPlcId {
+        plc_id: plc_id.to_string(),
+        reason: reason.to_string(),
+    };
+    if plc_id.is_empty() {
+        return Err(bad("it is empty"));
+    }
+    if plc_id.len() > 200 {
+        return Err(bad("it is longer than 200 characters"));
+    }
+    if !plc_id
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    {
+        return Err(bad("use only letters, digits, `_`, `-` and `.`"));
+    }
+    Ok(format!("/petriplc-{plc_id}-image"))
+}
+
+fn os(what: &'static str, shm: &str, e: impl Into<std::io::Error>) -> ImageError {
+    ImageError::Os {
+        what,
+        shm: shm.to_string(),
+        source: e.into(),
+    }
+}
+
+impl GlobalMap {
+    /// Creates the image of PLC `plc_id` with every point at its init value. Refused if a PLC
+    /// with that id already has one.
+    pub fn create(plc_id: &str, layout: &Layout) -> Result<GlobalMap, ImageError> {
+        let shm = shm_name(plc_id)?;
+        let flags = OFlag::O_CREAT | OFlag::O_EXCL | OFlag::O_RDWR;
+        let fd = match shm_open(shm.as_str(), flags, Mode::from_bits_truncate(0o660)) {
+            Ok(fd) => fd,
+            Err(Errno::EEXIST) => {
+                return Err(ImageError::AlreadyRunning {
+                    plc_id: plc_id.to_string(),
+                    stale: stale_reason(&shm),
+                    shm,
+                })
+            }
+            Err(e) => return Err(os("cannot create shared memory", &shm, e)),
+        };
+        let file = File::from(fd);
+        let (map, ino) = match Self::init(&file, &shm, layout) {
+            Ok(done) => done,
+            Err(e) => {
+                // The name is ours and useless: leave nothing behind for the next attempt.
+                let _ = shm_unlink(shm.as_str());
+                return Err(e);
+            }
+        };
+        Ok(GlobalMap {
+            inner: Arc::new(Inner {
+                map,
+                shm,
+                plc_id: plc_id.to_string(),
+                words: layout.words(),
+                fingerprint: layout.fingerprint(),
+                created: Some(ino),
+            }),
+        })
+    }
+
+    fn init(file: &File, shm: &str, layout: &Layout) -> Result<(MmapRaw, u64), ImageError> {
+        let ino = file
+            .metadata()
+            .map_err(|e| os("cannot stat shared memory", shm, e))?
+            .ino();
+        let len = HEADER + 4 * layout.words();
+        file.set_len(len as u64)
+            .map_err(|e| os("cannot size shared memory", shm, e))?;
+        let map = MmapOptions::new()
+            .len(len)
+            .map_raw(file)
+            .map_err(|e| os("cannot map shared memory", shm, e))?;
+        let init = layout.init_words();
+        // SAFETY: the mapping is `len` = HEADER + 4 * init.len() bytes and page-aligned, so
+        // the words start 4-aligned at HEADER; nobody else can use the words before the magic
+        // below is published (`open` refuses an image without it).
+        unsafe {
+            let words = map.as_mut_ptr().add(HEADER).cast::<u32>();
+            std::ptr::copy_nonoverlapping(init.as_ptr(), words, init.len());
+        }
+        let h = header(&map);
+        h.version.store(VERSION, Ordering::Relaxed);
+        h.words.store(layout.words() as u32, Ordering::Relaxed);
+        h.fingerprint.store(layout.fingerprint(), Ordering::Relaxed);
+        h.creator.store(std::process::id(), Ordering::Relaxed);
+        // Release: whoever sees the magic sees the header and the initial words too.
+        h.magic.store(MAGIC, Ordering::Release);
+        Ok((map, ino))
+    }
+
+    /// Opens the image of the running PLC `plc_id`.
+    pub fn open(plc_id: &str) -> Result<GlobalMap, ImageError> {
+        let shm = shm_name(plc_id)?;
+        let fd = match shm_open(shm.as_str(), OFlag::O_RDWR, Mode::empty()) {
+            Ok(fd) => fd,
+            Err(Errno::ENOENT) => {
+                return Err(ImageError::NotRunning {
+                    plc_id: plc_id.to_string(),
+                    shm,
+                })
+            }
+            Err(e) => return Err(os("cannot open shared memory", &shm, e)),
+        };
+        let file = File::from(fd);
+        let bad = |reason: String| ImageError::BadImage {
+            shm: shm.clone(),
+            reason,
+        };
+        let len = file
+            .metadata()
+            .map_err(|e| os("cannot stat shared memory", &shm, e))?
+            .len() as usize;
+        if len < HEADER {
+            return Err(bad(format!(
+                "{len} bytes, smaller than its header (is the PLC still starting?)"
+            )));
+        }
+        let map = MmapOptions::new()
+            .len(len)
+            .map_raw(&file)
+            .map_err(|e| os("cannot map shared memory", &shm, e))?;
+        let h = header(&map);
+        if h.magic.load(Ordering::Acquire) != MAGIC {
+            return Err(bad(
+                "no petriplc header (is the PLC still starting?)".to_string()
+            ));
+        }
+        let version = h.version.load(Ordering::Relaxed);
+        if version != VERSION {
+            return Err(bad(format!(
+                "format version {version}, this program reads version {VERSION}"
+            )));
+        }
+        let words = h.words.load(Ordering::Relaxed) as usize;
+        if HEADER + 4 * words != len {
+            return Err(bad(format!("{len} bytes do not hold {words} words")));
+        }
+        let fingerprint = h.fingerprint.load(Ordering::Relaxed);
+        Ok(GlobalMap {
+            inner: Arc::new(Inner {
+                map,
+                shm,
+                plc_id: plc_id.to_string(),
+                words,
+                fingerprint,
+                created: None,
+            }),
+        })
+    }
+
+    /// Removes the shared memory name of PLC `plc_id` (after a crash left it behind).
+    /// Processes that have it mapped keep their mapping. Returns whether there was one.
+    pub fn unlink(plc_id: &str) -> Result<bool, ImageError> {
+        let shm = shm_name(plc_id)?;
+        match shm_unlink(shm.as_str()) {
+            Ok(()) => Ok(true),
+            Err(Errno::ENOENT) => Ok(false),
+            Err(e) => Err(os("cannot remove shared memory", &shm, e)),
+        }
+    }
+
+    /// Refuses a layout other than the one the PLC was created with.
+    pub fn check_layout(&self, layout: &Layout) -> Result<(), ImageError> {
+        if layout.fingerprint() == self.inner.fingerprint && layout.words() == self.inner.words {
+            Ok(())
+        } else {
+            Err(ImageError::LayoutMismatch {
+                plc_id: self.inner.plc_id.clone(),
+            })
+        }
+    }
+
+    pub fn words(&self) -> usize {
+        self.inner.words
+    }
+
+    pub fn plc_id(&self) -> &str {
+        &self.inner.plc_id
+    }
+
+    /// The shared memory name (`/petriplc-<plc id>-image`).
+    pub fn shm(&self) -> &str {
+        &self.inner.shm
+    }
+
+    pub fn fingerprint(&self) -> u64 {
+        self.inner.fingerprint
+    }
+
+    /// Takes the image's lock: the words can be accessed through the guard until it drops.
+    /// Holders must not die or block while holding it (every other module would wait).
+    pub fn lock(&self) -> ImageGuard<'_> {
+        let w = &header(&self.inner.map).lock;
+        if w.compare_exchange(0, 1, Ordering::Acquire, Ordering::Relaxed)
+            .is_err()
+        {
+            lock_contended(w);
+        }
+        ImageGuard { map: self }
+    }
+
+    /// The value of one point, read under the lock (for displays and loggers that own
+    /// nothing). `layout` must be the one [`GlobalMap::check_layout`] accepted.
+    pub fn read_point(&self, layout: &Layout, id: PointId) -> PointValue {
+        let s = layout.slot(id);
+        let word = self.lock().words()[s.word as usize];
+        s.decode(word)
+    }
+
+    /// A consistent copy of every word, to decode many points with [`Layout::decode`].
+    pub fn snapshot(&self, out: &mut Vec<u32>) {
+        let g = self.lock();
+        out.clear();
+        out.extend_from_slice(g.words());
+    }
+}
+
+/// The slow path of the lock (Drepper's "Futexes are tricky", mutex #3).
+#[cold]
+fn lock_contended(w: &AtomicU32) {
+    for _ in 0..SPIN {
+        std::hint::spin_loop();
+        if w.load(Ordering::Relaxed) == 0
+            && w.compare_exchange(0, 1, Ordering::Acquire, Ordering::Relaxed)
+                .is_ok()
+        {
+            return;
+        }
+    }
+    // Taking it as 2 rather than 1 errs on the side of a wake-up nobody needed; taking it as
+    // 1 could leave a sleeper asleep forever.
+    while w.swap(2, Ordering::Acquire) != 0 {
+        futex(w, libc::FUTEX_WAIT, 2);
+    }
+}
+
+fn unlock(w: &AtomicU32) {
+    if w.swap(0, Ordering::Release) == 2 {
+        futex(w, libc::FUTEX_WAKE, 1);
+    }
+}
+
+/// A shared (not FUTEX_PRIVATE) futex operation, so that waiters in other processes, which
+/// map the word at other addresses, are found by the kernel through the shared page.
+fn futex(w: &AtomicU32, op: libc::c_int, val: u32) {
+    // SAFETY: `w` is a live, aligned u32 for the duration of the call; FUTEX_WAIT only reads
+    // it (and returns at once with EAGAIN if it no longer holds `val`; EINTR and spurious
+    // wake-ups are handled by the caller's loop), FUTEX_WAKE does not touch it; a null
+    // timeout means no timeout.
+    unsafe {
+        libc::syscall(
+            libc::SYS_futex,
+            w.as_ptr(),
+            op,
+            val,
+            std::ptr::null::<libc::timespec>(),
+        );
+    }
+}
+
+fn header(map: &MmapRaw) -> &Header {
+    debug_assert!(map.len() >= HEADER);
+    // SAFETY: every mapping is at least HEADER bytes (checked by `open`, made so by
+    // `create`) and page-aligned; Header is all atomics, for which any bit pattern is valid
+    // and concurrent access from other processes is fine; the reference lives no longer than
+    // the mapping it borrows.
+    unsafe { &*map.as_mut_ptr().cast::<Header>() }
+}
+
+/// Why an existing image looks abandoned, for the "already running" message ("" if it does
+/// not).
+fn stale_reason(shm: &str) -> String {
+    let Ok(fd) = shm_open(shm, OFlag::O_RDONLY, Mode::empty()) else {
+        return String::new();
+    };
+    let file = File::from(fd);
+    if file
+        .metadata()
+        .map_or(true, |m| (m.len() as usize) < HEADER)
+    {
+        return String::new();
+    }
+    let Ok(map) = MmapOptions::new().len(HEADER).map_raw_read_only(&file) else {
+        return String::new();
+    };
+    let h = header(&map);
+    if h.magic.load(Ordering::Acquire) != MAGIC {
+        return String::new();
+    }
+    let pid = h.creator.load(Ordering::Relaxed);
+    let dead = pid > 0
+        && i32::try_from(pid).is_ok_and(|p| {
+            nix::sys::signal::kill(nix::unistd::Pid::from_raw(p), None) == Err(Errno::ESRCH)
+        });
+    if dead {
+        format!(
+            ", but the PLC that created it (pid {pid}) has exited: remove it with \
+             `rm /dev/shm{shm}` or GlobalMap::unlink"
+        )
+    } else {
+        String::new()
+    }
+}
+
+/// Exclusive access to the image's words; dropping it releases the lock.
+pub struct ImageGuard<'a> {
+    map: &'a GlobalMap,
+}
+
+impl ImageGuard<'_> {
+    pub fn words(&self) -> &[u32] {
+        let inner = &self.map.inner;
+        // SAFETY: the mapping holds `words` u32s at HEADER (4-aligned, checked at open and
+        // create); holding the lock makes this the only access to them among well-behaved
+        // users, and the slice borrows the guard, so it ends before the lock is released.
+        unsafe {
+            std::slice::from_raw_parts(
+                inner.map.as_mut_ptr().add(HEADER).cast::<u32>(),
+                inner.words,
+            )
+        }
+    }
+
+    pub fn words_mut(&mut self) -> &mut [u32] {
+        let inner = &self.map.inner;
+        // SAFETY: as in `words`; the guard is borrowed mutably, so no other slice from it
+        // exists while this one does.
+        unsafe {
+            std::slice::from_raw_parts_mut(
+                inner.map.as_mut_ptr().add(HEADER).cast::<u32>(),
+                inner.words,
+            )
+        }
+    }
+}
+
+impl Drop for ImageGuard<'_> {
+    fn drop(&mut self) {
+        unlock(&header(&self.map.inner.map).lock);
+    }
+}

@@ -1,0 +1,8 @@
+//! The soft PLC runtime (MatPLC, seed 000, rebuilt): a process image of plc points in POSIX
+//! shared memory that modules see through private maps synchronised by `update()`, the
+//! synchronisation Petri net that orders module scans, and scan periods on absolute
+//! deadlines with statistics.
+
+pub mod image;
+pub mod period;
+pub mod synch;
