@@ -26,6 +26,12 @@ pub enum Command {
     Analyze(AnalyzeArgs),
     /// Generate PLC code: ST, IL, LD or SFC in a PLCopen XML project, or C.
     Compile(CompileArgs),
+    /// Run the soft PLC a configuration file describes, until stopped.
+    Run(RunArgs),
+    /// Print the modules of a running PLC: state, process, scans, cycle times, overruns.
+    Status(PlcIdArgs),
+    /// Stop a running PLC cleanly.
+    Stop(PlcIdArgs),
 }
 
 /// How names in the PNML file are read.
@@ -219,6 +225,39 @@ pub struct CompileArgs {
     /// The period of the PLC task (PLCopen XML) and of the C main's scans.
     #[arg(long, default_value = "10ms", value_parser = parse_period)]
     pub period: Duration,
+}
+
+/// The default PLC id: the one `petriplc run` uses without `--plc-id`.
+pub const DEFAULT_PLC_ID: &str = "petriplc";
+
+#[derive(Debug, Args)]
+#[command(after_long_help = "Examples:\n  \
+    petriplc run examples/mixer/plc.conf\n  \
+    petriplc run examples/mixer/plc.conf --plc-id line2 --for 30s --log out/plc.log\n\n\
+    The configuration syntax is MatPLC's (docs/runtime.md). Stop with Ctrl-C or `petriplc stop`.\n\
+    Exit codes: 0 stopped cleanly, 1 a module failed or the PLC could not start, 2 bad configuration.")]
+pub struct RunArgs {
+    /// The configuration file.
+    pub config: PathBuf,
+    /// Names this PLC's shared memory, so several run side by side.
+    #[arg(long, default_value = DEFAULT_PLC_ID, value_name = "ID")]
+    pub plc_id: String,
+    /// Stop after this long (`30s`, `T#1m`).
+    #[arg(long = "for", value_name = "DURATION", value_parser = parse_time)]
+    pub duration: Option<Duration>,
+    /// Also write the log to this file.
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// The least important messages shown.
+    #[arg(long, default_value = "info", value_parser = ["error", "warn", "info", "debug", "trace"])]
+    pub log_level: String,
+}
+
+#[derive(Debug, Args)]
+pub struct PlcIdArgs {
+    /// Which PLC.
+    #[arg(long, default_value = DEFAULT_PLC_ID, value_name = "ID")]
+    pub plc_id: String,
 }
 
 fn parse_time(s: &str) -> Result<Duration, String> {

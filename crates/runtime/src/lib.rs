@@ -4,5 +4,6 @@
 //! deadlines with statistics.
 
 pub mod image;
+pub mod module;
 pub mod period;
 pub mod synch;

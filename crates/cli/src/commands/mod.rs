@@ -2,6 +2,7 @@
 
 mod analyze;
 mod compile;
+mod run;
 mod sim;
 mod step_through;
 
@@ -13,5 +14,8 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
         Command::Sim(args) => sim::run(args),
         Command::Analyze(args) => analyze::run(args),
         Command::Compile(args) => compile::run(args),
+        Command::Run(args) => run::run(args),
+        Command::Status(args) => run::status(args),
+        Command::Stop(args) => run::stop(args),
     }
 }

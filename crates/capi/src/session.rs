@@ -1,0 +1,411 @@
+//! The process's attachment to a running PLC (the safe half of the C ABI): the module map,
+//! the global map, the shared synchronisation marking and the scan period, behind one
+//! process-wide lock.
+//!
+//! Blocking waits (the period, the synchronisation net) run with the lock released, so the
+//! module's other threads can still read and write points while the scan loop waits.
+
+use std::os::raw::c_int;
+use std::path::Path;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::time::Duration;
+
+use petriplc_config::{PlcConfig, PointKind};
+use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap};
+use petriplc_runtime::period::Period;
+use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
+
+use crate::args::{self, Target};
+use crate::*;
+
+/// A point handle as C sees it (`plc_pt_t`): the point's index + 1 (0 is the invalid
+/// handle) and the `plc_init` it came from, so a handle kept across `plc_close` and a new
+/// `plc_init` (perhaps of another configuration) is refused rather than misread.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PlcPt {
+    pub index: u32,
+    pub session: u32,
+}
+
+impl PlcPt {
+    pub const INVALID: PlcPt = PlcPt {
+        index: 0,
+        session: 0,
+    };
+}
+
+struct Plc {
+    session: u32,
+    map: ModuleMap,
+    global: GlobalMap,
+    /// Shared with callers that wait on it with the lock released.
+    synch: Arc<SharedSynch>,
+    beg: TransitionRef,
+    end: TransitionRef,
+    scan_period: Option<Duration>,
+    /// Started by the first `scan_beg`, so that scan 0 runs at once and t0 is its start.
+    period: Option<Period>,
+    /// By point index.
+    handles: Vec<Handle>,
+}
+
+static STATE: Mutex<Option<Plc>> = Mutex::new(None);
+static SESSIONS: AtomicU32 = AtomicU32::new(0);
+
+/// A caught panic poisons the lock; the state it guards is still consistent (every
+/// mutation is a single assignment or a `ModuleMap` call that completes or panics before
+/// writing), so carry on rather than fail every later call.
+fn state() -> MutexGuard<'static, Option<Plc>> {
+    STATE.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+fn not_init() -> Error {
+    Error::new(
+        PLC_ERR_NOT_INIT,
+        "the module is not attached to a PLC: call plc_init first",
+    )
+}
+
+fn with_plc<R>(f: impl FnOnce(&mut Plc) -> Result<R, Error>) -> Result<R, Error> {
+    match state().as_mut() {
+        Some(plc) => f(plc),
+        None => Err(not_init()),
+    }
+}
+
+/// As [`with_plc`], for the second half of a call that waited with the lock released.
+fn with_session<R>(session: u32, f: impl FnOnce(&mut Plc) -> Result<R, Error>) -> Result<R, Error> {
+    with_plc(|plc| {
+        if plc.session != session {
+            return Err(Error::new(
+                PLC_ERR_NOT_INIT,
+                "plc_close was called while this call waited",
+            ));
+        }
+        f(plc)
+    })
+}
+
+fn image_error(e: ImageError) -> Error {
+    let code = match &e {
+        ImageError::UnknownPoint { .. } => PLC_ERR_POINT,
+        ImageError::NotOwner { .. } => PLC_ERR_NOT_OWNER,
+        ImageError::OutOfRange { .. } | ImageError::WrongKind { .. } => PLC_ERR_VALUE,
+        ImageError::UnknownModule { .. } => PLC_ERR_MODULE,
+        ImageError::NotRunning { .. } => PLC_ERR_NOT_RUNNING,
+        ImageError::LayoutMismatch { .. } | ImageError::BadImage { .. } => PLC_ERR_MISMATCH,
+        ImageError::BadPlcId { .. } => PLC_ERR_ARGS,
+        ImageError::Os { .. } => PLC_ERR_OS,
+        _ => PLC_ERR_CONFIG,
+    };
+    Error::new(code, e.to_string())
+}
+
+fn synch_error(e: SynchError) -> Error {
+    let code = match &e {
+        SynchError::Config { .. } => PLC_ERR_CONFIG,
+        SynchError::BadPlcId { .. } => PLC_ERR_ARGS,
+        SynchError::NotRunning { .. } => PLC_ERR_NOT_RUNNING,
+        SynchError::Mismatch { .. } => PLC_ERR_MISMATCH,
+        _ => PLC_ERR_OS,
+    };
+    Error::new(code, e.to_string())
+}
+
+/// A module process started by hand is the usual way to get here: say both ways to fix it,
+/// in the module's terms (`--PLCplc_id`, not the CLI's `--plc-id`).
+fn not_running(plc_id: &str, shm: &str) -> Error {
+    Error::new(
+        PLC_ERR_NOT_RUNNING,
+        format!(
+            "no PLC with id `{plc_id}` is running (no shared memory `{shm}`): start it with \
+             `petriplc run CONFIG` (which starts its modules too), or pass the id of the \
+             running PLC with --PLCplc_id=ID"
+        ),
+    )
+}
+
+fn read_config(path: &Path) -> Result<PlcConfig, Error> {
+    petriplc_config::read_file(path).map_err(|e| {
+        Error::new(
+            PLC_ERR_CONFIG,
+            format!("configuration `{}`:\n{e}", path.display()),
+        )
+    })
+}
+
+fn already_init() -> Error {
+    Error::new(
+        PLC_ERR_ALREADY_INIT,
+        "plc_init was already called in this process (call plc_close first)",
+    )
+}
+
+/// Checked before the arguments, whose errors would hide the real mistake.
+pub(crate) fn check_detached() -> Result<(), Error> {
+    match *state() {
+        Some(_) => Err(already_init()),
+        None => Ok(()),
+    }
+}
+
+/// Attaches the process to the PLC `target` names.
+pub(crate) fn init(target: Target) -> Result<(), Error> {
+    let mut state = state();
+    if state.is_some() {
+        return Err(already_init());
+    }
+    let module = target.module.as_str();
+    let context = |e: Error| Error::new(e.code, format!("module `{module}`: {}", e.message));
+    let config = read_config(&target.config).map_err(context)?;
+    let plc_id = match target.plc_id {
+        Some(id) => id,
+        None => match config.plc.get("plc_id") {
+            Some(s) if !s.value.is_empty() => s.value.clone(),
+            _ => return Err(args::no_plc_id(module)),
+        },
+    };
+    let decl = config
+        .modules
+        .iter()
+        .find(|m| m.name == module)
+        .ok_or_else(|| {
+            let declared: Vec<&str> = config.modules.iter().map(|m| m.name.as_str()).collect();
+            Error::new(
+                PLC_ERR_MODULE,
+                format!(
+                    "module `{module}` is not declared in `{}` (declared: {}); check \
+                     --PLCmodule / PETRIPLC_MODULE",
+                    target.config.display(),
+                    if declared.is_empty() {
+                        "none".to_string()
+                    } else {
+                        declared.join(", ")
+                    }
+                ),
+            )
+        })?;
+    let layout = Layout::new(&config).map_err(image_error).map_err(context)?;
+    let net = SynchNet::from_config(&config)
+        .map_err(synch_error)
+        .map_err(context)?;
+    let map = ModuleMap::new(&layout, module, decl.location)
+        .map_err(image_error)
+        .map_err(context)?;
+    let attach = |e: Error| {
+        context(Error::new(
+            e.code,
+            format!("cannot attach to PLC `{plc_id}`: {}", e.message),
+        ))
+    };
+    let global = GlobalMap::open(&plc_id)
+        .map_err(|e| match e {
+            ImageError::NotRunning { plc_id, shm } => not_running(&plc_id, &shm),
+            e => image_error(e),
+        })
+        .map_err(attach)?;
+    global
+        .check_layout(&layout)
+        .map_err(image_error)
+        .map_err(attach)?;
+    let synch = SharedSynch::open(&plc_id, &net)
+        .map_err(|e| match e {
+            SynchError::NotRunning { shm } => not_running(&plc_id, &shm),
+            e => synch_error(e),
+        })
+        .map_err(attach)?;
+    let handles = layout
+        .points()
+        .map(|(_, slot)| map.handle(&slot.name))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(image_error)?;
+    *state = Some(Plc {
+        session: SESSIONS
+            .fetch_add(1, Ordering::Relaxed)
+            .wrapping_add(1)
+            .max(1),
+        beg: net.scan_beg(module),
+        end: net.scan_end(module),
+        scan_period: decl.scan_period,
+        period: None,
+        map,
+        global,
+        synch: Arc::new(synch),
+        handles,
+    });
+    Ok(())
+}
+
+/// Detaches; the PLC and the other modules go on.
+pub(crate) fn close() -> Result<(), Error> {
+    state().take().map(drop).ok_or_else(not_init)
+}
+
+pub(crate) fn pt_by_name(name: &str) -> Result<PlcPt, Error> {
+    with_plc(|plc| {
+        let h = plc.map.handle(name).map_err(image_error)?;
+        Ok(PlcPt {
+            index: h.id().0 + 1,
+            session: plc.session,
+        })
+    })
+}
+
+impl Plc {
+    fn handle(&self, pt: PlcPt) -> Result<Handle, Error> {
+        if pt.index == 0 {
+            return Err(Error::new(
+                PLC_ERR_POINT,
+                "invalid point handle (the plc_pt_by_name that returned it failed)",
+            ));
+        }
+        if pt.session != self.session {
+            return Err(Error::new(
+                PLC_ERR_POINT,
+                "stale point handle: it was looked up before the last plc_init; look it up again",
+            ));
+        }
+        self.handles
+            .get(pt.index as usize - 1)
+            .copied()
+            .ok_or_else(|| Error::new(PLC_ERR_POINT, "invalid point handle"))
+    }
+}
+
+pub(crate) fn pt_valid(pt: PlcPt) -> bool {
+    with_plc(|plc| plc.handle(pt)).is_ok()
+}
+
+pub(crate) fn get(pt: PlcPt) -> Result<u32, Error> {
+    with_plc(|plc| Ok(plc.map.get_u32(&plc.handle(pt)?)))
+}
+
+pub(crate) fn get_i32(pt: PlcPt) -> Result<i32, Error> {
+    with_plc(|plc| Ok(plc.map.get_i32(&plc.handle(pt)?)))
+}
+
+pub(crate) fn get_f32(pt: PlcPt) -> Result<f32, Error> {
+    with_plc(|plc| Ok(plc.map.get_f32(&plc.handle(pt)?)))
+}
+
+/// Writes the point's raw bits: for a signed point its two's complement in the point's
+/// width, for a float point its IEEE 754 bits.
+pub(crate) fn set(pt: PlcPt, bits: u32) -> Result<(), Error> {
+    with_plc(|plc| {
+        let h = plc.handle(pt)?;
+        let result = match h.kind() {
+            PointKind::Unsigned => plc.map.set_u32(&h, bits),
+            PointKind::Float => plc.map.set_f32(&h, f32::from_bits(bits)),
+            PointKind::Signed => {
+                let width = u32::from(h.bits());
+                if width < 32 && bits >> width != 0 {
+                    Err(ImageError::OutOfRange {
+                        point: plc.map.layout().slot(h.id()).name.clone(),
+                        kind: "signed",
+                        bits: h.bits(),
+                        value: format!("the raw bits {bits:#x}"),
+                    })
+                } else {
+                    // Sign-extend from the point's width, so the typed setter sees the value
+                    // those bits stand for.
+                    let shift = 32 - width;
+                    plc.map.set_i32(&h, ((bits << shift) as i32) >> shift)
+                }
+            }
+        };
+        result.map_err(image_error)
+    })
+}
+
+pub(crate) fn set_i32(pt: PlcPt, v: i32) -> Result<(), Error> {
+    with_plc(|plc| {
+        let h = plc.handle(pt)?;
+        plc.map.set_i32(&h, v).map_err(image_error)
+    })
+}
+
+pub(crate) fn set_f32(pt: PlcPt, v: f32) -> Result<(), Error> {
+    with_plc(|plc| {
+        let h = plc.handle(pt)?;
+        plc.map.set_f32(&h, v).map_err(image_error)
+    })
+}
+
+pub(crate) fn update() -> Result<(), Error> {
+    with_plc(|plc| {
+        plc.map.update(&plc.global);
+        Ok(())
+    })
+}
+
+/// Waits for the scan period (from the second scan on), synchronises on the module's
+/// `scan_beg` transition, then updates the map.
+pub(crate) fn scan_beg() -> Result<c_int, Error> {
+    let (session, synch, beg, period) = with_plc(|plc| {
+        let period = match plc.scan_period {
+            None => None,
+            Some(t) => match plc.period.take() {
+                Some(p) => Some(p),
+                None => {
+                    plc.period = Some(Period::new(t));
+                    None
+                }
+            },
+        };
+        Ok((plc.session, plc.synch.clone(), plc.beg, period))
+    })?;
+    if let Some(mut period) = period {
+        // A stopping PLC should not wait a whole period to tell its modules.
+        if !synch.is_stopping() {
+            period.wait();
+        }
+        with_session(session, |plc| {
+            plc.period = Some(period);
+            Ok(())
+        })?;
+    }
+    if synch.synch(beg).is_err() {
+        return Ok(PLC_STOPPING);
+    }
+    with_session(session, |plc| {
+        plc.map.update(&plc.global);
+        Ok(PLC_OK)
+    })
+}
+
+/// Updates the map, then synchronises on the module's `scan_end` transition.
+pub(crate) fn scan_end() -> Result<c_int, Error> {
+    let (synch, end) = with_plc(|plc| {
+        plc.map.update(&plc.global);
+        Ok((plc.synch.clone(), plc.end))
+    })?;
+    Ok(match synch.synch(end) {
+        Ok(_) => PLC_OK,
+        Err(_) => PLC_STOPPING,
+    })
+}
+
+/// Synchronises on a transition of the net by name (for modules that synchronise at other
+/// points of their scan than its beginning and end).
+pub(crate) fn synch(transition: &str) -> Result<c_int, Error> {
+    let (synch, t) = with_plc(|plc| {
+        let t = plc.synch.net().transition(transition).ok_or_else(|| {
+            Error::new(
+                PLC_ERR_POINT,
+                format!("no transition `{transition}` in the synchronisation net"),
+            )
+        })?;
+        Ok((plc.synch.clone(), t))
+    })?;
+    Ok(match synch.synch(t) {
+        Ok(_) => PLC_OK,
+        Err(_) => PLC_STOPPING,
+    })
+}
+
+/// Whether the PLC is stopping, without waiting.
+pub(crate) fn stopping() -> Result<bool, Error> {
+    with_plc(|plc| Ok(plc.synch.is_stopping()))
+}

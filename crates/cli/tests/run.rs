@@ -1,0 +1,233 @@
+//! `petriplc run`, `status` and `stop` through the real binary: the README's main job (the
+//! mixer controller against the simulated tank) goes through full cycles; status and stop
+//! reach a running PLC; bad configurations start nothing; failing modules follow
+//! `on_failure`.
+
+use std::fs;
+use std::process::{Command as Process, Stdio};
+use std::time::{Duration, Instant};
+
+use assert_cmd::cargo::CommandCargoExt;
+use assert_cmd::Command;
+use predicates::prelude::*;
+use tempfile::TempDir;
+
+const EXAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
+
+fn plc_id(name: &str) -> String {
+    format!("test-{name}-{}", std::process::id())
+}
+
+/// How often transition `t` fired, from the controller's status line `fired B1:3 N2:3 ...`.
+fn fired(report: &str, t: &str) -> u64 {
+    let line = report
+        .lines()
+        .find(|l| l.contains("fired "))
+        .unwrap_or_else(|| panic!("no controller status in:\n{report}"));
+    line.split_whitespace()
+        .find_map(|w| w.strip_prefix(&format!("{t}:")))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no count for {t} in `{line}`"))
+}
+
+#[test]
+fn the_mixer_goes_through_full_cycles() {
+    let out = Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["run", &format!("{EXAMPLES}/mixer/plc.conf"), "--for", "6s"])
+        .args(["--plc-id", &plc_id("mixer")])
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{report}");
+    // A cycle is B1 (fill), N2, N3 (drain), N1 (back to ready): about 2 s with the tank at
+    // speed 4, so 6 s hold at least two whole cycles whatever the machine's load.
+    assert!(fired(&report, "N1") >= 2, "{report}");
+    for t in ["B1", "N2", "N3"] {
+        assert!(fired(&report, t) >= fired(&report, "N1"), "{report}");
+    }
+    assert!(
+        report.contains("controller   petrinet   stopped"),
+        "{report}"
+    );
+}
+
+#[test]
+fn status_and_stop_reach_a_running_plc() {
+    let id = plc_id("status");
+    let mut run = Process::cargo_bin("petriplc")
+        .unwrap()
+        .args([
+            "run",
+            &format!("{EXAMPLES}/mixer/plc.conf"),
+            "--plc-id",
+            &id,
+        ])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    let status = loop {
+        let out = Command::cargo_bin("petriplc")
+            .unwrap()
+            .args(["status", "--plc-id", &id])
+            .output()
+            .unwrap();
+        if out.status.success() {
+            break String::from_utf8_lossy(&out.stdout).into_owned();
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "the PLC never came up"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(status.contains(&format!("PLC {id}")), "{status}");
+    for m in ["operator", "tank", "controller"] {
+        assert!(status.contains(m), "{status}");
+    }
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["stop", "--plc-id", &id])
+        .assert()
+        .success();
+    let exit = run.wait().unwrap();
+    assert!(exit.success());
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["status", "--plc-id", &id])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains(format!(
+            "no PLC with id `{id}` is running"
+        )));
+}
+
+fn run_config(dir: &TempDir, text: &str, id: &str, extra: &[&str]) -> std::process::Output {
+    let conf = dir.path().join("plc.conf");
+    fs::write(&conf, text).unwrap();
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .arg("run")
+        .arg(&conf)
+        .args(["--plc-id", id])
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn bad_configurations_start_nothing() {
+    let dir = TempDir::new().unwrap();
+    let cases: &[(&str, &str)] = &[
+        (
+            "[PLC]\nmodule a nosuchkind\n",
+            "`nosuchkind` is neither a built-in module (petrinet, plant, timeline, logger, shutdown)",
+        ),
+        (
+            "[PLC]\nmodule a shutdown\npoint q \"quit\" b\n[a]\npoint = q\n",
+            "plc.conf:3",
+        ),
+        ("[PLC]\nmodule a shutdown\n", "module a: "),
+        (
+            "[PLC]\nmodule a shutdown\npoint q \"quit\" a\n[a]\npoint = q\nlocation = isolate\n",
+            "`location = isolate` is for modules that run as their own process",
+        ),
+    ];
+    for (i, (text, message)) in cases.iter().enumerate() {
+        let out = run_config(&dir, text, &plc_id(&format!("bad{i}")), &[]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{text}\n{err}");
+        assert!(
+            err.contains(message),
+            "{text}\nexpected `{message}` in:\n{err}"
+        );
+    }
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["run", "no/such.conf"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("no/such.conf"));
+}
+
+#[test]
+fn a_failing_process_module_follows_on_failure() {
+    let dir = TempDir::new().unwrap();
+    let script = dir.path().join("crash.sh");
+    fs::write(&script, "#!/bin/sh\nsleep 0.2\nexit 3\n").unwrap();
+    let mut perms = fs::metadata(&script).unwrap().permissions();
+    std::os::unix::fs::PermissionsExt::set_mode(&mut perms, 0o755);
+    fs::set_permissions(&script, perms).unwrap();
+    let conf = |on_failure: &str| {
+        format!(
+            "[PLC]\nmodule crasher crash.sh\nmodule quit shutdown\npoint stop \"stop\" crasher\n\
+             point valve \"valve\" crasher init 1\n\
+             [crasher]\non_failure = {on_failure}\nsafe valve 0\n[quit]\npoint = stop\nscan_period = 0.01\n"
+        )
+    };
+    // restart: the PLC keeps running and counts the restarts.
+    let out = run_config(
+        &dir,
+        &conf("restart"),
+        &plc_id("restart"),
+        &["--for", "1500ms"],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("restarting it"), "{err}");
+    // stop: safe values written, the PLC stops, exit code 1.
+    let out = run_config(&dir, &conf("stop"), &plc_id("stop"), &["--for", "10s"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("safe value valve = 0"), "{err}");
+    assert!(err.contains("crasher      crash.sh   failed"), "{err}");
+}
+
+#[test]
+fn two_plcs_cannot_share_an_id() {
+    let id = plc_id("twice");
+    let mut first = Process::cargo_bin("petriplc")
+        .unwrap()
+        .args([
+            "run",
+            &format!("{EXAMPLES}/mixer/plc.conf"),
+            "--plc-id",
+            &id,
+            "--for",
+            "10s",
+        ])
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["status", "--plc-id", &id])
+        .output()
+        .unwrap()
+        .status
+        .code()
+        != Some(0)
+    {
+        assert!(started.elapsed() < Duration::from_secs(20));
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args([
+            "run",
+            &format!("{EXAMPLES}/mixer/plc.conf"),
+            "--plc-id",
+            &id,
+        ])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("--plc-id"));
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["stop", "--plc-id", &id])
+        .assert()
+        .success();
+    assert!(first.wait().unwrap().success());
+}

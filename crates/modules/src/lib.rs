@@ -1,0 +1,39 @@
+//! The built-in modules of `petriplc run`: `petrinet` scans a PNML net every PLC scan,
+//! `plant` simulates the process for software-in-the-loop, `timeline` drives points from a
+//! CSV timeline, `logger` writes point changes to CSV and `shutdown` stops the PLC when a
+//! point goes true.
+//!
+//! Each kind has a [`Factory`](petriplc_runtime::module::Factory) that checks the module's
+//! settings from its declaration alone (so a typo is reported before the PLC creates its
+//! process image); files are read and points looked up in `init`.
+
+mod common;
+mod logger;
+mod petrinet;
+mod plant;
+mod shutdown;
+mod timeline;
+
+use petriplc_runtime::module::Factory;
+
+pub use logger::Logger;
+pub use petrinet::Petrinet;
+pub use plant::PlantModule;
+pub use shutdown::Shutdown;
+pub use timeline::TimelineModule;
+
+/// Every built-in module kind, for messages that list the known kinds.
+pub const KINDS: &[&str] = &["petrinet", "plant", "timeline", "logger", "shutdown"];
+
+/// The factory of a built-in module kind (see [`KINDS`]).
+pub fn builtin(kind: &str) -> Option<Factory> {
+    let factory: Factory = match kind {
+        "petrinet" => petrinet::factory,
+        "plant" => plant::factory,
+        "timeline" => timeline::factory,
+        "logger" => logger::factory,
+        "shutdown" => shutdown::factory,
+        _ => return None,
+    };
+    Some(factory)
+}

@@ -1,0 +1,174 @@
+//! `logger`: writes point values to a CSV file as `time,point,value` rows, every point at
+//! the first scan and then each change, flushed at the end of every scan that wrote a row so
+//! that a crash keeps the log up to the last scan.
+//!
+//! ```text
+//! [log]
+//! file = out/mixer-log.csv  # relative to the configuration file; created or truncated
+//! points = B1 V1 V2 V3      # default: every point of the configuration
+//! log N1                    # rows add points too
+//! ```
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
+
+use petriplc_config::{ModuleDecl, PointValue};
+use petriplc_net::time::format_seconds;
+use petriplc_runtime::image::Handle;
+use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
+
+use crate::common::{self, error};
+
+const KIND: &str = "logger";
+
+pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
+    Ok(Box::new(Logger::new(decl)?))
+}
+
+/// The `logger` module.
+pub struct Logger {
+    name: String,
+    file: String,
+    points: Vec<String>,
+    run: Option<Run>,
+}
+
+struct Run {
+    out: BufWriter<File>,
+    path: PathBuf,
+    /// Per point: its handle, name and the raw bits last logged (`None` before the first
+    /// scan). Raw bits, so that a float point's change is never missed by a comparison.
+    points: Vec<(Handle, String, Option<u32>)>,
+    rows: u64,
+}
+
+impl Logger {
+    /// Checks the settings; the file is created by `init`.
+    pub fn new(decl: &ModuleDecl) -> Result<Logger, ModuleError> {
+        common::check_decl(decl, KIND, &["file", "points"])?;
+        Ok(Logger {
+            name: decl.name.clone(),
+            file: common::require(decl, "file")?.to_string(),
+            points: common::setting(decl, "points")
+                .map(|v| v.split_whitespace().map(String::from).collect())
+                .unwrap_or_default(),
+            run: None,
+        })
+    }
+
+    fn write_error(&self, e: &std::io::Error) -> ModuleError {
+        error(
+            &self.name,
+            format!("cannot write log file `{}`: {e}", self.file),
+        )
+    }
+}
+
+impl Module for Logger {
+    fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
+        let mut names = self.points.clone();
+        for row in common::rows(ctx, KIND, &["log"])? {
+            names.extend(row.cells.iter().cloned());
+        }
+        if names.is_empty() {
+            names = ctx
+                .map
+                .layout()
+                .points()
+                .map(|(_, s)| s.name.clone())
+                .collect();
+        }
+        let mut points = Vec::with_capacity(names.len());
+        let mut problems = Vec::new();
+        for n in names {
+            if points.iter().any(|(_, p, _)| *p == n) {
+                continue;
+            }
+            match ctx.map.handle(&n) {
+                Ok(h) => points.push((h, n, None)),
+                Err(e) => problems.push(format!(
+                    "cannot log `{n}`: {e}; fix the name in `points` or the `log` rows of [{}]",
+                    self.name
+                )),
+            }
+        }
+        if !problems.is_empty() {
+            let sep = format!("\nmodule {}: ", self.name);
+            return Err(error(&self.name, problems.join(&sep)));
+        }
+        let path = ctx.path(&self.file);
+        let file = File::create(&path).map_err(|e| {
+            let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+            let hint = match dir {
+                Some(d) if !d.is_dir() => {
+                    format!(
+                        "; the directory `{}` does not exist: create it first",
+                        d.display()
+                    )
+                }
+                _ => String::new(),
+            };
+            error(
+                &self.name,
+                format!("cannot create log file `{}`: {e}{hint}", path.display()),
+            )
+        })?;
+        let mut out = BufWriter::new(file);
+        writeln!(out, "time,point,value").map_err(|e| self.write_error(&e))?;
+        self.run = Some(Run {
+            out,
+            path,
+            points,
+            rows: 0,
+        });
+        Ok(())
+    }
+
+    fn scan(&mut self, ctx: &mut ScanContext<'_>) -> Result<Control, ModuleError> {
+        let Some(run) = &mut self.run else {
+            return Err(error(&self.name, "scanned before init"));
+        };
+        let mut time: Option<String> = None;
+        let mut result = Ok(());
+        for (h, name, last) in &mut run.points {
+            let raw = ctx.map.get_u32(h);
+            if *last == Some(raw) {
+                continue;
+            }
+            *last = Some(raw);
+            let t = time.get_or_insert_with(|| format_seconds(ctx.now));
+            let value = match ctx.map.get(h) {
+                PointValue::Unsigned(v) => v.to_string(),
+                PointValue::Signed(v) => v.to_string(),
+                PointValue::Float(v) => v.to_string(),
+            };
+            result = writeln!(run.out, "{t},{name},{value}");
+            if result.is_err() {
+                break;
+            }
+            run.rows += 1;
+        }
+        // A scan that changed nothing leaves nothing buffered: no need to flush it.
+        if result.is_ok() && time.is_some() {
+            result = run.out.flush();
+        }
+        match result {
+            Ok(()) => Ok(Control::Continue),
+            Err(e) => Err(self.write_error(&e)),
+        }
+    }
+
+    fn close(&mut self) {
+        if let Some(run) = &mut self.run {
+            // `close` cannot report; every row was already flushed at the end of its scan.
+            let _ = run.out.flush();
+        }
+    }
+
+    fn status(&self) -> String {
+        self.run.as_ref().map_or_else(String::new, |r| {
+            format!("{} rows to {}", r.rows, r.path.display())
+        })
+    }
+}

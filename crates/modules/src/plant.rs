@@ -1,0 +1,227 @@
+//! `plant`: a simulated process for software-in-the-loop, either a Rust plant of
+//! petriplc-sim or a plant net, stepped once per scan. Its inputs are read from points of the
+//! same names (usually the controller's outputs) and its outputs written to points it owns
+//! (usually the controller's inputs).
+//!
+//! ```text
+//! [tank]
+//! plant = tank              # tank, tape or keyboard
+//! # or: net = tank.pnml     # a plant net (plain naming by default; names, step, evolve,
+//! #                         # max_passes as for petrinet)
+//! map V1 VALVE1             # plant signal V1 is point VALVE1
+//! speed = 4                 # plant time runs 4 times faster than the PLC's
+//! ```
+
+use petriplc_config::ModuleDecl;
+use petriplc_net::SignalType;
+use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
+use petriplc_sim::{Keyboard, NetPlant, Plant, Tank, Tape};
+
+use crate::common::{self, at, chain, error, Bound, NetSettings, Port, NET_OPTIONS};
+
+const KIND: &str = "plant";
+
+/// The Rust plants this module can run.
+const RUST_PLANTS: &[&str] = &["tank", "tape", "keyboard"];
+
+pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
+    Ok(Box::new(PlantModule::new(decl)?))
+}
+
+/// What the settings ask for.
+enum Source {
+    Rust(&'static str),
+    Net(NetSettings),
+}
+
+/// The plants by concrete type: `Box<dyn Plant>` is not `Send`, which a module must be.
+enum Sim {
+    Tank(Tank),
+    Tape(Tape),
+    Keyboard(Keyboard),
+    Net(Box<NetPlant<'static>>),
+}
+
+impl Sim {
+    fn plant(&mut self) -> &mut dyn Plant {
+        match self {
+            Sim::Tank(p) => p,
+            Sim::Tape(p) => p,
+            Sim::Keyboard(p) => p,
+            Sim::Net(p) => p.as_mut(),
+        }
+    }
+
+    fn plant_ref(&self) -> &dyn Plant {
+        match self {
+            Sim::Tank(p) => p,
+            Sim::Tape(p) => p,
+            Sim::Keyboard(p) => p,
+            Sim::Net(p) => p.as_ref(),
+        }
+    }
+}
+
+/// The `plant` module.
+pub struct PlantModule {
+    name: String,
+    source: Source,
+    /// `speed = N`: the plant runs N times faster than the PLC's clock (a demo's tank fills
+    /// in seconds instead of minutes); a whole number, so plant time stays exact.
+    speed: u32,
+    run: Option<Run>,
+}
+
+struct Run {
+    sim: Sim,
+    inputs: Vec<Bound>,
+    outputs: Vec<Bound>,
+    in_values: Vec<i64>,
+    /// Kept between steps: `Plant::step` may leave an output as the previous step set it.
+    out_values: Vec<i64>,
+}
+
+impl PlantModule {
+    /// Checks the settings; a plant net is read by `init`.
+    pub fn new(decl: &ModuleDecl) -> Result<PlantModule, ModuleError> {
+        let known: Vec<&str> = ["plant", "net", "speed"]
+            .iter()
+            .chain(NET_OPTIONS)
+            .copied()
+            .collect();
+        common::check_decl(decl, KIND, &known)?;
+        let source = match (common::setting(decl, "plant"), common::setting(decl, "net")) {
+            (Some(_), Some(_)) => {
+                return Err(error(
+                    &decl.name,
+                    "both `plant` and `net` are set; a plant module runs one plant: keep one",
+                ))
+            }
+            (Some(name), None) => match RUST_PLANTS.iter().find(|&&p| p == name) {
+                Some(p) => Source::Rust(p),
+                None => {
+                    return Err(error(
+                        &decl.name,
+                        format!(
+                            "`plant = {name}` is not a built-in plant; use one of {}, or \
+                             `net = FILE.pnml` for a plant net",
+                            RUST_PLANTS.join(", ")
+                        ),
+                    ))
+                }
+            },
+            (None, Some(_)) => {
+                Source::Net(NetSettings::parse(decl, common::require(decl, "net")?)?)
+            }
+            (None, None) => {
+                return Err(error(
+                    &decl.name,
+                    format!(
+                    "no plant given; add `plant = NAME` ({}) or `net = FILE.pnml` to section [{}]",
+                    RUST_PLANTS.join(", "),
+                    decl.name
+                ),
+                ))
+            }
+        };
+        let speed = match common::setting(decl, "speed") {
+            None => 1,
+            Some(text) => text
+                .parse::<u32>()
+                .ok()
+                .filter(|&n| n >= 1)
+                .ok_or_else(|| {
+                    error(
+                        &decl.name,
+                        format!("`speed = {text}` must be a whole number 1 or more (times faster)"),
+                    )
+                })?,
+        };
+        if let Source::Rust(_) = source {
+            if let Some(k) = NET_OPTIONS.iter().find(|k| decl.settings.contains_key(**k)) {
+                return Err(error(
+                    &decl.name,
+                    format!(
+                        "`{k}` applies to a plant net (`net = FILE.pnml`), not to a built-in plant"
+                    ),
+                ));
+            }
+        }
+        Ok(PlantModule {
+            name: decl.name.clone(),
+            source,
+            speed,
+            run: None,
+        })
+    }
+}
+
+impl Module for PlantModule {
+    fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
+        let (mut sim, what, types) = match &self.source {
+            Source::Rust(name) => {
+                let sim = match *name {
+                    "tank" => Sim::Tank(Tank::new()),
+                    "tape" => Sim::Tape(Tape::new()),
+                    _ => Sim::Keyboard(Keyboard::new()),
+                };
+                (sim, format!("plant `{name}`"), None)
+            }
+            Source::Net(settings) => {
+                let net = settings.load(&self.name, ctx.base_dir)?;
+                let sim = Sim::Net(Box::new(NetPlant::new(net, settings.options(net))));
+                (sim, format!("plant net `{}`", settings.file), Some(net))
+            }
+        };
+        // A Rust plant's signals carry plain values; a plant net's have their declared types.
+        let port = |name: String| Port {
+            ty: types
+                .and_then(|n| n.signal_by_name(&name).map(|s| n.signal(s).ty))
+                .unwrap_or(SignalType::Int),
+            name,
+        };
+        let inputs: Vec<Port> = sim.plant().inputs().into_iter().map(port).collect();
+        let outputs: Vec<Port> = sim.plant().outputs().into_iter().map(port).collect();
+        let (inputs, outputs) = common::bind(ctx, KIND, &what, &inputs, &outputs)?;
+        self.run = Some(Run {
+            in_values: vec![0; inputs.len()],
+            out_values: vec![0; outputs.len()],
+            sim,
+            inputs,
+            outputs,
+        });
+        Ok(())
+    }
+
+    fn scan(&mut self, ctx: &mut ScanContext<'_>) -> Result<Control, ModuleError> {
+        let Some(run) = &mut self.run else {
+            return Err(error(&self.name, "scanned before init"));
+        };
+        for (v, b) in run.in_values.iter_mut().zip(&run.inputs) {
+            *v = b.read(ctx.map);
+        }
+        run.sim
+            .plant()
+            .step(
+                ctx.now.saturating_mul(self.speed),
+                &run.in_values,
+                &mut run.out_values,
+            )
+            .map_err(|e| error(&self.name, format!("{}: {}", at(ctx.now), chain(&e))))?;
+        for (&v, b) in run.out_values.iter().zip(&run.outputs) {
+            b.write(ctx.map, v).map_err(|e| {
+                error(
+                    &self.name,
+                    format!("{}: plant output `{}` = {v}: {e}", at(ctx.now), b.signal),
+                )
+            })?;
+        }
+        Ok(Control::Continue)
+    }
+
+    fn status(&self) -> String {
+        self.run
+            .as_ref()
+            .map_or_else(String::new, |r| r.sim.plant_ref().summary())
+    }
+}

@@ -1,0 +1,156 @@
+//! `timeline`: drives points from a timeline CSV (petriplc-sim's format: `time,A,B,...`,
+//! each value holding until a later row changes it); every column drives the point of the
+//! same name, which this module must own. Before a column's first row its point keeps
+//! its init value (restored at each restart with `repeat`). Every value is checked against
+//! its point at `init`.
+//!
+//! ```text
+//! [buttons]
+//! file = press-b1.csv       # relative to the configuration file
+//! repeat = yes              # start again 1 s after the last row (default: no)
+//! ```
+
+use std::time::Duration;
+
+use petriplc_config::{ModuleDecl, PointValue};
+use petriplc_net::time::format_seconds;
+use petriplc_runtime::image::Handle;
+use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
+use petriplc_sim::Timeline;
+
+use crate::common::{self, at, chain, error, fits, kind_name, write_int};
+
+const KIND: &str = "timeline";
+
+/// With `repeat`, the time from the last row to the restart: the last row's values are
+/// then seen for a while, as `petriplc sim` runs one second past the last row.
+const REPEAT_GAP: Duration = Duration::from_secs(1);
+
+pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
+    Ok(Box::new(TimelineModule::new(decl)?))
+}
+
+/// The `timeline` module.
+pub struct TimelineModule {
+    name: String,
+    file: String,
+    repeat: bool,
+    run: Option<Run>,
+}
+
+struct Run {
+    timeline: Timeline,
+    /// Per column: the point, and its value before the timeline first set it (restored at
+    /// each repeat before the column's first row).
+    columns: Vec<(Handle, String, PointValue)>,
+    /// The length of one round with `repeat`.
+    period: Option<Duration>,
+    last: Duration,
+}
+
+impl TimelineModule {
+    /// Checks the settings; the file is read by `init`.
+    pub fn new(decl: &ModuleDecl) -> Result<TimelineModule, ModuleError> {
+        common::check_decl(decl, KIND, &["file", "repeat"])?;
+        Ok(TimelineModule {
+            name: decl.name.clone(),
+            file: common::require(decl, "file")?.to_string(),
+            repeat: common::flag(decl, "repeat")?,
+            run: None,
+        })
+    }
+}
+
+impl Module for TimelineModule {
+    fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
+        common::rows(ctx, KIND, &[])?;
+        let timeline =
+            Timeline::read_file(ctx.path(&self.file)).map_err(|e| error(&self.name, chain(&e)))?;
+        let module = self.name.as_str();
+        let mut problems = Vec::new();
+        let mut columns = Vec::new();
+        for (i, col) in timeline.columns().iter().enumerate() {
+            let h = match ctx.map.handle(col) {
+                Ok(h) => h,
+                Err(e) => {
+                    problems.push(format!(
+                        "timeline `{}` column `{col}`: {e}; declare `point {col} \"...\" \
+                         {module}` in [PLC], or drop the column",
+                        self.file
+                    ));
+                    continue;
+                }
+            };
+            if !ctx.map.owns(&h) {
+                let owner = &ctx.map.layout().slot(h.id()).owner;
+                problems.push(format!(
+                    "timeline `{}` column `{col}` drives point `{col}`, which is owned by \
+                     module `{owner}`; a timeline drives only its own points: declare \
+                     `point {col} \"...\" {module}`, or drop the column",
+                    self.file
+                ));
+                continue;
+            }
+            // Checked now, so a bad cell stops the PLC before it starts, not minutes in.
+            if let Some(&(t, v)) = timeline.changes(i).iter().find(|&&(_, v)| !fits(&h, v)) {
+                problems.push(format!(
+                    "timeline `{}` sets `{col}` to {v} at t={}s, which point `{col}` ({}, {} \
+                     bits) cannot hold",
+                    self.file,
+                    format_seconds(t),
+                    kind_name(h.kind()),
+                    h.bits()
+                ));
+                continue;
+            }
+            columns.push((h, col.clone(), ctx.map.get(&h)));
+        }
+        if !problems.is_empty() {
+            return Err(error(
+                module,
+                problems.join(&format!("\nmodule {module}: ")),
+            ));
+        }
+        self.run = Some(Run {
+            period: self.repeat.then(|| timeline.end() + REPEAT_GAP),
+            timeline,
+            columns,
+            last: Duration::ZERO,
+        });
+        Ok(())
+    }
+
+    fn scan(&mut self, ctx: &mut ScanContext<'_>) -> Result<Control, ModuleError> {
+        let Some(run) = &mut self.run else {
+            return Err(error(&self.name, "scanned before init"));
+        };
+        let t = match run.period {
+            Some(p) => {
+                let nanos = ctx.now.as_nanos() % p.as_nanos();
+                Duration::from_nanos(u64::try_from(nanos).unwrap_or(u64::MAX))
+            }
+            None => ctx.now,
+        };
+        run.last = t;
+        for (i, (h, col, initial)) in run.columns.iter().enumerate() {
+            let result = match run.timeline.value_at(i, t) {
+                Some(v) => write_int(ctx.map, h, col, v),
+                None => ctx.map.set(h, *initial).map_err(|e| e.to_string()),
+            };
+            result
+                .map_err(|e| error(&self.name, format!("{}: column `{col}`: {e}", at(ctx.now))))?;
+        }
+        Ok(Control::Continue)
+    }
+
+    fn status(&self) -> String {
+        self.run.as_ref().map_or_else(String::new, |r| {
+            format!(
+                "{} at {}s of {}s",
+                self.file,
+                format_seconds(r.last),
+                format_seconds(r.timeline.end())
+            )
+        })
+    }
+}

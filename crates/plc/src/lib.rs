@@ -1,0 +1,580 @@
+//! The soft PLC runner behind `petriplc run`: reads a configuration, sets up the process
+//! image and the synchronisation net in shared memory, initialises every module (nothing
+//! starts if one fails), then runs built-in modules as threads and other programs as
+//! processes, each scan framed as seed 000 frames it: period wait, `scan_beg` synch,
+//! `update()`, the scan, `update()`, `scan_end` synch. Failures follow each module's
+//! `on_failure`; the state and statistics of every module are published for `petriplc status`.
+
+pub mod status;
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use petriplc_config::{ConfigError, Location, ModuleDecl, OnFailure, PlcConfig, PointValue};
+use petriplc_runtime::image::{GlobalMap, ImageError, Layout, ModuleMap};
+use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
+use petriplc_runtime::period::{self, Period, ScanStats};
+use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet};
+
+pub use status::{ModuleState, ModuleStatus, PlcStatus};
+
+/// Finds the factory of a built-in module kind.
+pub type Registry = fn(&str) -> Option<Factory>;
+
+/// How to run.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Names the shared memory, so several PLCs run side by side.
+    pub plc_id: String,
+    /// Stop after this long (tests, demos); `None`: until stopped.
+    pub duration: Option<Duration>,
+    /// Built-in kinds, for error messages.
+    pub known_kinds: &'static [&'static str],
+}
+
+/// Why the PLC could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    #[error(transparent)]
+    Synch(#[from] SynchError),
+    #[error("module {module}: `{kind}` is neither a built-in module ({known}) nor a program at {path}; fix the `module {module} ...` row")]
+    UnknownKind {
+        module: String,
+        kind: String,
+        known: String,
+        path: String,
+    },
+    #[error("module {module}: `location = isolate` is for modules that run as their own process; a built-in module runs as a thread of `petriplc run`, so use local or shared")]
+    IsolateThread { module: String },
+    /// The module's message names it.
+    #[error("{source}")]
+    Init { module: String, source: ModuleError },
+    #[error("module {module}: cannot start program {program}: {source}")]
+    Spawn {
+        module: String,
+        program: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl RunError {
+    /// Whether the configuration (rather than the machine) is at fault: exit code 2.
+    pub fn is_bad_input(&self) -> bool {
+        !matches!(self, RunError::Spawn { .. })
+            && !matches!(
+                self,
+                RunError::Image(ImageError::AlreadyRunning { .. })
+                    | RunError::Synch(SynchError::Exists { .. })
+            )
+    }
+}
+
+/// What every module thread shares.
+struct Shared {
+    plc_id: String,
+    config_path: PathBuf,
+    base_dir: PathBuf,
+    config: PlcConfig,
+    layout: Layout,
+    global: GlobalMap,
+    synch: SharedSynch,
+    t0: Duration,
+    status: Mutex<Vec<ModuleStatus>>,
+    failed: AtomicBool,
+}
+
+/// A running PLC.
+pub struct Plc {
+    shared: Arc<Shared>,
+    threads: Vec<JoinHandle<()>>,
+    duration: Option<Duration>,
+}
+
+/// A thread module, initialised and ready.
+struct Ready {
+    index: usize,
+    module: Box<dyn Module>,
+    map: ModuleMap,
+    factory: Factory,
+}
+
+impl Plc {
+    /// Reads `config_path` and starts every module; returns once all run.
+    pub fn start(
+        config_path: &Path,
+        registry: Registry,
+        opts: &RunOptions,
+    ) -> Result<Plc, RunError> {
+        let config = petriplc_config::read_file(config_path)?;
+        let base_dir = config_path
+            .parent()
+            .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+        let layout = Layout::new(&config)?;
+        let net = SynchNet::from_config(&config)?;
+        let global = GlobalMap::create(&opts.plc_id, &layout)?;
+        let synch = SharedSynch::create(&opts.plc_id, &net)?;
+
+        // Every module is created and initialised before any runs: a bad setting stops
+        // everything, with nothing half started.
+        let mut ready = Vec::new();
+        let mut programs = Vec::new();
+        for (index, decl) in config.modules.iter().enumerate() {
+            match registry(&decl.kind) {
+                Some(factory) => {
+                    if decl.location == Location::Isolate {
+                        return Err(RunError::IsolateThread {
+                            module: decl.name.clone(),
+                        });
+                    }
+                    let mut map = ModuleMap::new(&layout, &decl.name, decl.location)?;
+                    let module =
+                        make(factory, decl, &config, &mut map, &base_dir).map_err(|source| {
+                            RunError::Init {
+                                module: decl.name.clone(),
+                                source,
+                            }
+                        })?;
+                    ready.push(Ready {
+                        index,
+                        module,
+                        map,
+                        factory,
+                    });
+                }
+                None => {
+                    let program = base_dir.join(&decl.kind);
+                    if !program.is_file() {
+                        return Err(RunError::UnknownKind {
+                            module: decl.name.clone(),
+                            kind: decl.kind.clone(),
+                            known: opts.known_kinds.join(", "),
+                            path: program.display().to_string(),
+                        });
+                    }
+                    programs.push((index, program));
+                }
+            }
+        }
+
+        let status = config
+            .modules
+            .iter()
+            .map(|m| ModuleStatus::new(&m.name, &m.kind))
+            .collect();
+        let shared = Arc::new(Shared {
+            plc_id: opts.plc_id.clone(),
+            config_path: std::fs::canonicalize(config_path)
+                .unwrap_or_else(|_| config_path.to_path_buf()),
+            base_dir,
+            config,
+            layout,
+            global,
+            synch,
+            t0: period::now(),
+            status: Mutex::new(status),
+            failed: AtomicBool::new(false),
+        });
+        log::info!(
+            "PLC {} started: {} points in {} words, {} modules",
+            opts.plc_id,
+            shared.layout.points().len(),
+            shared.layout.words(),
+            shared.config.modules.len()
+        );
+        let mut threads = Vec::new();
+        for r in ready {
+            let shared = Arc::clone(&shared);
+            let name = shared.config.modules[r.index].name.clone();
+            let handle = std::thread::Builder::new()
+                .name(name.clone())
+                .spawn(move || run_thread(&shared, r))
+                .map_err(|source| RunError::Spawn {
+                    module: name,
+                    program: "thread".into(),
+                    source,
+                })?;
+            threads.push(handle);
+        }
+        for (index, program) in programs {
+            let child = spawn(&shared, index, &program)?;
+            let shared = Arc::clone(&shared);
+            threads.push(std::thread::spawn(move || {
+                watch_process(&shared, index, program, child)
+            }));
+        }
+        Ok(Plc {
+            shared,
+            threads,
+            duration: opts.duration,
+        })
+    }
+
+    /// Stops every module at its next synchronisation point.
+    pub fn stop(&self) {
+        self.shared.synch.stop();
+    }
+
+    /// A snapshot of the modules' states and statistics.
+    pub fn status(&self) -> PlcStatus {
+        self.shared.snapshot()
+    }
+
+    /// Runs until a module stops the PLC, a failure does, `stop_requested` is set, or the
+    /// duration has passed; publishes the status meanwhile; then waits for every module.
+    pub fn wait(mut self, stop_requested: &AtomicBool) -> PlcStatus {
+        let started = period::now();
+        let file = status::path(&self.shared.plc_id);
+        loop {
+            let _ = self.shared.snapshot().write(&file);
+            if self.shared.synch.is_stopping() || self.threads.iter().all(|t| t.is_finished()) {
+                break;
+            }
+            let over = self
+                .duration
+                .is_some_and(|d| period::now().saturating_sub(started) >= d);
+            if over || stop_requested.load(Ordering::Relaxed) {
+                log::info!("stopping the PLC");
+                self.shared.synch.stop();
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        self.shared.synch.stop();
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+        let last = self.shared.snapshot();
+        let _ = std::fs::remove_file(&file);
+        log::info!("PLC {} stopped", self.shared.plc_id);
+        last
+    }
+
+    /// Whether a module failed (with `on_failure = stop` or `ignore`).
+    pub fn failed(&self) -> bool {
+        self.shared.failed.load(Ordering::Relaxed)
+    }
+}
+
+impl Shared {
+    fn decl(&self, index: usize) -> &ModuleDecl {
+        &self.config.modules[index]
+    }
+
+    fn set_status(&self, index: usize, f: impl FnOnce(&mut ModuleStatus)) {
+        if let Ok(mut s) = self.status.lock() {
+            f(&mut s[index]);
+        }
+    }
+
+    fn snapshot(&self) -> PlcStatus {
+        PlcStatus {
+            plc_id: self.plc_id.clone(),
+            pid: std::process::id(),
+            config: self.config_path.display().to_string(),
+            uptime: period::now().saturating_sub(self.t0),
+            marking: self
+                .synch
+                .net()
+                .places()
+                .iter()
+                .zip(self.synch.marking())
+                .map(|(p, m)| format!("{}={m}", p.name))
+                .collect::<Vec<_>>()
+                .join(" "),
+            modules: self.status.lock().map(|s| s.clone()).unwrap_or_default(),
+        }
+    }
+
+    /// A module failed: by its `on_failure`, say whether to try again.
+    fn failure(&self, index: usize, why: &str) -> bool {
+        let decl = self.decl(index);
+        match decl.on_failure {
+            OnFailure::Restart => {
+                log::warn!("module {} failed ({why}); restarting it", decl.name);
+                self.set_status(index, |s| s.restarts += 1);
+                true
+            }
+            OnFailure::Ignore => {
+                log::error!("module {} failed ({why}); the others go on", decl.name);
+                self.set_status(index, |s| s.state = ModuleState::Failed);
+                self.failed.store(true, Ordering::Relaxed);
+                false
+            }
+            OnFailure::Stop => {
+                log::error!(
+                    "module {} failed ({why}); writing its safe values and stopping the PLC",
+                    decl.name
+                );
+                self.set_status(index, |s| s.state = ModuleState::Failed);
+                self.failed.store(true, Ordering::Relaxed);
+                if let Err(e) = self.write_safe_values(decl) {
+                    log::error!("module {}: safe values not written: {e}", decl.name);
+                }
+                self.synch.stop();
+                false
+            }
+        }
+    }
+
+    /// Writes the module section's `safe POINT VALUE` rows through the module's own map.
+    fn write_safe_values(&self, decl: &ModuleDecl) -> Result<(), String> {
+        let Some(section) = self.config.sections.get(&decl.name) else {
+            return Ok(());
+        };
+        let mut map =
+            ModuleMap::new(&self.layout, &decl.name, decl.location).map_err(|e| e.to_string())?;
+        map.update(&self.global);
+        for row in section.rows.iter().filter(|r| r.table == "safe") {
+            let [point, value] = row.cells.as_slice() else {
+                return Err(format!("{}: write `safe POINT VALUE`", row.origin));
+            };
+            let h = map
+                .handle(point)
+                .map_err(|e| format!("{}: {e}", row.origin))?;
+            let v = parse_value(value).ok_or_else(|| {
+                format!(
+                    "{}: `{value}` is not a value (write 0, 1, -3 or 2.5)",
+                    row.origin
+                )
+            })?;
+            map.set(&h, v).map_err(|e| format!("{}: {e}", row.origin))?;
+            log::info!("module {}: safe value {point} = {value}", decl.name);
+        }
+        map.update(&self.global);
+        Ok(())
+    }
+}
+
+fn parse_value(text: &str) -> Option<PointValue> {
+    match text {
+        "true" | "TRUE" => Some(PointValue::Unsigned(1)),
+        "false" | "FALSE" => Some(PointValue::Unsigned(0)),
+        t if t.contains(['.', 'e', 'E']) => t.parse().ok().map(PointValue::Float),
+        t if t.starts_with(['-', '+']) => t.parse().ok().map(PointValue::Signed),
+        t => t.parse().ok().map(PointValue::Unsigned),
+    }
+}
+
+fn make(
+    factory: Factory,
+    decl: &ModuleDecl,
+    config: &PlcConfig,
+    map: &mut ModuleMap,
+    base_dir: &Path,
+) -> Result<Box<dyn Module>, ModuleError> {
+    let mut module = factory(decl)?;
+    module.init(&mut InitContext {
+        decl,
+        config,
+        map,
+        base_dir,
+    })?;
+    Ok(module)
+}
+
+/// The scan loop of a built-in module.
+fn run_thread(shared: &Shared, r: Ready) {
+    let Ready {
+        index,
+        mut module,
+        mut map,
+        factory,
+    } = r;
+    let decl = shared.decl(index);
+    let name = decl.name.clone();
+    for w in period::realtime(decl.priority) {
+        log::warn!("module {name}: {w}");
+    }
+    shared.set_status(index, |s| {
+        s.state = ModuleState::Running;
+        s.pid = std::process::id();
+    });
+    let net = shared.synch.net();
+    let (beg, end) = (net.scan_beg(&name), net.scan_end(&name));
+    let mut period = decl
+        .scan_period
+        .filter(|p| !p.is_zero())
+        .map(|p| Period::starting_at(shared.t0, p));
+    let mut stats = ScanStats::new();
+    let mut scan = 0u64;
+    'scans: loop {
+        let (late, missed, started) = match &mut period {
+            Some(p) => {
+                let w = p.wait();
+                (w.late, w.missed, w.woke())
+            }
+            None => (Duration::ZERO, 0, period::now()),
+        };
+        if shared.synch.synch(beg).is_err() {
+            break;
+        }
+        map.update(&shared.global);
+        let mut ctx = ScanContext {
+            now: period::now().saturating_sub(shared.t0),
+            scan,
+            map: &mut map,
+        };
+        let outcome = catch_unwind(AssertUnwindSafe(|| module.scan(&mut ctx)))
+            .unwrap_or_else(|_| Err(ModuleError::new("the module panicked")));
+        match outcome {
+            Ok(Control::Continue) => {}
+            Ok(Control::StopPlc) => {
+                log::info!("module {name} stops the PLC");
+                map.update(&shared.global);
+                shared.synch.stop();
+                break;
+            }
+            Err(e) => {
+                module.close();
+                if !shared.failure(index, &e.0) {
+                    return;
+                }
+                // Restart: a fresh instance and a fresh map, as a new process would get.
+                loop {
+                    let fresh = ModuleMap::new(&shared.layout, &name, decl.location)
+                        .map_err(|e| ModuleError::new(e.to_string()))
+                        .and_then(|mut m| {
+                            m.update(&shared.global);
+                            make(factory, decl, &shared.config, &mut m, &shared.base_dir)
+                                .map(|module| (module, m))
+                        });
+                    match fresh {
+                        Ok((m, fresh_map)) => {
+                            module = m;
+                            map = fresh_map;
+                            continue 'scans;
+                        }
+                        Err(e) if shared.synch.is_stopping() => {
+                            log::error!("module {name} could not restart: {e}");
+                            break 'scans;
+                        }
+                        Err(e) => {
+                            log::error!("module {name} could not restart: {e}; retrying in 1 s");
+                            std::thread::sleep(Duration::from_secs(1));
+                        }
+                    }
+                }
+            }
+        }
+        map.update(&shared.global);
+        if shared.synch.synch(end).is_err() {
+            break;
+        }
+        stats.record(period::now().saturating_sub(started), late, missed);
+        scan += 1;
+        let line = module.status();
+        shared.set_status(index, |s| s.record(&stats, line));
+    }
+    module.close();
+    shared.set_status(index, |s| {
+        s.record(&stats, module.status());
+        if s.state != ModuleState::Failed {
+            s.state = ModuleState::Stopped;
+        }
+    });
+}
+
+fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunError> {
+    let decl = shared.decl(index);
+    let child = Command::new(program)
+        .args(&decl.args)
+        .env("PETRIPLC_CONFIG", &shared.config_path)
+        .env("PETRIPLC_MODULE", &decl.name)
+        .env("PETRIPLC_PLC_ID", &shared.plc_id)
+        .spawn()
+        .map_err(|source| RunError::Spawn {
+            module: decl.name.clone(),
+            program: program.display().to_string(),
+            source,
+        })?;
+    let pid = child.id();
+    shared.set_status(index, |s| {
+        s.state = ModuleState::Running;
+        s.pid = pid;
+    });
+    log::info!(
+        "module {} runs as process {pid} ({})",
+        decl.name,
+        program.display()
+    );
+    Ok(child)
+}
+
+/// Watches a module process: restarts or stops the PLC when it dies unasked, and ends it
+/// when the PLC stops (it should leave on its own at its next synch; else SIGTERM, SIGKILL).
+fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Child) {
+    let name = shared.decl(index).name.clone();
+    loop {
+        match child.try_wait() {
+            Ok(Some(exit)) if shared.synch.is_stopping() => {
+                log::info!("module {name} (process) ended: {exit}");
+                shared.set_status(index, |s| {
+                    if s.state != ModuleState::Failed {
+                        s.state = ModuleState::Stopped;
+                    }
+                });
+                return;
+            }
+            Ok(Some(exit)) => {
+                if !shared.failure(index, &format!("its process ended: {exit}")) {
+                    return;
+                }
+                match spawn(shared, index, &program) {
+                    Ok(c) => child = c,
+                    Err(e) => {
+                        log::error!("{e}");
+                        shared.failed.store(true, Ordering::Relaxed);
+                        shared.synch.stop();
+                        return;
+                    }
+                }
+            }
+            Ok(None) if shared.synch.is_stopping() => {
+                end_process(&name, &mut child);
+                shared.set_status(index, |s| {
+                    if s.state != ModuleState::Failed {
+                        s.state = ModuleState::Stopped;
+                    }
+                });
+                return;
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => {
+                log::error!("module {name}: cannot watch its process: {e}");
+                return;
+            }
+        }
+    }
+}
+
+fn end_process(name: &str, child: &mut Child) {
+    use nix::sys::signal::{kill, Signal};
+    use nix::unistd::Pid;
+    let pid = Pid::from_raw(child.id() as i32);
+    for (signal, grace) in [
+        (None, 2000),
+        (Some(Signal::SIGTERM), 2000),
+        (Some(Signal::SIGKILL), 0),
+    ] {
+        if let Some(s) = signal {
+            log::warn!("module {name} did not stop; sending {s}");
+            let _ = kill(pid, s);
+        }
+        for _ in 0..grace / 20 {
+            if let Ok(Some(_)) = child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+    let _ = child.wait();
+}

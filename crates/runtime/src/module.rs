@@ -1,0 +1,91 @@
+//! The API modules are written against: `init` once, then `scan` once per scan between the
+//! scan-begin and scan-end synchronisations, then `close`. The runner (or a module's own
+//! process) does the framing: period wait, `scan_beg` synch, `update()`, the scan,
+//! `update()`, `scan_end` synch (seed 000: `plc_scan_beg` / `plc_scan_end`).
+
+use std::path::Path;
+use std::time::Duration;
+
+use petriplc_config::{ModuleDecl, PlcConfig};
+
+use crate::image::ModuleMap;
+
+/// Why a module could not start or could not go on; the message says what to fix.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct ModuleError(pub String);
+
+impl ModuleError {
+    pub fn new(message: impl Into<String>) -> Self {
+        ModuleError(message.into())
+    }
+}
+
+/// What a module sees while it starts.
+pub struct InitContext<'a> {
+    /// The module's declaration and its section's settings.
+    pub decl: &'a ModuleDecl,
+    /// The whole configuration (other sections, points).
+    pub config: &'a PlcConfig,
+    /// The module's view of the points: look handles up here.
+    pub map: &'a mut ModuleMap,
+    /// The directory of the configuration file: relative paths in settings start here.
+    pub base_dir: &'a Path,
+}
+
+impl InitContext<'_> {
+    /// A setting of the module's section.
+    pub fn setting(&self, name: &str) -> Option<&str> {
+        self.decl.settings.get(name).map(|s| s.value.as_str())
+    }
+
+    /// A required setting, or an error naming the section and the setting to add.
+    pub fn require(&self, name: &str) -> Result<&str, ModuleError> {
+        self.setting(name).ok_or_else(|| {
+            ModuleError::new(format!(
+                "module {}: no `{name}` setting; add `{name} = ...` to section [{}]",
+                self.decl.name, self.decl.name
+            ))
+        })
+    }
+
+    /// A path setting resolved against the configuration file's directory.
+    pub fn path(&self, value: &str) -> std::path::PathBuf {
+        self.base_dir.join(value)
+    }
+}
+
+/// What a module sees during one scan.
+pub struct ScanContext<'a> {
+    /// Time since the PLC started (monotonic), the same clock for every module.
+    pub now: Duration,
+    /// The number of this scan of this module, from 0.
+    pub scan: u64,
+    pub map: &'a mut ModuleMap,
+}
+
+/// What the runner does after a scan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    /// Scan again.
+    Continue,
+    /// Stop the whole PLC cleanly (the `shutdown` module).
+    StopPlc,
+}
+
+/// A module of the soft PLC.
+pub trait Module: Send {
+    /// Once, before the first scan: look up point handles, open files, check settings.
+    fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError>;
+    /// One scan: read points from and write the module's own points to `ctx.map`.
+    fn scan(&mut self, ctx: &mut ScanContext<'_>) -> Result<Control, ModuleError>;
+    /// Once, after the last scan: flush and release what it holds.
+    fn close(&mut self) {}
+    /// A short line for status displays (e.g. a net's marking).
+    fn status(&self) -> String {
+        String::new()
+    }
+}
+
+/// Makes a module of a built-in kind from its declaration.
+pub type Factory = fn(&ModuleDecl) -> Result<Box<dyn Module>, ModuleError>;
