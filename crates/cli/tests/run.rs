@@ -32,10 +32,14 @@ fn fired(report: &str, t: &str) -> u64 {
 
 #[test]
 fn the_mixer_goes_through_full_cycles() {
+    let dir = TempDir::new().unwrap();
+    let log = dir.path().join("plc.log");
     let out = Command::cargo_bin("petriplc")
         .unwrap()
         .args(["run", &format!("{EXAMPLES}/mixer/plc.conf"), "--for", "6s"])
         .args(["--plc-id", &plc_id("mixer")])
+        .arg("--log")
+        .arg(&log)
         .output()
         .unwrap();
     let report = String::from_utf8_lossy(&out.stderr);
