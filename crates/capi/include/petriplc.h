@@ -32,6 +32,16 @@
  *
  * Threads: the library holds one attachment per process, behind a lock; any thread may
  * call any function. plc_last_error() is per thread.
+ *
+ * Isolation (`location = isolate` in the module's section, MatPLC's --PLCisolate):
+ * plc_init forks a proxy process that alone maps the PLC's global map; this process never
+ * does, so a module that corrupts its own memory cannot corrupt the PLC's image.
+ * plc_update (and plc_scan_beg / plc_scan_end) ask the proxy over a socket to exchange the
+ * private map, which both processes share, with the global map, and wait for it.
+ * Because it forks, plc_init refuses isolation (PLC_ERR_CONFIG) once the process has more
+ * than one thread: call it first thing in main. The proxy is ended when the module closes
+ * (plc_close) or exits, and when the thread that called plc_init ends, however it ends.
+ * If the proxy is gone, plc_update fails with PLC_ERR_OS.
  */
 #ifndef PETRIPLC_H
 #define PETRIPLC_H
@@ -89,6 +99,9 @@ typedef struct plc_pt_t {
  * and the PLC's shared memory attached; the PLC must be running with the same
  * configuration.
  *
+ * With `location = isolate` the global map is attached by the proxy process plc_init forks
+ * (see Isolation above), and PLC_ERR_CONFIG also means the process already had threads.
+ *
  * Returns PLC_OK, or PLC_ERR_ARGS, PLC_ERR_CONFIG, PLC_ERR_MODULE, PLC_ERR_NOT_RUNNING,
  * PLC_ERR_MISMATCH, PLC_ERR_ALREADY_INIT, PLC_ERR_OS.
  */
@@ -144,7 +157,7 @@ int plc_set_f32(plc_pt_t pt, float value);
 /*
  * Exchanges the module's map with the PLC's global map, atomically with respect to every
  * other module: the module's own points go out, every other point comes in.
- * Returns PLC_OK or PLC_ERR_NOT_INIT.
+ * Returns PLC_OK, PLC_ERR_NOT_INIT, or PLC_ERR_OS (an isolated module's proxy is gone).
  */
 int plc_update(void);
 
@@ -153,13 +166,15 @@ int plc_update(void);
  * second scan on; deadlines are t0 + k*period, t0 being the first scan); then waits until
  * the synchronisation net fires the module's `scan_beg` transition (at once when it has
  * none); then plc_update.
- * Returns PLC_OK, PLC_STOPPING (leave the loop), or PLC_ERR_NOT_INIT.
+ * Returns PLC_OK, PLC_STOPPING (leave the loop), PLC_ERR_NOT_INIT, or PLC_ERR_OS (as
+ * plc_update).
  */
 int plc_scan_beg(void);
 
 /*
  * Ends a scan: plc_update, then waits until the net fires the module's `scan_end`
- * transition. Returns PLC_OK, PLC_STOPPING, or PLC_ERR_NOT_INIT.
+ * transition. Returns PLC_OK, PLC_STOPPING, PLC_ERR_NOT_INIT, or PLC_ERR_OS (as
+ * plc_update).
  */
 int plc_scan_end(void);
 

@@ -11,7 +11,8 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 
-use petriplc_config::{PlcConfig, PointKind};
+use petriplc_config::{Location, PlcConfig, PointKind};
+use petriplc_runtime::image::module::process_threads;
 use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap};
 use petriplc_runtime::period::Period;
 use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
@@ -39,7 +40,8 @@ impl PlcPt {
 struct Plc {
     session: u32,
     map: ModuleMap,
-    global: GlobalMap,
+    /// `None` for an isolated module: its proxy process alone maps the global map.
+    global: Option<GlobalMap>,
     /// Shared with callers that wait on it with the lock released.
     synch: Arc<SharedSynch>,
     beg: TransitionRef,
@@ -191,25 +193,33 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
     let net = SynchNet::from_config(&config)
         .map_err(synch_error)
         .map_err(context)?;
-    let map = ModuleMap::new(&layout, module, decl.location)
-        .map_err(image_error)
-        .map_err(context)?;
     let attach = |e: Error| {
         context(Error::new(
             e.code,
             format!("cannot attach to PLC `{plc_id}`: {}", e.message),
         ))
     };
-    let global = GlobalMap::open(&plc_id)
-        .map_err(|e| match e {
+    let attach_image = |e: ImageError| {
+        attach(match e {
             ImageError::NotRunning { plc_id, shm } => not_running(&plc_id, &shm),
             e => image_error(e),
         })
-        .map_err(attach)?;
-    global
-        .check_layout(&layout)
-        .map_err(image_error)
-        .map_err(attach)?;
+    };
+    let (map, global) = if decl.location == Location::Isolate {
+        check_single_threaded().map_err(context)?;
+        let map = ModuleMap::isolated(&layout, module, &plc_id).map_err(attach_image)?;
+        (map, None)
+    } else {
+        let map = ModuleMap::new(&layout, module, decl.location)
+            .map_err(image_error)
+            .map_err(context)?;
+        let global = GlobalMap::open(&plc_id).map_err(attach_image)?;
+        global
+            .check_layout(&layout)
+            .map_err(image_error)
+            .map_err(attach)?;
+        (map, Some(global))
+    };
     let synch = SharedSynch::open(&plc_id, &net)
         .map_err(|e| match e {
             SynchError::NotRunning { shm } => not_running(&plc_id, &shm),
@@ -238,6 +248,22 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
     Ok(())
 }
 
+/// An isolated module forks its proxy in `plc_init`: refused once the process has other
+/// threads, whose locks the proxy would inherit held.
+fn check_single_threaded() -> Result<(), Error> {
+    match process_threads() {
+        Some(n) if n > 1 => Err(Error::new(
+            PLC_ERR_CONFIG,
+            format!(
+                "location = isolate forks a proxy process, which is only safe in a \
+                 single-threaded process, and this one has {n} threads: call plc_init before \
+                 starting threads, or use location = local"
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Detaches; the PLC and the other modules go on.
 pub(crate) fn close() -> Result<(), Error> {
     state().take().map(drop).ok_or_else(not_init)
@@ -254,6 +280,14 @@ pub(crate) fn pt_by_name(name: &str) -> Result<PlcPt, Error> {
 }
 
 impl Plc {
+    fn update(&mut self) -> Result<(), Error> {
+        match &self.global {
+            Some(global) => self.map.update(global),
+            None => self.map.update_isolated().map_err(image_error)?,
+        }
+        Ok(())
+    }
+
     fn handle(&self, pt: PlcPt) -> Result<Handle, Error> {
         if pt.index == 0 {
             return Err(Error::new(
@@ -334,10 +368,7 @@ pub(crate) fn set_f32(pt: PlcPt, v: f32) -> Result<(), Error> {
 }
 
 pub(crate) fn update() -> Result<(), Error> {
-    with_plc(|plc| {
-        plc.map.update(&plc.global);
-        Ok(())
-    })
+    with_plc(Plc::update)
 }
 
 /// Waits for the scan period (from the second scan on), synchronises on the module's
@@ -370,7 +401,7 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
         return Ok(PLC_STOPPING);
     }
     with_session(session, |plc| {
-        plc.map.update(&plc.global);
+        plc.update()?;
         Ok(PLC_OK)
     })
 }
@@ -378,7 +409,7 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
 /// Updates the map, then synchronises on the module's `scan_end` transition.
 pub(crate) fn scan_end() -> Result<c_int, Error> {
     let (synch, end) = with_plc(|plc| {
-        plc.map.update(&plc.global);
+        plc.update()?;
         Ok((plc.synch.clone(), plc.end))
     })?;
     Ok(match synch.synch(end) {

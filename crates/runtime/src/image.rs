@@ -9,8 +9,9 @@
 //! while it runs. `Location::Shared` modules skip the private copy and reach the global map
 //! directly, for modules the synchronisation net runs alone.
 //!
-//! [`layout`] places the points, [`shm`] owns the shared memory and its cross-process lock
-//! (the only code here that needs `unsafe`), [`module`] is the per-module view with typed
+//! [`layout`] places the points, [`shm`] owns the shared memory (locked with `crate::futex`)
+//! (with `module/isolate.rs`, the proxy process of an isolated module, the only code here
+//! that needs `unsafe`), [`module`] is the per-module view with typed
 //! access through [`Handle`]s.
 
 // Mapping shared memory and waiting on futexes need `unsafe`; it is confined to `shm`, and

@@ -3,6 +3,7 @@
 //! synchronisation Petri net that orders module scans, and scan periods on absolute
 //! deadlines with statistics.
 
+mod futex;
 pub mod image;
 pub mod module;
 pub mod period;

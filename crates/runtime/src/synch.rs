@@ -42,7 +42,6 @@
 
 #![allow(unsafe_code)]
 
-mod futex;
 mod shared;
 
 pub use shared::{Fired, SharedSynch, Stopped};

@@ -7,6 +7,10 @@ use super::layout::{decode, encode, show_value, sign_extend, width_mask, Layout,
 use super::shm::{GlobalMap, WORDS_PAGE_OFFSET};
 use super::{kind_name, ImageError};
 
+mod isolate;
+
+pub use isolate::process_threads;
+
 /// A point resolved once by name, so that each access is a shift and a mask.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Handle {
@@ -69,24 +73,75 @@ pub struct ModuleMap {
     module: String,
     location: Location,
     mask: Vec<u32>,
-    /// The private words are `buf[base..base + words]` (see `aligned_private`); `buf` is
-    /// empty once a `Shared` module works on the global map directly.
-    buf: Vec<u32>,
-    base: usize,
     plan: Plan,
-    direct: Option<GlobalMap>,
+    words: Words,
+}
+
+/// Where the module's words are.
+#[derive(Debug)]
+enum Words {
+    /// `buf[base..base + words]` (see `aligned_private`): `Local`, and `Shared` until its
+    /// first `update()`.
+    Private { buf: Vec<u32>, base: usize },
+    /// The global map itself (`Shared` after its first `update()`).
+    Direct(GlobalMap),
+    /// A private map shared with the proxy process that updates it (`Isolate`).
+    Isolated(isolate::Proxy),
 }
 
 impl ModuleMap {
     /// The map of module `module`, with every point at its init value until the first
     /// `update()`. A `Shared` module keeps this private copy only until its first `update()`,
     /// which attaches it to the global map for good.
+    ///
+    /// `Isolate` is refused: its proxy must open the PLC's global map, so it is built by
+    /// [`ModuleMap::isolated`], which takes the plc id.
     pub fn new(layout: &Layout, module: &str, location: Location) -> Result<ModuleMap, ImageError> {
         if location == Location::Isolate {
             return Err(ImageError::Unsupported {
-                what: format!("location isolate (module `{module}`)"),
+                what: format!(
+                    "location isolate in ModuleMap::new (module `{module}`; build isolated \
+                     maps with ModuleMap::isolated, which takes the plc id)"
+                ),
             });
         }
+        let (buf, base) = aligned_private(layout.init_words());
+        Self::build(layout, module, location, |_| {
+            Ok(Words::Private { buf, base })
+        })
+    }
+
+    /// The map of module `module` with `location = isolate` (MatPLC's `--PLCisolate`): forks
+    /// a proxy process that opens PLC `plc_id`'s global map, checks the layout, and performs
+    /// every `update()` of this map on request over a socket. This process never maps the
+    /// global map; `get`/`set` work on the private map, which the two processes share.
+    /// Dropping the map closes the socket, which ends the proxy, and reaps it.
+    ///
+    /// # Fork
+    /// Call it from a single-threaded process (a module at start-up, before it starts
+    /// threads; see [`process_threads`]), and from the thread that lives as long as the
+    /// module: the proxy gets SIGTERM when that thread ends (`PR_SET_PDEATHSIG`), so a killed
+    /// module takes its proxy along.
+    pub fn isolated(layout: &Layout, module: &str, plc_id: &str) -> Result<ModuleMap, ImageError> {
+        Self::build(layout, module, Location::Isolate, |map| {
+            let (mask, plan) = (&map.mask, &map.plan);
+            let proxy = isolate::Proxy::spawn(
+                layout,
+                plc_id,
+                layout.init_words(),
+                private_page_word(),
+                |g, p| merge(plan, mask, g, p),
+            )?;
+            Ok(Words::Isolated(proxy))
+        })
+    }
+
+    fn build(
+        layout: &Layout,
+        module: &str,
+        location: Location,
+        words: impl FnOnce(&Shape) -> Result<Words, ImageError>,
+    ) -> Result<ModuleMap, ImageError> {
         if !layout.modules().iter().any(|m| m == module) {
             return Err(ImageError::UnknownModule {
                 module: module.to_string(),
@@ -98,16 +153,15 @@ impl ModuleMap {
             mask[s.word as usize] |= s.field_mask();
         }
         let plan = plan(&mask);
-        let (buf, base) = aligned_private(layout.init_words());
+        let shape = Shape { mask, plan };
+        let words = words(&shape)?;
         Ok(ModuleMap {
             layout: layout.clone(),
             module: module.to_string(),
             location,
-            buf,
-            base,
-            mask,
-            plan,
-            direct: None,
+            mask: shape.mask,
+            plan: shape.plan,
+            words,
         })
     }
 
@@ -129,54 +183,65 @@ impl ModuleMap {
     }
 
     /// Copies the owned bits out to `global` and every other bit in, atomically with respect
-    /// to every other module's update.
+    /// to every other module's update. An isolated map ignores `global` and has its proxy do
+    /// it (see [`ModuleMap::update_isolated`]).
     ///
     /// # Panics
     /// If `global` was created from another layout (check with [`GlobalMap::check_layout`]
-    /// after opening it).
+    /// after opening it), or if an isolated map's proxy is gone.
     pub fn update(&mut self, global: &GlobalMap) {
-        if self.direct.is_some() {
-            return;
-        }
+        let private = match &mut self.words {
+            Words::Direct(_) => return,
+            Words::Isolated(_) => {
+                if let Err(e) = self.update_isolated() {
+                    panic!("{e}");
+                }
+                return;
+            }
+            Words::Private { buf, base } => &mut buf[*base..*base + self.mask.len()],
+        };
         assert!(
             global.fingerprint() == self.layout.fingerprint() && global.words() == self.mask.len(),
             "module `{}`: the global map of PLC `{}` has another layout (GlobalMap::check_layout)",
             self.module,
             global.plc_id()
         );
-        let mut guard = global.lock();
-        let g = guard.words_mut();
-        let words = self.mask.len();
-        let (p, m) = (&mut self.buf[self.base..self.base + words], &self.mask[..]);
-        match &self.plan {
-            Plan::Span { start, end } => {
-                let (s, e) = (*start, *end);
-                for ((g, p), m) in g[s..e].iter_mut().zip(&mut p[s..e]).zip(&m[s..e]) {
-                    let v = (*g & !*m) | (*p & *m);
-                    *g = v;
-                    *p = v;
-                }
-                p[..s].copy_from_slice(&g[..s]);
-                p[e..].copy_from_slice(&g[e..]);
-            }
-            Plan::Runs(runs) => {
-                for r in runs {
-                    let (g, p) = (&mut g[r.start..r.end], &p[r.start..r.end]);
-                    if r.full {
-                        g.copy_from_slice(p);
-                    } else {
-                        for ((g, p), m) in g.iter_mut().zip(p).zip(&m[r.start..r.end]) {
-                            *g = (*g & !*m) | (*p & *m);
-                        }
-                    }
-                }
-                p.copy_from_slice(g);
-            }
-        }
-        drop(guard);
+        merge(&self.plan, &self.mask, global.lock().words_mut(), private);
         if self.location == Location::Shared {
-            self.buf = Vec::new();
-            self.direct = Some(global.clone());
+            self.words = Words::Direct(global.clone());
+        }
+    }
+
+    /// The `update()` of an isolated map, which has no global map to pass: the proxy
+    /// performs it while this process waits. Fails (now and on every later call) if the
+    /// proxy is gone.
+    ///
+    /// # Panics
+    /// If the map is not isolated (use [`ModuleMap::update`]).
+    pub fn update_isolated(&mut self) -> Result<(), ImageError> {
+        let Words::Isolated(proxy) = &mut self.words else {
+            panic!(
+                "module `{}`: update_isolated on a map that is not isolated (use update)",
+                self.module
+            );
+        };
+        proxy.update().map_err(|why| ImageError::Os {
+            what: "cannot update the isolated map of module",
+            shm: self.module.clone(),
+            source: std::io::Error::other(why),
+        })
+    }
+
+    /// Whether the map was built by [`ModuleMap::isolated`].
+    pub fn is_isolated(&self) -> bool {
+        matches!(self.words, Words::Isolated(_))
+    }
+
+    /// The pid of an isolated map's proxy process.
+    pub fn proxy_pid(&self) -> Option<u32> {
+        match &self.words {
+            Words::Isolated(p) => Some(p.pid()),
+            _ => None,
         }
     }
 
@@ -193,9 +258,10 @@ impl ModuleMap {
     }
 
     fn raw(&self, h: &Handle) -> u32 {
-        let w = match &self.direct {
-            Some(g) => g.lock().words()[h.word as usize],
-            None => self.buf[self.base + h.word as usize],
+        let w = match &self.words {
+            Words::Private { buf, base } => buf[base + h.word as usize],
+            Words::Direct(g) => g.lock().words()[h.word as usize],
+            Words::Isolated(p) => p.words()[h.word as usize],
         };
         (w & h.mask) >> h.shift
     }
@@ -211,19 +277,19 @@ impl ModuleMap {
         }
         let bits = raw << h.shift;
         let w = h.word as usize;
-        match &self.direct {
-            Some(g) => {
+        let word = match &mut self.words {
+            Words::Direct(g) => {
                 // Other points may share the word: the read-modify-write must not interleave
                 // with another module's update.
                 let mut guard = g.lock();
                 let word = &mut guard.words_mut()[w];
                 *word = (*word & !h.mask) | bits;
+                return Ok(());
             }
-            None => {
-                let word = &mut self.buf[self.base + w];
-                *word = (*word & !h.mask) | bits;
-            }
-        }
+            Words::Private { buf, base } => &mut buf[*base + w],
+            Words::Isolated(p) => &mut p.words_mut()[w],
+        };
+        *word = (*word & !h.mask) | bits;
         Ok(())
     }
 
@@ -336,16 +402,58 @@ impl ModuleMap {
 /// bytes past the source modulo 4 KiB; fixing the distance keeps both copy directions of
 /// `update()` off that cliff whatever address the allocator returns.
 fn aligned_private(init: &[u32]) -> (Vec<u32>, usize) {
-    const PAGE_WORDS: usize = 1024;
     let mut buf = vec![0u32; init.len() + PAGE_WORDS];
     let have = (buf.as_ptr() as usize / 4) % PAGE_WORDS;
+    let base = (private_page_word() + PAGE_WORDS - have) % PAGE_WORDS;
+    buf[base..base + init.len()].copy_from_slice(init);
+    (buf, base)
+}
+
+const PAGE_WORDS: usize = 1024;
+
+/// Where within a page the private words start (see `aligned_private`).
+fn private_page_word() -> usize {
     // Half a page away rather than level: the merge loop stores to one array while loading
     // the other, and equal page offsets would make those loads wait on the stores (4K
     // aliasing).
-    let want = (WORDS_PAGE_OFFSET / 4 + PAGE_WORDS / 2) % PAGE_WORDS;
-    let base = (want + PAGE_WORDS - have) % PAGE_WORDS;
-    buf[base..base + init.len()].copy_from_slice(init);
-    (buf, base)
+    (WORDS_PAGE_OFFSET / 4 + PAGE_WORDS / 2) % PAGE_WORDS
+}
+
+/// The mask and plan a map's `update()` needs, available before the map itself (an
+/// isolated map's proxy is forked with them).
+struct Shape {
+    mask: Vec<u32>,
+    plan: Plan,
+}
+
+/// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in. `g` must
+/// be locked.
+fn merge(plan: &Plan, m: &[u32], g: &mut [u32], p: &mut [u32]) {
+    match plan {
+        Plan::Span { start, end } => {
+            let (s, e) = (*start, *end);
+            for ((g, p), m) in g[s..e].iter_mut().zip(&mut p[s..e]).zip(&m[s..e]) {
+                let v = (*g & !*m) | (*p & *m);
+                *g = v;
+                *p = v;
+            }
+            p[..s].copy_from_slice(&g[..s]);
+            p[e..].copy_from_slice(&g[e..]);
+        }
+        Plan::Runs(runs) => {
+            for r in runs {
+                let (g, p) = (&mut g[r.start..r.end], &p[r.start..r.end]);
+                if r.full {
+                    g.copy_from_slice(p);
+                } else {
+                    for ((g, p), m) in g.iter_mut().zip(p).zip(&m[r.start..r.end]) {
+                        *g = (*g & !*m) | (*p & *m);
+                    }
+                }
+            }
+            p.copy_from_slice(g);
+        }
+    }
 }
 
 /// Picks how `update()` writes out the owned words described by `mask`.

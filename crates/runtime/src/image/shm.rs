@@ -14,6 +14,7 @@ use nix::sys::stat::Mode;
 
 use super::layout::{Layout, PointId};
 use super::{ImageError, PointValue};
+use crate::futex;
 
 const MAGIC: u64 = u64::from_le_bytes(*b"PPLCIMG\0");
 /// Bumped whenever the header or the word encoding changes, so that an old module is refused
@@ -23,9 +24,6 @@ const VERSION: u32 = 1;
 const HEADER: usize = 64;
 /// Where the words start within a page, for module maps that align their private copy alike.
 pub(crate) const WORDS_PAGE_OFFSET: usize = HEADER % 4096;
-/// How many times to look at a held lock before sleeping: an update holds it for
-/// microseconds, far less than a futex round trip through the scheduler.
-const SPIN: u32 = 100;
 
 // Everything is atomic: other processes read the header while we write it, and the lock word
 // is the synchronisation itself.
@@ -283,13 +281,10 @@ impl GlobalMap {
     /// Takes the image's lock: the words can be accessed through the guard until it drops.
     /// Holders must not die or block while holding it (every other module would wait).
     pub fn lock(&self) -> ImageGuard<'_> {
-        let w = &header(&self.inner.map).lock;
-        if w.compare_exchange(0, 1, Ordering::Acquire, Ordering::Relaxed)
-            .is_err()
-        {
-            lock_contended(w);
+        ImageGuard {
+            _lock: futex::lock(&header(&self.inner.map).lock),
+            map: self,
         }
-        ImageGuard { map: self }
     }
 
     /// The value of one point, read under the lock (for displays and loggers that own
@@ -305,49 +300,6 @@ impl GlobalMap {
         let g = self.lock();
         out.clear();
         out.extend_from_slice(g.words());
-    }
-}
-
-/// The slow path of the lock (Drepper's "Futexes are tricky", mutex #3).
-#[cold]
-fn lock_contended(w: &AtomicU32) {
-    for _ in 0..SPIN {
-        std::hint::spin_loop();
-        if w.load(Ordering::Relaxed) == 0
-            && w.compare_exchange(0, 1, Ordering::Acquire, Ordering::Relaxed)
-                .is_ok()
-        {
-            return;
-        }
-    }
-    // Taking it as 2 rather than 1 errs on the side of a wake-up nobody needed; taking it as
-    // 1 could leave a sleeper asleep forever.
-    while w.swap(2, Ordering::Acquire) != 0 {
-        futex(w, libc::FUTEX_WAIT, 2);
-    }
-}
-
-fn unlock(w: &AtomicU32) {
-    if w.swap(0, Ordering::Release) == 2 {
-        futex(w, libc::FUTEX_WAKE, 1);
-    }
-}
-
-/// A shared (not FUTEX_PRIVATE) futex operation, so that waiters in other processes, which
-/// map the word at other addresses, are found by the kernel through the shared page.
-fn futex(w: &AtomicU32, op: libc::c_int, val: u32) {
-    // SAFETY: `w` is a live, aligned u32 for the duration of the call; FUTEX_WAIT only reads
-    // it (and returns at once with EAGAIN if it no longer holds `val`; EINTR and spurious
-    // wake-ups are handled by the caller's loop), FUTEX_WAKE does not touch it; a null
-    // timeout means no timeout.
-    unsafe {
-        libc::syscall(
-            libc::SYS_futex,
-            w.as_ptr(),
-            op,
-            val,
-            std::ptr::null::<libc::timespec>(),
-        );
     }
 }
 
@@ -398,6 +350,8 @@ fn stale_reason(shm: &str) -> String {
 /// Exclusive access to the image's words; dropping it releases the lock.
 pub struct ImageGuard<'a> {
     map: &'a GlobalMap,
+    /// Released when the guard drops.
+    _lock: futex::Guard<'a>,
 }
 
 impl ImageGuard<'_> {
@@ -424,11 +378,5 @@ impl ImageGuard<'_> {
                 inner.words,
             )
         }
-    }
-}
-
-impl Drop for ImageGuard<'_> {
-    fn drop(&mut self) {
-        unlock(&header(&self.map.inner.map).lock);
     }
 }

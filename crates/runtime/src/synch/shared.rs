@@ -20,8 +20,8 @@ use nix::fcntl::OFlag;
 use nix::sys::mman::{shm_open, shm_unlink};
 use nix::sys::stat::Mode;
 
-use super::futex;
 use super::{SynchError, SynchNet, TransitionRef};
+use crate::futex;
 
 const MAGIC: u32 = u32::from_be_bytes(*b"PPSY");
 const VERSION: u32 = 1;

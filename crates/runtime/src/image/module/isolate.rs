@@ -101,7 +101,12 @@ impl Proxy {
                 MapFlags::MAP_SHARED,
             )
         }
-        .map_err(|e| os("cannot map the private map of an isolated module for", e.into()))?
+        .map_err(|e| {
+            os(
+                "cannot map the private map of an isolated module for",
+                e.into(),
+            )
+        })?
         .cast::<u32>();
         let mut proxy = Proxy {
             map,
@@ -129,7 +134,9 @@ impl Proxy {
                     proxy_main(theirs, parent, plc_id, layout, private, &merge)
                 }))
                 .unwrap_or(101);
-                nix::unistd::_exit(code)
+                // SAFETY: `_exit` skips atexit handlers and stdio flushing, which belong to
+                // the module (they would run twice); it never returns.
+                unsafe { libc::_exit(code) }
             }
             Ok(ForkResult::Parent { child }) => proxy.pid = child,
         }
@@ -241,16 +248,22 @@ impl Proxy {
         if reply[0] == DONE {
             Ok(())
         } else {
-            Err(io::Error::other(format!("unexpected reply {:#x}", reply[0])))
+            Err(io::Error::other(format!(
+                "unexpected reply {:#x}",
+                reply[0]
+            )))
         }
     }
 
     fn why_lost(&mut self, e: io::Error) -> String {
-        // Reaping it here also tells how it ended, which is what the user needs to know.
-        let status = waitpid(self.pid, None);
+        // Closing first makes sure the proxy is leaving; reaping it tells how it ended.
         self.sock = None;
+        let status = waitpid(self.pid, None);
         match status {
-            Ok(s) => format!("the isolation proxy (pid {}) is gone ({s:?}): {e}", self.pid),
+            Ok(s) => format!(
+                "the isolation proxy (pid {}) is gone ({s:?}): {e}",
+                self.pid
+            ),
             Err(_) => format!("the isolation proxy (pid {}) is gone: {e}", self.pid),
         }
     }
@@ -287,7 +300,12 @@ fn proxy_main(
     // the proxy leaves when the module does, when the socket closes.
     // SAFETY: installing SIG_DFL / SIG_IGN runs no code of ours in signal context.
     unsafe {
-        for s in [Signal::SIGINT, Signal::SIGQUIT, Signal::SIGHUP, Signal::SIGPIPE] {
+        for s in [
+            Signal::SIGINT,
+            Signal::SIGQUIT,
+            Signal::SIGHUP,
+            Signal::SIGPIPE,
+        ] {
             let _ = signal(s, SigHandler::SigIgn);
         }
         let _ = signal(DEATH, SigHandler::SigDfl);
