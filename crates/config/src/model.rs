@@ -99,6 +99,26 @@ pub struct ModuleDecl {
     pub origin: Origin,
 }
 
+impl ModuleDecl {
+    /// A module with every setting at its default: no arguments, no scan period, `local`,
+    /// no real-time priority, `on_failure = stop`, the `NULL` transitions, no settings.
+    pub fn new(name: impl Into<String>, kind: impl Into<String>) -> Self {
+        ModuleDecl {
+            name: name.into(),
+            kind: kind.into(),
+            args: Vec::new(),
+            scan_period: None,
+            location: Location::default(),
+            priority: None,
+            on_failure: OnFailure::default(),
+            scan_beg: None,
+            scan_end: None,
+            settings: BTreeMap::new(),
+            origin: Origin::default(),
+        }
+    }
+}
+
 /// A value from a `name = value` line, with where it was written.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Setting {

@@ -471,17 +471,9 @@ impl Builder {
             let section = sections.get(&m.name).unwrap_or(&empty);
             let settings = first_settings(section);
             let mut decl = ModuleDecl {
-                name: m.name.clone(),
-                kind: m.kind.clone(),
                 args: m.args.clone(),
-                scan_period: None,
-                location: Location::default(),
-                priority: None,
-                on_failure: OnFailure::default(),
-                scan_beg: None,
-                scan_end: None,
-                settings: BTreeMap::new(),
                 origin: m.origin.clone(),
+                ..ModuleDecl::new(m.name.clone(), m.kind.clone())
             };
             // In file order, so the messages come out in the order the lines were written.
             let mut seen = HashSet::new();

@@ -12,19 +12,7 @@ const MODULES: [&str; 4] = ["m0", "m1", "m2", "m3"];
 /// `n` 32-bit points (one word each) owned by four modules, either interleaved (word i by
 /// module i % 4: the worst shape for the owned runs) or in four contiguous blocks.
 fn layout(n: usize, interleaved: bool) -> Layout {
-    let module = |name: &str| ModuleDecl {
-        name: name.into(),
-        kind: "bench".into(),
-        args: vec![],
-        scan_period: None,
-        location: Location::Local,
-        priority: None,
-        on_failure: Default::default(),
-        scan_beg: None,
-        scan_end: None,
-        settings: Default::default(),
-        origin: Origin::default(),
-    };
+    let module = |name: &str| ModuleDecl::new(name, "bench");
     let points = (0..n)
         .map(|i| PointDecl {
             name: format!("p{i}"),

@@ -28,19 +28,7 @@ fn plc_id(test: &str) -> String {
 }
 
 fn module(name: &str) -> ModuleDecl {
-    ModuleDecl {
-        name: name.into(),
-        kind: "test".into(),
-        args: vec![],
-        scan_period: None,
-        location: Location::Local,
-        priority: None,
-        on_failure: Default::default(),
-        scan_beg: None,
-        scan_end: None,
-        settings: Default::default(),
-        origin: Origin::default(),
-    }
+    ModuleDecl::new(name, "test")
 }
 
 fn point(name: &str, owner: &str, kind: PointKind, bits: u8) -> PointDecl {

@@ -450,19 +450,7 @@ mod tests {
     use petriplc_config::{ModuleDecl, PointDecl};
 
     pub(crate) fn module(name: &str) -> ModuleDecl {
-        ModuleDecl {
-            name: name.into(),
-            kind: "test".into(),
-            args: vec![],
-            scan_period: None,
-            location: Default::default(),
-            priority: None,
-            on_failure: Default::default(),
-            scan_beg: None,
-            scan_end: None,
-            settings: Default::default(),
-            origin: Origin::default(),
-        }
+        ModuleDecl::new(name, "test")
     }
 
     fn point(name: &str, owner: &str, at: Option<(u32, u8)>, bits: u8) -> PointDecl {

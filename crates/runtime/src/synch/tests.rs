@@ -1,11 +1,7 @@
 //! Unit tests of the synchronisation net: the simple form's expansion, the advanced form,
 //! configuration errors and the firing rule on an in-memory marking.
 
-use std::collections::BTreeMap;
-
-use petriplc_config::{
-    ArcDecl, Location, ModuleDecl, OnFailure, Origin, PlaceDecl, PlcConfig, Setting, SynchRule,
-};
+use petriplc_config::{ArcDecl, ModuleDecl, Origin, PlaceDecl, PlcConfig, Setting, SynchRule};
 use proptest::prelude::*;
 
 use super::*;
@@ -19,17 +15,8 @@ fn at(line: usize) -> Origin {
 
 fn module(name: &str) -> ModuleDecl {
     ModuleDecl {
-        name: name.into(),
-        kind: "test".into(),
-        args: Vec::new(),
-        scan_period: None,
-        location: Location::Local,
-        priority: None,
-        on_failure: OnFailure::Stop,
-        scan_beg: None,
-        scan_end: None,
-        settings: BTreeMap::new(),
         origin: at(1),
+        ..ModuleDecl::new(name, "test")
     }
 }
 
