@@ -7,4 +7,5 @@ mod futex;
 pub mod image;
 pub mod module;
 pub mod period;
+mod shm_name;
 pub mod synch;

@@ -370,7 +370,7 @@ fn shared_memory_life_cycle() {
         Err(SynchError::NotRunning { .. })
     ));
     assert!(!SharedSynch::unlink(&id).unwrap());
-    for bad in ["", "a/b"] {
+    for bad in ["", "a/b", "with space"] {
         assert!(matches!(
             SharedSynch::create(bad, &net),
             Err(SynchError::BadPlcId { .. })

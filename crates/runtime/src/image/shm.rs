@@ -84,23 +84,10 @@ impl Drop for Inner {
 
 /// The shared memory name of a PLC's image.
 pub fn shm_name(plc_id: &str) -> Result<String, ImageError> {
-    let bad = |reason: &str| ImageError::BadPlcId {
+    crate::shm_name::object_name(plc_id, "image").map_err(|reason| ImageError::BadPlcId {
         plc_id: plc_id.to_string(),
         reason: reason.to_string(),
-    };
-    if plc_id.is_empty() {
-        return Err(bad("it is empty"));
-    }
-    if plc_id.len() > 200 {
-        return Err(bad("it is longer than 200 characters"));
-    }
-    if !plc_id
-        .chars()
-        .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
-    {
-        return Err(bad("use only letters, digits, `_`, `-` and `.`"));
-    }
-    Ok(format!("/petriplc-{plc_id}-image"))
+    })
 }
 
 fn os(what: &'static str, shm: &str, e: impl Into<std::io::Error>) -> ImageError {
@@ -243,11 +230,7 @@ impl GlobalMap {
     /// Processes that have it mapped keep their mapping. Returns whether there was one.
     pub fn unlink(plc_id: &str) -> Result<bool, ImageError> {
         let shm = shm_name(plc_id)?;
-        match shm_unlink(shm.as_str()) {
-            Ok(()) => Ok(true),
-            Err(Errno::ENOENT) => Ok(false),
-            Err(e) => Err(os("cannot remove shared memory", &shm, e)),
-        }
+        crate::shm_name::unlink(&shm).map_err(|e| os("cannot remove shared memory", &shm, e))
     }
 
     /// Refuses a layout other than the one the PLC was created with.

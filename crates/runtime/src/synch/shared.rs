@@ -105,20 +105,10 @@ fn os_error(what: &'static str, shm: &str, errno: Errno) -> SynchError {
 impl SharedSynch {
     /// The shared memory object's name for `plc_id`.
     pub fn shm_name(plc_id: &str) -> Result<String, SynchError> {
-        let bad = |reason: &str| SynchError::BadPlcId {
+        crate::shm_name::object_name(plc_id, "synch").map_err(|reason| SynchError::BadPlcId {
             plc_id: plc_id.to_string(),
             reason: reason.to_string(),
-        };
-        if plc_id.is_empty() {
-            return Err(bad("it is empty"));
-        }
-        if plc_id.contains('/') || plc_id.contains('\0') {
-            return Err(bad("it contains `/` or NUL"));
-        }
-        if plc_id.len() > 200 {
-            return Err(bad("it is longer than 200 bytes"));
-        }
-        Ok(format!("/petriplc-{plc_id}-synch"))
+        })
     }
 
     /// Creates the shared marking for `net` with its initial marking. Fails if it already
@@ -260,11 +250,7 @@ impl SharedSynch {
     /// was one.
     pub fn unlink(plc_id: &str) -> Result<bool, SynchError> {
         let shm = Self::shm_name(plc_id)?;
-        match shm_unlink(shm.as_str()) {
-            Ok(()) => Ok(true),
-            Err(Errno::ENOENT) => Ok(false),
-            Err(e) => Err(os_error("cannot remove shared memory", &shm, e)),
-        }
+        crate::shm_name::unlink(&shm).map_err(|e| os_error("cannot remove shared memory", &shm, e))
     }
 
     fn from_map(net: &SynchNet, shm: String, creator: bool, mut map: MmapMut) -> SharedSynch {
