@@ -129,8 +129,17 @@ fn not_running(plc_id: &str, shm: &str) -> Error {
     )
 }
 
+/// The configuration with the `--set` overrides `petriplc run` passes its program modules
+/// in `PETRIPLC_SET`, one per line.
 fn read_config(path: &Path) -> Result<PlcConfig, Error> {
-    petriplc_config::read_file(path).map_err(|e| {
+    let overrides = std::env::var("PETRIPLC_SET")
+        .unwrap_or_default()
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(str::parse)
+        .collect::<Result<Vec<petriplc_config::Override>, String>>()
+        .map_err(|e| Error::new(PLC_ERR_CONFIG, format!("PETRIPLC_SET: {e}")))?;
+    petriplc_config::read_file_with(path, &overrides).map_err(|e| {
         Error::new(
             PLC_ERR_CONFIG,
             format!("configuration `{}`:\n{e}", path.display()),

@@ -1,4 +1,4 @@
-//! What several modules share: checking a section's settings and rows, loading a net,
+//! What several modules share (this crate's and the Modbus, vitrine and HMI crates'): checking a section's settings and rows, loading a net,
 //! binding named signals to points, and converting between signal values and points.
 
 use std::collections::HashMap;
@@ -13,13 +13,17 @@ use petriplc_pnml::{Naming, ReadOptions};
 use petriplc_runtime::image::{Handle, ImageError, ModuleMap};
 use petriplc_runtime::module::{InitContext, ModuleError};
 
+/// The scan period of a built-in module with no `scan_period` outside the synchronisation
+/// net: a common PLC scan, rather than as fast as the CPU allows.
+pub const DEFAULT_PERIOD: Duration = Duration::from_millis(10);
+
 /// An error prefixed with the module's name, so that the runner can print it as is.
-pub(crate) fn error(module: &str, message: impl std::fmt::Display) -> ModuleError {
+pub fn error(module: &str, message: impl std::fmt::Display) -> ModuleError {
     ModuleError::new(format!("module {module}: {message}"))
 }
 
 /// An error with every cause in its source chain (I/O errors hide the OS reason there).
-pub(crate) fn chain(e: &dyn Error) -> String {
+pub fn chain(e: &dyn Error) -> String {
     let mut text = e.to_string();
     let mut source = e.source();
     while let Some(s) = source {
@@ -32,7 +36,7 @@ pub(crate) fn chain(e: &dyn Error) -> String {
 
 /// Refuses arguments and settings the kind does not know: a misspelt setting would otherwise
 /// be silently replaced by its default.
-pub(crate) fn check_decl(decl: &ModuleDecl, kind: &str, known: &[&str]) -> Result<(), ModuleError> {
+pub fn check_decl(decl: &ModuleDecl, kind: &str, known: &[&str]) -> Result<(), ModuleError> {
     if !decl.args.is_empty() {
         return Err(error(
             &decl.name,
@@ -71,12 +75,12 @@ pub(crate) fn check_decl(decl: &ModuleDecl, kind: &str, known: &[&str]) -> Resul
     ))
 }
 
-pub(crate) fn setting<'a>(decl: &'a ModuleDecl, name: &str) -> Option<&'a str> {
+pub fn setting<'a>(decl: &'a ModuleDecl, name: &str) -> Option<&'a str> {
     decl.settings.get(name).map(|s| s.value.trim())
 }
 
 /// Like `InitContext::require`, for factories, which see only the declaration.
-pub(crate) fn require<'a>(decl: &'a ModuleDecl, name: &str) -> Result<&'a str, ModuleError> {
+pub fn require<'a>(decl: &'a ModuleDecl, name: &str) -> Result<&'a str, ModuleError> {
     match setting(decl, name) {
         Some(v) if !v.is_empty() => Ok(v),
         _ => Err(error(
@@ -90,7 +94,7 @@ pub(crate) fn require<'a>(decl: &'a ModuleDecl, name: &str) -> Result<&'a str, M
 }
 
 /// A yes/no setting; absent is `false`.
-pub(crate) fn flag(decl: &ModuleDecl, name: &str) -> Result<bool, ModuleError> {
+pub fn flag(decl: &ModuleDecl, name: &str) -> Result<bool, ModuleError> {
     match setting(decl, name).map(str::to_ascii_lowercase).as_deref() {
         None | Some("no" | "false" | "off" | "0") => Ok(false),
         Some("yes" | "true" | "on" | "1") => Ok(true),
@@ -102,7 +106,7 @@ pub(crate) fn flag(decl: &ModuleDecl, name: &str) -> Result<bool, ModuleError> {
 }
 
 /// The rows of the module's section, refusing tables the kind does not read.
-pub(crate) fn rows<'a>(
+pub fn rows<'a>(
     ctx: &'a InitContext<'_>,
     kind: &str,
     tables: &[&str],
@@ -135,11 +139,11 @@ pub(crate) fn rows<'a>(
 }
 
 /// Table rows of a module's section that the runner reads, whatever the kind.
-pub(crate) const RUNNER_TABLES: &[&str] = &["safe"];
+pub const RUNNER_TABLES: &[&str] = &["safe"];
 
 /// Where a net comes from and how it is scanned, as the settings say.
 #[derive(Clone, Debug)]
-pub(crate) struct NetSettings {
+pub struct NetSettings {
     pub file: String,
     pub naming: Naming,
     pub step: Option<StepRule>,
@@ -148,7 +152,7 @@ pub(crate) struct NetSettings {
 }
 
 /// The settings [`NetSettings::parse`] reads (besides `net`).
-pub(crate) const NET_OPTIONS: &[&str] = &["names", "step", "evolve", "max_passes"];
+pub const NET_OPTIONS: &[&str] = &["names", "step", "evolve", "max_passes"];
 
 impl NetSettings {
     pub fn parse(decl: &ModuleDecl, file: &str) -> Result<NetSettings, ModuleError> {
@@ -215,14 +219,14 @@ impl NetSettings {
 
 /// A named signal of a net or plant; `Int` for a Rust plant, whose signals carry plain values.
 #[derive(Clone, Debug)]
-pub(crate) struct Port {
+pub struct Port {
     pub name: String,
     pub ty: SignalType,
 }
 
 /// A signal bound to its point.
 #[derive(Clone, Debug)]
-pub(crate) struct Bound {
+pub struct Bound {
     pub signal: String,
     pub point: String,
     pub handle: Handle,
@@ -253,12 +257,7 @@ impl Bound {
 }
 
 /// Writes an integer to an unsigned or signed point, or converted to a float point.
-pub(crate) fn write_int(
-    map: &mut ModuleMap,
-    h: &Handle,
-    point: &str,
-    value: i64,
-) -> Result<(), String> {
+pub fn write_int(map: &mut ModuleMap, h: &Handle, point: &str, value: i64) -> Result<(), String> {
     let result = match h.kind() {
         PointKind::Unsigned => match u32::try_from(value) {
             Ok(v) => map.set_u32(h, v),
@@ -274,7 +273,7 @@ pub(crate) fn write_int(
 }
 
 /// Whether `value` can be written to the point without an error.
-pub(crate) fn fits(h: &Handle, value: i64) -> bool {
+pub fn fits(h: &Handle, value: i64) -> bool {
     let bits = u32::from(h.bits());
     match h.kind() {
         PointKind::Unsigned => (0..=(1i64 << bits) - 1).contains(&value),
@@ -296,7 +295,7 @@ fn does_not_fit(point: &str, h: &Handle, value: i64) -> String {
     .to_string()
 }
 
-pub(crate) fn kind_name(kind: PointKind) -> &'static str {
+pub fn kind_name(kind: PointKind) -> &'static str {
     match kind {
         PointKind::Unsigned => "unsigned",
         PointKind::Signed => "signed",
@@ -307,7 +306,7 @@ pub(crate) fn kind_name(kind: PointKind) -> &'static str {
 /// Binds every input to a point of the same name (any owner) and every output to a point of
 /// the same name owned by this module; `map SIGNAL POINT` rows of the module's section bind
 /// a signal to another point. Every problem is reported at once, one per line.
-pub(crate) fn bind(
+pub fn bind(
     ctx: &InitContext<'_>,
     kind: &str,
     what: &str,
@@ -414,6 +413,6 @@ pub(crate) fn bind(
 }
 
 /// `at t=1.5s` for scan-time errors.
-pub(crate) fn at(now: Duration) -> String {
+pub fn at(now: Duration) -> String {
     format!("at t={}s", format_seconds(now))
 }

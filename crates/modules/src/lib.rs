@@ -7,7 +7,7 @@
 //! settings from its declaration alone (so a typo is reported before the PLC creates its
 //! process image); files are read and points looked up in `init`.
 
-mod common;
+pub mod common;
 mod logger;
 mod petrinet;
 mod plant;

@@ -166,6 +166,10 @@ impl Module for Logger {
         }
     }
 
+    fn default_scan_period(&self) -> Option<std::time::Duration> {
+        Some(crate::common::DEFAULT_PERIOD)
+    }
+
     fn status(&self) -> String {
         self.run.as_ref().map_or_else(String::new, |r| {
             format!("{} rows to {}", r.rows, r.path.display())

@@ -113,6 +113,10 @@ impl Module for Petrinet {
 
     /// The marking (`place=tokens` for every marked place), then how often each transition
     /// has fired: `marking L1=1; fired B1:3 N2:3 N3:3 N1:3`.
+    fn default_scan_period(&self) -> Option<std::time::Duration> {
+        Some(crate::common::DEFAULT_PERIOD)
+    }
+
     fn status(&self) -> String {
         let Some(run) = &self.run else {
             return String::new();
@@ -131,5 +135,16 @@ impl Module for Petrinet {
             .collect::<Vec<_>>()
             .join(" ");
         format!("marking {marking}; fired {fired}")
+    }
+
+    fn marking(&self) -> Vec<(String, u64)> {
+        let Some(run) = &self.run else {
+            return Vec::new();
+        };
+        let net = run.scanner.net();
+        let m = run.scanner.marking();
+        net.place_ids()
+            .map(|p| (net.place_label(p).to_string(), u64::from(m[p])))
+            .collect()
     }
 }

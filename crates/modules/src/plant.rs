@@ -219,6 +219,10 @@ impl Module for PlantModule {
         Ok(Control::Continue)
     }
 
+    fn default_scan_period(&self) -> Option<std::time::Duration> {
+        Some(crate::common::DEFAULT_PERIOD)
+    }
+
     fn status(&self) -> String {
         self.run
             .as_ref()

@@ -86,6 +86,10 @@ impl Module for Shutdown {
         })
     }
 
+    fn default_scan_period(&self) -> Option<std::time::Duration> {
+        Some(crate::common::DEFAULT_PERIOD)
+    }
+
     fn status(&self) -> String {
         format!("stops the PLC when {} is true", self.point)
     }

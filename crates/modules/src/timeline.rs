@@ -143,6 +143,10 @@ impl Module for TimelineModule {
         Ok(Control::Continue)
     }
 
+    fn default_scan_period(&self) -> Option<std::time::Duration> {
+        Some(crate::common::DEFAULT_PERIOD)
+    }
+
     fn status(&self) -> String {
         self.run.as_ref().map_or_else(String::new, |r| {
             format!(

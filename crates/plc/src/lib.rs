@@ -5,8 +5,6 @@
 //! `update()`, the scan, `update()`, `scan_end` synch. Failures follow each module's
 //! `on_failure`; the state and statistics of every module are published for `petriplc status`.
 
-pub mod status;
-
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
@@ -15,13 +13,15 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use petriplc_config::{ConfigError, Location, ModuleDecl, OnFailure, PlcConfig, PointValue};
+use petriplc_config::{
+    ConfigError, Location, ModuleDecl, OnFailure, Override, PlcConfig, PointValue,
+};
 use petriplc_runtime::image::{GlobalMap, ImageError, Layout, ModuleMap};
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use petriplc_runtime::period::{self, Period, ScanStats};
-use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet};
+use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
 
-pub use status::{ModuleState, ModuleStatus, PlcStatus};
+pub use petriplc_runtime::status::{self, ModuleState, ModuleStatus, PlcStatus};
 
 /// Finds the factory of a built-in module kind.
 pub type Registry = fn(&str) -> Option<Factory>;
@@ -35,6 +35,9 @@ pub struct RunOptions {
     pub duration: Option<Duration>,
     /// Built-in kinds, for error messages.
     pub known_kinds: &'static [&'static str],
+    /// Settings given on the command line (`--set`); program modules get them in the
+    /// environment (`PETRIPLC_SET`, one per line) and apply them too.
+    pub overrides: Vec<Override>,
 }
 
 /// Why the PLC could not start.
@@ -55,9 +58,15 @@ pub enum RunError {
     },
     #[error("module {module}: `location = isolate` is for modules that run as their own process; a built-in module runs as a thread of `petriplc run`, so use local or shared")]
     IsolateThread { module: String },
-    /// The module's message names it.
-    #[error("{source}")]
-    Init { module: String, source: ModuleError },
+    /// The module's message names it. (Not `source`: the message is this error's own, and
+    /// a source would be printed again after it.)
+    #[error("{error}")]
+    Init { module: String, error: ModuleError },
+    #[error("--set {setting}: there is no module of that name; the configuration declares {}", .modules.join(", "))]
+    Override {
+        setting: String,
+        modules: Vec<String>,
+    },
     #[error("module {module}: cannot start program {program}: {source}")]
     Spawn {
         module: String,
@@ -82,6 +91,8 @@ impl RunError {
 /// What every module thread shares.
 struct Shared {
     plc_id: String,
+    /// `RunOptions::overrides`, one per line, for program modules.
+    overrides: String,
     config_path: PathBuf,
     base_dir: PathBuf,
     config: PlcConfig,
@@ -115,7 +126,15 @@ impl Plc {
         registry: Registry,
         opts: &RunOptions,
     ) -> Result<Plc, RunError> {
-        let config = petriplc_config::read_file(config_path)?;
+        let config = petriplc_config::read_file_with(config_path, &opts.overrides)?;
+        for o in &opts.overrides {
+            if o.section != "PLC" && !config.modules.iter().any(|m| m.name == o.section) {
+                return Err(RunError::Override {
+                    setting: format!("{}:{}={}", o.section, o.name, o.value),
+                    modules: config.modules.iter().map(|m| m.name.clone()).collect(),
+                });
+            }
+        }
         let base_dir = config_path
             .parent()
             .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
@@ -137,12 +156,10 @@ impl Plc {
                         });
                     }
                     let mut map = ModuleMap::new(&layout, &decl.name, decl.location)?;
-                    let module =
-                        make(factory, decl, &config, &mut map, &base_dir).map_err(|source| {
-                            RunError::Init {
-                                module: decl.name.clone(),
-                                source,
-                            }
+                    let module = make(factory, decl, &config, &mut map, &base_dir, &opts.plc_id)
+                        .map_err(|error| RunError::Init {
+                            module: decl.name.clone(),
+                            error,
                         })?;
                     ready.push(Ready {
                         index,
@@ -173,6 +190,12 @@ impl Plc {
             .collect();
         let shared = Arc::new(Shared {
             plc_id: opts.plc_id.clone(),
+            overrides: opts
+                .overrides
+                .iter()
+                .map(|o| format!("{}:{}={}", o.section, o.name, o.value))
+                .collect::<Vec<_>>()
+                .join("\n"),
             config_path: std::fs::canonicalize(config_path)
                 .unwrap_or_else(|_| config_path.to_path_buf()),
             base_dir,
@@ -370,6 +393,7 @@ fn make(
     config: &PlcConfig,
     map: &mut ModuleMap,
     base_dir: &Path,
+    plc_id: &str,
 ) -> Result<Box<dyn Module>, ModuleError> {
     let mut module = factory(decl)?;
     module.init(&mut InitContext {
@@ -377,6 +401,7 @@ fn make(
         config,
         map,
         base_dir,
+        plc_id,
     })?;
     Ok(module)
 }
@@ -400,10 +425,17 @@ fn run_thread(shared: &Shared, r: Ready) {
     });
     let net = shared.synch.net();
     let (beg, end) = (net.scan_beg(&name), net.scan_end(&name));
+    // A module's own default period is for running alone: in the synchronisation net, the
+    // net paces it.
+    let alone = beg == TransitionRef::Null && end == TransitionRef::Null;
     let mut period = decl
         .scan_period
+        .or_else(|| module.default_scan_period().filter(|_| alone))
         .filter(|p| !p.is_zero())
         .map(|p| Period::starting_at(shared.t0, p));
+    // The status file is rewritten every 50 ms: a fresh status line and marking every 25 ms
+    // is enough, and a module scanning every 100 µs does not pay for formatting them.
+    let mut published = Duration::ZERO;
     let mut stats = ScanStats::new();
     let mut scan = 0u64;
     'scans: loop {
@@ -444,8 +476,15 @@ fn run_thread(shared: &Shared, r: Ready) {
                         .map_err(|e| ModuleError::new(e.to_string()))
                         .and_then(|mut m| {
                             m.update(&shared.global);
-                            make(factory, decl, &shared.config, &mut m, &shared.base_dir)
-                                .map(|module| (module, m))
+                            make(
+                                factory,
+                                decl,
+                                &shared.config,
+                                &mut m,
+                                &shared.base_dir,
+                                &shared.plc_id,
+                            )
+                            .map(|module| (module, m))
                         });
                     match fresh {
                         Ok((m, fresh_map)) => {
@@ -471,12 +510,16 @@ fn run_thread(shared: &Shared, r: Ready) {
         }
         stats.record(period::now().saturating_sub(started), late, missed);
         scan += 1;
-        let line = module.status();
-        shared.set_status(index, |s| s.record(&stats, line));
+        let now = period::now();
+        if now.saturating_sub(published) >= Duration::from_millis(25) {
+            published = now;
+            let (line, marking) = (module.status(), module.marking());
+            shared.set_status(index, |s| s.record(&stats, line, marking));
+        }
     }
     module.close();
     shared.set_status(index, |s| {
-        s.record(&stats, module.status());
+        s.record(&stats, module.status(), module.marking());
         if s.state != ModuleState::Failed {
             s.state = ModuleState::Stopped;
         }
@@ -488,6 +531,7 @@ fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunErro
     let child = Command::new(program)
         .args(&decl.args)
         .env("PETRIPLC_CONFIG", &shared.config_path)
+        .env("PETRIPLC_SET", &shared.overrides)
         .env("PETRIPLC_MODULE", &decl.name)
         .env("PETRIPLC_PLC_ID", &shared.plc_id)
         .spawn()

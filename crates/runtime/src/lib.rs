@@ -4,8 +4,10 @@
 //! deadlines with statistics.
 
 mod futex;
+pub mod harness;
 pub mod image;
 pub mod module;
 pub mod period;
 mod shm_name;
+pub mod status;
 pub mod synch;

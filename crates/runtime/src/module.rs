@@ -31,6 +31,8 @@ pub struct InitContext<'a> {
     pub map: &'a mut ModuleMap,
     /// The directory of the configuration file: relative paths in settings start here.
     pub base_dir: &'a Path,
+    /// The PLC's id (`petriplc run --plc-id`): names its shared memory and status file.
+    pub plc_id: &'a str,
 }
 
 impl InitContext<'_> {
@@ -81,9 +83,19 @@ pub trait Module: Send {
     fn scan(&mut self, ctx: &mut ScanContext<'_>) -> Result<Control, ModuleError>;
     /// Once, after the last scan: flush and release what it holds.
     fn close(&mut self) {}
-    /// A short line for status displays (e.g. a net's marking).
+    /// A short line for status displays.
     fn status(&self) -> String {
         String::new()
+    }
+    /// A net's marking for displays (vitrine, HMI): every place by label with its tokens.
+    fn marking(&self) -> Vec<(String, u64)> {
+        Vec::new()
+    }
+    /// The scan period when the section sets none and the module is not in the
+    /// synchronisation net (which paces it otherwise), so that displays, network modules and
+    /// watchers do not scan as fast as the CPU allows.
+    fn default_scan_period(&self) -> Option<Duration> {
+        None
     }
 }
 

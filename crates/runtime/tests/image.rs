@@ -252,6 +252,99 @@ fn shared_modules_write_the_global_map_directly_but_masked() {
 }
 
 #[test]
+fn a_forced_point_reads_forced_for_everyone_but_its_owner_until_released() {
+    let layout = basic();
+    let global = GlobalMap::create(&plc_id("force"), &layout).unwrap();
+    let mut a = ModuleMap::new(&layout, "a", Location::Local).unwrap();
+    let mut b = ModuleMap::new(&layout, "b", Location::Local).unwrap();
+    let mut display = ModuleMap::new(&layout, "display", Location::Local).unwrap();
+    let (x, n, c, f) = (
+        a.handle("x").unwrap(),
+        a.handle("n").unwrap(),
+        a.handle("c").unwrap(),
+        a.handle("f").unwrap(),
+    );
+    a.set_bool(&x, false).unwrap();
+    a.set_i32(&n, 7).unwrap();
+    a.update(&global);
+
+    // A module that owns nothing forces points of two other owners, sharing words with
+    // unforced points.
+    display.force(&x, PointValue::Unsigned(1)).unwrap();
+    display.force(&n, PointValue::Signed(-3)).unwrap();
+    display.force(&f, PointValue::Float(1.5)).unwrap();
+    assert!(!display.is_forced(&x), "requests wait for the next update");
+    display.update(&global);
+    assert!(display.is_forced(&x) && display.is_forced(&n) && !display.is_forced(&c));
+    assert_eq!(global.read_point(&layout, x.id()), PointValue::Unsigned(1));
+    assert!(display.get_bool(&x));
+    assert_eq!(
+        global.read_point(&layout, n.id()),
+        PointValue::Signed(-3),
+        "displays reading the global map see the force too"
+    );
+
+    // The owner goes on writing: others still read the forced value, the owner its own.
+    a.set_bool(&x, false).unwrap();
+    a.set_i32(&n, 9).unwrap();
+    a.update(&global);
+    b.set_u32(&c, 200).unwrap();
+    b.update(&global);
+    assert!(b.get_bool(&x) && b.is_forced(&x));
+    assert_eq!(b.get_i32(&n), -3);
+    assert_eq!(
+        b.get_u32(&c),
+        200,
+        "unforced bits of the word are untouched"
+    );
+    assert_eq!(b.get_f32(&f), 0.0, "the owner (b) reads its own value...");
+    assert!(!a.get_bool(&x) && a.get_i32(&n) == 9, "...and so does a");
+    assert!(a.is_forced(&x), "though it knows the point is forced");
+
+    // Values are checked as for set; an isolated map cannot force (tested in isolate.rs).
+    assert!(display.force(&c, PointValue::Unsigned(256)).is_err());
+    assert!(display.force(&x, PointValue::Float(1.0)).is_err());
+
+    // Released by another module: the owner's value is back at once.
+    b.unforce(&x).unwrap();
+    b.unforce(&n).unwrap();
+    b.update(&global);
+    assert!(!b.is_forced(&x));
+    assert!(!b.get_bool(&x));
+    display.update(&global);
+    assert!(!display.get_bool(&x));
+    assert_eq!(display.get_i32(&n), 9);
+    assert_eq!(display.get_f32(&f), 1.5, "still forced");
+    b.set_f32(&f, 4.0).unwrap();
+    b.update(&global);
+    display.update(&global);
+    assert_eq!(display.get_f32(&f), 1.5);
+    display.unforce(&f).unwrap();
+    display.update(&global);
+    assert_eq!(display.get_f32(&f), 4.0);
+    assert!(!display.is_forced(&f));
+}
+
+#[test]
+fn shared_maps_force_at_once() {
+    let layout = basic();
+    let global = GlobalMap::create(&plc_id("forceshared"), &layout).unwrap();
+    let mut a = ModuleMap::new(&layout, "a", Location::Shared).unwrap();
+    let mut display = ModuleMap::new(&layout, "display", Location::Shared).unwrap();
+    a.update(&global);
+    display.update(&global);
+    let x = a.handle("x").unwrap();
+    display.force(&x, PointValue::Unsigned(1)).unwrap();
+    assert!(display.is_forced(&x) && a.is_forced(&x));
+    a.set_bool(&x, false).unwrap();
+    assert!(display.get_bool(&x), "a shared reader sees the force");
+    assert!(!a.get_bool(&x), "the owner its own value");
+    assert_eq!(global.read_point(&layout, x.id()), PointValue::Unsigned(1));
+    display.unforce(&x).unwrap();
+    assert!(!display.get_bool(&x));
+}
+
+#[test]
 fn two_threads_updating_one_word_never_lose_a_bit() {
     let mut points = Vec::new();
     for bit in 0..32u8 {

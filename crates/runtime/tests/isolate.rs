@@ -129,6 +129,8 @@ fn isolated_module_process() {
     m.set_bool(&flag, true).unwrap();
     let e = m.set_u32(&to_iso, 1).unwrap_err();
     assert!(matches!(e, ImageError::NotOwner { .. }), "{e}");
+    let e = m.force(&to_iso, PointValue::Unsigned(1)).unwrap_err();
+    assert!(matches!(e, ImageError::Unsupported { .. }), "{e}");
     m.update_isolated().unwrap();
     assert_eq!(
         m.get_u32(&to_iso),

@@ -4,7 +4,7 @@
 use petriplc_config::{Location, PointKind, PointValue};
 
 use super::layout::{decode, encode, show_value, sign_extend, width_mask, Layout, PointId};
-use super::shm::{GlobalMap, WORDS_PAGE_OFFSET};
+use super::shm::{GlobalMap, ImageGuard, WORDS_PAGE_OFFSET};
 use super::{kind_name, ImageError};
 
 mod isolate;
@@ -75,6 +75,11 @@ pub struct ModuleMap {
     mask: Vec<u32>,
     plan: Plan,
     words: Words,
+    /// Force requests waiting for the next `update()`: word, bits, value (`None` releases).
+    forces: Vec<(u32, u32, Option<u32>)>,
+    /// The force mask as of the last `update()`, and the generation it was copied at.
+    forced: Vec<u32>,
+    forced_generation: u32,
 }
 
 /// Where the module's words are.
@@ -130,7 +135,7 @@ impl ModuleMap {
                 plc_id,
                 layout.init_words(),
                 private_page_word(),
-                |g, p| merge(plan, mask, g, p),
+                |g, p| exchange(plan, mask, g, p),
             )?;
             Ok(Words::Isolated(proxy))
         })
@@ -162,6 +167,9 @@ impl ModuleMap {
             mask: shape.mask,
             plan: shape.plan,
             words,
+            forces: Vec::new(),
+            forced: Vec::new(),
+            forced_generation: 0,
         })
     }
 
@@ -206,9 +214,79 @@ impl ModuleMap {
             self.module,
             global.plc_id()
         );
-        merge(&self.plan, &self.mask, global.lock().words_mut(), private);
+        let mut guard = global.lock();
+        if !self.forces.is_empty() {
+            let mut parts = guard.parts_mut();
+            let mut changed = false;
+            for (w, bits, value) in self.forces.drain(..) {
+                changed |= parts.set_force(w as usize, bits, value);
+            }
+            if changed {
+                guard.force_changed();
+            }
+        }
+        exchange(&self.plan, &self.mask, &mut guard, private);
+        let generation = guard.force_generation();
+        if generation != self.forced_generation || self.forced.len() != self.mask.len() {
+            self.forced_generation = generation;
+            self.forced.clear();
+            self.forced.extend_from_slice(guard.parts_mut().force_mask);
+        }
+        drop(guard);
         if self.location == Location::Shared {
             self.words = Words::Direct(global.clone());
+        }
+    }
+
+    /// Forces point `h` to `v` for every module but its owner, from this map's next
+    /// `update()` until [`ModuleMap::unforce`] (an operator's force from a display or HMI):
+    /// each module reads the forced value from its next update on, whatever the owner
+    /// writes; the owner reads its own. `v` must suit the point as for [`ModuleMap::set`].
+    /// Isolated maps cannot force.
+    pub fn force(&mut self, h: &Handle, v: PointValue) -> Result<(), ImageError> {
+        let requested = match v {
+            PointValue::Unsigned(_) => "unsigned",
+            PointValue::Signed(_) => "signed",
+            PointValue::Float(_) => "float",
+        };
+        if (h.kind == PointKind::Float) != matches!(v, PointValue::Float(_)) {
+            return Err(self.wrong_kind(h, requested));
+        }
+        let raw = encode(h.kind, h.bits, v).map_err(|_| self.out_of_range(h, show_value(v)))?;
+        self.request_force(h, Some(raw << h.shift))
+    }
+
+    /// Releases a force of point `h` (made by any module) at this map's next `update()`.
+    pub fn unforce(&mut self, h: &Handle) -> Result<(), ImageError> {
+        self.request_force(h, None)
+    }
+
+    fn request_force(&mut self, h: &Handle, value: Option<u32>) -> Result<(), ImageError> {
+        match &self.words {
+            Words::Isolated(_) => Err(ImageError::Unsupported {
+                what: format!("forcing points from isolated module `{}`", self.module),
+            }),
+            Words::Direct(g) => {
+                // A shared map has no update of its own to wait for: force at once.
+                let mut guard = g.lock();
+                if guard.parts_mut().set_force(h.word as usize, h.mask, value) {
+                    guard.force_changed();
+                }
+                Ok(())
+            }
+            Words::Private { .. } => {
+                self.forces.push((h.word, h.mask, value));
+                Ok(())
+            }
+        }
+    }
+
+    /// Whether point `h` is forced: as of the last `update()` (a shared map: now).
+    pub fn is_forced(&self, h: &Handle) -> bool {
+        let w = h.word as usize;
+        match &self.words {
+            Words::Direct(g) => g.lock().parts_mut().force_mask[w] & h.mask != 0,
+            _ => self.forced.get(w).is_some_and(|m| m & h.mask != 0),
         }
     }
 
@@ -260,7 +338,18 @@ impl ModuleMap {
     fn raw(&self, h: &Handle) -> u32 {
         let w = match &self.words {
             Words::Private { buf, base } => buf[base + h.word as usize],
-            Words::Direct(g) => g.lock().words()[h.word as usize],
+            Words::Direct(g) => {
+                let w = h.word as usize;
+                let mut guard = g.lock();
+                let forced = guard.any_forced();
+                let parts = guard.parts_mut();
+                if forced {
+                    let others = parts.force_mask[w] & !self.mask[w];
+                    (parts.words[w] & !others) | (parts.force_value[w] & others)
+                } else {
+                    parts.words[w]
+                }
+            }
             Words::Isolated(p) => p.words()[h.word as usize],
         };
         (w & h.mask) >> h.shift
@@ -424,6 +513,23 @@ fn private_page_word() -> usize {
 struct Shape {
     mask: Vec<u32>,
     plan: Plan,
+}
+
+/// The update under the lock: [`merge`], then the forced bits laid over the private copy's
+/// bits the module does not own. The global words keep what the owners wrote (an owner reads
+/// its own value), so releasing a force brings the owner's value back at once.
+fn exchange(plan: &Plan, m: &[u32], guard: &mut ImageGuard<'_>, p: &mut [u32]) {
+    let forced = guard.any_forced();
+    let parts = guard.parts_mut();
+    merge(plan, m, parts.words, p);
+    if forced {
+        for (w, &fm) in parts.force_mask.iter().enumerate() {
+            let others = fm & !m[w];
+            if others != 0 {
+                p[w] = (p[w] & !others) | (parts.force_value[w] & others);
+            }
+        }
+    }
 }
 
 /// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in. `g` must

@@ -1,5 +1,10 @@
-//! The global map: a header and the image's words in POSIX shared memory named after the
-//! plc id, guarded by a futex mutex in the header that works across processes and threads.
+//! The global map: a header, the image's words and the force table in POSIX shared memory
+//! named after the plc id, guarded by a futex mutex in the header that works across processes
+//! and threads.
+//!
+//! The force table is two more arrays of as many words: a mask of the forced bits and their
+//! forced values. The words keep what the owners write; every read but the owner's (a
+//! module's `update()`, [`GlobalMap::read_point`]) lays the forced bits over them.
 
 use std::fs::File;
 use std::os::unix::fs::MetadataExt;
@@ -19,7 +24,7 @@ use crate::futex;
 const MAGIC: u64 = u64::from_le_bytes(*b"PPLCIMG\0");
 /// Bumped whenever the header or the word encoding changes, so that an old module is refused
 /// rather than misreading a newer PLC's image.
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 /// The words start one cache line in, away from the contended lock word.
 const HEADER: usize = 64;
 /// Where the words start within a page, for module maps that align their private copy alike.
@@ -37,10 +42,17 @@ struct Header {
     lock: AtomicU32,
     /// The creating process, to tell a stale image from a running PLC.
     creator: AtomicU32,
-    _reserved: [AtomicU32; 8],
+    /// How many words have forced bits: 0 lets `update()` skip the force table.
+    forced_words: AtomicU32,
+    /// Bumped by every change of the force table, so maps refresh their copy of the mask.
+    force_generation: AtomicU32,
+    _reserved: [AtomicU32; 6],
 }
 
 const _: () = assert!(std::mem::size_of::<Header>() == HEADER);
+
+/// The words, the force mask and the forced values.
+const ARRAYS: usize = 3;
 
 /// The shared process image of one PLC. Cheap to clone (threads of one process share the
 /// mapping); the creator's last clone removes the shared memory name when dropped.
@@ -141,7 +153,7 @@ impl GlobalMap {
             .metadata()
             .map_err(|e| os("cannot stat shared memory", shm, e))?
             .ino();
-        let len = HEADER + 4 * layout.words();
+        let len = HEADER + 4 * ARRAYS * layout.words();
         file.set_len(len as u64)
             .map_err(|e| os("cannot size shared memory", shm, e))?;
         let map = MmapOptions::new()
@@ -149,7 +161,7 @@ impl GlobalMap {
             .map_raw(file)
             .map_err(|e| os("cannot map shared memory", shm, e))?;
         let init = layout.init_words();
-        // SAFETY: the mapping is `len` = HEADER + 4 * init.len() bytes and page-aligned, so
+        // SAFETY: the mapping is `len` = HEADER + 4 * ARRAYS * init.len() bytes and page-aligned, so
         // the words start 4-aligned at HEADER; nobody else can use the words before the magic
         // below is published (`open` refuses an image without it).
         unsafe {
@@ -210,7 +222,7 @@ impl GlobalMap {
             )));
         }
         let words = h.words.load(Ordering::Relaxed) as usize;
-        if HEADER + 4 * words != len {
+        if HEADER + 4 * ARRAYS * words != len {
             return Err(bad(format!("{len} bytes do not hold {words} words")));
         }
         let fingerprint = h.fingerprint.load(Ordering::Relaxed);
@@ -272,17 +284,26 @@ impl GlobalMap {
 
     /// The value of one point, read under the lock (for displays and loggers that own
     /// nothing). `layout` must be the one [`GlobalMap::check_layout`] accepted.
+    /// Forced points read as forced.
     pub fn read_point(&self, layout: &Layout, id: PointId) -> PointValue {
         let s = layout.slot(id);
-        let word = self.lock().words()[s.word as usize];
+        let word = self.lock().parts_mut().forced_word(s.word as usize);
         s.decode(word)
     }
 
-    /// A consistent copy of every word, to decode many points with [`Layout::decode`].
+    /// A consistent copy of every word, to decode many points with [`Layout::decode`];
+    /// forced points read as forced.
     pub fn snapshot(&self, out: &mut Vec<u32>) {
-        let g = self.lock();
+        let mut g = self.lock();
+        let forced = g.any_forced();
         out.clear();
         out.extend_from_slice(g.words());
+        if forced {
+            let parts = g.parts_mut();
+            for (w, word) in out.iter_mut().enumerate() {
+                *word = parts.forced_word(w);
+            }
+        }
     }
 }
 
@@ -337,7 +358,85 @@ pub struct ImageGuard<'a> {
     _lock: futex::Guard<'a>,
 }
 
+/// The words and the force table, borrowed together from a held lock.
+pub struct Parts<'g> {
+    pub words: &'g mut [u32],
+    /// The forced bits of each word.
+    pub force_mask: &'g mut [u32],
+    /// Their values (only the bits in `force_mask` mean anything).
+    pub force_value: &'g mut [u32],
+}
+
+impl Parts<'_> {
+    /// Forces the bits `mask` of word `w` to those of `value` (`None`: releases them).
+    /// Returns whether the table changed.
+    pub fn set_force(&mut self, w: usize, mask: u32, value: Option<u32>) -> bool {
+        let (old_mask, old_value) = (self.force_mask[w], self.force_value[w]);
+        match value {
+            Some(v) => {
+                self.force_mask[w] |= mask;
+                self.force_value[w] = (old_value & !mask) | (v & mask);
+            }
+            None => self.force_mask[w] &= !mask,
+        }
+        self.force_mask[w] != old_mask || self.force_value[w] & mask != old_value & mask
+    }
+
+    /// Word `w` as every module but its owners reads it: with its forced bits.
+    pub fn forced_word(&self, w: usize) -> u32 {
+        let fm = self.force_mask[w];
+        (self.words[w] & !fm) | (self.force_value[w] & fm)
+    }
+}
+
 impl ImageGuard<'_> {
+    /// Whether any bit is forced (cheap: a counter in the header).
+    pub fn any_forced(&self) -> bool {
+        header(&self.map.inner.map)
+            .forced_words
+            .load(Ordering::Relaxed)
+            != 0
+    }
+
+    /// Changes with every change of the force table.
+    pub fn force_generation(&self) -> u32 {
+        header(&self.map.inner.map)
+            .force_generation
+            .load(Ordering::Relaxed)
+    }
+
+    /// The words and the force table at once.
+    pub fn parts_mut(&mut self) -> Parts<'_> {
+        let inner = &self.map.inner;
+        let n = inner.words;
+        // SAFETY: the mapping holds ARRAYS * `words` u32s at HEADER (4-aligned, checked at
+        // open and create); the three slices are disjoint; holding the lock makes this the
+        // only access among well-behaved users, and the slices borrow the guard mutably.
+        let all = unsafe {
+            std::slice::from_raw_parts_mut(inner.map.as_mut_ptr().add(HEADER).cast::<u32>(), 3 * n)
+        };
+        let (words, rest) = all.split_at_mut(n);
+        let (force_mask, force_value) = rest.split_at_mut(n);
+        Parts {
+            words,
+            force_mask,
+            force_value,
+        }
+    }
+
+    /// Records that the force table changed (after [`Parts::set_force`] said so).
+    pub fn force_changed(&mut self) {
+        let forced = self
+            .parts_mut()
+            .force_mask
+            .iter()
+            .filter(|&&m| m != 0)
+            .count();
+        let h = header(&self.map.inner.map);
+        h.forced_words.store(forced as u32, Ordering::Relaxed);
+        h.force_generation.fetch_add(1, Ordering::Relaxed);
+    }
+
     pub fn words(&self) -> &[u32] {
         let inner = &self.map.inner;
         // SAFETY: the mapping holds `words` u32s at HEADER (4-aligned, checked at open and

@@ -26,7 +26,7 @@ use nix::sys::wait::waitpid;
 use nix::unistd::{fork, getppid, ForkResult, Pid};
 
 use super::super::layout::Layout;
-use super::super::shm::{shm_name, GlobalMap};
+use super::super::shm::{shm_name, GlobalMap, ImageGuard};
 use super::super::ImageError;
 
 /// The proxy's death signal: catchable (unlike SIGKILL), so the proxy can hold it off while
@@ -82,7 +82,7 @@ impl Proxy {
         plc_id: &str,
         init: &[u32],
         base: usize,
-        merge: impl Fn(&mut [u32], &mut [u32]),
+        merge: impl Fn(&mut ImageGuard<'_>, &mut [u32]),
     ) -> Result<Proxy, ImageError> {
         let shm = shm_name(plc_id)?;
         let os = |what: &'static str, e: io::Error| ImageError::Os {
@@ -293,7 +293,7 @@ fn proxy_main(
     plc_id: &str,
     layout: &Layout,
     private: &mut [u32],
-    merge: &dyn Fn(&mut [u32], &mut [u32]),
+    merge: &dyn Fn(&mut ImageGuard<'_>, &mut [u32]),
 ) -> i32 {
     // The module's handlers are the module's code, and its mask could block our death
     // signal for good: start from defaults. Terminal signals reach the whole process group;
@@ -351,7 +351,7 @@ fn proxy_main(
         let _ = sigprocmask(SigmaskHow::SIG_BLOCK, Some(&death), None);
         {
             let mut guard = global.lock();
-            merge(guard.words_mut(), private);
+            merge(&mut guard, private);
         }
         // A death signal that came meanwhile terminates us here, with the lock free.
         let _ = sigprocmask(SigmaskHow::SIG_UNBLOCK, Some(&death), None);

@@ -6,7 +6,7 @@ use std::fmt::{self, Write as _};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use petriplc_runtime::period::ScanStats;
+use crate::period::ScanStats;
 use serde_json::{json, Value};
 
 /// Where a module is in its life.
@@ -52,8 +52,10 @@ pub struct ModuleStatus {
     pub late_us: [f64; 3],
     pub overruns: u64,
     pub restarts: u64,
-    /// The module's own one-line status (e.g. a net's marking).
+    /// The module's own one-line status.
     pub detail: String,
+    /// A `petrinet` module's marking: every place (by label) with its tokens, in place order.
+    pub marking: Vec<(String, u64)>,
 }
 
 impl ModuleStatus {
@@ -69,11 +71,13 @@ impl ModuleStatus {
             overruns: 0,
             restarts: 0,
             detail: String::new(),
+            marking: Vec::new(),
         }
     }
 
-    /// Takes the figures of `stats` and the module's status line.
-    pub fn record(&mut self, stats: &ScanStats, detail: String) {
+    /// Takes the figures of `stats`, the module's status line and its marking.
+    pub fn record(&mut self, stats: &ScanStats, detail: String, marking: Vec<(String, u64)>) {
+        self.marking = marking;
         let us = |d: Option<Duration>| d.map_or(0.0, |d| d.as_secs_f64() * 1e6);
         self.scans = stats.scans();
         self.overruns = stats.overruns();
@@ -133,6 +137,7 @@ impl PlcStatus {
                 "overruns": m.overruns,
                 "restarts": m.restarts,
                 "detail": m.detail,
+                "marking": m.marking.iter().map(|(p, n)| json!([p, n])).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
         })
     }
@@ -176,6 +181,10 @@ impl PlcStatus {
                             overruns: n(&m["overruns"]),
                             restarts: n(&m["restarts"]),
                             detail: s(&m["detail"]),
+                            marking: m["marking"]
+                                .as_array()
+                                .map(|ps| ps.iter().map(|p| (s(&p[0]), n(&p[1]))).collect())
+                                .unwrap_or_default(),
                         })
                         .collect()
                 })
@@ -197,7 +206,7 @@ impl fmt::Display for PlcStatus {
         )?;
         writeln!(
             f,
-            "{:<12} {:<10} {:<8} {:>7} {:>9}  {:>26}  {:>22} {:>8} {:>8}",
+            "{:<12} {:<13} {:<8} {:>7} {:>9}  {:>26}  {:>22} {:>8} {:>8}",
             "module",
             "kind",
             "state",
@@ -212,7 +221,7 @@ impl fmt::Display for PlcStatus {
             let mut line = String::new();
             let _ = write!(
                 line,
-                "{:<12} {:<10} {:<8} {:>7} {:>9}  {:>26}  {:>22} {:>8} {:>8}",
+                "{:<12} {:<13} {:<8} {:>7} {:>9}  {:>26}  {:>22} {:>8} {:>8}",
                 m.name,
                 m.kind,
                 m.state.as_str(),
