@@ -9,10 +9,17 @@ as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
 # xmllint validates what we write against the PNML and PLCopen grammars; Graphviz's dot lays
 # out the reachability graphs `petriplc analyze --svg` draws; cc builds the generated C that
 # the differential tests run against the simulator.
+# mbpoll is a third-party Modbus client the Modbus server is tested with; tmux runs the
+# vitrine in a real terminal for its tests; Debian's chromium is the browser Playwright drives
+# for the HMI's test.
 missing=()
 command -v xmllint >/dev/null 2>&1 || missing+=(libxml2-utils)
 command -v dot >/dev/null 2>&1 || missing+=(graphviz)
 command -v cc >/dev/null 2>&1 || missing+=(gcc libc6-dev)
+command -v mbpoll >/dev/null 2>&1 || missing+=(mbpoll)
+command -v tmux >/dev/null 2>&1 || missing+=(tmux)
+command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+command -v npm >/dev/null 2>&1 || missing+=(nodejs npm)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "== installing ${missing[*]}"
   as_root apt-get update -qq
@@ -31,6 +38,22 @@ if ! target/py/bin/blark --version 2>/dev/null | grep -q "$BLARK_VERSION"; then
   target/py/bin/pip install -q "blark==$BLARK_VERSION"
 fi
 export PETRIPLC_BLARK="$PWD/target/py/bin/blark"
+
+# pymodbus (pinned), a third-party Modbus client (TCP and serial) for the Modbus tests.
+PYMODBUS_VERSION=3.16.1
+if ! target/py/bin/python -c "import serial, pymodbus, sys; sys.exit(pymodbus.__version__ != '$PYMODBUS_VERSION')" 2>/dev/null; then
+  echo "== installing pymodbus $PYMODBUS_VERSION and pyserial 3.5 into target/py"
+  target/py/bin/pip install -q "pymodbus==$PYMODBUS_VERSION" "pyserial==3.5"
+fi
+export PETRIPLC_PYTHON="$PWD/target/py/bin/python"
+
+# playwright-core (pinned) drives chromium in the HMI's browser test.
+PLAYWRIGHT_VERSION=1.65.1
+if ! grep -qs "\"version\": \"$PLAYWRIGHT_VERSION\"" target/node/node_modules/playwright-core/package.json; then
+  echo "== installing playwright-core $PLAYWRIGHT_VERSION into target/node"
+  mkdir -p target/node
+  npm install --silent --no-audit --no-fund --prefix target/node "playwright-core@$PLAYWRIGHT_VERSION"
+fi
 
 if [ ! -d ../shared/data/mcc ]; then
   echo "error: ../shared (seeds, schemas, MCC models) must sit beside this checkout" >&2

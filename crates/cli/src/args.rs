@@ -251,6 +251,10 @@ pub struct RunArgs {
     /// The least important messages shown.
     #[arg(long, default_value = "info", value_parser = ["error", "warn", "info", "debug", "trace"])]
     pub log_level: String,
+    /// Overrides a setting of a module's section, e.g. `--set hmi:listen=127.0.0.1:8081`
+    /// (repeatable).
+    #[arg(long = "set", value_name = "MODULE:SETTING=VALUE")]
+    pub overrides: Vec<petriplc_config::Override>,
 }
 
 #[derive(Debug, Args)]

@@ -14,6 +14,15 @@ use tempfile::TempDir;
 
 const EXAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
 
+/// The mixer's Modbus server and HMI on ports the system picks, so that runs side by side
+/// do not collide on 5020 and 8080.
+const FREE_PORTS: [&str; 4] = [
+    "--set",
+    "modbus:listen=127.0.0.1:0",
+    "--set",
+    "hmi:listen=127.0.0.1:0",
+];
+
 fn plc_id(name: &str) -> String {
     format!("test-{name}-{}", std::process::id())
 }
@@ -38,6 +47,7 @@ fn the_mixer_goes_through_full_cycles() {
         .unwrap()
         .args(["run", &format!("{EXAMPLES}/mixer/plc.conf"), "--for", "6s"])
         .args(["--plc-id", &plc_id("mixer")])
+        .args(FREE_PORTS)
         .arg("--log")
         .arg(&log)
         .output()
@@ -52,7 +62,7 @@ fn the_mixer_goes_through_full_cycles() {
         assert!(fired(&report, t) >= fired(&report, "N1"), "{report}");
     }
     assert!(
-        report.contains("controller   petrinet   stopped"),
+        report.contains("controller   petrinet      stopped"),
         "{report}"
     );
 }
@@ -68,6 +78,7 @@ fn status_and_stop_reach_a_running_plc() {
             "--plc-id",
             &id,
         ])
+        .args(FREE_PORTS)
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
@@ -127,7 +138,7 @@ fn bad_configurations_start_nothing() {
     let cases: &[(&str, &str)] = &[
         (
             "[PLC]\nmodule a nosuchkind\n",
-            "`nosuchkind` is neither a built-in module (petrinet, plant, timeline, logger, shutdown)",
+            "`nosuchkind` is neither a built-in module (petrinet, plant, timeline, logger, shutdown, modbus_server, modbus_client, vitrine, hmi)",
         ),
         (
             "[PLC]\nmodule a shutdown\npoint q \"quit\" b\n[a]\npoint = q\n",
@@ -154,6 +165,30 @@ fn bad_configurations_start_nothing() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains("no/such.conf"));
+
+    // `--set` overrides are checked like the file's settings, and name themselves.
+    let text = "[PLC]\nmodule a shutdown\npoint q \"quit\" a\n[a]\npoint = q\n";
+    let sets: &[(&str, &str)] = &[
+        ("a:point=nosuch", "nosuch"),
+        (
+            "a:scan_period=soon",
+            "--set: error[C034]: `scan_period = soon`",
+        ),
+        (
+            "b:point=q",
+            "--set b:point=q: there is no module of that name",
+        ),
+        ("a-point", "is not SECTION:NAME=VALUE"),
+    ];
+    for (i, (set, message)) in sets.iter().enumerate() {
+        let out = run_config(&dir, text, &plc_id(&format!("set{i}")), &["--set", set]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "--set {set}\n{err}");
+        assert!(
+            err.contains(message),
+            "--set {set}: expected `{message}` in:\n{err}"
+        );
+    }
 }
 
 #[test]
@@ -186,7 +221,7 @@ fn a_failing_process_module_follows_on_failure() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("safe value valve = 0"), "{err}");
-    assert!(err.contains("crasher      crash.sh   failed"), "{err}");
+    assert!(err.contains("crasher      crash.sh      failed"), "{err}");
 }
 
 #[test]
@@ -202,6 +237,7 @@ fn two_plcs_cannot_share_an_id() {
             "--for",
             "10s",
         ])
+        .args(FREE_PORTS)
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
@@ -226,6 +262,7 @@ fn two_plcs_cannot_share_an_id() {
             "--plc-id",
             &id,
         ])
+        .args(FREE_PORTS)
         .assert()
         .code(1)
         .stderr(predicate::str::contains("--plc-id"));
@@ -235,4 +272,97 @@ fn two_plcs_cannot_share_an_id() {
         .assert()
         .success();
     assert!(first.wait().unwrap().success());
+}
+
+/// One Modbus TCP request (unit 1) and its response's PDU.
+fn modbus(stream: &mut std::net::TcpStream, tid: u16, pdu: &[u8]) -> Vec<u8> {
+    use std::io::{Read, Write};
+    let mut adu = tid.to_be_bytes().to_vec();
+    adu.extend([0, 0]);
+    adu.extend(((pdu.len() + 1) as u16).to_be_bytes());
+    adu.push(1);
+    adu.extend(pdu);
+    stream.write_all(&adu).unwrap();
+    let mut header = [0u8; 7];
+    stream.read_exact(&mut header).unwrap();
+    assert_eq!(header[..2], tid.to_be_bytes(), "transaction id echoed");
+    let len = u16::from_be_bytes([header[4], header[5]]) as usize;
+    let mut body = vec![0u8; len - 1];
+    stream.read_exact(&mut body).unwrap();
+    body
+}
+
+#[test]
+fn the_main_job_serves_modbus_and_a_modbus_write_stops_it() {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let mut run = Process::cargo_bin("petriplc")
+        .unwrap()
+        .args(["run", &format!("{EXAMPLES}/mixer/plc.conf")])
+        .args(["--plc-id", &plc_id("modbus"), "--for", "60s"])
+        .args(["--set", &format!("modbus:listen=127.0.0.1:{port}")])
+        .args(["--set", "hmi:listen=127.0.0.1:0"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    let mut stream = loop {
+        match std::net::TcpStream::connect(("127.0.0.1", port)) {
+            Ok(s) => break s,
+            Err(_) if started.elapsed() < Duration::from_secs(20) => {
+                std::thread::sleep(Duration::from_millis(50))
+            }
+            Err(e) => {
+                let _ = run.kill();
+                panic!("no Modbus server on port {port}: {e}");
+            }
+        }
+    };
+    stream
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .unwrap();
+    // The lamps and valves as coils 0-7 (owned by the controller) and the sensors and B1 as
+    // discrete inputs: watch the valves open and close as the mixer cycles.
+    let mut seen = std::collections::BTreeSet::new();
+    let mut tid = 0;
+    while seen.len() < 3 && started.elapsed() < Duration::from_secs(30) {
+        tid += 1;
+        let coils = modbus(&mut stream, tid, &[1, 0, 0, 0, 8]);
+        assert_eq!(coils[..2], [1, 1], "FC 1 reply with one byte of coils");
+        seen.insert(coils[2] & 0b11_1000); // V1 V2 V3
+        tid += 1;
+        let inputs = modbus(&mut stream, tid, &[2, 0, 0, 0, 4]);
+        assert_eq!(inputs[..2], [2, 1]);
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(
+        seen.len() >= 3,
+        "valve states seen over Modbus: {seen:?} (expected closed, filling, draining)"
+    );
+    // The controller's points are read-only over Modbus; the server's own `stop` is not.
+    let refused = modbus(&mut stream, 100, &[5, 0, 3, 0xFF, 0]);
+    assert_eq!(
+        refused,
+        [0x85, 2],
+        "writing V1 (owned by the controller) is refused"
+    );
+    let accepted = modbus(&mut stream, 101, &[5, 0, 100, 0xFF, 0]);
+    assert_eq!(accepted, [5, 0, 100, 0xFF, 0]);
+    let exit = loop {
+        if let Some(status) = run.try_wait().unwrap() {
+            break status;
+        }
+        if started.elapsed() > Duration::from_secs(40) {
+            let _ = run.kill();
+            panic!("coil 100 did not stop the PLC");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut log = String::new();
+    std::io::Read::read_to_string(&mut run.stderr.take().unwrap(), &mut log).unwrap();
+    assert!(exit.success(), "{log}");
+    assert!(log.contains("module remote_stop stops the PLC"), "{log}");
 }

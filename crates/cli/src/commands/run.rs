@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use petriplc_plc::{ModuleState, Plc, PlcStatus, RunOptions};
+use petriplc_runtime::module::Factory;
 use simplelog::{
     ColorChoice, CombinedLogger, ConfigBuilder, LevelFilter, SharedLogger, TermLogger,
     TerminalMode, WriteLogger,
@@ -16,14 +17,36 @@ use simplelog::{
 use crate::args::{PlcIdArgs, RunArgs};
 use crate::failure::{BadInputExt, Failure, RunExt};
 
+/// Every built-in module kind of `petriplc run`, for messages.
+const KINDS: &[&str] = &[
+    "petrinet",
+    "plant",
+    "timeline",
+    "logger",
+    "shutdown",
+    "modbus_server",
+    "modbus_client",
+    "vitrine",
+    "hmi",
+];
+
+/// The factory of a built-in module kind, from whichever crate has it.
+fn builtin(kind: &str) -> Option<Factory> {
+    petriplc_modules::builtin(kind)
+        .or_else(|| petriplc_modbus::builtin(kind))
+        .or_else(|| petriplc_vitrine::builtin(kind))
+        .or_else(|| petriplc_hmi::builtin(kind))
+}
+
 pub fn run(args: RunArgs) -> Result<(), Failure> {
     init_logging(&args)?;
     let options = RunOptions {
         plc_id: args.plc_id.clone(),
         duration: args.duration,
-        known_kinds: petriplc_modules::KINDS,
+        known_kinds: KINDS,
+        overrides: args.overrides.clone(),
     };
-    let plc = match Plc::start(&args.config, petriplc_modules::builtin, &options) {
+    let plc = match Plc::start(&args.config, builtin, &options) {
         Ok(plc) => plc,
         Err(e) if e.is_bad_input() => {
             return Err(anyhow!(e))
@@ -75,16 +98,26 @@ fn init_logging(args: &RunArgs) -> Result<(), Failure> {
         .set_thread_level(LevelFilter::Off)
         .set_target_level(LevelFilter::Off)
         .build();
-    let mut loggers: Vec<Box<dyn SharedLogger>> = vec![TermLogger::new(
-        level,
-        config.clone(),
-        TerminalMode::Stderr,
-        if std::io::stderr().is_terminal() {
-            ColorChoice::Auto
-        } else {
-            ColorChoice::Never
-        },
-    )];
+    // While the vitrine holds the terminal, log lines go to its footer (and are printed when
+    // it gives the terminal back) instead of over the display. A configuration that does not
+    // read is reported by `Plc::start` right after.
+    let vitrine = petriplc_config::read_file_with(&args.config, &args.overrides)
+        .is_ok_and(|c| petriplc_vitrine::takes_terminal(&c));
+    let terminal: Box<dyn SharedLogger> = if vitrine {
+        WriteLogger::new(level, config.clone(), petriplc_vitrine::log_writer())
+    } else {
+        TermLogger::new(
+            level,
+            config.clone(),
+            TerminalMode::Stderr,
+            if std::io::stderr().is_terminal() {
+                ColorChoice::Auto
+            } else {
+                ColorChoice::Never
+            },
+        )
+    };
+    let mut loggers: Vec<Box<dyn SharedLogger>> = vec![terminal];
     if let Some(path) = &args.log {
         let file = File::create(path)
             .with_context(|| format!("cannot create the log file {}", path.display()))
@@ -134,6 +167,6 @@ pub fn stop(args: PlcIdArgs) -> Result<(), Failure> {
 fn not_running(plc_id: &str) -> anyhow::Error {
     anyhow!(
         "no PLC with id `{plc_id}` is running (no {}); start one with `petriplc run CONFIG --plc-id {plc_id}`",
-        petriplc_plc::status::path(plc_id).display()
+        petriplc_runtime::status::path(plc_id).display()
     )
 }
