@@ -32,6 +32,7 @@ use std::time::Duration;
 
 use petriplc_config::ModuleDecl;
 use petriplc_modules::common::{self, error, RUNNER_TABLES};
+use petriplc_runtime::image::ModuleMap;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
 use tokio::sync::oneshot;
 
@@ -332,6 +333,50 @@ fn bind(addr: SocketAddr) -> std::io::Result<std::net::TcpListener> {
     Ok(l)
 }
 
+/// For the fuzz target `modbus_tcp` (fuzz/): serves `bytes`, as received on one TCP
+/// connection, with the register map of module `module` of `config` (its points at their init
+/// values) and returns the answers, exactly as a connection would answer them, stopping where
+/// a connection would be closed. No network, no threads.
+#[doc(hidden)]
+pub fn answer_tcp_bytes(
+    config: &petriplc_config::PlcConfig,
+    module: &str,
+    bytes: &[u8],
+) -> Result<Vec<u8>, String> {
+    let layout = petriplc_runtime::image::Layout::new(config).map_err(|e| e.to_string())?;
+    let points = ModuleMap::new(&layout, module, petriplc_config::Location::Local)
+        .map_err(|e| e.to_string())?;
+    let rows: Vec<_> = config
+        .sections
+        .get(module)
+        .map(|s| s.rows.iter().collect())
+        .unwrap_or_default();
+    let map =
+        map::AddressMap::build(&rows, &points, WordOrder::HighFirst).map_err(|p| p.join("\n"))?;
+    let mut image = map::Image::new(&map);
+    image.refresh(&map, &points);
+    let shared = Shared {
+        name: module.to_string(),
+        map,
+        image: Mutex::new(image),
+        idle: None,
+        max_clients: 1,
+        clients: AtomicUsize::new(0),
+        requests: AtomicU64::new(0),
+        exceptions: AtomicU64::new(0),
+    };
+    let mut out = Vec::new();
+    let mut pos = 0;
+    while pos < bytes.len() {
+        let batch = tcp::answer(&bytes[pos..], &shared, &mut out);
+        if batch.close.is_some() || batch.used == 0 {
+            break;
+        }
+        pos += batch.used;
+    }
+    Ok(out)
+}
+
 impl Module for ModbusServer {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         let name = self.name.clone();
@@ -422,5 +467,31 @@ impl Module for ModbusServer {
 impl Drop for ModbusServer {
     fn drop(&mut self) {
         self.close();
+    }
+}
+
+#[cfg(test)]
+mod fuzz_entry_tests {
+    use std::path::Path;
+
+    use super::answer_tcp_bytes;
+
+    #[test]
+    fn the_fuzz_entry_answers_like_a_connection() {
+        let text =
+            "[PLC]\nmodule mb modbus_server\npoint h \"h\" mb u16 init 7\n[mb]\nholding 0 h\n";
+        let cfg = petriplc_config::parse_str(text, "t.conf", Path::new(".")).unwrap();
+        let read = [0, 1, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1];
+        let mut two = read.to_vec();
+        two.extend(read);
+        two.extend([0, 2, 0, 0, 0, 2, 1, 0x55]); // unknown function: exception 01
+        two.extend([0, 3, 9, 9, 0, 6, 1, 3, 0, 0, 0, 1]); // not Modbus TCP: closes
+        two.extend(read);
+        let out = answer_tcp_bytes(&cfg, "mb", &two).unwrap();
+        let answer = [0, 1, 0, 0, 0, 5, 1, 3, 2, 0, 7];
+        let mut expected = answer.to_vec();
+        expected.extend(answer);
+        expected.extend([0, 2, 0, 0, 0, 3, 1, 0xD5, 1]);
+        assert_eq!(out, expected);
     }
 }

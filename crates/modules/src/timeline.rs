@@ -149,12 +149,21 @@ impl Module for TimelineModule {
 
     fn status(&self) -> String {
         self.run.as_ref().map_or_else(String::new, |r| {
-            format!(
-                "{} at {}s of {}s",
-                self.file,
-                format_seconds(r.last),
-                format_seconds(r.timeline.end())
-            )
+            match r.period {
+                // The position within the repeated cycle (rows, then the gap before the next).
+                Some(p) => format!(
+                    "{} at {}s of a {}s cycle",
+                    self.file,
+                    format_seconds(r.last),
+                    format_seconds(p)
+                ),
+                None => format!(
+                    "{} at {}s of {}s",
+                    self.file,
+                    format_seconds(r.last),
+                    format_seconds(r.timeline.end())
+                ),
+            }
         })
     }
 }

@@ -372,7 +372,7 @@ fn timeline_drives_its_points_and_repeats() {
         run("repeat = yes"),
         (
             "1/7 1/7 0/7 0/300 1/-2 1/-2 1/7 0/7 0/300 1/-2".to_string(),
-            "t.csv at 2s of 1.5s".to_string()
+            "t.csv at 2s of a 2.5s cycle".to_string()
         )
     );
     assert_eq!(

@@ -144,16 +144,16 @@ async fn connection(mut stream: TcpStream, peer: SocketAddr, shared: &Shared) {
 }
 
 /// What [`answer`] did with a read's bytes.
-struct Batch {
+pub(super) struct Batch {
     /// Bytes consumed (whole ADUs).
-    used: usize,
+    pub used: usize,
     served: u64,
     /// A header that is not Modbus TCP: the connection is closed after the answers so far.
-    close: Option<String>,
+    pub close: Option<String>,
 }
 
 /// Answers every complete ADU at the start of `buf` into `out`, under one lock of the image.
-fn answer(buf: &[u8], shared: &Shared, out: &mut Vec<u8>) -> Batch {
+pub(super) fn answer(buf: &[u8], shared: &Shared, out: &mut Vec<u8>) -> Batch {
     let mut pos = 0;
     let mut image = None;
     let mut served = 0u64;
