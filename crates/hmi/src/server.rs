@@ -79,6 +79,11 @@ impl Drop for Server {
 
 async fn serve(listener: TcpListener, shared: Arc<Shared>, stopped: watch::Receiver<bool>) {
     let module = shared.module.clone();
+    let hosts = listener
+        .local_addr()
+        .ok()
+        .and_then(loopback_hosts)
+        .map(Arc::new);
     let listener = match tokio::net::TcpListener::from_std(listener) {
         Ok(l) => l,
         Err(e) => {
@@ -89,6 +94,7 @@ async fn serve(listener: TcpListener, shared: Arc<Shared>, stopped: watch::Recei
     let app = router(App {
         shared,
         stopped: stopped.clone(),
+        hosts,
     });
     let mut signal = stopped.clone();
     let server = axum::serve(listener, app).with_graceful_shutdown(async move {
@@ -112,6 +118,54 @@ async fn serve(listener: TcpListener, shared: Arc<Shared>, stopped: watch::Recei
 struct App {
     shared: Arc<Shared>,
     stopped: watch::Receiver<bool>,
+    /// The `Host` headers accepted, when the server listens on a loopback address.
+    hosts: Option<Arc<Vec<String>>>,
+}
+
+/// The names a browser on this machine uses for a loopback address and port. `None` for
+/// other addresses, whose names the server cannot know.
+fn loopback_hosts(addr: std::net::SocketAddr) -> Option<Vec<String>> {
+    if !addr.ip().is_loopback() {
+        return None;
+    }
+    let port = addr.port();
+    let ip = match addr {
+        std::net::SocketAddr::V4(a) => a.ip().to_string(),
+        std::net::SocketAddr::V6(a) => format!("[{}]", a.ip()),
+    };
+    Some(vec![
+        format!("{ip}:{port}"),
+        format!("localhost:{port}"),
+        format!("127.0.0.1:{port}"),
+        format!("[::1]:{port}"),
+    ])
+}
+
+/// On a loopback address, only requests naming it by a loopback name are served: a page of
+/// another site whose DNS name is rebound to 127.0.0.1 sends its own name as `Host`, and
+/// would otherwise read the PLC's values.
+async fn check_host(
+    State(app): State<App>,
+    request: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    if let Some(hosts) = &app.hosts {
+        let host = request
+            .headers()
+            .get(header::HOST)
+            .and_then(|h| h.to_str().ok())
+            .unwrap_or("");
+        if !hosts.iter().any(|h| h.eq_ignore_ascii_case(host)) {
+            return json_error(
+                StatusCode::MISDIRECTED_REQUEST,
+                format!(
+                    "this HMI answers requests for {} only (got Host `{host}`)",
+                    hosts.join(", ")
+                ),
+            );
+        }
+    }
+    next.run(request).await
 }
 
 fn router(app: App) -> Router {
@@ -126,6 +180,10 @@ fn router(app: App) -> Router {
         .route("/api/force", post(force))
         .route("/api/unforce", post(unforce))
         .fallback(not_found)
+        .layer(axum::middleware::from_fn_with_state(
+            app.clone(),
+            check_host,
+        ))
         .with_state(app)
 }
 

@@ -85,6 +85,25 @@ fn the_page_and_its_files_are_served() {
     assert_eq!(get(&format!("{url}hmi.css")).0, 200);
     let (status, body) = get(&format!("{url}nothing"));
     assert_eq!(status, 404, "{body}");
+    // A request naming another host (a rebound DNS name) is refused; loopback names are not.
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    let port = addr.rsplit(':').next().unwrap();
+    let raw = |host: &str| {
+        use std::io::{Read, Write};
+        let mut s = std::net::TcpStream::connect(addr).unwrap();
+        write!(
+            s,
+            "GET /api/state HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+        )
+        .unwrap();
+        let mut answer = String::new();
+        s.read_to_string(&mut answer).unwrap();
+        answer
+    };
+    let answer = raw(&format!("evil.example:{port}"));
+    assert!(answer.starts_with("HTTP/1.1 421"), "{answer}");
+    assert!(answer.contains("answers requests for"), "{answer}");
+    assert!(raw(&format!("localhost:{port}")).starts_with("HTTP/1.1 200"));
     // The status line has the address and the pages, never the token.
     let line = plc.status("hmi");
     assert!(line.ends_with(" — 0 pages connected"), "{line}");
