@@ -156,23 +156,7 @@ impl Shared {
                 })
             })
             .collect();
-        let modules: Vec<Value> = live
-            .modules
-            .iter()
-            .map(|m| {
-                json!({
-                    "name": m.name,
-                    "kind": m.kind,
-                    "state": m.state.as_str(),
-                    "scans": m.scans,
-                    "cycle_us": m.cycle_us,
-                    "late_us": m.late_us,
-                    "overruns": m.overruns,
-                    "restarts": m.restarts,
-                    "detail": m.detail,
-                })
-            })
-            .collect();
+        let modules: Vec<Value> = live.modules.iter().map(|m| m.to_json()).collect();
         let nets: Vec<Value> = self
             .nets
             .iter()

@@ -75,6 +75,23 @@ impl ModuleStatus {
         }
     }
 
+    /// The module's state and figures as JSON (the status file's form; the HMI sends it too).
+    pub fn to_json(&self) -> Value {
+        json!({
+            "name": self.name,
+            "kind": self.kind,
+            "state": self.state.as_str(),
+            "pid": self.pid,
+            "scans": self.scans,
+            "cycle_us": self.cycle_us,
+            "late_us": self.late_us,
+            "overruns": self.overruns,
+            "restarts": self.restarts,
+            "detail": self.detail,
+            "marking": self.marking.iter().map(|(p, n)| json!([p, n])).collect::<Vec<_>>(),
+        })
+    }
+
     /// Takes the figures of `stats`, the module's status line and its marking.
     pub fn record(&mut self, stats: &ScanStats, detail: String, marking: Vec<(String, u64)>) {
         self.marking = marking;
@@ -126,19 +143,7 @@ impl PlcStatus {
             "config": self.config,
             "uptime_s": self.uptime.as_secs_f64(),
             "marking": self.marking,
-            "modules": self.modules.iter().map(|m| json!({
-                "name": m.name,
-                "kind": m.kind,
-                "state": m.state.as_str(),
-                "pid": m.pid,
-                "scans": m.scans,
-                "cycle_us": m.cycle_us,
-                "late_us": m.late_us,
-                "overruns": m.overruns,
-                "restarts": m.restarts,
-                "detail": m.detail,
-                "marking": m.marking.iter().map(|(p, n)| json!([p, n])).collect::<Vec<_>>(),
-            })).collect::<Vec<_>>(),
+            "modules": self.modules.iter().map(ModuleStatus::to_json).collect::<Vec<_>>(),
         })
     }
 

@@ -19,45 +19,9 @@ use super::KIND;
 /// A device's timeout when its row gives none.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(1);
 
-/// The four Modbus tables, in the order a cycle visits them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Table {
-    Coil,
-    DiscreteInput,
-    Holding,
-    Input,
-}
-
-impl Table {
-    /// The spellings `modbus_server` rows accept (`holding`, `4x`, `input_register`, …).
-    pub fn parse(text: &str) -> Option<Table> {
-        use crate::server::Table as S;
-        Some(match S::parse(text)? {
-            S::Coil => Table::Coil,
-            S::DiscreteInput => Table::DiscreteInput,
-            S::Holding => Table::Holding,
-            S::Input => Table::Input,
-        })
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Table::Coil => "coil",
-            Table::DiscreteInput => "discrete_input",
-            Table::Holding => "holding",
-            Table::Input => "input",
-        }
-    }
-
-    /// Coils and discrete inputs carry one bit per address.
-    pub fn is_bits(self) -> bool {
-        matches!(self, Table::Coil | Table::DiscreteInput)
-    }
-
-    pub fn writable(self) -> bool {
-        matches!(self, Table::Coil | Table::Holding)
-    }
-}
+/// The four Modbus tables (the server's type: the same spellings; a cycle visits them in
+/// their declaration order).
+pub use crate::server::Table;
 
 /// Where a device is reached.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -467,7 +431,7 @@ fn point_row(
     };
     let device = find(dev, p);
     let table_ok = match Table::parse(table) {
-        Some(t) if write && !t.writable() => {
+        Some(t) if write && !t.is_writable() => {
             p.at(
                 row,
                 format!("table `{table}` is read-only in Modbus; write to `coil` or `holding`"),
@@ -736,7 +700,7 @@ mod tests {
         assert_eq!(Table::parse("discrete_input"), Some(Table::DiscreteInput));
         assert_eq!(Table::parse("4x"), Some(Table::Holding));
         assert_eq!(Table::parse("regs"), None);
-        assert!(Table::Coil.writable() && !Table::Input.writable());
+        assert!(Table::Coil.is_writable() && !Table::Input.is_writable());
         assert_eq!(parse_address("0x10"), Ok(16));
         assert_eq!(parse_address("65535"), Ok(65535));
         assert!(parse_address("65536").is_err());

@@ -7,8 +7,8 @@ use petriplc_runtime::image::{Handle, ModuleMap};
 
 use crate::value::{self, RegisterType, WordOrder};
 
-/// The four Modbus data tables.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The four Modbus data tables, ordered as the client visits them in a cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Table {
     Coil,
     DiscreteInput,

@@ -244,15 +244,7 @@ impl ModuleMap {
     /// writes; the owner reads its own. `v` must suit the point as for [`ModuleMap::set`].
     /// Isolated maps cannot force.
     pub fn force(&mut self, h: &Handle, v: PointValue) -> Result<(), ImageError> {
-        let requested = match v {
-            PointValue::Unsigned(_) => "unsigned",
-            PointValue::Signed(_) => "signed",
-            PointValue::Float(_) => "float",
-        };
-        if (h.kind == PointKind::Float) != matches!(v, PointValue::Float(_)) {
-            return Err(self.wrong_kind(h, requested));
-        }
-        let raw = encode(h.kind, h.bits, v).map_err(|_| self.out_of_range(h, show_value(v)))?;
+        let raw = self.raw_of(h, v)?;
         self.request_force(h, Some(raw << h.shift))
     }
 
@@ -424,6 +416,12 @@ impl ModuleMap {
 
     /// Writes `v`, which must suit the point's kind and fit its bits.
     pub fn set(&mut self, h: &Handle, v: PointValue) -> Result<(), ImageError> {
+        let raw = self.raw_of(h, v)?;
+        self.put(h, raw)
+    }
+
+    /// `v` as the point's bits, if it suits the point's kind and fits its width.
+    fn raw_of(&self, h: &Handle, v: PointValue) -> Result<u32, ImageError> {
         let requested = match v {
             PointValue::Unsigned(_) => "unsigned",
             PointValue::Signed(_) => "signed",
@@ -434,8 +432,7 @@ impl ModuleMap {
         if (h.kind == PointKind::Float) != matches!(v, PointValue::Float(_)) {
             return Err(self.wrong_kind(h, requested));
         }
-        let raw = encode(h.kind, h.bits, v).map_err(|_| self.out_of_range(h, show_value(v)))?;
-        self.put(h, raw)
+        encode(h.kind, h.bits, v).map_err(|_| self.out_of_range(h, show_value(v)))
     }
 
     pub fn set_bool(&mut self, h: &Handle, v: bool) -> Result<(), ImageError> {
