@@ -27,6 +27,33 @@ fn plc_id(name: &str) -> String {
     format!("test-{name}-{}", std::process::id())
 }
 
+/// `petriplc run` of the README's main job (examples/mixer/plc.conf) as PLC `id`.
+fn mixer(id: &str) -> Process {
+    let mut run = Process::cargo_bin("petriplc").unwrap();
+    run.args(["run", &format!("{EXAMPLES}/mixer/plc.conf"), "--plc-id", id]);
+    run
+}
+
+/// `petriplc status` of PLC `id` once it answers (20 s at most).
+fn wait_for_status(id: &str) -> String {
+    let started = Instant::now();
+    loop {
+        let out = Command::cargo_bin("petriplc")
+            .unwrap()
+            .args(["status", "--plc-id", id])
+            .output()
+            .unwrap();
+        if out.status.success() {
+            return String::from_utf8_lossy(&out.stdout).into_owned();
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "PLC {id} never came up"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
 /// How often transition `t` fired, from the controller's status line `fired B1:3 N2:3 ...`.
 fn fired(report: &str, t: &str) -> u64 {
     let line = report
@@ -43,10 +70,8 @@ fn fired(report: &str, t: &str) -> u64 {
 fn the_mixer_goes_through_full_cycles() {
     let dir = TempDir::new().unwrap();
     let log = dir.path().join("plc.log");
-    let out = Command::cargo_bin("petriplc")
-        .unwrap()
-        .args(["run", &format!("{EXAMPLES}/mixer/plc.conf"), "--for", "6s"])
-        .args(["--plc-id", &plc_id("mixer")])
+    let out = mixer(&plc_id("mixer"))
+        .args(["--for", "6s"])
         .args(FREE_PORTS)
         .arg("--log")
         .arg(&log)
@@ -70,34 +95,12 @@ fn the_mixer_goes_through_full_cycles() {
 #[test]
 fn status_and_stop_reach_a_running_plc() {
     let id = plc_id("status");
-    let mut run = Process::cargo_bin("petriplc")
-        .unwrap()
-        .args([
-            "run",
-            &format!("{EXAMPLES}/mixer/plc.conf"),
-            "--plc-id",
-            &id,
-        ])
+    let mut run = mixer(&id)
         .args(FREE_PORTS)
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let started = Instant::now();
-    let status = loop {
-        let out = Command::cargo_bin("petriplc")
-            .unwrap()
-            .args(["status", "--plc-id", &id])
-            .output()
-            .unwrap();
-        if out.status.success() {
-            break String::from_utf8_lossy(&out.stdout).into_owned();
-        }
-        assert!(
-            started.elapsed() < Duration::from_secs(20),
-            "the PLC never came up"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    };
+    let status = wait_for_status(&id);
     assert!(status.contains(&format!("PLC {id}")), "{status}");
     for m in ["operator", "tank", "controller"] {
         assert!(status.contains(m), "{status}");
@@ -227,41 +230,14 @@ fn a_failing_process_module_follows_on_failure() {
 #[test]
 fn two_plcs_cannot_share_an_id() {
     let id = plc_id("twice");
-    let mut first = Process::cargo_bin("petriplc")
-        .unwrap()
-        .args([
-            "run",
-            &format!("{EXAMPLES}/mixer/plc.conf"),
-            "--plc-id",
-            &id,
-            "--for",
-            "10s",
-        ])
+    let mut first = mixer(&id)
+        .args(["--for", "10s"])
         .args(FREE_PORTS)
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let started = Instant::now();
-    while Command::cargo_bin("petriplc")
-        .unwrap()
-        .args(["status", "--plc-id", &id])
-        .output()
-        .unwrap()
-        .status
-        .code()
-        != Some(0)
-    {
-        assert!(started.elapsed() < Duration::from_secs(20));
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    Command::cargo_bin("petriplc")
-        .unwrap()
-        .args([
-            "run",
-            &format!("{EXAMPLES}/mixer/plc.conf"),
-            "--plc-id",
-            &id,
-        ])
+    wait_for_status(&id);
+    Command::from_std(mixer(&id))
         .args(FREE_PORTS)
         .assert()
         .code(1)
@@ -299,10 +275,8 @@ fn the_main_job_serves_modbus_and_a_modbus_write_stops_it() {
         .local_addr()
         .unwrap()
         .port();
-    let mut run = Process::cargo_bin("petriplc")
-        .unwrap()
-        .args(["run", &format!("{EXAMPLES}/mixer/plc.conf")])
-        .args(["--plc-id", &plc_id("modbus"), "--for", "60s"])
+    let mut run = mixer(&plc_id("modbus"))
+        .args(["--for", "60s"])
         .args(["--set", &format!("modbus:listen=127.0.0.1:{port}")])
         .args(["--set", "hmi:listen=127.0.0.1:0"])
         .stderr(Stdio::piped())

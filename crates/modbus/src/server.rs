@@ -31,7 +31,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use petriplc_config::ModuleDecl;
-use petriplc_modules::common::{self, error, RUNNER_TABLES};
+use petriplc_modules::common::{self, error};
 use petriplc_runtime::image::ModuleMap;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
 use tokio::sync::oneshot;
@@ -346,11 +346,7 @@ pub fn answer_tcp_bytes(
     let layout = petriplc_runtime::image::Layout::new(config).map_err(|e| e.to_string())?;
     let points = ModuleMap::new(&layout, module, petriplc_config::Location::Local)
         .map_err(|e| e.to_string())?;
-    let rows: Vec<_> = config
-        .sections
-        .get(module)
-        .map(|s| s.rows.iter().collect())
-        .unwrap_or_default();
+    let rows = common::module_rows(config, module);
     let map =
         map::AddressMap::build(&rows, &points, WordOrder::HighFirst).map_err(|p| p.join("\n"))?;
     let mut image = map::Image::new(&map);
@@ -380,17 +376,7 @@ pub fn answer_tcp_bytes(
 impl Module for ModbusServer {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         let name = self.name.clone();
-        let rows: Vec<_> = ctx
-            .config
-            .sections
-            .get(&name)
-            .map(|s| {
-                s.rows
-                    .iter()
-                    .filter(|r| !RUNNER_TABLES.contains(&r.table.as_str()))
-                    .collect()
-            })
-            .unwrap_or_default();
+        let rows = common::module_rows(ctx.config, &name);
         let map = map::AddressMap::build(&rows, ctx.map, self.settings.word_order)
             .map_err(|p| error(&name, p.join(&format!("\nmodule {name}: "))))?;
         let mut image = map::Image::new(&map);

@@ -6,7 +6,7 @@ use std::error::Error;
 use std::path::Path;
 use std::time::Duration;
 
-use petriplc_config::{ModuleDecl, PointKind, Row, MODULE_SETTINGS};
+use petriplc_config::{ModuleDecl, PlcConfig, PointKind, Row, MODULE_SETTINGS};
 use petriplc_net::time::format_seconds;
 use petriplc_net::{Evolution, Net, ScanOptions, SignalType, StepRule};
 use petriplc_pnml::{Naming, ReadOptions};
@@ -111,31 +111,37 @@ pub fn rows<'a>(
     kind: &str,
     tables: &[&str],
 ) -> Result<Vec<&'a Row>, ModuleError> {
-    let Some(section) = ctx.config.sections.get(&ctx.decl.name) else {
-        return Ok(Vec::new());
-    };
-    for row in &section.rows {
-        // `safe POINT VALUE` rows belong to the runner (values written on a failure).
-        if !tables.contains(&row.table.as_str()) && !RUNNER_TABLES.contains(&row.table.as_str()) {
-            let reads = if tables.is_empty() {
-                "no table rows".to_string()
-            } else {
-                format!("only {} rows", tables.join(", "))
-            };
-            return Err(error(
-                &ctx.decl.name,
-                format!(
-                    "{}: a {kind} module reads {reads}, not `{}`",
-                    row.origin, row.table
-                ),
-            ));
-        }
+    let rows = module_rows(ctx.config, &ctx.decl.name);
+    if let Some(row) = rows.iter().find(|r| !tables.contains(&r.table.as_str())) {
+        let reads = if tables.is_empty() {
+            "no table rows".to_string()
+        } else {
+            format!("only {} rows", tables.join(", "))
+        };
+        return Err(error(
+            &ctx.decl.name,
+            format!(
+                "{}: a {kind} module reads {reads}, not `{}`",
+                row.origin, row.table
+            ),
+        ));
     }
-    Ok(section
-        .rows
-        .iter()
-        .filter(|r| !RUNNER_TABLES.contains(&r.table.as_str()))
-        .collect())
+    Ok(rows)
+}
+
+/// Every row of `module`'s section but the runner's (`safe POINT VALUE`, the values written
+/// on a failure), for modules that check the tables themselves.
+pub fn module_rows<'a>(config: &'a PlcConfig, module: &str) -> Vec<&'a Row> {
+    config
+        .sections
+        .get(module)
+        .map_or_else(Vec::new, |section| {
+            section
+                .rows
+                .iter()
+                .filter(|r| !RUNNER_TABLES.contains(&r.table.as_str()))
+                .collect()
+        })
 }
 
 /// Table rows of a module's section that the runner reads, whatever the kind.

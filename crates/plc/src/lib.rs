@@ -126,6 +126,13 @@ impl Plc {
         registry: Registry,
         opts: &RunOptions,
     ) -> Result<Plc, RunError> {
+        let config = Plc::read_config(config_path, opts)?;
+        Plc::start_with(config, config_path, registry, opts)
+    }
+
+    /// Reads `config_path` with `opts.overrides` applied, each of which must name a module
+    /// (or `PLC`).
+    pub fn read_config(config_path: &Path, opts: &RunOptions) -> Result<PlcConfig, RunError> {
         let config = petriplc_config::read_file_with(config_path, &opts.overrides)?;
         for o in &opts.overrides {
             if o.section != "PLC" && !config.modules.iter().any(|m| m.name == o.section) {
@@ -135,6 +142,17 @@ impl Plc {
                 });
             }
         }
+        Ok(config)
+    }
+
+    /// Starts every module of `config`, read from `config_path` by [`Plc::read_config`]
+    /// (relative paths in settings start at its directory); returns once all run.
+    pub fn start_with(
+        config: PlcConfig,
+        config_path: &Path,
+        registry: Registry,
+        opts: &RunOptions,
+    ) -> Result<Plc, RunError> {
         let base_dir = config_path
             .parent()
             .map_or_else(|| PathBuf::from("."), Path::to_path_buf);

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{anyhow, Context};
-use petriplc_plc::{ModuleState, Plc, PlcStatus, RunOptions};
+use petriplc_plc::{ModuleState, Plc, PlcStatus, RunError, RunOptions};
 use petriplc_runtime::module::Factory;
 use simplelog::{
     ColorChoice, CombinedLogger, ConfigBuilder, LevelFilter, SharedLogger, TermLogger,
@@ -39,26 +39,18 @@ fn builtin(kind: &str) -> Option<Factory> {
 }
 
 pub fn run(args: RunArgs) -> Result<(), Failure> {
-    init_logging(&args)?;
     let options = RunOptions {
         plc_id: args.plc_id.clone(),
         duration: args.duration,
         known_kinds: KINDS,
         overrides: args.overrides.clone(),
     };
-    let plc = match Plc::start(&args.config, builtin, &options) {
-        Ok(plc) => plc,
-        Err(e) if e.is_bad_input() => {
-            return Err(anyhow!(e))
-                .with_context(|| format!("{}: nothing was started", args.config.display()))
-                .bad_input()
-        }
-        Err(e) => {
-            return Err(anyhow!(e))
-                .context("the PLC could not start")
-                .run_failure()
-        }
-    };
+    let config = Plc::read_config(&args.config, &options).map_err(|e| not_started(&args, e))?;
+    // While the vitrine holds the terminal, log lines go to its footer (and are printed when
+    // it gives the terminal back) instead of over the display.
+    init_logging(&args, petriplc_vitrine::takes_terminal(&config))?;
+    let plc = Plc::start_with(config, &args.config, builtin, &options)
+        .map_err(|e| not_started(&args, e))?;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
@@ -71,7 +63,7 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
         });
     }
     let failed_before = plc.failed();
-    let last = plc_wait(plc, &stop);
+    let last = plc.wait(&stop);
     eprint!("{last}");
     let failed = failed_before || last.modules.iter().any(|m| m.state == ModuleState::Failed);
     if failed {
@@ -81,11 +73,18 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     }
 }
 
-fn plc_wait(plc: Plc, stop: &AtomicBool) -> PlcStatus {
-    plc.wait(stop)
+/// A PLC that could not start: exit 2 when the configuration is at fault.
+fn not_started(args: &RunArgs, e: RunError) -> Failure {
+    if e.is_bad_input() {
+        Failure::BadInput(
+            anyhow!(e).context(format!("{}: nothing was started", args.config.display())),
+        )
+    } else {
+        Failure::Run(anyhow!(e).context("the PLC could not start"))
+    }
 }
 
-fn init_logging(args: &RunArgs) -> Result<(), Failure> {
+fn init_logging(args: &RunArgs, vitrine: bool) -> Result<(), Failure> {
     let level = match args.log_level.as_str() {
         "error" => LevelFilter::Error,
         "warn" => LevelFilter::Warn,
@@ -98,11 +97,6 @@ fn init_logging(args: &RunArgs) -> Result<(), Failure> {
         .set_thread_level(LevelFilter::Off)
         .set_target_level(LevelFilter::Off)
         .build();
-    // While the vitrine holds the terminal, log lines go to its footer (and are printed when
-    // it gives the terminal back) instead of over the display. A configuration that does not
-    // read is reported by `Plc::start` right after.
-    let vitrine = petriplc_config::read_file_with(&args.config, &args.overrides)
-        .is_ok_and(|c| petriplc_vitrine::takes_terminal(&c));
     let terminal: Box<dyn SharedLogger> = if vitrine {
         WriteLogger::new(level, config.clone(), petriplc_vitrine::log_writer())
     } else {
