@@ -82,6 +82,7 @@ impl From<EvolveArg> for Evolution {
 #[command(after_long_help = "Examples:\n  \
     petriplc sim examples/mixer/mixer.pnml --names sipn --inputs examples/mixer/timeline.csv --out trace.csv --plot trace.svg\n  \
     petriplc sim examples/busy-beaver/busy-beaver.pnml --plant tape --until 1s\n  \
+    petriplc sim examples/keyboard/keyboard.pnml --plant keyboard --inputs examples/keyboard/timeline.csv --plot out/keys.svg --signals line1,col1,accepted1 --from 1s --to 1.2s\n  \
     petriplc sim examples/mixer/mixer.pnml --names sipn --step-through\n\n\
     Exit codes: 0 success, 1 the simulation failed (e.g. an unstable net), 2 bad input.")]
 pub struct SimArgs {
@@ -118,6 +119,16 @@ pub struct SimArgs {
     /// Write an SVG step plot of inputs, outputs and markings.
     #[arg(long, value_name = "SVG")]
     pub plot: Option<PathBuf>,
+    /// The plot's lanes, in this order: input and output names, `m:PLACE` for a marking
+    /// [default: every input, output and marking, less markings that repeat an output].
+    #[arg(long, value_name = "NAME,…", value_delimiter = ',', requires = "plot")]
+    pub signals: Option<Vec<String>>,
+    /// The plot's time window starts here (`2s`, `1.5`) [default: 0].
+    #[arg(long, value_name = "TIME", value_parser = parse_time, requires = "plot")]
+    pub from: Option<Duration>,
+    /// The plot's time window ends here [default: the end of the run].
+    #[arg(long, value_name = "TIME", value_parser = parse_time, requires = "plot")]
+    pub to: Option<Duration>,
     /// Interactive stepwise simulation: Enter runs a scan, a signal name toggles it.
     #[arg(long, conflicts_with_all = ["out", "plot"])]
     pub step_through: bool,

@@ -303,6 +303,24 @@ impl<'n> Simulation<'n> {
             .collect();
         let warnings = [warnings, unwired_plant_inputs].concat();
 
+        // The trace lists inputs in the user's order: the timeline's columns, then what the
+        // plant drives, then the rest as the net declares them.
+        let mut trace = Trace::new(net);
+        trace.period = opts.period;
+        let mut first: Vec<&str> = timeline_inputs
+            .iter()
+            .map(|&(_, s)| net.signal(s).name.as_str())
+            .collect();
+        if let Some(pw) = &plant {
+            first.extend(pw.drives.iter().map(|&(_, s)| net.signal(s).name.as_str()));
+        }
+        let declared: Vec<SignalId> = net.inputs().collect();
+        let input_ids = trace
+            .order_inputs(&first)
+            .into_iter()
+            .map(|i| declared[i])
+            .collect();
+
         let cursor = timeline.as_ref().map(CursorState::new).unwrap_or_default();
         Ok(Simulation {
             net,
@@ -314,14 +332,14 @@ impl<'n> Simulation<'n> {
             timeline_inputs,
             plant,
             forced: vec![None; net.signals().len()],
-            input_ids: net.inputs().collect(),
+            input_ids,
             output_ids: net.outputs().collect(),
             warnings,
             next: 0,
             now: Duration::ZERO,
             finished: false,
             current: TraceRow::default(),
-            trace: Trace::new(net),
+            trace,
         })
     }
 

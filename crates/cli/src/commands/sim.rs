@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::{anyhow, Context};
 use petriplc_net::ScanOptions;
 use petriplc_pnml::{Naming, ReadOptions};
-use petriplc_sim::{NetPlant, Plant, SimOptions, Simulation, Timeline};
+use petriplc_sim::{NetPlant, Plant, PlotOptions, SimOptions, Simulation, Timeline};
 
 use super::step_through;
 use crate::args::{Names, SimArgs};
@@ -67,6 +67,13 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     let mut sim = Simulation::new(&net, options, timeline, plant)
         .with_context(|| format!("cannot simulate {}", args.net.display()))
         .bad_input()?;
+    let plot_options = PlotOptions {
+        signals: args.signals.clone(),
+        from: args.from,
+        to: args.to,
+    };
+    // Checked before the run: a misspelt name should not cost a whole simulation.
+    plot_options.check(sim.trace()).bad_input()?;
     if args.step_through {
         // Inputs nothing drives are the user's to toggle here, so no warnings about them.
         return step_through::run(&mut sim);
@@ -98,9 +105,15 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
             }
             if let Some(path) = plot {
                 create_parent(path)?;
-                petriplc_sim::write_svg(&trace, path)
-                    .with_context(|| format!("cannot write the plot {}", path.display()))
-                    .run_failure()?;
+                match petriplc_sim::write_svg(&trace, &plot_options, path) {
+                    Ok(()) => {}
+                    Err(e) if e.is_bad_input() => return Err(e).bad_input(),
+                    Err(e) => {
+                        return Err(e)
+                            .with_context(|| format!("cannot write the plot {}", path.display()))
+                            .run_failure()
+                    }
+                }
                 eprintln!("plot: {}", path.display());
             }
         }
