@@ -193,7 +193,7 @@ fn never_needs_a_plant() {
         .stderr(predicate::str::contains("--plant"));
 }
 
-const OBSERVED_TANK: &str = "crates/closedloop/tests/data/tank-observed.pnml";
+const OBSERVED_TANK: &str = "examples/mixer/tank-observed.pnml";
 const WRONG_MIXER: &str = "crates/closedloop/tests/data/mixer-wrong.pnml";
 
 #[test]

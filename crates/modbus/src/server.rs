@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! [mb]
-//! listen = 127.0.0.1:5020          # default; `off` for RTU only
+//! listen = 127.0.0.1:5020          # default; `off`: no TCP (RTU only, or the server off)
 //! serial = /dev/ttyUSB0:19200:8E1  # optional RTU endpoint
 //! unit = 1                         # RTU slave address; TCP answers every unit id
 //! idle_timeout = 60s               # 0 = never
@@ -149,15 +149,6 @@ impl Settings {
                 )
             })?,
         };
-        if listen.is_none() && serial.is_none() {
-            return Err(error(
-                name,
-                format!(
-                    "`listen = off` and no `serial`: the server would not be reachable; add \
-                     `serial = /dev/ttyUSB0:19200:8E1` or `listen = {DEFAULT_LISTEN}` to [{name}]"
-                ),
-            ));
-        }
         Ok(Settings {
             listen,
             serial,
@@ -392,6 +383,9 @@ impl Module for ModbusServer {
             exceptions: AtomicU64::new(0),
         });
         self.shared = Some(shared.clone());
+        if self.settings.listen.is_none() && self.settings.serial.is_none() {
+            log::info!("modbus_server {name}: off (listen = off and no serial)");
+        }
         self.start(shared)
     }
 
@@ -425,6 +419,9 @@ impl Module for ModbusServer {
 
     fn status(&self) -> String {
         let mut s = String::new();
+        if self.settings.listen.is_none() && self.settings.serial.is_none() {
+            s.push_str("off (listen = off, no serial)");
+        }
         if let Some(a) = self.tcp {
             s.push_str(&format!("tcp {a}"));
         }
@@ -443,6 +440,15 @@ impl Module for ModbusServer {
             ));
         }
         s
+    }
+
+    fn listens(&self) -> Vec<(&'static str, SocketAddr)> {
+        self.settings
+            .listen
+            .filter(|a| a.port() != 0)
+            .map(|a| ("listen", a))
+            .into_iter()
+            .collect()
     }
 
     fn default_scan_period(&self) -> Option<Duration> {
