@@ -5,6 +5,7 @@
 //! `update()`, the scan, `update()`, `scan_end` synch. Failures follow each module's
 //! `on_failure`; the state and statistics of every module are published for `petriplc status`.
 
+use std::os::fd::AsRawFd;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
@@ -19,6 +20,7 @@ use petriplc_config::{
 use petriplc_runtime::image::{GlobalMap, ImageError, Layout, ModuleMap};
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use petriplc_runtime::period::{self, Period, ScanStats};
+use petriplc_runtime::report::{self, Receiver};
 use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
 
 pub use petriplc_runtime::status::{self, ModuleState, ModuleStatus, PlcStatus};
@@ -355,10 +357,21 @@ impl Plc {
             });
         }
 
+        // A program's path would not fit the kind column: it goes to the detail line.
         let status = config
             .modules
             .iter()
-            .map(|m| ModuleStatus::new(&m.name, &m.kind))
+            .map(|m| match registry(&m.kind) {
+                Some(_) => ModuleStatus::new(&m.name, &m.kind),
+                None => {
+                    let mut s = ModuleStatus::new(&m.name, "program");
+                    s.detail = std::iter::once(m.kind.as_str())
+                        .chain(m.args.iter().map(String::as_str))
+                        .collect::<Vec<_>>()
+                        .join(" ");
+                    s
+                }
+            })
             .collect();
         let shared = Arc::new(Shared {
             plc_id: opts.plc_id.clone(),
@@ -699,20 +712,26 @@ fn run_thread(shared: &Shared, r: Ready) {
     });
 }
 
-fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunError> {
+/// Starts a module's program, with a pipe for its scan statistics.
+fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<(Child, Receiver), RunError> {
     let decl = shared.decl(index);
+    let failed = |source| RunError::Spawn {
+        module: decl.name.clone(),
+        program: program.display().to_string(),
+        source,
+    };
+    let (stats, stats_fd) = Receiver::pipe().map_err(failed)?;
     let child = Command::new(program)
         .args(&decl.args)
         .env("PETRIPLC_CONFIG", &shared.config_path)
         .env("PETRIPLC_SET", &shared.overrides)
         .env("PETRIPLC_MODULE", &decl.name)
         .env("PETRIPLC_PLC_ID", &shared.plc_id)
+        .env(report::STATS_FD, stats_fd.as_raw_fd().to_string())
         .spawn()
-        .map_err(|source| RunError::Spawn {
-            module: decl.name.clone(),
-            program: program.display().to_string(),
-            source,
-        })?;
+        .map_err(failed)?;
+    // The child has its copy; ours would only keep the pipe open.
+    drop(stats_fd);
     let pid = child.id();
     shared.set_status(index, |s| {
         s.state = ModuleState::Running;
@@ -723,15 +742,25 @@ fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunErro
         decl.name,
         program.display()
     );
-    Ok(child)
+    Ok((child, stats))
 }
 
 /// Watches a module process: restarts or stops the PLC when it dies unasked, and ends it
 /// when the PLC stops (it should leave on its own at its next synch; else SIGTERM, SIGKILL).
-fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Child) {
+fn watch_process(
+    shared: &Shared,
+    index: usize,
+    program: PathBuf,
+    (mut child, mut stats): (Child, Receiver),
+) {
     let name = shared.decl(index).name.clone();
     loop {
-        match child.try_wait() {
+        // Read after the exit is seen, so that the process's last report is in.
+        let exited = child.try_wait();
+        if let Some(r) = stats.latest() {
+            shared.set_status(index, |s| r.apply(s));
+        }
+        match exited {
             Ok(Some(exit)) if shared.synch.is_stopping() => {
                 log::info!("module {name} (process) ended: {exit}");
                 shared.set_status(index, |s| {
@@ -746,7 +775,7 @@ fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Chi
                     return;
                 }
                 match spawn(shared, index, &program) {
-                    Ok(c) => child = c,
+                    Ok(c) => (child, stats) = c,
                     Err(e) => {
                         log::error!("{e}");
                         shared.failed.store(true, Ordering::Relaxed);
@@ -757,7 +786,11 @@ fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Chi
             }
             Ok(None) if shared.synch.is_stopping() => {
                 end_process(&name, &mut child);
+                let last = stats.latest();
                 shared.set_status(index, |s| {
+                    if let Some(r) = last {
+                        r.apply(s);
+                    }
                     if s.state != ModuleState::Failed {
                         s.state = ModuleState::Stopped;
                     }
