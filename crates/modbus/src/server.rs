@@ -184,6 +184,7 @@ pub(crate) struct Shared {
     clients: AtomicUsize,
     requests: AtomicU64,
     exceptions: AtomicU64,
+    refusals: Mutex<Refusals>,
 }
 
 impl Shared {
@@ -191,6 +192,46 @@ impl Shared {
     fn lock(&self) -> MutexGuard<'_, map::Image> {
         self.image.lock().unwrap_or_else(PoisonError::into_inner)
     }
+
+    /// Logs why a request was refused (exception `code`), so that the user whose client
+    /// fails learns why: the first at once, then at most one line every 10 s, saying how
+    /// many were not logged meanwhile. Every refusal is counted in the status line anyway.
+    fn refused(&self, pdu: &[u8], code: u8) {
+        let now = std::time::Instant::now();
+        let mut log = self.refusals.lock().unwrap_or_else(PoisonError::into_inner);
+        if log
+            .last
+            .is_some_and(|t| now.duration_since(t) < REFUSALS_EVERY)
+        {
+            log.quiet += 1;
+            return;
+        }
+        let quiet = std::mem::take(&mut log.quiet);
+        log.last = Some(now);
+        drop(log);
+        let more = match quiet {
+            0 => String::new(),
+            n => format!(
+                " ({n} more refused in the last {} s)",
+                REFUSALS_EVERY.as_secs()
+            ),
+        };
+        log::warn!(
+            "modbus_server {}: refused {}{more}",
+            self.name,
+            pdu::explain(&self.map, pdu, code)
+        );
+    }
+}
+
+/// At most one log line about refused requests in this time.
+const REFUSALS_EVERY: Duration = Duration::from_secs(10);
+
+/// The refusals logged: when last, and how many since were not.
+#[derive(Default)]
+struct Refusals {
+    last: Option<std::time::Instant>,
+    quiet: u64,
 }
 
 /// The running network side.
@@ -351,6 +392,7 @@ pub fn answer_tcp_bytes(
         clients: AtomicUsize::new(0),
         requests: AtomicU64::new(0),
         exceptions: AtomicU64::new(0),
+        refusals: Mutex::new(Refusals::default()),
     };
     let mut out = Vec::new();
     let mut pos = 0;
@@ -381,6 +423,7 @@ impl Module for ModbusServer {
             clients: AtomicUsize::new(0),
             requests: AtomicU64::new(0),
             exceptions: AtomicU64::new(0),
+            refusals: Mutex::new(Refusals::default()),
         });
         self.shared = Some(shared.clone());
         if self.settings.listen.is_none() && self.settings.serial.is_none() {
