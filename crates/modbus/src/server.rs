@@ -475,11 +475,12 @@ impl Module for ModbusServer {
             s.push_str(&format!("rtu {r}"));
         }
         if let Some(sh) = &self.shared {
+            let count = |n: u64, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
             s.push_str(&format!(
-                "; {} clients, {} requests, {} exceptions",
-                sh.clients.load(Ordering::Relaxed),
-                sh.requests.load(Ordering::Relaxed),
-                sh.exceptions.load(Ordering::Relaxed)
+                "; {}, {}, {}",
+                count(sh.clients.load(Ordering::Relaxed) as u64, "client"),
+                count(sh.requests.load(Ordering::Relaxed), "request"),
+                count(sh.exceptions.load(Ordering::Relaxed), "exception")
             ));
         }
         s

@@ -329,7 +329,11 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
                             line
                         })
                         .collect();
-                    violated = Some(place.clone());
+                    violated = Some(if moves.is_empty() {
+                        format!("`{place}` is marked from the start")
+                    } else {
+                        format!("`{place}` can be marked: see the run above")
+                    });
                     (
                         states,
                         Never::Reached {
@@ -360,9 +364,7 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
     };
     crate::output::to_stdout(|out| out.write_all(text.as_bytes()))?;
     match violated {
-        Some(place) => Err(Failure::Run(anyhow!(
-            "`{place}` can be marked: see the run above"
-        ))),
+        Some(why) => Err(Failure::Run(anyhow!(why))),
         None if cancel.load(Ordering::SeqCst) => Err(Failure::Interrupted(anyhow!(
             "interrupted by Ctrl-C: the report above is partial"
         ))),

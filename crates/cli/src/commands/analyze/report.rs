@@ -400,8 +400,8 @@ impl Report {
         if let Some(s) = &self.sipn {
             let _ = writeln!(
                 o,
-                "\nPLC semantics (SIPN checks, {} states{})",
-                s.states,
+                "\nPLC semantics (SIPN checks, {}{})",
+                plural(s.states, "state"),
                 if s.complete { "" } else { ", incomplete" }
             );
             let _ = writeln!(
@@ -435,8 +435,9 @@ impl Report {
         if let Some(n) = &self.never {
             let _ = writeln!(
                 o,
-                "\nnever {} (closed loop, plant delays ignored; {} states explored)",
-                n.place, n.states
+                "\nnever {} (closed loop, plant delays ignored; {} explored)",
+                n.place,
+                plural(n.states, "state")
             );
             never_text(&mut o, n);
         }
@@ -498,4 +499,9 @@ fn never_text(o: &mut String, n: &NeverFacts) {
             )
         }
     };
+}
+
+/// `1 state`, `25 states`.
+fn plural(n: u64, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
 }
