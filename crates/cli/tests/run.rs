@@ -247,7 +247,7 @@ fn taken_ports_are_all_reported_with_a_command_that_avoids_them() {
     }
     let command = err
         .lines()
-        .skip_while(|l| *l != "start it beside them with:")
+        .skip_while(|l| *l != "a command line that avoids them:")
         .nth(1)
         .unwrap_or_else(|| panic!("no command line in:\n{err}"));
     let words: Vec<&str> = command.split_whitespace().collect();

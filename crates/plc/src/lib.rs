@@ -149,8 +149,10 @@ fn listen_clashes(config: &PlcConfig, modules: &[(usize, &dyn Module)]) -> Vec<T
         );
     }
     let mut used: Vec<SocketAddr> = wanted.iter().map(|w| w.2).collect();
+    // The next free port after `addr`'s, and not below 1024 (which needs privileges).
     let mut free = |addr: SocketAddr| {
         let mut a = addr;
+        a.set_port(a.port().max(1023));
         for _ in 0..200 {
             a.set_port(a.port().checked_add(1).unwrap_or(1024));
             if !used.contains(&a) && TcpListener::bind(a).is_ok() {

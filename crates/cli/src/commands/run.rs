@@ -93,7 +93,7 @@ fn not_started(args: &RunArgs, e: RunError) -> Failure {
             let fixes: Vec<&str> = taken.iter().map(|t| t.fix.as_str()).collect();
             let command = command_line_with(&fixes);
             Failure::CannotStart(anyhow!(
-                "{}\nstart it beside them with:\n  {command}",
+                "{}\na command line that avoids them:\n  {command}",
                 RunError::Taken(taken)
             ))
         }

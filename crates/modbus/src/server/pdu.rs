@@ -204,7 +204,7 @@ pub fn explain(map: &AddressMap, pdu: &[u8], code: u8) -> String {
     let field = |i: usize| (body.len() >= i + 2).then(|| be(body, i));
     // (what the request does, table, first address, quantity)
     let (what, table, address, q) = match fc {
-        0x01 | 0x02 | 0x03 | 0x04 => {
+        0x01..=0x04 => {
             let table = match fc {
                 0x01 => Table::Coil,
                 0x02 => Table::DiscreteInput,
