@@ -14,7 +14,8 @@ use std::time::Duration;
 use petriplc_config::{Location, PlcConfig, PointKind};
 use petriplc_runtime::image::module::process_threads;
 use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap};
-use petriplc_runtime::period::Period;
+use petriplc_runtime::period::{self, Period, ScanStats};
+use petriplc_runtime::report::Sender;
 use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
 
 use crate::args::{self, Target};
@@ -51,6 +52,13 @@ struct Plc {
     period: Option<Period>,
     /// By point index.
     handles: Vec<Handle>,
+    /// This process's scans, as the runner's status shows them: each from the period's
+    /// wake-up (or `plc_scan_beg`) to the end of `plc_scan_end`.
+    stats: ScanStats,
+    /// The scan under way: when it began, how late its period woke, periods it missed.
+    scan: Option<(Duration, Duration, u64)>,
+    /// To the runner that started this process (`None` when started by hand).
+    report: Option<Sender>,
 }
 
 static STATE: Mutex<Option<Plc>> = Mutex::new(None);
@@ -253,6 +261,9 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
         global,
         synch: Arc::new(synch),
         handles,
+        stats: ScanStats::new(),
+        scan: None,
+        report: Sender::from_env(),
     });
     Ok(())
 }
@@ -275,7 +286,11 @@ fn check_single_threaded() -> Result<(), Error> {
 
 /// Detaches; the PLC and the other modules go on.
 pub(crate) fn close() -> Result<(), Error> {
-    state().take().map(drop).ok_or_else(not_init)
+    let mut plc = state().take().ok_or_else(not_init)?;
+    if let Some(r) = &mut plc.report {
+        r.send(&plc.stats, true);
+    }
+    Ok(())
 }
 
 pub(crate) fn pt_by_name(name: &str) -> Result<PlcPt, Error> {
@@ -396,16 +411,22 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
         };
         Ok((plc.session, plc.synch.clone(), plc.beg, period))
     })?;
+    let mut scan = (period::now(), Duration::ZERO, 0);
     if let Some(mut period) = period {
         // A stopping PLC should not wait a whole period to tell its modules.
         if !synch.is_stopping() {
-            period.wait();
+            let w = period.wait();
+            scan = (w.woke(), w.late, w.missed);
         }
         with_session(session, |plc| {
             plc.period = Some(period);
             Ok(())
         })?;
     }
+    with_session(session, |plc| {
+        plc.scan = Some(scan);
+        Ok(())
+    })?;
     if synch.synch(beg).is_err() {
         return Ok(PLC_STOPPING);
     }
@@ -415,15 +436,24 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
     })
 }
 
-/// Updates the map, then synchronises on the module's `scan_end` transition.
+/// Updates the map, then synchronises on the module's `scan_end` transition; counts the scan.
 pub(crate) fn scan_end() -> Result<c_int, Error> {
-    let (synch, end) = with_plc(|plc| {
+    let (session, synch, end) = with_plc(|plc| {
         plc.update()?;
-        Ok((plc.synch.clone(), plc.end))
+        Ok((plc.session, plc.synch.clone(), plc.end))
     })?;
-    Ok(match synch.synch(end) {
-        Ok(_) => PLC_OK,
-        Err(_) => PLC_STOPPING,
+    if synch.synch(end).is_err() {
+        return Ok(PLC_STOPPING);
+    }
+    with_session(session, |plc| {
+        if let Some((began, late, missed)) = plc.scan.take() {
+            plc.stats
+                .record(period::now().saturating_sub(began), late, missed);
+            if let Some(r) = &mut plc.report {
+                r.send(&plc.stats, false);
+            }
+        }
+        Ok(PLC_OK)
     })
 }
 

@@ -6,11 +6,14 @@ use std::time::Duration;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use petriplc_net::{Evolution, StepRule};
 
+use crate::failure::exit_codes;
+
 #[derive(Debug, Parser)]
 #[command(
     name = "petriplc",
     version,
-    about = "Petri-net soft PLC toolchain: model, simulate, analyse, generate code, run"
+    about = "Petri-net soft PLC toolchain: model, simulate, analyse, generate code, run",
+    after_help = exit_codes!()
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -29,8 +32,16 @@ pub enum Command {
     /// Run the soft PLC a configuration file describes, until stopped.
     Run(RunArgs),
     /// Print the modules of a running PLC: state, process, scans, cycle times, overruns.
+    #[command(after_long_help = concat!("Examples:\n  \
+        petriplc status\n  \
+        petriplc status --plc-id line2\n\n",
+        exit_codes!()))]
     Status(PlcIdArgs),
     /// Stop a running PLC cleanly.
+    #[command(after_long_help = concat!("Examples:\n  \
+        petriplc stop --plc-id line2\n  \
+        petriplc stop\n\n",
+        exit_codes!()))]
     Stop(PlcIdArgs),
 }
 
@@ -39,16 +50,19 @@ pub enum Command {
 pub enum Names {
     /// Names are just labels; signals come from petriplc's toolspecific data.
     Plain,
-    /// Seed 002's SIPN convention: a place's name is its output, a transition's name its
-    /// input condition (`!B1` negates), `default…` names are internal; capacity 1 everywhere.
+    /// The SIPN convention of the SIPN-to-PLCopen paper: a place's name is its output, a
+    /// transition's name its input condition (`!B1` negates), `default…` names are
+    /// internal; capacity 1 everywhere.
     Sipn,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum StepArg {
-    /// All transitions judged against the marking at the start of the pass (seed 003).
+    /// All transitions judged against the marking at the start of the pass (as in
+    /// J. Gaspar's "Running a Petri net with I/O").
     MaximalStep,
-    /// Each transition fires at once in priority order (seed 004's C).
+    /// Each transition fires at once in priority order (the C of the rapid control
+    /// prototyping paper).
     Sequential,
 }
 
@@ -63,9 +77,11 @@ impl From<StepArg> for StepRule {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum EvolveArg {
-    /// One pass per scan (seed 002's and 003's generated code).
+    /// One pass per scan (the generated code of the SIPN-to-PLCopen paper and of
+    /// "Running a Petri net with I/O").
     OnePass,
-    /// Passes repeat within the scan until none fires (seed 004, SIPN).
+    /// Passes repeat within the scan until none fires (SIPN, and the rapid control
+    /// prototyping paper).
     UntilStable,
 }
 
@@ -79,12 +95,16 @@ impl From<EvolveArg> for Evolution {
 }
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
-    petriplc sim examples/mixer/mixer.pnml --names sipn --inputs examples/mixer/timeline.csv --out trace.csv --plot trace.svg\n  \
+#[command(after_long_help = concat!("Examples:\n  \
+    petriplc sim examples/mixer/mixer.pnml --names sipn \\\n      \
+        --inputs examples/mixer/timeline.csv \\\n      \
+        --out out/mixer-trace.csv --plot out/mixer-trace.svg\n  \
     petriplc sim examples/busy-beaver/busy-beaver.pnml --plant tape --until 1s\n  \
-    petriplc sim examples/keyboard/keyboard.pnml --plant keyboard --inputs examples/keyboard/timeline.csv --plot out/keys.svg --signals line1,col1,accepted1 --from 1s --to 1.2s\n  \
-    petriplc sim examples/mixer/mixer.pnml --names sipn --step-through\n\n\
-    Exit codes: 0 success, 1 the simulation failed (e.g. an unstable net), 2 bad input.")]
+    petriplc sim examples/keyboard/keyboard.pnml --plant keyboard \\\n      \
+        --inputs examples/keyboard/timeline.csv --plot out/keys.svg \\\n      \
+        --signals line1,col1,accepted1 --from 1s --to 1.2s\n  \
+    petriplc sim examples/mixer/mixer.pnml --names sipn --step-through\n\n",
+    exit_codes!()))]
 pub struct SimArgs {
     /// The controller net (PNML).
     pub net: PathBuf,
@@ -135,12 +155,19 @@ pub struct SimArgs {
 }
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
-    petriplc analyze ../shared/data/mcc/Kanban-PT-00005/model.pnml --json\n  \
+#[command(after_long_help = concat!("Examples:\n  \
+    petriplc analyze examples/philosophers/philosophers.pnml --json\n  \
     petriplc analyze examples/mixer/mixer.pnml --names sipn --svg out/mixer-rg.svg\n  \
-    petriplc analyze examples/mixer/mixer.pnml --names sipn --plant examples/mixer/tank.pnml --never overfill\n\n\
-    Exit codes: 0 analysed; 1 --never found the place reachable, or the analysis failed; 2 bad input.\n\
-    The JSON format is documented in docs/analysis.md.")]
+    petriplc analyze examples/mixer/mixer.pnml --names sipn \\\n      \
+        --plant examples/mixer/tank-observed.pnml --never both_open\n\n\
+    The last one proves that the mixer never opens its inlet and outlet valves together.\n\
+    --never answers about an abstraction of the closed loop: the controller's scans are\n\
+    exact, but the plant net's delays are ignored (the plant may move any number of times\n\
+    between two scans) and free inputs take any value. So `proved` holds for every scan\n\
+    period and plant timing, while a counterexample may need the plant to be faster than\n\
+    its delays allow (docs/analysis-plc.md, section 5). The JSON format is documented in\n\
+    docs/analysis.md.\n\n",
+    exit_codes!()))]
 pub struct AnalyzeArgs {
     /// The net (PNML).
     pub net: PathBuf,
@@ -179,7 +206,8 @@ pub enum LangArg {
     Il,
     /// Ladder Diagram in PLCopen XML (safe nets).
     Ld,
-    /// Sequential Function Chart in PLCopen XML (safe nets meeting seed 002's constraints).
+    /// Sequential Function Chart in PLCopen XML (safe nets meeting the SIPN-to-PLCopen
+    /// paper's constraints).
     Sfc,
     /// One C99 file with `step()`; build with -DPETRIPLC_MAIN for a timeline-driven main.
     C,
@@ -189,20 +217,25 @@ pub enum LangArg {
 pub enum MarkingsArg {
     /// BOOL when every place is provably safe, else integers.
     Auto,
-    /// BOOL markings (seed 002); refused for a net not provably safe.
+    /// BOOL markings (as the SIPN-to-PLCopen paper); refused for a net not provably safe.
     Bool,
-    /// Integer markings (seed 003, seed 004).
+    /// Integer markings.
     Int,
 }
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
-    petriplc compile examples/mixer/mixer.pnml --names sipn --lang st --out mixer.xml\n  \
-    petriplc compile examples/mixer/mixer.pnml --names sipn --lang sfc --out mixer-sfc.xml\n  \
+#[command(after_long_help = concat!("Examples:\n  \
+    petriplc compile examples/mixer/mixer.pnml --names sipn --lang st \\\n      \
+        --out out/mixer.xml\n  \
+    petriplc compile examples/mixer/mixer.pnml --names sipn --lang sfc \\\n      \
+        --out out/mixer-sfc.xml\n  \
     petriplc compile examples/blink/blink.pnml --lang st --plain\n  \
-    petriplc compile examples/blink/blink.pnml --lang c --out blink.c && cc -DPETRIPLC_MAIN -o blink blink.c && ./blink examples/blink/timeline.csv --until 9s\n\n\
-    Exit codes: 0 written, 2 bad input (including a net the language cannot express).\n\
-    The generated code is described in docs/codegen.md.")]
+    petriplc compile examples/blink/blink.pnml --lang c --out out/blink.c && \\\n      \
+        cc -DPETRIPLC_MAIN -o out/blink out/blink.c && \\\n      \
+        out/blink examples/blink/timeline.csv --until 9s\n\n\
+    The generated code is described in docs/codegen.md. A net the language cannot express\n\
+    is bad input (exit code 2).\n\n",
+    exit_codes!()))]
 pub struct CompileArgs {
     /// The net (PNML).
     pub net: PathBuf,
@@ -242,11 +275,17 @@ pub struct CompileArgs {
 pub const DEFAULT_PLC_ID: &str = "petriplc";
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
+#[command(after_long_help = concat!("Examples:\n  \
     petriplc run examples/mixer/plc.conf\n  \
-    petriplc run examples/mixer/plc.conf --plc-id line2 --for 30s --log out/plc.log\n\n\
-    The configuration syntax is MatPLC's (docs/runtime.md). Stop with Ctrl-C or `petriplc stop`.\n\
-    Exit codes: 0 stopped cleanly, 1 a module failed or the PLC could not start, 2 bad configuration.")]
+    petriplc run examples/mixer/plc.conf --plc-id line2 --for 30s \\\n      \
+        --set modbus:listen=127.0.0.1:5021 --set hmi:listen=127.0.0.1:8081 \\\n      \
+        --log out/line2.log\n\n\
+    The second runs beside the first: its own PLC id, its own ports. The configuration\n\
+    syntax is MatPLC's (docs/runtime.md). Ctrl-C, `q` in the vitrine or `petriplc stop`\n\
+    stop the PLC cleanly (exit code 0). Before starting, every address a module listens on\n\
+    and the PLC id are checked: what is taken is reported at once, each with its fix\n\
+    (exit code 3).\n\n",
+    exit_codes!()))]
 pub struct RunArgs {
     /// The configuration file.
     pub config: PathBuf,

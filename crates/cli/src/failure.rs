@@ -1,4 +1,22 @@
-//! Failures of a command, split by whose fault they are so the exit code can say so.
+//! Failures of a command, split by whose fault they are so the exit code can say so, and the
+//! one table of exit codes every command's `--help` ends with.
+
+/// The exit codes of every command, as `--help` shows them (also in README.md).
+macro_rules! exit_codes {
+    () => {
+        "Exit codes (the same for every command):\n  \
+        0    success\n  \
+        1    the check, simulation or run failed: a property violated, an unstable net,\n       \
+             a module failed\n  \
+        2    bad input or usage: a file, option, net or configuration is wrong (the\n       \
+             message says where)\n  \
+        3    could not start: a port or a PLC id already in use, a resource missing\n  \
+        4    no PLC with that id (status, stop)\n  \
+        5    status: that PLC is not running; it exited without stopping (stale)\n  \
+        130  interrupted by Ctrl-C"
+    };
+}
+pub(crate) use exit_codes;
 
 /// Why a command failed.
 #[derive(Debug)]
@@ -7,12 +25,19 @@ pub enum Failure {
     BadInput(anyhow::Error),
     /// The input was fine but running it failed (an unstable net, a write error): exit code 1.
     Run(anyhow::Error),
+    /// Something the command needs is taken or missing (a port, a PLC id): exit code 3.
+    CannotStart(anyhow::Error),
+    /// Ctrl-C ended the command early; what it printed is partial: exit code 130.
+    Interrupted(anyhow::Error),
 }
 
 impl Failure {
     pub fn error(&self) -> &anyhow::Error {
         match self {
-            Failure::BadInput(e) | Failure::Run(e) => e,
+            Failure::BadInput(e)
+            | Failure::Run(e)
+            | Failure::CannotStart(e)
+            | Failure::Interrupted(e) => e,
         }
     }
 
@@ -20,6 +45,8 @@ impl Failure {
         match self {
             Failure::BadInput(_) => 2,
             Failure::Run(_) => 1,
+            Failure::CannotStart(_) => 3,
+            Failure::Interrupted(_) => 130,
         }
     }
 }

@@ -401,3 +401,119 @@ fn step_through_scans_on_enter_and_toggles_inputs() {
         .stdout(predicate::str::contains("Start := 1"))
         .stdout(predicate::str::contains("fired last scan: go"));
 }
+
+/// One rule for every file a command writes: the folders are created and a line says what
+/// was written.
+#[test]
+fn every_output_option_creates_its_folder_and_says_what_it_wrote() {
+    let fx = Fixture::new(&[
+        ("toggle.pnml", TOGGLE),
+        ("in.csv", "time,Start,Stop\n0,1,0\n"),
+    ]);
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &[
+                "sim",
+                "toggle.pnml",
+                "--inputs",
+                "in.csv",
+                "--out",
+                "a/b/t.csv",
+            ],
+            "wrote a/b/t.csv (trace, 1 row)\n",
+        ),
+        (
+            &[
+                "sim",
+                "toggle.pnml",
+                "--inputs",
+                "in.csv",
+                "--plot",
+                "c/t.svg",
+            ],
+            "wrote c/t.svg (plot)\n",
+        ),
+        (
+            &[
+                "compile",
+                "toggle.pnml",
+                "--lang",
+                "st",
+                "--out",
+                "d/e/t.xml",
+            ],
+            "wrote d/e/t.xml (ST in a PLCopen XML project, 1 POU, ",
+        ),
+        (
+            &[
+                "compile",
+                "toggle.pnml",
+                "--lang",
+                "il",
+                "--plain",
+                "--out",
+                "f/t.il",
+            ],
+            "wrote f/t.il (bare IL, ",
+        ),
+        (
+            &["compile", "toggle.pnml", "--lang", "c", "--out", "g/t.c"],
+            "wrote g/t.c (C99, ",
+        ),
+        (
+            &["analyze", "toggle.pnml", "--dot", "h/rg.dot"],
+            "wrote h/rg.dot (the reachability graph in Graphviz DOT, 2 states)\n",
+        ),
+        (
+            &["analyze", "toggle.pnml", "--svg", "i/rg.svg"],
+            "wrote i/rg.svg (the reachability graph as SVG, 2 states)\n",
+        ),
+    ];
+    for (args, says) in cases {
+        fx.petriplc(args)
+            .success()
+            .stderr(predicate::str::contains(*says));
+        let written = fx.dir.path().join(args.last().unwrap());
+        assert!(
+            fs::metadata(&written).is_ok_and(|m| m.len() > 0),
+            "{args:?}"
+        );
+    }
+}
+
+/// A SIPN net read with plain names has no inputs: the timeline or plant that names them
+/// gets the hint instead of a bare "not an input".
+#[test]
+fn a_sipn_net_without_names_sipn_gets_the_hint() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+    let mut sim = Command::cargo_bin("petriplc").unwrap();
+    sim.current_dir(root).args([
+        "sim",
+        "examples/mixer/mixer.pnml",
+        "--inputs",
+        "examples/mixer/timeline.csv",
+    ]);
+    sim.assert().code(2).stderr(predicate::str::contains(
+        "column `B1` is not an input of the controller; it has no inputs at all\n\
+         did you mean --names sipn? Read with plain names, examples/mixer/mixer.pnml has no \
+         inputs; read with --names sipn",
+    ));
+    let mut analyze = Command::cargo_bin("petriplc").unwrap();
+    analyze.current_dir(root).args([
+        "analyze",
+        "examples/mixer/mixer.pnml",
+        "--plant",
+        "examples/mixer/tank.pnml",
+    ]);
+    analyze.assert().success().stderr(predicate::str::contains(
+        "warning: did you mean --names sipn?",
+    ));
+    // A net without signals that no timeline or plant names: no hint.
+    check(
+        &[("toggle.pnml", PINGPONG)],
+        &["analyze", "toggle.pnml"],
+        0,
+        "",
+        "",
+    );
+}

@@ -273,7 +273,11 @@ fn mixer_cycles_against_the_tank_net() {
     );
     assert_eq!(story.len(), 1 + 3 * 4, "{story:#?}");
     // The tank net ends drained to N1 (its summary lists the marked places).
-    assert!(t.stderr.contains("marked bottom"), "{}", t.stderr);
+    assert!(
+        t.stderr.contains("plant at the end: tank, marking bottom"),
+        "{}",
+        t.stderr
+    );
 }
 
 /// The same loop against the built-in continuous `tank` plant, whose sensors switch exactly

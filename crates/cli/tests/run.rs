@@ -195,6 +195,85 @@ fn bad_configurations_start_nothing() {
 }
 
 #[test]
+fn a_bad_configuration_is_reported_once_compiler_style() {
+    let dir = TempDir::new().unwrap();
+    let out = run_config(&dir, "x = 1\n\n[PLC\n", &plc_id("badconf"), &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let conf = dir.path().join("plc.conf");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 3, "{err}");
+    assert!(lines[0].starts_with(&format!("{}:1: error[C005]", conf.display())));
+    assert!(lines[1].starts_with(&format!("{}:3: error[", conf.display())));
+    assert_eq!(
+        lines[2],
+        format!(
+            "error: {} is not a valid configuration (2 problems); nothing was started",
+            conf.display()
+        )
+    );
+}
+
+/// Ports another program holds: every one is reported in one attempt, each with a free
+/// address, and the command line printed with them starts the PLC as written.
+#[test]
+fn taken_ports_are_all_reported_with_a_command_that_avoids_them() {
+    let holders = [
+        std::net::TcpListener::bind("127.0.0.1:0").unwrap(),
+        std::net::TcpListener::bind("127.0.0.1:0").unwrap(),
+    ];
+    let [modbus, hmi] = holders.each_ref().map(|l| l.local_addr().unwrap());
+    let id = plc_id("ports");
+    let out = mixer(&id)
+        .args(["--for", "1s"])
+        .args(["--set", &format!("modbus:listen={modbus}")])
+        .args(["--set", &format!("hmi:listen={hmi}")])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.starts_with("error: nothing was started: 2 things this PLC needs are taken:\n"),
+        "{err}"
+    );
+    for (module, addr) in [("modbus", modbus), ("hmi", hmi)] {
+        assert!(
+            err.contains(&format!(
+                "\n  module {module}: listen = {addr}: another program (another PLC?) listens \
+                 there; use --set {module}:listen=127.0.0.1:"
+            )),
+            "{err}"
+        );
+    }
+    let command = err
+        .lines()
+        .skip_while(|l| *l != "a command line that avoids them:")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no command line in:\n{err}"));
+    let words: Vec<&str> = command.split_whitespace().collect();
+    assert_eq!(words[..2], ["petriplc", "run"], "{command}");
+    // Each fix replaced the option it overrides.
+    assert_eq!(
+        words
+            .iter()
+            .filter(|w| w.starts_with("modbus:listen="))
+            .count(),
+        1,
+        "{command}"
+    );
+    let out = Process::cargo_bin("petriplc")
+        .unwrap()
+        .args(&words[1..])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{command}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
 fn a_failing_process_module_follows_on_failure() {
     let dir = TempDir::new().unwrap();
     let script = dir.path().join("crash.sh");
@@ -224,7 +303,8 @@ fn a_failing_process_module_follows_on_failure() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("safe value valve = 0"), "{err}");
-    assert!(err.contains("crasher      crash.sh      failed"), "{err}");
+    assert!(err.contains("crasher      program       failed"), "{err}");
+    assert!(err.contains("             crash.sh"), "{err}");
 }
 
 #[test]
@@ -240,8 +320,12 @@ fn two_plcs_cannot_share_an_id() {
     Command::from_std(mixer(&id))
         .args(FREE_PORTS)
         .assert()
-        .code(1)
-        .stderr(predicate::str::contains("--plc-id"));
+        .code(3)
+        .stderr(predicate::str::contains(format!(
+            "error: nothing was started: something this PLC needs is taken:\n  PLC id `{id}`: a \
+             PLC with this id is running"
+        )))
+        .stderr(predicate::str::contains(format!("; use --plc-id {id}-2\n")));
     Command::cargo_bin("petriplc")
         .unwrap()
         .args(["stop", "--plc-id", &id])
@@ -339,4 +423,11 @@ fn the_main_job_serves_modbus_and_a_modbus_write_stops_it() {
     std::io::Read::read_to_string(&mut run.stderr.take().unwrap(), &mut log).unwrap();
     assert!(exit.success(), "{log}");
     assert!(log.contains("module remote_stop stops the PLC"), "{log}");
+    // The refused write is logged with its reason, not only counted.
+    assert!(
+        log.contains(
+            "modbus_server modbus: refused write coil 3: exception 02, coil 3 shows point `V1`"
+        ),
+        "{log}"
+    );
 }

@@ -13,8 +13,13 @@ pub struct Origin {
 }
 
 impl std::fmt::Display for Origin {
+    /// `plc.conf:12`; line 0 (a whole file, or `--set` on the command line) shows no line.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}:{}", self.file, self.line)
+        if self.line == 0 {
+            write!(f, "{}", self.file)
+        } else {
+            write!(f, "{}:{}", self.file, self.line)
+        }
     }
 }
 

@@ -718,7 +718,7 @@ module b /usr/bin/my prog [] Some(250ms) Isolate None Ignore None None ["locatio
 t.conf:4: error[C031]: module a is declared twice (first at t.conf:2): module names name their sections, so rename or remove one of them
 t.conf:5: error[C032]: `NULL` is reserved: give the module another name
 t.conf:6: error[C032]: `plc` is reserved: give the module another name
-t.conf:8: error[C034]: `scan_period = fast` for module a: `fast` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)
+t.conf:8: error[C034]: `scan_period = fast` for module a: `fast` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)
 t.conf:9: error[C035]: `location = remote` for module a: write `local` (the default), `shared` or `isolate`
 t.conf:10: error[C036]: `priority = 0` for module a: write a real-time priority from 1 to 99, or leave it out for normal scheduling
 t.conf:11: error[C037]: `on_failure = retry` for module a: write `stop` (the default), `restart` or `ignore`

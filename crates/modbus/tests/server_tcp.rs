@@ -682,8 +682,23 @@ fn bad_settings_are_refused() {
     }
     let e = start_err(&conf("").replace("listen = 127.0.0.1:0", "listen = nowhere"));
     assert!(e.contains("`listen = nowhere`: write HOST:PORT"), "{e}");
-    let e = start_err(&conf("").replace("listen = 127.0.0.1:0", "listen = off"));
-    assert!(e.contains("`listen = off` and no `serial`"), "{e}");
+}
+
+#[test]
+fn listen_off_without_serial_turns_the_server_off() {
+    let srv = Server::start(
+        &conf(
+            "coil 0 B
+",
+        )
+        .replace("listen = 127.0.0.1:0", "listen = off"),
+    );
+    assert!(
+        srv.status()
+            .starts_with("off (listen = off, no serial); 0 clients"),
+        "{}",
+        srv.status()
+    );
 }
 
 #[test]

@@ -5,6 +5,7 @@
 //! `update()`, the scan, `update()`, `scan_end` synch. Failures follow each module's
 //! `on_failure`; the state and statistics of every module are published for `petriplc status`.
 
+use std::os::fd::AsRawFd;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
@@ -19,6 +20,7 @@ use petriplc_config::{
 use petriplc_runtime::image::{GlobalMap, ImageError, Layout, ModuleMap};
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use petriplc_runtime::period::{self, Period, ScanStats};
+use petriplc_runtime::report::{self, Receiver};
 use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
 
 pub use petriplc_runtime::status::{self, ModuleState, ModuleStatus, PlcStatus};
@@ -67,6 +69,10 @@ pub enum RunError {
         setting: String,
         modules: Vec<String>,
     },
+    /// What the PLC needs and others hold: its id, the addresses its modules listen on.
+    /// Every one is listed, each with the command-line option that avoids it.
+    #[error("nothing was started: {}", taken_list(.0))]
+    Taken(Vec<Taken>),
     #[error("module {module}: cannot start program {program}: {source}")]
     Spawn {
         module: String,
@@ -79,13 +85,116 @@ pub enum RunError {
 impl RunError {
     /// Whether the configuration (rather than the machine) is at fault: exit code 2.
     pub fn is_bad_input(&self) -> bool {
-        !matches!(self, RunError::Spawn { .. })
-            && !matches!(
-                self,
-                RunError::Image(ImageError::AlreadyRunning { .. })
-                    | RunError::Synch(SynchError::Exists { .. })
-            )
+        !self.cannot_start()
     }
+
+    /// Whether something the PLC needs is taken or missing (a PLC id, a port, a program
+    /// that cannot be run), rather than the configuration wrong: exit code 3.
+    pub fn cannot_start(&self) -> bool {
+        matches!(
+            self,
+            RunError::Spawn { .. }
+                | RunError::Taken(_)
+                | RunError::Image(ImageError::AlreadyRunning { .. })
+                | RunError::Synch(SynchError::Exists { .. })
+        )
+    }
+}
+
+/// One thing the PLC needs that is taken, and how to do without it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Taken {
+    /// What is taken and by whom, as far as known.
+    pub what: String,
+    /// The command-line option that avoids it: `--plc-id ID` or `--set MODULE:listen=ADDR`.
+    pub fix: String,
+}
+
+fn taken_list(taken: &[Taken]) -> String {
+    let lines: Vec<String> = taken
+        .iter()
+        .map(|t| format!("\n  {}; use {}", t.what, t.fix))
+        .collect();
+    let n = taken.len();
+    if n == 1 {
+        format!("something this PLC needs is taken:{}", lines.concat())
+    } else {
+        format!("{n} things this PLC needs are taken:{}", lines.concat())
+    }
+}
+
+/// The addresses the modules will listen on that another program (or another module of
+/// this configuration) holds, each with a free address to use instead.
+fn listen_clashes(config: &PlcConfig, modules: &[(usize, &dyn Module)]) -> Vec<Taken> {
+    use std::net::{SocketAddr, TcpListener};
+    // Modules that do not say (kinds added later) are taken at their `listen` setting's word.
+    let mut wanted: Vec<(&str, &'static str, SocketAddr)> = Vec::new();
+    for &(index, module) in modules {
+        let decl = &config.modules[index];
+        let mut listens = module.listens();
+        if listens.is_empty() {
+            if let Some(a) = decl
+                .settings
+                .get("listen")
+                .and_then(|s| s.value.parse().ok())
+            {
+                listens.push(("listen", a));
+            }
+        }
+        wanted.extend(
+            listens
+                .into_iter()
+                .filter(|(_, a): &(_, SocketAddr)| a.port() != 0)
+                .map(|(setting, a)| (decl.name.as_str(), setting, a)),
+        );
+    }
+    let mut used: Vec<SocketAddr> = wanted.iter().map(|w| w.2).collect();
+    // The next free port after `addr`'s, and not below 1024 (which needs privileges).
+    let mut free = |addr: SocketAddr| {
+        let mut a = addr;
+        a.set_port(a.port().max(1023));
+        for _ in 0..200 {
+            a.set_port(a.port().checked_add(1).unwrap_or(1024));
+            if !used.contains(&a) && TcpListener::bind(a).is_ok() {
+                used.push(a);
+                return Some(a);
+            }
+        }
+        None
+    };
+    let mut taken = Vec::new();
+    for (i, &(module, setting, addr)) in wanted.iter().enumerate() {
+        let why = match wanted[..i].iter().find(|w| w.2 == addr) {
+            Some(other) => format!("module {} listens there too", other.0),
+            None => match TcpListener::bind(addr) {
+                Ok(_) => continue,
+                Err(e) if e.kind() == std::io::ErrorKind::AddrInUse => {
+                    "another program (another PLC?) listens there".to_string()
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+                    "ports below 1024 need root or CAP_NET_BIND_SERVICE".to_string()
+                }
+                Err(e) => e.to_string(),
+            },
+        };
+        let fix = match free(addr) {
+            Some(a) => format!("--set {module}:{setting}={a}"),
+            None => format!("--set {module}:{setting}=HOST:PORT"),
+        };
+        taken.push(Taken {
+            what: format!("module {module}: {setting} = {addr}: {why}"),
+            fix,
+        });
+    }
+    taken
+}
+
+/// An id to suggest when `plc_id` is taken: `ID-2`, `ID-3`, … whose PLC is not running.
+fn free_plc_id(plc_id: &str) -> String {
+    (2..100)
+        .map(|n| format!("{plc_id}-{n}"))
+        .find(|id| !status::path(id).exists())
+        .unwrap_or_else(|| format!("{plc_id}-other"))
 }
 
 /// What every module thread shares.
@@ -158,12 +267,9 @@ impl Plc {
             .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
         let layout = Layout::new(&config)?;
         let net = SynchNet::from_config(&config)?;
-        let global = GlobalMap::create(&opts.plc_id, &layout)?;
-        let synch = SharedSynch::create(&opts.plc_id, &net)?;
 
-        // Every module is created and initialised before any runs: a bad setting stops
-        // everything, with nothing half started.
-        let mut ready = Vec::new();
+        // Every built-in module is made (its settings checked) before anything is created.
+        let mut made = Vec::new();
         let mut programs = Vec::new();
         for (index, decl) in config.modules.iter().enumerate() {
             match registry(&decl.kind) {
@@ -173,18 +279,11 @@ impl Plc {
                             module: decl.name.clone(),
                         });
                     }
-                    let mut map = ModuleMap::new(&layout, &decl.name, decl.location)?;
-                    let module = make(factory, decl, &config, &mut map, &base_dir, &opts.plc_id)
-                        .map_err(|error| RunError::Init {
-                            module: decl.name.clone(),
-                            error,
-                        })?;
-                    ready.push(Ready {
-                        index,
-                        module,
-                        map,
-                        factory,
-                    });
+                    let module = factory(decl).map_err(|error| RunError::Init {
+                        module: decl.name.clone(),
+                        error,
+                    })?;
+                    made.push((index, factory, module));
                 }
                 None => {
                     let program = base_dir.join(&decl.kind);
@@ -201,10 +300,80 @@ impl Plc {
             }
         }
 
+        // What others may hold — the id and the addresses to listen on — is checked as a
+        // whole, so that one attempt reports every clash.
+        let listening: Vec<(usize, &dyn Module)> =
+            made.iter().map(|(i, _, m)| (*i, m.as_ref())).collect();
+        let mut taken = listen_clashes(&config, &listening);
+        let global = match GlobalMap::create(&opts.plc_id, &layout) {
+            Ok(g) => Some(g),
+            Err(ImageError::AlreadyRunning { plc_id, shm, stale }) => {
+                taken.insert(
+                    0,
+                    Taken {
+                        what: if stale.is_empty() {
+                            format!(
+                                "PLC id `{plc_id}`: a PLC with this id is running (shared \
+                                 memory `{shm}` exists)"
+                            )
+                        } else {
+                            format!("PLC id `{plc_id}`: shared memory `{shm}` exists{stale}")
+                        },
+                        fix: format!("--plc-id {}", free_plc_id(&plc_id)),
+                    },
+                );
+                None
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let global = match global {
+            Some(g) if taken.is_empty() => g,
+            // The image just created is removed when dropped here.
+            _ => return Err(RunError::Taken(taken)),
+        };
+        let synch = SharedSynch::create(&opts.plc_id, &net)?;
+
+        // Every module is initialised before any runs: a bad setting stops everything, with
+        // nothing half started.
+        let mut ready = Vec::new();
+        for (index, factory, mut module) in made {
+            let decl = &config.modules[index];
+            let mut map = ModuleMap::new(&layout, &decl.name, decl.location)?;
+            module
+                .init(&mut InitContext {
+                    decl,
+                    config: &config,
+                    map: &mut map,
+                    base_dir: &base_dir,
+                    plc_id: &opts.plc_id,
+                })
+                .map_err(|error| RunError::Init {
+                    module: decl.name.clone(),
+                    error,
+                })?;
+            ready.push(Ready {
+                index,
+                module,
+                map,
+                factory,
+            });
+        }
+
+        // A program's path would not fit the kind column: it goes to the detail line.
         let status = config
             .modules
             .iter()
-            .map(|m| ModuleStatus::new(&m.name, &m.kind))
+            .map(|m| match registry(&m.kind) {
+                Some(_) => ModuleStatus::new(&m.name, &m.kind),
+                None => {
+                    let mut s = ModuleStatus::new(&m.name, "program");
+                    s.detail = std::iter::once(m.kind.as_str())
+                        .chain(m.args.iter().map(String::as_str))
+                        .collect::<Vec<_>>()
+                        .join(" ");
+                    s
+                }
+            })
             .collect();
         let shared = Arc::new(Shared {
             plc_id: opts.plc_id.clone(),
@@ -225,12 +394,13 @@ impl Plc {
             status: Mutex::new(status),
             failed: AtomicBool::new(false),
         });
+        let count = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
         log::info!(
-            "PLC {} started: {} points in {} words, {} modules",
+            "PLC {} started: {} in {}, {}",
             opts.plc_id,
-            shared.layout.points().len(),
-            shared.layout.words(),
-            shared.config.modules.len()
+            count(shared.layout.points().len(), "point"),
+            count(shared.layout.words(), "word"),
+            count(shared.config.modules.len(), "module")
         );
         let mut threads = Vec::new();
         for r in ready {
@@ -544,20 +714,26 @@ fn run_thread(shared: &Shared, r: Ready) {
     });
 }
 
-fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunError> {
+/// Starts a module's program, with a pipe for its scan statistics.
+fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<(Child, Receiver), RunError> {
     let decl = shared.decl(index);
+    let failed = |source| RunError::Spawn {
+        module: decl.name.clone(),
+        program: program.display().to_string(),
+        source,
+    };
+    let (stats, stats_fd) = Receiver::pipe().map_err(failed)?;
     let child = Command::new(program)
         .args(&decl.args)
         .env("PETRIPLC_CONFIG", &shared.config_path)
         .env("PETRIPLC_SET", &shared.overrides)
         .env("PETRIPLC_MODULE", &decl.name)
         .env("PETRIPLC_PLC_ID", &shared.plc_id)
+        .env(report::STATS_FD, stats_fd.as_raw_fd().to_string())
         .spawn()
-        .map_err(|source| RunError::Spawn {
-            module: decl.name.clone(),
-            program: program.display().to_string(),
-            source,
-        })?;
+        .map_err(failed)?;
+    // The child has its copy; ours would only keep the pipe open.
+    drop(stats_fd);
     let pid = child.id();
     shared.set_status(index, |s| {
         s.state = ModuleState::Running;
@@ -568,15 +744,25 @@ fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunErro
         decl.name,
         program.display()
     );
-    Ok(child)
+    Ok((child, stats))
 }
 
 /// Watches a module process: restarts or stops the PLC when it dies unasked, and ends it
 /// when the PLC stops (it should leave on its own at its next synch; else SIGTERM, SIGKILL).
-fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Child) {
+fn watch_process(
+    shared: &Shared,
+    index: usize,
+    program: PathBuf,
+    (mut child, mut stats): (Child, Receiver),
+) {
     let name = shared.decl(index).name.clone();
     loop {
-        match child.try_wait() {
+        // Read after the exit is seen, so that the process's last report is in.
+        let exited = child.try_wait();
+        if let Some(r) = stats.latest() {
+            shared.set_status(index, |s| r.apply(s));
+        }
+        match exited {
             Ok(Some(exit)) if shared.synch.is_stopping() => {
                 log::info!("module {name} (process) ended: {exit}");
                 shared.set_status(index, |s| {
@@ -591,7 +777,7 @@ fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Chi
                     return;
                 }
                 match spawn(shared, index, &program) {
-                    Ok(c) => child = c,
+                    Ok(c) => (child, stats) = c,
                     Err(e) => {
                         log::error!("{e}");
                         shared.failed.store(true, Ordering::Relaxed);
@@ -602,7 +788,11 @@ fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Chi
             }
             Ok(None) if shared.synch.is_stopping() => {
                 end_process(&name, &mut child);
+                let last = stats.latest();
                 shared.set_status(index, |s| {
+                    if let Some(r) = last {
+                        r.apply(s);
+                    }
                     if s.state != ModuleState::Failed {
                         s.state = ModuleState::Stopped;
                     }

@@ -8,6 +8,7 @@ pub mod harness;
 pub mod image;
 pub mod module;
 pub mod period;
+pub mod report;
 mod shm_name;
 pub mod status;
 pub mod synch;

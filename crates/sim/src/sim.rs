@@ -37,7 +37,7 @@ impl SimOptions {
 pub enum SimError {
     #[error("the scan period is 0; give a period greater than zero (e.g. 0.01 or T#10ms)")]
     ZeroPeriod,
-    #[error("timeline {timeline}: column `{column}` is not an input of the controller{}; known inputs: {}; check the spelling", plant_part(.plant), list(.known))]
+    #[error("timeline {timeline}: column `{column}` is not an input of the controller{}; {}", plant_part(.plant), known_inputs(.known))]
     UnknownColumn {
         timeline: String,
         column: String,
@@ -92,6 +92,14 @@ fn plant_part(plant: &Option<String>) -> String {
     plant
         .as_ref()
         .map_or(String::new(), |p| format!(" nor of plant `{p}`"))
+}
+
+fn known_inputs(names: &[String]) -> String {
+    if names.is_empty() {
+        "it has no inputs at all".to_string()
+    } else {
+        format!("known inputs: {}; check the spelling", names.join(", "))
+    }
 }
 
 fn list(names: &[String]) -> String {

@@ -474,11 +474,11 @@ mod tests {
         );
         check(
             "time,A\nsoon,1\n",
-            "tl.csv:2:1: bad time: `soon` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)",
+            "tl.csv:2:1: bad time: `soon` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)",
         );
         check(
             "time,A\n-1,1\n",
-            "tl.csv:2:1: bad time: `-1` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)",
+            "tl.csv:2:1: bad time: `-1` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)",
         );
         check(
             "time,A,B\n0,1,  yes\n",

@@ -10,8 +10,8 @@ use anyhow::{anyhow, Context};
 use petriplc_plc::{ModuleState, Plc, PlcStatus, RunError, RunOptions};
 use petriplc_runtime::module::Factory;
 use simplelog::{
-    ColorChoice, CombinedLogger, ConfigBuilder, LevelFilter, SharedLogger, TermLogger,
-    TerminalMode, WriteLogger,
+    format_description, ColorChoice, CombinedLogger, ConfigBuilder, LevelFilter, SharedLogger,
+    TermLogger, TerminalMode, WriteLogger,
 };
 
 use crate::args::{PlcIdArgs, RunArgs};
@@ -73,14 +73,75 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     }
 }
 
-/// A PLC that could not start: exit 2 when the configuration is at fault.
+/// A PLC that could not start: exit 2 when the configuration is at fault, 3 when something
+/// it needs is taken (then with the command line that avoids every clash).
 fn not_started(args: &RunArgs, e: RunError) -> Failure {
-    if e.is_bad_input() {
-        Failure::BadInput(
-            anyhow!(e).context(format!("{}: nothing was started", args.config.display())),
-        )
+    match e {
+        // Compiler style, as for a bad net: one diagnostic per line, then one summary.
+        RunError::Config(c) => {
+            for d in &c.diagnostics {
+                eprintln!("{d}");
+            }
+            let n = c.diagnostics.len();
+            Failure::BadInput(anyhow!(
+                "{} is not a valid configuration ({n} problem{}); nothing was started",
+                args.config.display(),
+                if n == 1 { "" } else { "s" }
+            ))
+        }
+        RunError::Taken(taken) => {
+            let fixes: Vec<&str> = taken.iter().map(|t| t.fix.as_str()).collect();
+            let command = command_line_with(&fixes);
+            Failure::CannotStart(anyhow!(
+                "{}\na command line that avoids them:\n  {command}",
+                RunError::Taken(taken)
+            ))
+        }
+        e if e.cannot_start() => Failure::CannotStart(anyhow!("nothing was started: {e}")),
+        e => Failure::BadInput(anyhow!("{e}\nnothing was started")),
+    }
+}
+
+/// This command line with `fixes` (`--plc-id ID`, `--set M:S=V`) applied: each replaces the
+/// option it overrides, if given, or is added.
+fn command_line_with(fixes: &[&str]) -> String {
+    let mut words: Vec<String> = std::env::args().skip(1).collect();
+    for fix in fixes {
+        let (option, value) = fix.split_once(' ').unwrap_or((fix, ""));
+        // `--set M:S=V` overrides an earlier `--set M:S=…`; `--plc-id` any `--plc-id`.
+        let key = match value.split_once('=') {
+            Some((key, _)) if option == "--set" => format!("{key}="),
+            _ => String::new(),
+        };
+        let mut i = 0;
+        while i < words.len() {
+            let w = &words[i];
+            let joined = w.strip_prefix(&format!("{option}="));
+            let matches = |v: &str| option != "--set" || v.starts_with(&key);
+            if w == option && words.get(i + 1).is_some_and(|v| matches(v)) {
+                words.drain(i..i + 2);
+            } else if joined.is_some_and(matches) {
+                words.remove(i);
+            } else {
+                i += 1;
+            }
+        }
+        words.push(option.to_string());
+        words.push(value.to_string());
+    }
+    let quoted: Vec<String> = words.iter().map(|w| shell_word(w)).collect();
+    format!("petriplc {}", quoted.join(" "))
+}
+
+/// `w` as one shell word.
+fn shell_word(w: &str) -> String {
+    let plain = !w.is_empty()
+        && w.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./:=@,+%#".contains(c));
+    if plain {
+        w.to_string()
     } else {
-        Failure::Run(anyhow!(e).context("the PLC could not start"))
+        format!("'{}'", w.replace('\'', r"'\''"))
     }
 }
 
@@ -92,17 +153,34 @@ fn init_logging(args: &RunArgs, vitrine: bool) -> Result<(), Failure> {
         "trace" => LevelFilter::Trace,
         _ => LevelFilter::Info,
     };
+    // A person reads the terminal: local time, short (the vitrine's log pane is as wide as
+    // the terminal, 80 columns perhaps). The file keeps exact UTC times for machines.
+    // The local offset can only be read while the process has one thread, as it has now.
+    let short = |format| {
+        let mut b = ConfigBuilder::new();
+        b.set_time_format_custom(format)
+            .set_thread_level(LevelFilter::Off)
+            .set_target_level(LevelFilter::Off);
+        let _ = b.set_time_offset_to_local();
+        b.build()
+    };
     let config = ConfigBuilder::new()
         .set_time_format_rfc3339()
         .set_thread_level(LevelFilter::Off)
         .set_target_level(LevelFilter::Off)
         .build();
     let terminal: Box<dyn SharedLogger> = if vitrine {
-        WriteLogger::new(level, config.clone(), petriplc_vitrine::log_writer())
+        WriteLogger::new(
+            level,
+            short(format_description!("[hour]:[minute]:[second]")),
+            petriplc_vitrine::log_writer(),
+        )
     } else {
         TermLogger::new(
             level,
-            config.clone(),
+            short(format_description!(
+                "[hour]:[minute]:[second].[subsecond digits:3]"
+            )),
             TerminalMode::Stderr,
             if std::io::stderr().is_terminal() {
                 ColorChoice::Auto
@@ -113,6 +191,7 @@ fn init_logging(args: &RunArgs, vitrine: bool) -> Result<(), Failure> {
     };
     let mut loggers: Vec<Box<dyn SharedLogger>> = vec![terminal];
     if let Some(path) = &args.log {
+        crate::output::create_parent(path)?;
         let file = File::create(path)
             .with_context(|| format!("cannot create the log file {}", path.display()))
             .bad_input()?;

@@ -8,23 +8,15 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use petriplc_net::ScanOptions;
-use petriplc_pnml::{Naming, ReadOptions};
+use petriplc_pnml::ReadOptions;
 use petriplc_sim::{NetPlant, Plant, PlotOptions, SimOptions, Simulation, Timeline};
 
 use super::step_through;
-use crate::args::{Names, SimArgs};
+use crate::args::SimArgs;
 use crate::failure::{BadInputExt, Failure, RunExt};
 
 pub fn run(args: SimArgs) -> Result<(), Failure> {
-    let read_options = ReadOptions {
-        naming: match args.names {
-            Names::Plain => Naming::Plain,
-            Names::Sipn => Naming::Sipn,
-        },
-    };
-    let net = petriplc_pnml::read_file(&args.net, &read_options)
-        .bad_input()?
-        .net;
+    let net = super::read_net(&args.net, args.names)?;
     let timeline = args
         .inputs
         .as_deref()
@@ -64,9 +56,29 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         until,
         scan,
     };
-    let mut sim = Simulation::new(&net, options, timeline, plant)
-        .with_context(|| format!("cannot simulate {}", args.net.display()))
-        .bad_input()?;
+    // The likeliest cause of a timeline or plant that drives nothing: a SIPN net read with
+    // plain names.
+    let mut given: Vec<String> = timeline
+        .as_ref()
+        .map(|t| t.columns().to_vec())
+        .unwrap_or_default();
+    if let Some(p) = &plant_net {
+        given.extend(p.outputs().map(|s| p.signal(s).name.clone()));
+    }
+    let hint = super::sipn_hint(&args.net, args.names, &net, &given, "the timeline or plant");
+    let mut sim = match Simulation::new(&net, options, timeline, plant) {
+        Ok(sim) => sim,
+        Err(e) => {
+            let mut message = format!("cannot simulate {}: {:#}", args.net.display(), anyhow!(e));
+            if let Some(hint) = hint {
+                message = format!("{message}\n{hint}");
+            }
+            return Err(anyhow!(message)).bad_input();
+        }
+    };
+    if let Some(hint) = hint {
+        eprintln!("warning: {hint}");
+    }
     let plot_options = PlotOptions {
         signals: args.signals.clone(),
         from: args.from,
@@ -90,7 +102,7 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         (None, None) => crate::output::to_stdout(|out| trace.write_csv(out))?,
         (out, plot) => {
             if let Some(path) = out {
-                create_parent(path)?;
+                crate::output::create_parent(path)?;
                 let mut file = io::BufWriter::new(
                     fs::File::create(path)
                         .with_context(|| format!("cannot create {}", path.display()))
@@ -101,10 +113,12 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
                     .and_then(|()| file.flush())
                     .with_context(|| format!("cannot write {}", path.display()))
                     .run_failure()?;
-                eprintln!("trace: {} ({} rows)", path.display(), trace.csv_rows());
+                let rows = trace.csv_rows();
+                let what = format!("trace, {rows} row{}", if rows == 1 { "" } else { "s" });
+                crate::output::wrote(path, &what);
             }
             if let Some(path) = plot {
-                create_parent(path)?;
+                crate::output::create_parent(path)?;
                 match petriplc_sim::write_svg(&trace, &plot_options, path) {
                     Ok(()) => {}
                     Err(e) if e.is_bad_input() => return Err(e).bad_input(),
@@ -114,12 +128,12 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
                             .run_failure()
                     }
                 }
-                eprintln!("plot: {}", path.display());
+                crate::output::wrote(path, "plot");
             }
         }
     }
     if let Some(summary) = plant_summary {
-        eprintln!("plant: {summary}");
+        eprintln!("plant at the end: {summary}");
     }
     Ok(())
 }
@@ -138,13 +152,4 @@ fn unknown_plant(name: &str) -> anyhow::Error {
         "unknown plant `{name}`; give a plant net (a .pnml file) or one of the built-in plants:\n{}",
         known.join("\n")
     )
-}
-
-fn create_parent(path: &Path) -> Result<(), Failure> {
-    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        Some(dir) => fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create the folder {}", dir.display()))
-            .run_failure(),
-        None => Ok(()),
-    }
 }

@@ -169,7 +169,7 @@ fn rejects_bad_wiring() {
         None,
         "1",
         "1",
-        "error: timeline tl.csv: column `X` is not an input of the controller; known inputs: (none); check the spelling",
+        "error: timeline tl.csv: column `X` is not an input of the controller; it has no inputs at all",
     );
     check(
         &n,
@@ -576,7 +576,7 @@ fn a_second_net_models_the_process() {
          2,1,0,1,1,0,b\n\
          3,0,1,0,0,1,a\n\
          4,1,0,1,1,0,b\n\
-         plant: test: marked retracted\n",
+         plant: test, marking retracted\n",
     );
 }
 
