@@ -6,6 +6,7 @@ use petriplc_config::{Location, PointKind, PointValue};
 use super::layout::{decode, encode, show_value, sign_extend, width_mask, Layout, PointId};
 use super::shm::{GlobalMap, ImageGuard, WORDS_PAGE_OFFSET};
 use super::{kind_name, ImageError};
+use crate::testhook;
 
 mod isolate;
 
@@ -74,6 +75,8 @@ pub struct ModuleMap {
     location: Location,
     mask: Vec<u32>,
     plan: Plan,
+    /// The word ranges `update()` writes, for its journal.
+    ranges: Vec<(u32, u32)>,
     words: Words,
     /// Force requests waiting for the next `update()`: word, bits, value (`None` releases).
     forces: Vec<(u32, u32, Option<u32>)>,
@@ -129,13 +132,13 @@ impl ModuleMap {
     /// module takes its proxy along.
     pub fn isolated(layout: &Layout, module: &str, plc_id: &str) -> Result<ModuleMap, ImageError> {
         Self::build(layout, module, Location::Isolate, |map| {
-            let (mask, plan) = (&map.mask, &map.plan);
+            let (mask, plan, ranges) = (&map.mask, &map.plan, &map.ranges);
             let proxy = isolate::Proxy::spawn(
                 layout,
                 plc_id,
                 layout.init_words(),
                 private_page_word(),
-                |g, p| exchange(plan, mask, g, p),
+                |g, p| exchange(plan, ranges, mask, g, p),
             )?;
             Ok(Words::Isolated(proxy))
         })
@@ -158,7 +161,14 @@ impl ModuleMap {
             mask[s.word as usize] |= s.field_mask();
         }
         let plan = plan(&mask);
-        let shape = Shape { mask, plan };
+        let ranges = match &plan {
+            Plan::Span { start, end } => vec![(*start as u32, *end as u32)],
+            Plan::Runs(runs) => runs
+                .iter()
+                .map(|r| (r.start as u32, r.end as u32))
+                .collect(),
+        };
+        let shape = Shape { mask, plan, ranges };
         let words = words(&shape)?;
         Ok(ModuleMap {
             layout: layout.clone(),
@@ -166,6 +176,7 @@ impl ModuleMap {
             location,
             mask: shape.mask,
             plan: shape.plan,
+            ranges: shape.ranges,
             words,
             forces: Vec::new(),
             forced: Vec::new(),
@@ -225,7 +236,7 @@ impl ModuleMap {
                 guard.force_changed();
             }
         }
-        exchange(&self.plan, &self.mask, &mut guard, private);
+        exchange(&self.plan, &self.ranges, &self.mask, &mut guard, private);
         let generation = guard.force_generation();
         if generation != self.forced_generation || self.forced.len() != self.mask.len() {
             self.forced_generation = generation;
@@ -510,15 +521,33 @@ fn private_page_word() -> usize {
 struct Shape {
     mask: Vec<u32>,
     plan: Plan,
+    ranges: Vec<(u32, u32)>,
 }
 
-/// The update under the lock: [`merge`], then the forced bits laid over the private copy's
-/// bits the module does not own. The global words keep what the owners wrote (an owner reads
-/// its own value), so releasing a force brings the owner's value back at once.
-fn exchange(plan: &Plan, m: &[u32], guard: &mut ImageGuard<'_>, p: &mut [u32]) {
+/// The update under the lock: [`merge`] inside the journal (so that a death half-way is
+/// undone by the next locker), then the forced bits laid over the private copy's bits the
+/// module does not own. The global words keep what the owners wrote (an owner reads its own
+/// value), so releasing a force brings the owner's value back at once.
+fn exchange(
+    plan: &Plan,
+    ranges: &[(u32, u32)],
+    m: &[u32],
+    guard: &mut ImageGuard<'_>,
+    p: &mut [u32],
+) {
     let forced = guard.any_forced();
-    let parts = guard.parts_mut();
-    merge(plan, m, parts.words, p);
+    let mut parts = guard.parts_mut();
+    if ranges.is_empty() {
+        // Nothing is written out: copying in cannot be half done in any way that matters.
+        merge(plan, m, parts.words, p);
+    } else {
+        parts.journal.open(parts.words, ranges);
+        if testhook::fires(testhook::Point::Update) {
+            die_half_way(ranges, m, parts.words, p);
+        }
+        merge(plan, m, parts.words, p);
+        parts.journal.close();
+    }
     if forced {
         for (w, &fm) in parts.force_mask.iter().enumerate() {
             let others = fm & !m[w];
@@ -527,6 +556,21 @@ fn exchange(plan: &Plan, m: &[u32], guard: &mut ImageGuard<'_>, p: &mut [u32]) {
             }
         }
     }
+}
+
+/// The test hook's death in the middle of an update: the owned bits of the first half of the
+/// owned words written out, then SIGKILL with the lock held.
+#[cold]
+fn die_half_way(ranges: &[(u32, u32)], m: &[u32], g: &mut [u32], p: &[u32]) -> ! {
+    let owned: Vec<usize> = ranges
+        .iter()
+        .flat_map(|&(s, e)| s as usize..e as usize)
+        .filter(|&w| m[w] != 0)
+        .collect();
+    for &w in &owned[..owned.len().div_ceil(2)] {
+        g[w] = (g[w] & !m[w]) | (p[w] & m[w]);
+    }
+    testhook::die()
 }
 
 /// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in. `g` must
