@@ -42,6 +42,7 @@
 
 #![allow(unsafe_code)]
 
+mod reach;
 mod shared;
 
 pub use shared::{Abandoned, Fired, SharedSynch, Stopped};
