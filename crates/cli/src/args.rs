@@ -29,8 +29,17 @@ pub enum Command {
     /// Run the soft PLC a configuration file describes, until stopped.
     Run(RunArgs),
     /// Print the modules of a running PLC: state, process, scans, cycle times, overruns.
+    #[command(
+        after_long_help = "Exit codes: 0 running, 4 no PLC with that id, 5 not \
+        running: the PLC exited without stopping (`petriplc stop` or the next `petriplc run` \
+        removes what it left)."
+    )]
     Status(PlcIdArgs),
-    /// Stop a running PLC cleanly.
+    /// Stop a running PLC cleanly; for one that exited without stopping, remove what it left.
+    #[command(
+        after_long_help = "Exit codes: 0 stopped (or cleaned up after a PLC that had \
+        exited), 1 the PLC did not stop, 4 no PLC with that id."
+    )]
     Stop(PlcIdArgs),
 }
 
@@ -235,13 +244,14 @@ pub const DEFAULT_PLC_ID: &str = "petriplc";
     petriplc run examples/mixer/plc.conf\n  \
     petriplc run examples/mixer/plc.conf --plc-id line2 --for 30s --log out/plc.log\n\n\
     The configuration syntax is MatPLC's (docs/runtime.md). Stop with Ctrl-C or `petriplc stop`.\n\
-    Exit codes: 0 stopped cleanly, 1 a module failed or the PLC could not start, 2 bad configuration.")]
+    Exit codes: 0 stopped cleanly, 1 a module failed, 2 bad configuration, 3 could not start (the id is taken, a resource missing).")]
 pub struct RunArgs {
     /// The configuration file.
     pub config: PathBuf,
-    /// Names this PLC's shared memory, so several run side by side.
-    #[arg(long, default_value = DEFAULT_PLC_ID, value_name = "ID")]
-    pub plc_id: String,
+    /// Names this PLC's shared memory, so several run side by side [default: `plc_id` in
+    /// the configuration's [PLC], else `petriplc`].
+    #[arg(long, value_name = "ID")]
+    pub plc_id: Option<String>,
     /// Stop after this long (`30s`, `T#1m`).
     #[arg(long = "for", value_name = "DURATION", value_parser = parse_time)]
     pub duration: Option<Duration>,

@@ -7,12 +7,22 @@ pub enum Failure {
     BadInput(anyhow::Error),
     /// The input was fine but running it failed (an unstable net, a write error): exit code 1.
     Run(anyhow::Error),
+    /// Could not start: the PLC id is taken, a resource is missing or refused: exit code 3.
+    NotStarted(anyhow::Error),
+    /// `status`, `stop`: no PLC has that id: exit code 4.
+    NoSuchPlc(anyhow::Error),
+    /// `status`: the PLC is not running, it exited without stopping: exit code 5.
+    Stale(anyhow::Error),
 }
 
 impl Failure {
     pub fn error(&self) -> &anyhow::Error {
         match self {
-            Failure::BadInput(e) | Failure::Run(e) => e,
+            Failure::BadInput(e)
+            | Failure::Run(e)
+            | Failure::NotStarted(e)
+            | Failure::NoSuchPlc(e)
+            | Failure::Stale(e) => e,
         }
     }
 
@@ -20,6 +30,9 @@ impl Failure {
         match self {
             Failure::BadInput(_) => 2,
             Failure::Run(_) => 1,
+            Failure::NotStarted(_) => 3,
+            Failure::NoSuchPlc(_) => 4,
+            Failure::Stale(_) => 5,
         }
     }
 }

@@ -116,10 +116,8 @@ fn status_and_stop_reach_a_running_plc() {
         .unwrap()
         .args(["status", "--plc-id", &id])
         .assert()
-        .code(1)
-        .stderr(predicate::str::contains(format!(
-            "no PLC with id `{id}` is running"
-        )));
+        .code(4)
+        .stderr(predicate::str::contains(format!("no PLC with id `{id}`")));
 }
 
 fn run_config(dir: &TempDir, text: &str, id: &str, extra: &[&str]) -> std::process::Output {
@@ -179,7 +177,7 @@ fn bad_configurations_start_nothing() {
         ),
         (
             "b:point=q",
-            "--set b:point=q: there is no module of that name",
+            "--set: error[C033]: `point` is set for `b`, but no module b is declared",
         ),
         ("a-point", "is not SECTION:NAME=VALUE"),
     ];
@@ -240,8 +238,11 @@ fn two_plcs_cannot_share_an_id() {
     Command::from_std(mixer(&id))
         .args(FREE_PORTS)
         .assert()
-        .code(1)
-        .stderr(predicate::str::contains("--plc-id"));
+        .code(3)
+        .stderr(
+            predicate::str::contains("is already running")
+                .and(predicate::str::contains("--plc-id")),
+        );
     Command::cargo_bin("petriplc")
         .unwrap()
         .args(["stop", "--plc-id", &id])
