@@ -13,6 +13,8 @@ pub enum Failure {
     NoSuchPlc(anyhow::Error),
     /// `status`: the PLC is not running, it exited without stopping: exit code 5.
     Stale(anyhow::Error),
+    /// Interrupted by Ctrl-C: exit code 130.
+    Interrupted(anyhow::Error),
 }
 
 impl Failure {
@@ -22,7 +24,8 @@ impl Failure {
             | Failure::Run(e)
             | Failure::NotStarted(e)
             | Failure::NoSuchPlc(e)
-            | Failure::Stale(e) => e,
+            | Failure::Stale(e)
+            | Failure::Interrupted(e) => e,
         }
     }
 
@@ -33,6 +36,7 @@ impl Failure {
             Failure::NotStarted(_) => 3,
             Failure::NoSuchPlc(_) => 4,
             Failure::Stale(_) => 5,
+            Failure::Interrupted(_) => 130,
         }
     }
 }
