@@ -15,7 +15,7 @@ use petriplc_config::{Location, PlcConfig, PointKind};
 use petriplc_runtime::image::module::process_threads;
 use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap};
 use petriplc_runtime::period::Period;
-use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
+use petriplc_runtime::synch::{ScanRef, SharedSynch, SynchError, SynchNet, TransitionRef};
 
 use crate::args::{self, Target};
 use crate::*;
@@ -44,8 +44,9 @@ struct Plc {
     global: Option<GlobalMap>,
     /// Shared with callers that wait on it with the lock released.
     synch: Arc<SharedSynch>,
-    beg: TransitionRef,
-    end: TransitionRef,
+    /// The module's scan_beg / scan_end and its scan slot, which tells the PLC whether the
+    /// module is inside a scan should it die (`None`: both are NULL).
+    scan: Option<ScanRef>,
     scan_period: Option<Duration>,
     /// Started by the first `scan_beg`, so that scan 0 runs at once and t0 is its start.
     period: Option<Period>,
@@ -170,6 +171,11 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
     }
     let module = target.module.as_str();
     let context = |e: Error| Error::new(e.code, format!("module `{module}`: {}", e.message));
+    // Tests make a module program die holding the PLC's lock through this variable.
+    if let Ok(spec) = std::env::var(petriplc_runtime::testhook::ENV) {
+        petriplc_runtime::testhook::arm_from(&spec)
+            .map_err(|e| context(Error::new(PLC_ERR_ARGS, e)))?;
+    }
     let config = read_config(&target.config).map_err(context)?;
     let plc_id = match target.plc_id {
         Some(id) => id,
@@ -245,8 +251,7 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
             .fetch_add(1, Ordering::Relaxed)
             .wrapping_add(1)
             .max(1),
-        beg: net.scan_beg(module),
-        end: net.scan_end(module),
+        scan: net.scan_ref(module),
         scan_period: decl.scan_period,
         period: None,
         map,
@@ -394,7 +399,7 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
                 }
             },
         };
-        Ok((plc.session, plc.synch.clone(), plc.beg, period))
+        Ok((plc.session, plc.synch.clone(), plc.scan, period))
     })?;
     if let Some(mut period) = period {
         // A stopping PLC should not wait a whole period to tell its modules.
@@ -406,7 +411,11 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
             Ok(())
         })?;
     }
-    if synch.synch(beg).is_err() {
+    let began = match &beg {
+        Some(scan) => synch.begin_scan(scan).map(drop),
+        None => synch.synch(TransitionRef::Null).map(drop),
+    };
+    if began.is_err() {
         return Ok(PLC_STOPPING);
     }
     with_session(session, |plc| {
@@ -417,14 +426,15 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
 
 /// Updates the map, then synchronises on the module's `scan_end` transition.
 pub(crate) fn scan_end() -> Result<c_int, Error> {
-    let (synch, end) = with_plc(|plc| {
+    let (synch, scan) = with_plc(|plc| {
         plc.update()?;
-        Ok((plc.synch.clone(), plc.end))
+        Ok((plc.synch.clone(), plc.scan))
     })?;
-    Ok(match synch.synch(end) {
-        Ok(_) => PLC_OK,
-        Err(_) => PLC_STOPPING,
-    })
+    let ended = match &scan {
+        Some(scan) => synch.end_scan(scan).map(drop),
+        None => synch.synch(TransitionRef::Null).map(drop),
+    };
+    Ok(if ended.is_ok() { PLC_OK } else { PLC_STOPPING })
 }
 
 /// Synchronises on a transition of the net by name (for modules that synchronise at other

@@ -16,6 +16,7 @@ fn main() -> ExitCode {
     let cli = args::Cli::parse();
     if !matches!(cli.command, args::Command::Run(_)) {
         panic::exit_on_panic();
+        panic::test_hook();
     }
     match panic::catch(|| commands::run(cli)) {
         Ok(()) => ExitCode::SUCCESS,

@@ -28,3 +28,18 @@ pub fn catch(command: impl FnOnce() -> Result<(), Failure>) -> Result<(), Failur
     panic::catch_unwind(AssertUnwindSafe(command))
         .unwrap_or_else(|_| Err(Failure::Run(anyhow::anyhow!("{BUG}"))))
 }
+
+/// Test hook: with `PETRIPLC_TEST_PANIC=worker` in the environment, a worker thread panics
+/// while the command's main thread waits for it at a barrier that can never open, as an
+/// exploration's leader waits for its workers; the command must still end.
+pub fn test_hook() {
+    if std::env::var_os("PETRIPLC_TEST_PANIC").is_some_and(|v| v == "worker") {
+        let barrier = std::sync::Arc::new(std::sync::Barrier::new(2));
+        let theirs = barrier.clone();
+        std::thread::spawn(move || {
+            let _never = theirs;
+            panic!("a worker thread panicked (PETRIPLC_TEST_PANIC=worker)");
+        });
+        barrier.wait();
+    }
+}

@@ -78,13 +78,13 @@ pub enum RunError {
         setting: String,
         modules: Vec<String>,
     },
-    /// The source's text is part of this message (not `#[source]`, which would print it
-    /// twice).
-    #[error("module {module}: cannot start program {program}: {source}")]
+    /// The OS error's text is part of this message; it is not the error's `source`, which
+    /// would print it a second time.
+    #[error("module {module}: cannot start program {program}: {error}")]
     Spawn {
         module: String,
         program: String,
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("module {module}: program {path} is not executable; make it so (`chmod +x {path}`) or fix the `module {module} ...` row")]
     NotExecutable { module: String, path: String },
@@ -268,8 +268,11 @@ impl Plc {
         registry: Registry,
         opts: &RunOptions,
     ) -> Result<Plc, RunError> {
+        // `plc.conf` has the parent "", which would send a program path `prog` to a search
+        // of PATH: the folder is `.` then.
         let base_dir = config_path
             .parent()
+            .filter(|p| !p.as_os_str().is_empty())
             .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
         if let Err(ImageError::BadPlcId { plc_id, reason }) =
             petriplc_runtime::image::shm::shm_name(&opts.plc_id)
@@ -398,10 +401,10 @@ impl Plc {
             let handle = std::thread::Builder::new()
                 .name(name.clone())
                 .spawn(move || run_thread(&shared, r))
-                .map_err(|source| RunError::Spawn {
+                .map_err(|error| RunError::Spawn {
                     module: name,
                     program: "thread".into(),
-                    source,
+                    error,
                 })?;
             starting.threads.push(handle);
         }
@@ -518,7 +521,8 @@ fn program_of(decl: &ModuleDecl, base_dir: &Path, opts: &RunOptions) -> Result<P
             path: program.display().to_string(),
         });
     }
-    Ok(program)
+    // Absolute, so that it is this file that runs and never one found on PATH.
+    Ok(std::fs::canonicalize(&program).unwrap_or(program))
 }
 
 /// The module's `safe POINT VALUE` rows, each checked: the point exists, the module owns it,
@@ -1003,10 +1007,10 @@ fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunErro
         .env("PETRIPLC_MODULE", &decl.name)
         .env("PETRIPLC_PLC_ID", &shared.plc_id);
     let child =
-        proc::spawn_tied(&mut command, Signal::SIGKILL).map_err(|source| RunError::Spawn {
+        proc::spawn_tied(&mut command, Signal::SIGKILL).map_err(|error| RunError::Spawn {
             module: decl.name.clone(),
             program: program.display().to_string(),
-            source,
+            error,
         })?;
     let pid = child.id();
     shared.set_status(index, |s| {

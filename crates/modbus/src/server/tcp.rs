@@ -255,50 +255,6 @@ async fn connection(
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Refusals at the given seconds (after the first), then an accept: the lines logged.
-    fn check(refused_at: &[f64], expect: &[&str]) {
-        let t0 = Instant::now();
-        let mut r = Refusals::default();
-        let mut got: Vec<String> = refused_at
-            .iter()
-            .filter_map(|&s| r.refused(t0 + Duration::from_secs_f64(s), 4))
-            .collect();
-        got.extend(r.accepted());
-        let got: Vec<&str> = got.iter().map(|l| l.split(';').next().unwrap()).collect();
-        assert_eq!(got, expect);
-    }
-
-    #[test]
-    fn refusals_are_logged_once_with_the_limit_then_counted() {
-        check(&[], &[]);
-        check(
-            &[0.0],
-            &["max_clients = 4 connections are open and none has been idle for 1 s"],
-        );
-        // Hundreds in a second: one line, and the count when a client gets in again.
-        let burst: Vec<f64> = (0..300).map(|i| f64::from(i) / 300.0).collect();
-        check(
-            &burst,
-            &[
-                "max_clients = 4 connections are open and none has been idle for 1 s",
-                "299 more connections were refused (max_clients)",
-            ],
-        );
-        check(
-            &[0.0, 1.0, 5.0, 10.5, 11.0],
-            &[
-                "max_clients = 4 connections are open and none has been idle for 1 s",
-                "3 more connections refused in the last 10 s (max_clients)",
-                "1 more connections were refused (max_clients)",
-            ],
-        );
-    }
-}
-
 /// What [`answer`] did with a read's bytes.
 pub(super) struct Batch {
     /// Bytes consumed (whole ADUs).
@@ -355,5 +311,49 @@ pub(super) fn answer(buf: &[u8], shared: &Shared, out: &mut Vec<u8>) -> Batch {
         used: pos,
         served,
         close,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Refusals at the given seconds (after the first), then an accept: the lines logged.
+    fn check(refused_at: &[f64], expect: &[&str]) {
+        let t0 = Instant::now();
+        let mut r = Refusals::default();
+        let mut got: Vec<String> = refused_at
+            .iter()
+            .filter_map(|&s| r.refused(t0 + Duration::from_secs_f64(s), 4))
+            .collect();
+        got.extend(r.accepted());
+        let got: Vec<&str> = got.iter().map(|l| l.split(';').next().unwrap()).collect();
+        assert_eq!(got, expect);
+    }
+
+    #[test]
+    fn refusals_are_logged_once_with_the_limit_then_counted() {
+        check(&[], &[]);
+        check(
+            &[0.0],
+            &["max_clients = 4 connections are open and none has been idle for 1 s"],
+        );
+        // Hundreds in a second: one line, and the count when a client gets in again.
+        let burst: Vec<f64> = (0..300).map(|i| f64::from(i) / 300.0).collect();
+        check(
+            &burst,
+            &[
+                "max_clients = 4 connections are open and none has been idle for 1 s",
+                "299 more connections were refused (max_clients)",
+            ],
+        );
+        check(
+            &[0.0, 1.0, 5.0, 10.5, 11.0],
+            &[
+                "max_clients = 4 connections are open and none has been idle for 1 s",
+                "3 more connections refused in the last 10 s (max_clients)",
+                "1 more connections were refused (max_clients)",
+            ],
+        );
     }
 }
