@@ -125,15 +125,14 @@ pub struct Remains {
 impl Remains {
     /// `the PLC (pid N) exited without stopping at TIME`.
     pub fn describe(&self) -> String {
-        let pid = self
-            .pid
-            .map(|p| format!(" (pid {p})"))
-            .unwrap_or_else(|| " (still starting)".to_string());
         let at = self
             .last_seen
             .map(|t| format!(" at {}", rfc3339(t)))
             .unwrap_or_default();
-        format!("the PLC{pid} exited without stopping{at}")
+        match self.pid {
+            Some(p) => format!("the PLC (pid {p}) exited without stopping{at}"),
+            None => format!("a PLC exited without stopping while it was starting{at}"),
+        }
     }
 
     /// The objects' file names, for messages.
@@ -307,7 +306,15 @@ impl Owner {
                 _ => continue,
             }
         };
+        // Who held it last, then at once who holds it now: a death from here on is ours.
         let holder = read_holder(&mut file);
+        let last_seen = last_seen(plc_id);
+        let me = std::process::id();
+        let start = process::start_time(me).unwrap_or(0);
+        file.set_len(0)
+            .and_then(|()| file.seek(io::SeekFrom::Start(0)).map(drop))
+            .and_then(|()| writeln!(file, "{me} {start}"))
+            .map_err(os("cannot write the lock file", path.clone()))?;
         let left = existing(plc_id);
         let remains = if left.is_empty() && holder.is_none() {
             None
@@ -316,7 +323,7 @@ impl Owner {
             objects.push(path.clone());
             let remains = Remains {
                 pid: holder.map(|h| h.pid),
-                last_seen: last_seen(plc_id),
+                last_seen,
                 objects,
             };
             for (p, o) in &left {
@@ -336,12 +343,6 @@ impl Owner {
             }
             Some(remains)
         };
-        let me = std::process::id();
-        let start = process::start_time(me).unwrap_or(0);
-        file.set_len(0)
-            .and_then(|()| file.seek(io::SeekFrom::Start(0)).map(drop))
-            .and_then(|()| writeln!(file, "{me} {start}"))
-            .map_err(os("cannot write the lock file", path.clone()))?;
         Ok((
             Owner {
                 plc_id: plc_id.to_string(),
