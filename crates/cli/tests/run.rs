@@ -34,7 +34,7 @@ fn mixer(id: &str) -> Process {
     run
 }
 
-/// `petriplc status` of PLC `id` once it answers (20 s at most).
+/// `petriplc status` of PLC `id` once it runs (20 s at most).
 fn wait_for_status(id: &str) -> String {
     let started = Instant::now();
     loop {
@@ -43,8 +43,10 @@ fn wait_for_status(id: &str) -> String {
             .args(["status", "--plc-id", id])
             .output()
             .unwrap();
-        if out.status.success() {
-            return String::from_utf8_lossy(&out.stdout).into_owned();
+        // Exit 0 also while it starts (its lock is held); the table comes once it runs.
+        let text = String::from_utf8_lossy(&out.stdout);
+        if out.status.success() && text.starts_with(&format!("PLC {id} (process ")) {
+            return text.into_owned();
         }
         assert!(
             started.elapsed() < Duration::from_secs(20),

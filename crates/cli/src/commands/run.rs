@@ -136,13 +136,10 @@ pub fn status(args: PlcIdArgs) -> Result<(), Failure> {
                 Some(s) => s.to_string(),
                 // The lock is held but the first status file is not written yet (or the
                 // last one is already removed).
-                None => format!(
-                    "PLC {id} ({}) is starting or stopping\n",
-                    pid.map_or_else(
-                        || "process not known yet".to_string(),
-                        |p| format!("process {p}")
-                    )
-                ),
+                None => match pid {
+                    Some(p) => format!("PLC {id} (process {p}) is starting or stopping\n"),
+                    None => format!("PLC {id} is starting\n"),
+                },
             };
             crate::output::to_stdout(|out| out.write_all(text.as_bytes()))
         }
