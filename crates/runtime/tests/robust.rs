@@ -69,8 +69,27 @@ fn config() -> PlcConfig {
     c
 }
 
+/// `bulk` owns 1000 words and `other` one word among them: `bulk`'s update writes two
+/// runs over several journal chunks.
+fn bulk_layout() -> Layout {
+    let mut points: Vec<PointDecl> = (0..1000u32)
+        .map(|i| point(&format!("w{i}"), "bulk", if i < 600 { i } else { i + 1 }))
+        .collect();
+    points.push(point("o", "other", 600));
+    Layout::new(&PlcConfig {
+        modules: ["bulk", "other"]
+            .iter()
+            .map(|m| ModuleDecl::new(*m, "test"))
+            .collect(),
+        points,
+        ..PlcConfig::default()
+    })
+    .unwrap()
+}
+
 /// Runs only as a victim: `update VALUE` writes a = b = VALUE and updates (dying half-way
-/// if the hook is armed); `fire` fires `a:beg` (dying half-way if armed).
+/// if the hook is armed); `bulk VALUE` writes VALUE to its 1000 words and updates; `fire`
+/// fires `a:beg` (dying half-way if armed).
 #[test]
 fn victim_entry() {
     let Ok(spec) = std::env::var(VICTIM) else {
@@ -90,6 +109,17 @@ fn victim_entry() {
             let mut m = ModuleMap::new(&layout, "victim", Location::Local).unwrap();
             m.set_u32(&m.handle("a").unwrap(), value).unwrap();
             m.set_u32(&m.handle("b").unwrap(), value).unwrap();
+            m.update(&global);
+        }
+        "bulk" => {
+            let value: u32 = words.next().unwrap().parse().unwrap();
+            let layout = bulk_layout();
+            let global = GlobalMap::open(id).unwrap();
+            let mut m = ModuleMap::new(&layout, "bulk", Location::Local).unwrap();
+            for i in 0..1000 {
+                m.set_u32(&m.handle(&format!("w{i}")).unwrap(), value)
+                    .unwrap();
+            }
             m.update(&global);
         }
         "fire" => {
@@ -160,6 +190,24 @@ fn a_process_killed_inside_update_never_blocks_the_others_and_is_undone() {
         "priority inheritance on this system: {}",
         global.priority_inheritance()
     );
+}
+
+#[test]
+fn a_death_after_several_journal_chunks_is_undone_whole() {
+    let id = plc_id("bulk");
+    let layout = bulk_layout();
+    let global = GlobalMap::create(&id, &layout).unwrap();
+    assert!(!victim(&format!("bulk {id} 7"), None));
+    // Dies after 500 of its 1000 words: one journal chunk (256 words) saved and written, the
+    // next saved and written up to word 500; the other runs untouched and unsaved.
+    assert!(victim(&format!("bulk {id} 8"), Some("update:1")));
+    let mut other = ModuleMap::new(&layout, "other", Location::Local).unwrap();
+    other.update(&global);
+    let words = global.lock().words().to_vec();
+    assert_eq!(words.len(), 1001);
+    for (w, &v) in words.iter().enumerate() {
+        assert_eq!(v, if w == 600 { 0 } else { 7 }, "word {w}");
+    }
 }
 
 #[test]

@@ -4,7 +4,7 @@
 use petriplc_config::{Location, PointKind, PointValue};
 
 use super::layout::{decode, encode, show_value, sign_extend, width_mask, Layout, PointId};
-use super::shm::{GlobalMap, ImageGuard, WORDS_PAGE_OFFSET};
+use super::shm::{GlobalMap, ImageGuard, Journal, WORDS_PAGE_OFFSET};
 use super::{kind_name, ImageError};
 use crate::testhook;
 
@@ -537,17 +537,12 @@ fn exchange(
 ) {
     let forced = guard.any_forced();
     let mut parts = guard.parts_mut();
-    if ranges.is_empty() {
-        // Nothing is written out: copying in cannot be half done in any way that matters.
-        merge(plan, m, parts.words, p);
-    } else {
-        parts.journal.open(parts.words, ranges);
-        if testhook::fires(testhook::Point::Update) {
-            die_half_way(ranges, m, parts.words, p);
-        }
-        merge(plan, m, parts.words, p);
-        parts.journal.close();
+    parts.journal.open(ranges);
+    if testhook::fires(testhook::Point::Update) {
+        die_half_way(ranges, m, parts.words, p, &mut parts.journal);
     }
+    merge(plan, m, parts.words, p, &mut parts.journal);
+    parts.journal.close();
     if forced {
         for (w, &fm) in parts.force_mask.iter().enumerate() {
             let others = fm & !m[w];
@@ -558,44 +553,83 @@ fn exchange(
     }
 }
 
-/// The test hook's death in the middle of an update: the owned bits of the first half of the
-/// owned words written out, then SIGKILL with the lock held.
+/// The test hook's death in the middle of an update: the owned words written out chunk by
+/// chunk as [`merge`] writes them, journal saves included, until half of them are out; then
+/// SIGKILL with the lock held.
 #[cold]
-fn die_half_way(ranges: &[(u32, u32)], m: &[u32], g: &mut [u32], p: &[u32]) -> ! {
-    let owned: Vec<usize> = ranges
+fn die_half_way(
+    ranges: &[(u32, u32)],
+    m: &[u32],
+    g: &mut [u32],
+    p: &[u32],
+    journal: &mut Journal<'_>,
+) -> ! {
+    let owned: usize = ranges
         .iter()
         .flat_map(|&(s, e)| s as usize..e as usize)
         .filter(|&w| m[w] != 0)
-        .collect();
-    for &w in &owned[..owned.len().div_ceil(2)] {
-        g[w] = (g[w] & !m[w]) | (p[w] & m[w]);
+        .count();
+    let mut left = owned.div_ceil(2);
+    for &(s, e) in ranges {
+        let mut c = s as usize;
+        while c < e as usize {
+            let d = (c + CHUNK).min(e as usize);
+            journal.save(g, c, d);
+            for w in c..d {
+                if left == 0 {
+                    testhook::die();
+                }
+                if m[w] != 0 {
+                    g[w] = (g[w] & !m[w]) | (p[w] & m[w]);
+                    left -= 1;
+                }
+            }
+            c = d;
+        }
     }
     testhook::die()
 }
 
-/// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in. `g` must
-/// be locked.
-fn merge(plan: &Plan, m: &[u32], g: &mut [u32], p: &mut [u32]) {
+/// Words written out between two journal saves: small enough that the chunk is still in
+/// the cache when it is written, large enough that the save's bookkeeping does not count.
+const CHUNK: usize = 256;
+
+/// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in, each
+/// chunk of `g` saved in the journal (opened with the plan's ranges) before it is written.
+/// `g` must be locked.
+fn merge(plan: &Plan, m: &[u32], g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
     match plan {
         Plan::Span { start, end } => {
             let (s, e) = (*start, *end);
-            for ((g, p), m) in g[s..e].iter_mut().zip(&mut p[s..e]).zip(&m[s..e]) {
-                let v = (*g & !*m) | (*p & *m);
-                *g = v;
-                *p = v;
+            let mut c = s;
+            while c < e {
+                let d = (c + CHUNK).min(e);
+                journal.save(g, c, d);
+                for ((g, p), m) in g[c..d].iter_mut().zip(&mut p[c..d]).zip(&m[c..d]) {
+                    let v = (*g & !*m) | (*p & *m);
+                    *g = v;
+                    *p = v;
+                }
+                c = d;
             }
             p[..s].copy_from_slice(&g[..s]);
             p[e..].copy_from_slice(&g[e..]);
         }
         Plan::Runs(runs) => {
             for r in runs {
-                let (g, p) = (&mut g[r.start..r.end], &p[r.start..r.end]);
-                if r.full {
-                    g.copy_from_slice(p);
-                } else {
-                    for ((g, p), m) in g.iter_mut().zip(p).zip(&m[r.start..r.end]) {
-                        *g = (*g & !*m) | (*p & *m);
+                let mut c = r.start;
+                while c < r.end {
+                    let d = (c + CHUNK).min(r.end);
+                    journal.save(g, c, d);
+                    let (g, p) = (&mut g[c..d], &p[c..d]);
+                    if r.full {
+                        g.copy_from_slice(p);
+                    } else {
+                        for ((g, p), m) in g.iter_mut().zip(p).zip(&m[c..d]) {
+                            *g = (*g & !*m) | (*p & *m);
+                        }
                     }
+                    c = d;
                 }
             }
             p.copy_from_slice(g);

@@ -7,11 +7,14 @@
 //! module's `update()`, [`GlobalMap::read_point`]) lays the forced bits over them.
 //!
 //! The journal makes a module's `update()` all or nothing even if the module dies half-way
-//! (`kill -9` in the middle of the copy): before writing its owned words out, the updater
-//! saves them and the ranges they lie in; the next process to take the lock after the
-//! holder's death finds the journal still open and puts the saved words back, so the image
-//! holds that module's previous values, never a mix of two scans. Each force request is a
-//! single word's mask and value, written value first, so it is applied or not.
+//! (`kill -9` in the middle of the copy): the updater opens it with the ranges of words it
+//! will write, then writes them chunk by chunk, saving each chunk's words and counting them
+//! as saved just before overwriting them (the chunk is still in the cache when it is copied
+//! out, so the journal costs one more pass over cache lines, not over memory). The next
+//! process to take the lock after the holder's death finds the journal open and puts the
+//! saved words back, so the image holds that module's previous values, never a mix of two
+//! scans. Each force request is a single word's mask and value, written value first, so it is
+//! applied or not.
 
 use std::fs::File;
 use std::os::unix::fs::MetadataExt;
@@ -58,7 +61,10 @@ struct Header {
     inherit: AtomicU32,
     /// How often a lock held by a process that died was recovered.
     recoveries: AtomicU32,
-    _reserved: [AtomicU32; 4],
+    /// How many words of the open journal's ranges, in order, are saved (and may have been
+    /// overwritten since).
+    journal_saved: AtomicU32,
+    _reserved: [AtomicU32; 3],
     lock: RobustMutex,
 }
 
@@ -324,11 +330,15 @@ impl GlobalMap {
         let (_, rest) = rest.split_at_mut(n);
         let (saved, ranges) = rest.split_at_mut(n);
         let open = (h.journal.load(Ordering::Acquire) as usize).min(n);
+        let mut left = h.journal_saved.load(Ordering::Acquire) as usize;
         for r in ranges.chunks_exact(2).take(open) {
             let (start, end) = (r[0] as usize, r[1] as usize);
-            if start < end && end <= n {
-                words[start..end].copy_from_slice(&saved[start..end]);
+            if start >= end || end > n || left == 0 {
+                break;
             }
+            let end = end.min(start + left);
+            words[start..end].copy_from_slice(&saved[start..end]);
+            left -= end - start;
         }
         h.journal.store(0, Ordering::Release);
         // A force request is applied whole or not at all, but the count of forced words
@@ -396,22 +406,37 @@ pub struct Journal<'g> {
     saved: &'g mut [u32],
     ranges: &'g mut [u32],
     open: &'g AtomicU32,
+    saved_count: &'g AtomicU32,
+    /// Words saved so far (what `saved_count` holds).
+    count: u32,
 }
 
 impl Journal<'_> {
-    /// Saves `words[start..end]` for each of `ranges` and opens the journal: from here until
-    /// [`Journal::close`], a death of this process makes the next locker put them back.
-    /// At most one range per word.
-    pub fn open(&mut self, words: &[u32], ranges: &[(u32, u32)]) {
+    /// Opens the journal for an update that will write the words of `ranges` (at most one
+    /// range per word), in this order, each chunk saved by [`Journal::save`] just before it
+    /// is written. From here until [`Journal::close`], a death of this process makes the next
+    /// locker put the saved words back.
+    pub fn open(&mut self, ranges: &[(u32, u32)]) {
         for (i, &(start, end)) in ranges.iter().enumerate() {
-            let (s, e) = (start as usize, end as usize);
-            self.saved[s..e].copy_from_slice(&words[s..e]);
             self.ranges[2 * i] = start;
             self.ranges[2 * i + 1] = end;
         }
+        self.count = 0;
+        self.saved_count.store(0, Ordering::Relaxed);
         self.open.store(ranges.len() as u32, Ordering::Release);
         // A death is precise (every instruction before the kill ran, none after), so program
-        // order is enough: keep the compiler from moving the copy-out above this point.
+        // order is enough: keep the compiler from moving stores across these points.
+        compiler_fence(Ordering::SeqCst);
+    }
+
+    /// Saves `words[start..end]`, the next words of the ranges in order, before they are
+    /// written.
+    #[inline]
+    pub fn save(&mut self, words: &[u32], start: usize, end: usize) {
+        self.saved[start..end].copy_from_slice(&words[start..end]);
+        compiler_fence(Ordering::SeqCst);
+        self.count += (end - start) as u32;
+        self.saved_count.store(self.count, Ordering::Relaxed);
         compiler_fence(Ordering::SeqCst);
     }
 
@@ -499,6 +524,8 @@ impl ImageGuard<'_> {
                 saved,
                 ranges,
                 open: &header(&inner.map).journal,
+                saved_count: &header(&inner.map).journal_saved,
+                count: 0,
             },
         }
     }
