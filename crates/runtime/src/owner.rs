@@ -113,7 +113,7 @@ fn read_holder(file: &mut File) -> Option<Holder> {
 /// What a PLC that died without stopping left behind.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Remains {
-    /// Its process, if it got as far as recording it.
+    /// Its process, if it got as far as recording it (in its lock file, or its status file).
     pub pid: Option<u32>,
     /// The last sign of life: when its status file (rewritten several times a second) or
     /// its lock file was last written.
@@ -131,7 +131,7 @@ impl Remains {
             .unwrap_or_default();
         match self.pid {
             Some(p) => format!("the PLC (pid {p}) exited without stopping{at}"),
-            None => format!("a PLC exited without stopping while it was starting{at}"),
+            None => format!("a PLC exited without stopping{at}"),
         }
     }
 
@@ -239,6 +239,11 @@ pub fn probe(plc_id: &str) -> Result<Probe, OwnerError> {
     }
     let holder = file.as_mut().and_then(read_holder);
     let mut objects: Vec<PathBuf> = existing(plc_id).into_iter().map(|(p, _)| p).collect();
+    // Without a lock file (a PLC of an older petriplc), its status file may still say which
+    // process it was: for the message only.
+    let pid = holder
+        .map(|h| h.pid)
+        .or_else(|| crate::status::PlcStatus::read(plc_id).map(|s| s.pid));
     // A lock file that names nobody, with nothing else left, is a PLC that had only just
     // begun (or is beginning right now): there is nothing to report.
     if objects.is_empty() && holder.is_none() {
@@ -248,7 +253,7 @@ pub fn probe(plc_id: &str) -> Result<Probe, OwnerError> {
         objects.push(path);
     }
     Ok(Probe::Dead(Remains {
-        pid: holder.map(|h| h.pid),
+        pid,
         last_seen: last_seen(plc_id),
         objects,
     }))
@@ -322,7 +327,9 @@ impl Owner {
             let mut objects: Vec<PathBuf> = left.iter().map(|(p, _)| p.clone()).collect();
             objects.push(path.clone());
             let remains = Remains {
-                pid: holder.map(|h| h.pid),
+                pid: holder
+                    .map(|h| h.pid)
+                    .or_else(|| crate::status::PlcStatus::read(plc_id).map(|s| s.pid)),
                 last_seen,
                 objects,
             };
