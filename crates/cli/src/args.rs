@@ -34,13 +34,17 @@ pub enum Command {
     /// Print the modules of a running PLC: state, process, scans, cycle times, overruns.
     #[command(after_long_help = concat!("Examples:\n  \
         petriplc status\n  \
-        petriplc status --plc-id line2\n\n",
+        petriplc status --plc-id line2\n\n\
+    0 while the PLC runs (or starts), 4 when no PLC has that id, 5 when it exited without\n\
+    stopping: `petriplc stop` or the next `petriplc run` removes what it left.\n\n",
         exit_codes!()))]
     Status(PlcIdArgs),
-    /// Stop a running PLC cleanly.
+    /// Stop a running PLC cleanly; for one that exited without stopping, remove what it left.
     #[command(after_long_help = concat!("Examples:\n  \
         petriplc stop --plc-id line2\n  \
-        petriplc stop\n\n",
+        petriplc stop\n\n\
+    0 once stopped (or cleaned up after a PLC that had exited), 1 when the PLC did not\n\
+    stop, 4 when no PLC has that id.\n\n",
         exit_codes!()))]
     Stop(PlcIdArgs),
 }
@@ -289,9 +293,10 @@ pub const DEFAULT_PLC_ID: &str = "petriplc";
 pub struct RunArgs {
     /// The configuration file.
     pub config: PathBuf,
-    /// Names this PLC's shared memory, so several run side by side.
-    #[arg(long, default_value = DEFAULT_PLC_ID, value_name = "ID")]
-    pub plc_id: String,
+    /// Names this PLC's shared memory, so several run side by side [default: `plc_id` in
+    /// the configuration's [PLC], else `petriplc`].
+    #[arg(long, value_name = "ID")]
+    pub plc_id: Option<String>,
     /// Stop after this long (`30s`, `T#1m`).
     #[arg(long = "for", value_name = "DURATION", value_parser = parse_time)]
     pub duration: Option<Duration>,

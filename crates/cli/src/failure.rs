@@ -25,9 +25,13 @@ pub enum Failure {
     BadInput(anyhow::Error),
     /// The input was fine but running it failed (an unstable net, a write error): exit code 1.
     Run(anyhow::Error),
-    /// Something the command needs is taken or missing (a port, a PLC id): exit code 3.
+    /// Could not start: the PLC id is taken, a resource is missing or refused: exit code 3.
     CannotStart(anyhow::Error),
-    /// Ctrl-C ended the command early; what it printed is partial: exit code 130.
+    /// `status`, `stop`: no PLC has that id: exit code 4.
+    NoSuchPlc(anyhow::Error),
+    /// `status`: the PLC is not running, it exited without stopping: exit code 5.
+    Stale(anyhow::Error),
+    /// Interrupted by Ctrl-C: exit code 130.
     Interrupted(anyhow::Error),
 }
 
@@ -37,6 +41,8 @@ impl Failure {
             Failure::BadInput(e)
             | Failure::Run(e)
             | Failure::CannotStart(e)
+            | Failure::NoSuchPlc(e)
+            | Failure::Stale(e)
             | Failure::Interrupted(e) => e,
         }
     }
@@ -46,6 +52,8 @@ impl Failure {
             Failure::BadInput(_) => 2,
             Failure::Run(_) => 1,
             Failure::CannotStart(_) => 3,
+            Failure::NoSuchPlc(_) => 4,
+            Failure::Stale(_) => 5,
             Failure::Interrupted(_) => 130,
         }
     }

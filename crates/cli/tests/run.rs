@@ -34,7 +34,7 @@ fn mixer(id: &str) -> Process {
     run
 }
 
-/// `petriplc status` of PLC `id` once it answers (20 s at most).
+/// `petriplc status` of PLC `id` once it runs (20 s at most).
 fn wait_for_status(id: &str) -> String {
     let started = Instant::now();
     loop {
@@ -43,8 +43,10 @@ fn wait_for_status(id: &str) -> String {
             .args(["status", "--plc-id", id])
             .output()
             .unwrap();
-        if out.status.success() {
-            return String::from_utf8_lossy(&out.stdout).into_owned();
+        // Exit 0 also while it starts (its lock is held); the table comes once it runs.
+        let text = String::from_utf8_lossy(&out.stdout);
+        if out.status.success() && text.starts_with(&format!("PLC {id} (process ")) {
+            return text.into_owned();
         }
         assert!(
             started.elapsed() < Duration::from_secs(20),
@@ -116,10 +118,8 @@ fn status_and_stop_reach_a_running_plc() {
         .unwrap()
         .args(["status", "--plc-id", &id])
         .assert()
-        .code(1)
-        .stderr(predicate::str::contains(format!(
-            "no PLC with id `{id}` is running"
-        )));
+        .code(4)
+        .stderr(predicate::str::contains(format!("no PLC with id `{id}`")));
 }
 
 fn run_config(dir: &TempDir, text: &str, id: &str, extra: &[&str]) -> std::process::Output {
@@ -179,7 +179,7 @@ fn bad_configurations_start_nothing() {
         ),
         (
             "b:point=q",
-            "--set b:point=q: there is no module of that name",
+            "--set: error[C033]: `point` is set for `b`, but no module b is declared",
         ),
         ("a-point", "is not SECTION:NAME=VALUE"),
     ];
@@ -323,9 +323,98 @@ fn two_plcs_cannot_share_an_id() {
         .code(3)
         .stderr(predicate::str::contains(format!(
             "error: nothing was started: something this PLC needs is taken:\n  PLC id `{id}`: a \
-             PLC with this id is running"
+             PLC with this id is running (process "
         )))
-        .stderr(predicate::str::contains(format!("; use --plc-id {id}-2\n")));
+        .stderr(predicate::str::contains(format!(
+            "`petriplc stop --plc-id {id}` stops it); use --plc-id {id}-2\n"
+        )));
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["stop", "--plc-id", &id])
+        .assert()
+        .success();
+    assert!(first.wait().unwrap().success());
+}
+
+/// The id and the ports clash together: all are reported in one attempt (exit 3). An id is
+/// taken only while a live PLC holds it: one a PLC killed with SIGKILL left is suggested as
+/// free, and the printed command line takes it, removing the remains with one log line.
+#[test]
+fn a_live_id_and_ports_clash_together_and_a_dead_id_is_free() {
+    let ports: Vec<String> = (0..2)
+        .map(|_| {
+            let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+            l.local_addr().unwrap().to_string()
+        })
+        .collect();
+    let listen = [
+        "--set".to_string(),
+        format!("modbus:listen={}", ports[0]),
+        "--set".to_string(),
+        format!("hmi:listen={}", ports[1]),
+    ];
+    let id = plc_id("clash");
+    let dead = format!("{id}-2");
+    let mut first = mixer(&id)
+        .args(["--for", "30s"])
+        .args(&listen)
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut killed = mixer(&dead)
+        .args(["--for", "30s"])
+        .args(FREE_PORTS)
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_for_status(&id);
+    wait_for_status(&dead);
+    killed.kill().unwrap();
+    killed.wait().unwrap();
+    let out = mixer(&id)
+        .args(["--for", "1s"])
+        .args(&listen)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.starts_with(&format!(
+            "error: nothing was started: 3 things this PLC needs are taken:\n  PLC id `{id}`: a \
+             PLC with this id is running (process {}; `petriplc stop --plc-id {id}` stops it); \
+             use --plc-id {dead}\n",
+            first.id()
+        )),
+        "{err}"
+    );
+    for (module, addr) in [("modbus", &ports[0]), ("hmi", &ports[1])] {
+        assert!(
+            err.contains(&format!("\n  module {module}: listen = {addr}: ")),
+            "{err}"
+        );
+    }
+    let command = err
+        .lines()
+        .skip_while(|l| *l != "a command line that avoids them:")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no command line in:\n{err}"));
+    let words: Vec<&str> = command.split_whitespace().collect();
+    let out = Process::cargo_bin("petriplc")
+        .unwrap()
+        .args(&words[1..])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{command}\n{err}");
+    assert_eq!(
+        err.matches(&format!(
+            "PLC {dead}: the PLC (pid {}) exited without stopping",
+            killed.id()
+        ))
+        .count(),
+        1,
+        "{err}"
+    );
     Command::cargo_bin("petriplc")
         .unwrap()
         .args(["stop", "--plc-id", &id])

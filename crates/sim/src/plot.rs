@@ -59,6 +59,9 @@ pub struct PlotOptions {
     pub from: Option<Duration>,
     /// The end of the time window (default: the last scan; later is clamped to it).
     pub to: Option<Duration>,
+    /// A line in red under the legend: what a partial trace says about itself (`incomplete:
+    /// the simulation failed at t=…`).
+    pub note: Option<String>,
 }
 
 impl PlotOptions {
@@ -178,6 +181,8 @@ const WIDTH: u32 = 1000;
 const LANE_HEIGHT: u32 = 28;
 /// Room for the title and, below it, the legend, above the lanes.
 const HEADER: u32 = 60;
+/// Room for a note under the legend.
+const NOTE_HEIGHT: u32 = 22;
 const AXIS_HEIGHT: u32 = 45;
 /// Edges closer than this (in pixels) cannot be told apart: runs of them become a band.
 const MIN_EDGE_GAP: f64 = 3.0;
@@ -188,6 +193,7 @@ const PLACE: RGBColor = RGBColor(44, 140, 44);
 const SHADE: RGBColor = RGBColor(243, 243, 243);
 const TEXT: RGBColor = RGBColor(40, 40, 40);
 const GREY: RGBColor = RGBColor(120, 120, 120);
+const WARNING: RGBColor = RGBColor(192, 0, 0);
 
 /// How a lane scales its values into its height.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -361,12 +367,19 @@ pub fn render_svg(trace: &Trace) -> Result<String, PlotError> {
 pub fn render_svg_with(trace: &Trace, options: &PlotOptions) -> Result<String, PlotError> {
     let view = view(trace, options)?;
     let n = view.lanes.len().max(1);
-    let height = HEADER + AXIS_HEIGHT + LANE_HEIGHT * n as u32;
+    let note = options.note.as_deref().map(|n| n.replace('\n', " "));
+    let header = HEADER + if note.is_some() { NOTE_HEIGHT } else { 0 };
+    let height = header + AXIS_HEIGHT + LANE_HEIGHT * n as u32;
     let title = title(trace, &view);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (WIDTH, height)).into_drawing_area();
-        draw(&root, &view, n, &title).map_err(|e| PlotError::Draw(e.to_string()))?;
+        let texts = Header {
+            height: header,
+            title: &title,
+            note: note.as_deref(),
+        };
+        draw(&root, &view, n, &texts).map_err(|e| PlotError::Draw(e.to_string()))?;
         root.present().map_err(|e| PlotError::Draw(e.to_string()))?;
     }
     Ok(svg)
@@ -433,10 +446,10 @@ fn draw(
     root: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
     view: &View,
     n: usize,
-    title: &str,
+    texts: &Header<'_>,
 ) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
     root.fill(&WHITE)?;
-    let (header, body) = root.split_vertically(HEADER);
+    let (header, body) = root.split_vertically(texts.height);
     // Room for the longest label at about 6.5 px a character, within reason.
     let longest = view
         .lanes
@@ -459,7 +472,7 @@ fn draw(
         .map(|lane| strokes(lane, view.to, px))
         .collect();
     let any_band = strokes.iter().any(|s| !s.bands.is_empty());
-    draw_header(&header, view, title, any_band)?;
+    draw_header(&header, view, texts, any_band)?;
 
     // Shade every other lane first, so the grid stays visible on top of it.
     for i in (0..view.lanes.len()).step_by(2) {
@@ -512,17 +525,31 @@ fn draw(
 }
 
 /// The title, and below it the legend of colours (and of bands, when any).
+/// The texts above the lanes, and the room they take.
+struct Header<'a> {
+    height: u32,
+    title: &'a str,
+    note: Option<&'a str>,
+}
+
 fn draw_header(
     header: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
     view: &View,
-    title: &str,
+    texts: &Header<'_>,
     any_band: bool,
 ) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
     header.draw(&Text::new(
-        title.to_string(),
+        texts.title.to_string(),
         (8, 10),
         ("sans-serif", 17).into_font().color(&TEXT),
     ))?;
+    if let Some(note) = texts.note {
+        header.draw(&Text::new(
+            note.to_string(),
+            (8, HEADER as i32 - 4),
+            ("sans-serif", 13).into_font().color(&WARNING),
+        ))?;
+    }
     let mut legend: Vec<(&str, RGBColor, Swatch)> = Vec::new();
     for (name, color) in [("input", INPUT), ("output", OUTPUT), ("marking", PLACE)] {
         if view.lanes.iter().any(|l| l.color == color) {
@@ -731,6 +758,7 @@ mod tests {
             signals: signals.map(|s| s.iter().map(|n| n.to_string()).collect()),
             from: from.map(Duration::from_millis),
             to: to.map(Duration::from_millis),
+            note: None,
         }
     }
 
@@ -931,6 +959,30 @@ mod tests {
             e.to_string().starts_with("cannot write the plot to "),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_note_gets_its_own_line_under_the_legend() {
+        let plain = parse(&render_svg(&trace()).unwrap());
+        let noted = PlotOptions {
+            note: Some("incomplete: interrupted (Ctrl-C)\nafter t=0.7 s".into()),
+            ..PlotOptions::default()
+        };
+        let svg = render_svg_with(&trace(), &noted).unwrap();
+        let height = |svg: &str| {
+            let h = svg.split("height=\"").nth(1).unwrap();
+            h[..h.find('"').unwrap()].parse::<u32>().unwrap()
+        };
+        assert_eq!(
+            height(&svg),
+            height(&render_svg(&trace()).unwrap()) + NOTE_HEIGHT
+        );
+        let noted = parse(&svg);
+        assert!(noted
+            .texts
+            .contains(&"incomplete: interrupted (Ctrl-C) after t=0.7 s".to_string()));
+        assert_eq!(noted.labels, plain.labels);
+        assert_eq!(noted.texts.len(), plain.texts.len() + 1);
     }
 
     #[test]

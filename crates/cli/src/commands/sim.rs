@@ -4,9 +4,12 @@
 use std::fs;
 use std::io::{self, Write};
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{anyhow, Context};
+use indicatif::{ProgressBar, ProgressStyle};
 use petriplc_net::ScanOptions;
 use petriplc_pnml::ReadOptions;
 use petriplc_sim::{NetPlant, Plant, PlotOptions, SimOptions, Simulation, Timeline};
@@ -46,11 +49,29 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         evolve: args.evolve.map_or(net.evolve, Into::into),
         max_passes: args.max_passes,
     };
-    let until = args.until.unwrap_or_else(|| {
-        timeline.as_ref().map_or(Duration::from_secs(10), |t| {
-            t.end() + Duration::from_secs(1)
-        })
-    });
+    let until = match args.until {
+        Some(u) => u,
+        None => {
+            let until = timeline.as_ref().map_or(Duration::from_secs(10), |t| {
+                t.end() + Duration::from_secs(1)
+            });
+            // A far-off last row would otherwise run for hours without a word.
+            let scans = until.as_nanos() / args.period.as_nanos().max(1);
+            if scans > IMPLIED_SCANS_LIMIT {
+                return Err(anyhow!(
+                    "the timeline's last row is at {}, so the simulation would run {scans} \
+                     scans until {} at a {} period; pass --until to say how far to go (e.g. \
+                     --until {})",
+                    petriplc_net::time::format_seconds(until - Duration::from_secs(1)) + " s",
+                    petriplc_net::time::format_seconds(until) + " s",
+                    petriplc_net::time::format_seconds(args.period) + " s",
+                    petriplc_net::time::format_seconds(until) + "s",
+                ))
+                .bad_input();
+            }
+            until
+        }
+    };
     let options = SimOptions {
         period: args.period,
         until,
@@ -83,6 +104,7 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         signals: args.signals.clone(),
         from: args.from,
         to: args.to,
+        note: None,
     };
     // Checked before the run: a misspelt name should not cost a whole simulation.
     plot_options.check(sim.trace()).bad_input()?;
@@ -94,12 +116,43 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         eprintln!("warning: {w}");
     }
 
-    while sim.step().run_failure()?.is_some() {}
+    // Ctrl-C ends the run after the current scan; what was simulated is still written.
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let interrupted = interrupted.clone();
+        let _ = ctrlc::set_handler(move || {
+            if interrupted.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
+    }
+    let progress = ScanProgress::new(sim.options().until, sim.options().period);
+    let mut stopped: Option<Stopped> = None;
+    loop {
+        if interrupted.load(Ordering::SeqCst) {
+            stopped = Some(Stopped::Interrupted(sim.now()));
+            break;
+        }
+        match sim.step() {
+            Ok(Some(_)) => progress.scan(sim.scans()),
+            Ok(None) => break,
+            Err(e) => {
+                stopped = Some(Stopped::Failed(e));
+                break;
+            }
+        }
+    }
+    progress.finish();
     let plant_summary = sim.plant_summary();
     let trace = sim.into_trace();
+    // What a partial trace says about itself, last in the CSV and on the plot.
+    let note = stopped.as_ref().map(Stopped::note);
 
     match (&args.out, &args.plot) {
-        (None, None) => crate::output::to_stdout(|out| trace.write_csv(out))?,
+        (None, None) => crate::output::to_stdout(|out| {
+            trace.write_csv(&mut *out)?;
+            write_note(out, note.as_deref())
+        })?,
         (out, plot) => {
             if let Some(path) = out {
                 crate::output::create_parent(path)?;
@@ -110,16 +163,25 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
                 );
                 trace
                     .write_csv(&mut file)
+                    .and_then(|()| write_note(&mut file, note.as_deref()))
                     .and_then(|()| file.flush())
                     .with_context(|| format!("cannot write {}", path.display()))
                     .run_failure()?;
                 let rows = trace.csv_rows();
-                let what = format!("trace, {rows} row{}", if rows == 1 { "" } else { "s" });
+                let what = format!(
+                    "trace, {rows} row{}{}",
+                    if rows == 1 { "" } else { "s" },
+                    if note.is_some() { ", incomplete" } else { "" }
+                );
                 crate::output::wrote(path, &what);
             }
             if let Some(path) = plot {
                 crate::output::create_parent(path)?;
-                match petriplc_sim::write_svg(&trace, &plot_options, path) {
+                let options = PlotOptions {
+                    note: note.clone(),
+                    ..plot_options
+                };
+                match petriplc_sim::write_svg(&trace, &options, path) {
                     Ok(()) => {}
                     Err(e) if e.is_bad_input() => return Err(e).bad_input(),
                     Err(e) => {
@@ -128,14 +190,103 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
                             .run_failure()
                     }
                 }
-                crate::output::wrote(path, "plot");
+                let what = if note.is_some() {
+                    "plot, incomplete"
+                } else {
+                    "plot"
+                };
+                crate::output::wrote(path, what);
             }
         }
     }
     if let Some(summary) = plant_summary {
         eprintln!("plant at the end: {summary}");
     }
-    Ok(())
+    match stopped {
+        None => Ok(()),
+        Some(Stopped::Failed(e)) => Err(Failure::Run(anyhow!(e).context(
+            "the simulation failed; what was simulated until then is written, marked incomplete",
+        ))),
+        Some(Stopped::Interrupted(t)) => Err(Failure::Interrupted(anyhow!(
+            "interrupted at t={} s; what was simulated until then is written, marked incomplete",
+            petriplc_net::time::format_seconds(t)
+        ))),
+    }
+}
+
+/// A simulation longer than this many scans needs --until when the timeline's last row sets
+/// its end (a row in the far future would otherwise run for hours without a word).
+const IMPLIED_SCANS_LIMIT: u128 = 1_000_000;
+/// Runs longer than this many scans show their progress on a terminal.
+const PROGRESS_SCANS: u128 = 100_000;
+
+/// Why a run ended before `until`.
+enum Stopped {
+    Failed(petriplc_sim::SimError),
+    Interrupted(Duration),
+}
+
+impl Stopped {
+    fn note(&self) -> String {
+        match self {
+            Stopped::Failed(e) => format!(
+                "incomplete: the simulation failed{}: {:#}",
+                e.time()
+                    .map(|t| format!(" at t={} s", petriplc_net::time::format_seconds(t)))
+                    .unwrap_or_default(),
+                anyhow!(e.clone())
+            ),
+            Stopped::Interrupted(t) => format!(
+                "incomplete: interrupted (Ctrl-C) after t={} s",
+                petriplc_net::time::format_seconds(*t)
+            ),
+        }
+    }
+}
+
+/// The note of a partial trace as the CSV's last line, a `#` comment.
+fn write_note(w: &mut dyn Write, note: Option<&str>) -> io::Result<()> {
+    match note {
+        Some(n) => writeln!(w, "# {}", n.replace('\n', " ")),
+        None => Ok(()),
+    }
+}
+
+/// A progress bar on a terminal for long runs (nothing otherwise).
+struct ScanProgress {
+    bar: Option<ProgressBar>,
+}
+
+impl ScanProgress {
+    fn new(until: Duration, period: Duration) -> Self {
+        let total = until.as_nanos() / period.as_nanos().max(1) + 1;
+        let bar = (total > PROGRESS_SCANS && std::io::IsTerminal::is_terminal(&io::stderr()))
+            .then(|| {
+                let b = ProgressBar::new(u64::try_from(total).unwrap_or(u64::MAX));
+                b.set_style(
+                    ProgressStyle::with_template(
+                        "{bar:30} {pos}/{len} scans, {elapsed} (eta {eta}; Ctrl-C stops and writes what was simulated)",
+                    )
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                );
+                b
+            });
+        ScanProgress { bar }
+    }
+
+    fn scan(&self, done: u64) {
+        if let Some(b) = &self.bar {
+            if done % 4096 == 0 {
+                b.set_position(done);
+            }
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
 }
 
 fn is_net_path(spec: &str) -> bool {

@@ -147,44 +147,57 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             cancel: Some(cancel.clone()),
             progress: Some(progress.callback()),
         };
-        let explored = reach::explore(&net, &opts).run_failure();
+        let explored = reach::explore(&net, &opts);
         progress.finish();
-        let explored = explored?;
-        let props = reach::properties(&net, &explored);
-        if !explored.complete() {
-            report.complete = false;
-            report.incomplete.push(if cancel.load(Ordering::SeqCst) {
-                format!("interrupted after {} states", explored.states())
-            } else {
-                format!(
-                    "stopped at --max-states ({} states explored)",
-                    explored.states()
-                )
+        let explored = match explored {
+            // A count past the 32-bit token counter: no graph, but the rest still stands
+            // (and boundedness is what coverability said, not a consequence of this).
+            Err(e @ reach::ReachError::TokenOverflow { .. }) => {
+                report.complete = false;
+                report
+                    .incomplete
+                    .push(format!("reachability graph not built: {e}"));
+                None
+            }
+            explored => Some(explored.run_failure()?),
+        };
+        if let Some(explored) = explored {
+            let props = reach::properties(&net, &explored);
+            if !explored.complete() {
+                report.complete = false;
+                report.incomplete.push(if cancel.load(Ordering::SeqCst) {
+                    format!("interrupted after {} states", explored.states())
+                } else {
+                    format!(
+                        "stopped at --max-states ({} states explored)",
+                        explored.states()
+                    )
+                });
+            }
+            if report.place_bounds.is_empty() {
+                report.place_bounds = net
+                    .place_ids()
+                    .map(|p| (label(p), Some(props.place_bounds[p.index()])))
+                    .collect();
+            }
+            report.space = Some(SpaceFacts {
+                states: props.states,
+                edges: props.edges,
+                max_tokens_place: props.max_tokens_place,
+                max_tokens_marking: props.max_tokens_marking,
+                safe: props.safe,
+                deadlock: props.deadlock,
+                deadlock_trace: props
+                    .deadlock_trace
+                    .map(|ts| ts.into_iter().map(tlabel).collect()),
+                quasi_live: props.quasi_live,
+                dead_transitions: props.dead_transitions.into_iter().map(tlabel).collect(),
+                live: props.live,
+                reversible: props.reversible,
+                home_marking: props.home_marking,
             });
+            space = Some(explored);
         }
-        if report.place_bounds.is_empty() {
-            report.place_bounds = net
-                .place_ids()
-                .map(|p| (label(p), Some(props.place_bounds[p.index()])))
-                .collect();
-        }
-        report.space = Some(SpaceFacts {
-            states: props.states,
-            edges: props.edges,
-            max_tokens_place: props.max_tokens_place,
-            max_tokens_marking: props.max_tokens_marking,
-            safe: props.safe,
-            deadlock: props.deadlock,
-            deadlock_trace: props
-                .deadlock_trace
-                .map(|ts| ts.into_iter().map(tlabel).collect()),
-            quasi_live: props.quasi_live,
-            dead_transitions: props.dead_transitions.into_iter().map(tlabel).collect(),
-            live: props.live,
-            reversible: props.reversible,
-            home_marking: props.home_marking,
-        });
-        space = Some(explored);
     }
 
     // 4. Conflicts.
