@@ -127,8 +127,9 @@ pub struct SimArgs {
 #[command(after_long_help = "Examples:\n  \
     petriplc analyze ../shared/data/mcc/Kanban-PT-00005/model.pnml --json\n  \
     petriplc analyze examples/mixer/mixer.pnml --names sipn --svg out/mixer-rg.svg\n  \
-    petriplc analyze examples/mixer/mixer.pnml --names sipn --plant examples/mixer/tank.pnml --never overfill\n\n\
-    Exit codes: 0 analysed; 1 --never found the place reachable, or the analysis failed; 2 bad input.\n\
+    petriplc analyze examples/mixer/mixer.pnml --names sipn --plant examples/mixer/tank.pnml --never overfill\n  \
+    petriplc analyze examples/turntable/controller.pnml --plant examples/turntable/plant.pnml --period 10ms --never E_sector --never E_fall\n\n\
+    Exit codes: 0 analysed; 1 --never found a place reachable, or the analysis failed; 2 bad input.\n\
     The JSON format is documented in docs/analysis.md.")]
 pub struct AnalyzeArgs {
     /// The net (PNML).
@@ -155,9 +156,13 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "PNML")]
     pub plant: Option<PathBuf>,
     /// Prove that this place (`NAME`, `plant:NAME` or `controller:NAME`) is never marked in
-    /// the closed loop, or print a counterexample timeline.
+    /// the closed loop, or print a counterexample timeline (repeatable: one search for all).
     #[arg(long, value_name = "PLACE", requires = "plant")]
-    pub never: Option<String>,
+    pub never: Vec<String>,
+    /// Analyse the closed loop at this scan period (`10ms`): controller timers exact, plant
+    /// arc delays and transition deadlines kept. Without it: every timing.
+    #[arg(long, value_name = "PERIOD", requires = "plant", value_parser = parse_period)]
+    pub period: Option<Duration>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

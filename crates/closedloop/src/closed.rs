@@ -441,8 +441,7 @@ impl<'n> ClosedLoop<'n> {
     }
 
     fn key(&self, s: &State) -> Box<[u32]> {
-        let mut k =
-            Vec::with_capacity(1 + s.controller.0.len() + s.plant.0.len() + s.clocks.len());
+        let mut k = Vec::with_capacity(1 + s.controller.0.len() + s.plant.0.len() + s.clocks.len());
         k.push(u32::from(s.started));
         k.extend_from_slice(&s.controller.0);
         k.extend_from_slice(&s.plant.0);
@@ -702,8 +701,7 @@ impl<'n> ClosedLoop<'n> {
             None => {
                 let (elapsed, mut ages) = self.controller_delays(s, signals);
                 let mut samples = Vec::new();
-                let out =
-                    stepper.scan_from(&s.controller, signals, elapsed, Some(&mut samples))?;
+                let out = stepper.scan_from(&s.controller, signals, elapsed, Some(&mut samples))?;
                 // Later passes sample at the same time: a timer whose tokens went restarts.
                 for m in samples.iter().skip(1) {
                     for (ct, a) in self.clocks.controller.iter().zip(ages.iter_mut()) {
@@ -739,7 +737,10 @@ impl<'n> ClosedLoop<'n> {
         let base = self.clocks.controller.len();
         for (i, pt) in self.clocks.plant.iter().enumerate() {
             let c = &mut after.clocks[base + i];
-            *c = match (sampled[pt.place] >= pt.weight, count(before.clocks[base + i])) {
+            *c = match (
+                sampled[pt.place] >= pt.weight,
+                count(before.clocks[base + i]),
+            ) {
                 (false, _) => 0,
                 (true, Some(n)) => running(n.saturating_add(1).min(pt.holds_at)),
                 // Only a mirrored output can come on at a scan: its timer starts now.
@@ -780,12 +781,12 @@ impl<'n> ClosedLoop<'n> {
                     eligible = self.controller.eligible(&s.controller, &signals)?;
                     Some((eligible.as_slice(), choice))
                 };
-                let (next, out) = self.scan_move(stepper, s, &signals, how).map_err(|source| {
-                    ClosedLoopError::Scan {
+                let (next, out) = self
+                    .scan_move(stepper, s, &signals, how)
+                    .map_err(|source| ClosedLoopError::Scan {
                         net: c.id.clone(),
                         source,
-                    }
-                })?;
+                    })?;
                 let step = ScanStep {
                     inputs: c.inputs().map(|x| signals[x.index()]).collect(),
                     elapsed: out.elapsed,
@@ -1056,7 +1057,6 @@ pub fn never_all(cl: &ClosedLoop<'_>, places: &[&str]) -> Result<NeverReport, Cl
     })
 }
 
-
 #[cfg(test)]
 mod tests {
     //! Wiring, place names, proofs and counterexamples, the latter replayed by the simulator.
@@ -1294,7 +1294,8 @@ mod tests {
     /// scan; timed, a scan falls inside the band as long as scans are less than 100 ms apart.
     #[test]
     fn plant_delays_are_lower_bounds_at_the_period() {
-        let c = net("s S in bool\np s 0 <S\np turning 1 >M\np stopped 0\nt stop turning ?s -> stopped");
+        let c =
+            net("s S in bool\np s 0 <S\np turning 1 >M\np stopped 0\nt stop turning ?s -> stopped");
         let p = net("s M in bool\np m 0 <M\np away 1\np band 0 >S\np over 0\n\
                      t enter away ?m -> band\nt overturn band@100ms ?m -> over");
         let overturns = "scan 0: S=0 → fires nothing; plant fires enter; plant fires overturn";
@@ -1327,7 +1328,10 @@ mod tests {
         // By 1 s only: scan 100 may stop the belt at the same instant, just before it leaves.
         let late = at(&c, &plant("1s"), Some(10), "stuck");
 
-        assert!(late.contains("scan 100: delays of stop elapsed → fires stop"), "{late}");
+        assert!(
+            late.contains("scan 100: delays of stop elapsed → fires stop"),
+            "{late}"
+        );
         assert!(late.ends_with("plant fires see_stuck"), "{late}");
         // A controller scanning every 10 ms cannot stop the belt before scan 100 (t = 1 s).
         assert_eq!(late.matches("scan ").count(), 101);
@@ -1373,7 +1377,10 @@ mod tests {
             ]
         );
         assert!(report.complete);
-        assert_eq!((report.states, report.edges, report.time_locks), (25, 45, 0));
+        assert_eq!(
+            (report.states, report.edges, report.time_locks),
+            (25, 45, 0)
+        );
     }
 
     #[test]

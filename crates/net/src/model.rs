@@ -1123,9 +1123,11 @@ mod tests {
         check(build(100, 100), &[ok]);
         check(
             build(100, 600),
-            &["t: transition `t` has a deadline of T#100ms but its arc `a` waits T#600ms; a \
+            &[
+                "t: transition `t` has a deadline of T#100ms but its arc `a` waits T#600ms; a \
                transition cannot have to fire before its delays let it (make the deadline at \
-               least the longest delay)"],
+               least the longest delay)",
+            ],
         );
         check(
             build(0, 0),

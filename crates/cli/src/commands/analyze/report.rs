@@ -21,7 +21,7 @@ pub struct Report {
     pub invariants: InvariantFacts,
     pub conflicts: ConflictFacts,
     pub sipn: Option<SipnFacts>,
-    pub never: Option<NeverFacts>,
+    pub closed_loop: Option<ClosedLoopFacts>,
 }
 
 /// Facts from the reachability graph.
@@ -98,10 +98,30 @@ pub struct Unstable {
     pub cycle: Vec<String>,
 }
 
-/// The answer to `--never PLACE`.
+/// The closed loop with `--plant` and `--never`: its state space and a verdict per place.
+#[derive(Debug)]
+pub struct ClosedLoopFacts {
+    pub plant: String,
+    /// `Some` for a timed analysis (`--period`).
+    pub period: Option<std::time::Duration>,
+    pub states: u64,
+    pub edges: u64,
+    pub complete: bool,
+    pub time_locks: u64,
+    /// Wall-clock time of the search.
+    pub seconds: f64,
+    pub places: Vec<NeverFacts>,
+}
+
+/// The answer to one `--never PLACE`.
 #[derive(Debug)]
 pub struct NeverFacts {
+    /// As given on the command line.
     pub place: String,
+    /// Qualified: `plant:NAME` or `controller:NAME`.
+    pub label: String,
+    /// States found when the verdict was known (for `reached`: when the place was first
+    /// marked; otherwise all of them).
     pub states: u64,
     pub verdict: Never,
 }
@@ -232,15 +252,38 @@ impl Report {
                 }),
             );
         }
-        if let Some(n) = &self.never {
-            let (verdict, steps, timeline) = match &n.verdict {
-                Never::Proved => ("never", Value::Null, Value::Null),
-                Never::Reached { steps, timeline } => ("reached", json!(steps), json!(timeline)),
-                Never::Unknown => ("unknown", Value::Null, Value::Null),
-            };
+        if let Some(cl) = &self.closed_loop {
+            let places: Vec<Value> = cl
+                .places
+                .iter()
+                .map(|n| {
+                    let (verdict, steps, timeline) = match &n.verdict {
+                        Never::Proved => ("never", Value::Null, Value::Null),
+                        Never::Reached { steps, timeline } => {
+                            ("reached", json!(steps), json!(timeline))
+                        }
+                        Never::Unknown => ("unknown", Value::Null, Value::Null),
+                    };
+                    json!({"place": n.place, "label": n.label, "verdict": verdict, "states": n.states, "steps": steps, "timeline": timeline})
+                })
+                .collect();
+            // The first place alone, as before several could be asked.
+            if let Some(first) = places.first() {
+                put("never", first.clone());
+            }
             put(
-                "never",
-                json!({"place": n.place, "verdict": verdict, "states": n.states, "steps": steps, "timeline": timeline}),
+                "closed_loop",
+                json!({
+                    "plant": cl.plant,
+                    "timed": cl.period.is_some(),
+                    "period": cl.period.map(|p| p.as_secs_f64()),
+                    "states": cl.states,
+                    "edges": cl.edges,
+                    "complete": cl.complete,
+                    "time_locks": cl.time_locks,
+                    "seconds": cl.seconds,
+                    "places": places,
+                }),
             );
         }
         Value::Object(out)
@@ -424,19 +467,51 @@ impl Report {
                 "  contradictory outputs:  impossible (an output is the OR of its places)"
             );
         }
-        if let Some(n) = &self.never {
-            let _ = writeln!(o, "\nnever {} ({} states explored)", n.place, n.states);
-            let _ = match &n.verdict {
-                Never::Proved => writeln!(o, "  proved: {} is never marked", n.place),
-                Never::Unknown => writeln!(o, "  unknown: a limit stopped the search"),
-                Never::Reached { steps, timeline } => writeln!(
-                    o,
-                    "  VIOLATED: {} is marked after\n    {}\n  replay with this timeline (petriplc sim --inputs):\n{}",
-                    n.place,
-                    steps.join("\n    "),
-                    timeline
+        if let Some(cl) = &self.closed_loop {
+            let timing = match cl.period {
+                Some(p) => format!(
+                    "timed at a {} scan period: controller timers exact, plant delays and deadlines kept",
+                    petriplc_net::time::format_iec(p).trim_start_matches("T#")
                 ),
+                None => "every timing: any scan period, plant timing ignored".to_string(),
             };
+            let _ = writeln!(o, "\nclosed loop with plant {} ({timing})", cl.plant);
+            let _ = writeln!(
+                o,
+                "  {} states, {} edges{}, {:.2} s",
+                cl.states,
+                cl.edges,
+                if cl.complete {
+                    ""
+                } else {
+                    " (search stopped early)"
+                },
+                cl.seconds
+            );
+            if cl.time_locks > 0 {
+                let _ = writeln!(
+                    o,
+                    "  {} states where a plant deadline is due and no move can meet it (time locks): check the plant's delays and deadlines",
+                    cl.time_locks
+                );
+            }
+            for n in &cl.places {
+                let _ = match &n.verdict {
+                    Never::Proved => writeln!(o, "  never {}: proved, never marked", n.label),
+                    Never::Unknown => writeln!(
+                        o,
+                        "  never {}: unknown, a limit stopped the search ({} states)",
+                        n.label, n.states
+                    ),
+                    Never::Reached { steps, timeline } => writeln!(
+                        o,
+                        "  never {}: VIOLATED, marked after\n    {}\n  replay with this timeline (petriplc sim --inputs):\n{}",
+                        n.label,
+                        steps.join("\n    "),
+                        timeline
+                    ),
+                };
+            }
         }
         o
     }
