@@ -93,10 +93,14 @@ pub struct SimArgs {
     /// Input timeline: CSV with header `time,SIG1,SIG2,...`; a value holds until the next row.
     #[arg(long, value_name = "CSV")]
     pub inputs: Option<PathBuf>,
-    /// A plant: a built-in name (`tape`, `keyboard`, `tank`) or a plant net (PNML) whose
+    /// A plant: a built-in name (`tape`, `keyboard`, `tank`, `turntable`) or a plant net (PNML) whose
     /// outputs feed the controller's inputs by name.
     #[arg(long, value_name = "NAME|PNML")]
     pub plant: Option<String>,
+    /// A setting of a built-in plant, e.g. `--plant-set K_alpha=45` for the turntable
+    /// (repeatable; docs/runtime.md lists them).
+    #[arg(long, value_name = "NAME=VALUE", requires = "plant", value_parser = parse_setting)]
+    pub plant_set: Vec<(String, String)>,
     /// Scan period (`10ms`, `T#10ms`, `0.01`).
     #[arg(long, default_value = "10ms", value_parser = parse_period)]
     pub period: Duration,
@@ -118,6 +122,11 @@ pub struct SimArgs {
     /// Write an SVG step plot of inputs, outputs and markings.
     #[arg(long, value_name = "SVG")]
     pub plot: Option<PathBuf>,
+    /// Write the inputs the controller read, scan by scan, as a timeline (`--inputs`'s
+    /// format): replaying it runs the controller alone through the same scans, e.g. the
+    /// generated C of `petriplc compile --lang c`.
+    #[arg(long, value_name = "CSV")]
+    pub inputs_out: Option<PathBuf>,
     /// Interactive stepwise simulation: Enter runs a scan, a signal name toggles it.
     #[arg(long, conflicts_with_all = ["out", "plot"])]
     pub step_through: bool,
@@ -271,6 +280,13 @@ pub struct PlcIdArgs {
 
 fn parse_time(s: &str) -> Result<Duration, String> {
     petriplc_net::time::parse_duration(s).map_err(|e| e.to_string())
+}
+
+fn parse_setting(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
+        _ => Err(format!("`{s}` is not NAME=VALUE (e.g. `K_alpha=45`)")),
+    }
 }
 
 fn parse_period(s: &str) -> Result<Duration, String> {

@@ -1,5 +1,5 @@
-//! A trace as an SVG timing diagram: one labelled step-plot lane per input, output and place,
-//! stacked from top to bottom, over a shared time axis.
+//! A trace as an SVG timing diagram: one labelled step-plot lane per observed plant output,
+//! input, output and place, stacked from top to bottom, over a shared time axis.
 //!
 //! Only plotters' SVG backend is used, with its built-in text size estimate: text becomes SVG
 //! `<text>` elements, so no font files are needed to draw and the viewer picks the font.
@@ -32,6 +32,7 @@ const AXIS_HEIGHT: u32 = 45;
 const INPUT: RGBColor = RGBColor(31, 119, 180);
 const OUTPUT: RGBColor = RGBColor(214, 39, 40);
 const PLACE: RGBColor = RGBColor(44, 140, 44);
+const PLANT: RGBColor = RGBColor(148, 103, 189);
 const SHADE: RGBColor = RGBColor(243, 243, 243);
 
 /// How a lane scales its values into its height.
@@ -95,6 +96,19 @@ impl Lane {
 fn lanes(trace: &Trace) -> Vec<Lane> {
     let secs = |r: &crate::trace::TraceRow| r.time.as_secs_f64();
     let mut lanes = Vec::new();
+    // The process first: what the plant does, then what the controller reads and writes.
+    for (j, name) in trace.plant.iter().enumerate() {
+        let values = trace.rows.iter().map(|r| (secs(r), r.plant[j]));
+        let max = trace.rows.iter().map(|r| r.plant[j]).max().unwrap_or(0);
+        let min = trace.rows.iter().map(|r| r.plant[j]).min().unwrap_or(0);
+        // An output that only ever is 0 or 1 reads best as a boolean lane.
+        let ty = if min >= 0 && max <= 1 {
+            SignalType::Bool
+        } else {
+            SignalType::Int
+        };
+        lanes.push(Lane::new(&format!("plant:{name}"), PLANT, ty, values));
+    }
     for (j, (name, ty)) in trace.inputs.iter().zip(&trace.input_types).enumerate() {
         lanes.push(Lane::new(
             name,
@@ -310,6 +324,7 @@ mod tests {
             outputs: outputs.to_vec(),
             marking: marking.to_vec(),
             fired: vec![],
+            plant: vec![],
         };
         Trace {
             inputs: vec!["START".into(), "SPEED".into()],
@@ -317,6 +332,7 @@ mod tests {
             outputs: vec!["L1".into()],
             output_types: vec![SignalType::Bool],
             places: vec!["idle".into(), "buffer".into()],
+            plant: vec![],
             rows: vec![
                 row(0, &[0, -2], &[0], &[1, 0]),
                 row(300, &[1, 5], &[1], &[0, 3]),
@@ -349,6 +365,31 @@ mod tests {
             &trace(),
             &["START", "SPEED [-2..5]", "L1", "m:idle", "m:buffer [0..3]"],
         );
+    }
+
+    #[test]
+    fn draws_the_plant_first() {
+        let mut t = trace();
+        t.plant = vec!["alpha".into(), "E_fall".into()];
+        for (r, v) in t.rows.iter_mut().zip([[0, 0], [4500, 0], [9000, 1]]) {
+            r.plant = v.to_vec();
+        }
+        check(
+            &t,
+            &[
+                "plant:alpha [0..9000]",
+                "plant:E_fall",
+                "START",
+                "SPEED [-2..5]",
+                "L1",
+                "m:idle",
+                "m:buffer [0..3]",
+            ],
+        );
+        let svg = parse(&render_svg(&t).unwrap());
+        let first = svg.texts.iter().position(|x| x.starts_with("plant:alpha"));
+        let start = svg.texts.iter().position(|x| x == "START");
+        assert!(first < start, "plant lanes come first: {:?}", svg.texts);
     }
 
     #[test]
