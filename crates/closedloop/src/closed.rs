@@ -556,12 +556,15 @@ impl<'n> ClosedLoop<'n> {
     /// `m` under `signals`.
     fn plant_allows(&self, t: TransitionId, m: &Marking, signals: &[i64]) -> bool {
         let p = self.plant;
-        let mut sampled = m.clone();
-        set_input_places(p, &mut sampled, signals);
+        // S1 for input places, read where the arcs look instead of copying the marking.
+        let tokens = |q: PlaceId| match p.place(q).input {
+            Some(s) => signals[s.index()].clamp(0, i64::from(p.capacity(q))) as u32,
+            None => m[q],
+        };
         p.transition(t).guard.eval(signals)
             && p.arcs_of(t).allow(
-                |q| sampled[q],
-                |q| u64::from(sampled[q]),
+                tokens,
+                |q| u64::from(tokens(q)),
                 |q| p.bound(q).map_or(u64::MAX, u64::from),
                 |_| false,
             )
