@@ -114,7 +114,7 @@ impl Plant for Recorder {
     }
 }
 
-/// Runs `controller` against the continuous turntable on the example's timeline for 16 s;
+/// Runs `controller` against the continuous turntable on the example's timeline for 13 s;
 /// returns every step's state and the plant's summary.
 fn simulate(controller: &Net) -> (Vec<Snap>, String) {
     let log = Rc::new(RefCell::new(Vec::new()));
@@ -123,7 +123,7 @@ fn simulate(controller: &Net) -> (Vec<Snap>, String) {
         log: log.clone(),
     };
     let timeline = Timeline::read_file(example("timeline.csv")).unwrap();
-    let opts = SimOptions::new(controller, PERIOD, Duration::from_secs(16));
+    let opts = SimOptions::new(controller, PERIOD, Duration::from_secs(13));
     let mut sim = Simulation::new(controller, opts, Some(timeline), Some(Box::new(plant))).unwrap();
     sim.finish().unwrap();
     let summary = sim.plant_summary().unwrap();
@@ -391,7 +391,7 @@ fn the_plant_net_allows_every_change_of_the_continuous_plant() {
     let plant = plant_net();
     let controller = read_net(&controller_text(), "controller.pnml");
     let (snaps, summary) = simulate(&controller);
-    assert_eq!(snaps.len(), 1601);
+    assert_eq!(snaps.len(), 1301);
     assert_eq!(
         summary,
         "turntable at 4.5°, 1 delivered south, 1 east, 1 rejected"
