@@ -11,6 +11,9 @@
 //! - **time** — delays are abstracted by a nondeterministic choice of which delayed
 //!   transitions have waited long enough (`plc.rs`), an over-approximation of every real
 //!   timing, so "never reachable" is proved for every scan period and every input timing;
+//!   or, for a closed loop at one scan period ([`PlcOptions::timed`]), counted in scans: the
+//!   controller's timers exact, the plant's arc delays and deadlines as the bounds of its
+//!   timing (`closed.rs`);
 //! - **plant** — a plant net moves one transition at a time (interleaving, seed 004's process
 //!   model) between controller scans, its guards and input places reading the controller's
 //!   outputs (`closed.rs`).
