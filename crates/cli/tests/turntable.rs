@@ -255,3 +255,65 @@ fn without_the_belt_interlock_the_table_turns_under_a_running_belt() {
         format!("plant: turntable at 4.5°, {TRANSPORTS}")
     );
 }
+
+#[test]
+fn plant_settings_are_checked() {
+    let run = |args: &[&str]| {
+        let mut all = vec![
+            "sim",
+            "examples/turntable/controller.pnml",
+            "--until",
+            "0.1",
+        ];
+        all.extend(args);
+        let out = petriplc(&all);
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    // Accepted settings (nothing is commanded in 0.1 s; the run just succeeds).
+    let (code, err) = run(&[
+        "--plant",
+        "turntable",
+        "--plant-set",
+        "K_alpha=45",
+        "--plant-set",
+        "L=400",
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, err) = run(&["--plant", "turntable", "--plant-set", "K_alpha=fast"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("turntable setting `K_alpha = fast`: give a number greater than 0 in °/s"),
+        "{err}"
+    );
+    let (code, err) = run(&["--plant", "turntable", "--plant-set", "speed=3"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains(
+            "the turntable has no setting `speed`; its settings are K_alpha, B_alpha, K_x, L, B_x"
+        ),
+        "{err}"
+    );
+    let (code, err) = run(&["--plant", "tank", "--plant-set", "L=3"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("the plant `tank` has no settings (got `L`)"),
+        "{err}"
+    );
+    let (code, err) = run(&[
+        "--plant",
+        "examples/turntable/plant.pnml",
+        "--plant-set",
+        "L=3",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("--plant-set applies to a built-in plant"),
+        "{err}"
+    );
+    let (code, err) = run(&["--plant", "turntable", "--plant-set", "L"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("`L` is not NAME=VALUE"), "{err}");
+}
