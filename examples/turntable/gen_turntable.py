@@ -11,10 +11,12 @@ controller.pnml is Fig. 6's autonomous rotation automation (outputs MR, ML) besi
 automation that carries workpieces on the three routes the commands select (outputs BF, BB),
 with the seed's inhibitor arcs: the table never starts turning while the belt runs.
 
-Run: python3 gen_turntable.py  (writes both files next to this script)
+Run: python3 gen_turntable.py [DIR]  (writes both files into DIR, by default next to this
+script)
 """
 
 import os
+import sys
 from xml.sax.saxutils import escape
 
 PNML_NS = "http://www.pnml.org/version-2009/grammar/pnml"
@@ -410,9 +412,9 @@ def controller():
 
 
 def main():
-    here = os.path.dirname(os.path.abspath(__file__))
-    plant().write(os.path.join(here, "plant.pnml"))
-    controller().write(os.path.join(here, "controller.pnml"))
+    out = sys.argv[1] if len(sys.argv) > 1 else os.path.dirname(os.path.abspath(__file__))
+    plant().write(os.path.join(out, "plant.pnml"))
+    controller().write(os.path.join(out, "controller.pnml"))
 
 
 if __name__ == "__main__":

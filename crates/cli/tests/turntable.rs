@@ -317,3 +317,31 @@ fn plant_settings_are_checked() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("`L` is not NAME=VALUE"), "{err}");
 }
+
+/// The nets are what the generator writes, and valid PNML for petriplc's grammar with read
+/// arcs (docs/schemas/readinhibitorptnet.pntd, checked with xmllint).
+#[test]
+fn the_nets_are_generated_and_valid() {
+    let dir = tempfile::tempdir().unwrap();
+    let status = Command::new("python3")
+        .arg(root().join("examples/turntable/gen_turntable.py"))
+        .arg(dir.path())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for file in ["plant.pnml", "controller.pnml"] {
+        let shipped = root().join("examples/turntable").join(file);
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join(file)).unwrap(),
+            std::fs::read_to_string(&shipped).unwrap(),
+            "{file}: run python3 examples/turntable/gen_turntable.py"
+        );
+        let out = Command::new("xmllint")
+            .args(["--noout", "--relaxng"])
+            .arg(root().join("docs/schemas/readinhibitorptnet.pntd"))
+            .arg(&shipped)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{file}: {}", text(&out));
+    }
+}
