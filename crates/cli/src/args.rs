@@ -118,10 +118,14 @@ pub struct SimArgs {
     /// Input timeline: CSV with header `time,SIG1,SIG2,...`; a value holds until the next row.
     #[arg(long, value_name = "CSV")]
     pub inputs: Option<PathBuf>,
-    /// A plant: a built-in name (`tape`, `keyboard`, `tank`) or a plant net (PNML) whose
-    /// outputs feed the controller's inputs by name.
+    /// A plant: a built-in name (`tape`, `keyboard`, `tank`, `turntable`) or a plant net
+    /// (PNML) whose outputs feed the controller's inputs by name.
     #[arg(long, value_name = "NAME|PNML")]
     pub plant: Option<String>,
+    /// A setting of a built-in plant, e.g. `--plant-set K_alpha=45` for the turntable
+    /// (repeatable; docs/runtime.md lists them).
+    #[arg(long, value_name = "NAME=VALUE", requires = "plant", value_parser = parse_setting)]
+    pub plant_set: Vec<(String, String)>,
     /// Scan period (`10ms`, `T#10ms`, `0.01`).
     #[arg(long, default_value = "10ms", value_parser = parse_period)]
     pub period: Duration,
@@ -143,8 +147,9 @@ pub struct SimArgs {
     /// Write an SVG step plot of inputs, outputs and markings.
     #[arg(long, value_name = "SVG")]
     pub plot: Option<PathBuf>,
-    /// The plot's lanes, in this order: input and output names, `m:PLACE` for a marking
-    /// [default: every input, output and marking, less markings that repeat an output].
+    /// The plot's lanes, in this order: input and output names, `m:PLACE` for a marking,
+    /// `plant:NAME` for a plant output the controller does not read [default: those plant
+    /// outputs, every input, output and marking, less markings that repeat an output].
     #[arg(long, value_name = "NAME,…", value_delimiter = ',', requires = "plot")]
     pub signals: Option<Vec<String>>,
     /// The plot's time window starts here (`2s`, `1.5`) [default: 0].
@@ -153,6 +158,11 @@ pub struct SimArgs {
     /// The plot's time window ends here [default: the end of the run].
     #[arg(long, value_name = "TIME", value_parser = parse_time, requires = "plot")]
     pub to: Option<Duration>,
+    /// Write the inputs the controller read, scan by scan, as a timeline (`--inputs`'s
+    /// format): replaying it runs the controller alone through the same scans, e.g. the
+    /// generated C of `petriplc compile --lang c`.
+    #[arg(long, value_name = "CSV")]
+    pub inputs_out: Option<PathBuf>,
     /// Interactive stepwise simulation: Enter runs a scan, a signal name toggles it.
     #[arg(long, conflicts_with_all = ["out", "plot"])]
     pub step_through: bool,
@@ -163,14 +173,20 @@ pub struct SimArgs {
     petriplc analyze examples/philosophers/philosophers.pnml --json\n  \
     petriplc analyze examples/mixer/mixer.pnml --names sipn --svg out/mixer-rg.svg\n  \
     petriplc analyze examples/mixer/mixer.pnml --names sipn \\\n      \
-        --plant examples/mixer/tank-observed.pnml --never both_open\n\n\
-    The last one proves that the mixer never opens its inlet and outlet valves together.\n\
-    --never answers about an abstraction of the closed loop: the controller's scans are\n\
-    exact, but the plant net's delays are ignored (the plant may move any number of times\n\
-    between two scans) and free inputs take any value. So `proved` holds for every scan\n\
-    period and plant timing, while a counterexample may need the plant to be faster than\n\
-    its delays allow (docs/analysis-plc.md, section 5). The JSON format is documented in\n\
-    docs/analysis.md.\n\n",
+        --plant examples/mixer/tank-observed.pnml --never both_open\n  \
+    petriplc analyze examples/turntable/controller.pnml \\\n      \
+        --plant examples/turntable/plant.pnml --period 10ms \\\n      \
+        --never E_sector --never E_fall\n\n\
+    The third proves that the mixer never opens its inlet and outlet valves together.\n\
+    Without --period, --never answers about an abstraction of the closed loop: the\n\
+    controller's scans are exact, but the plant net's delays are ignored (the plant may\n\
+    move any number of times between two scans) and free inputs take any value. So\n\
+    `proved` holds for every scan period and plant timing, while a counterexample may need\n\
+    the plant to be faster than its delays allow (docs/analysis-plc.md, section 5). With\n\
+    --period the closed loop is timed at that scan period: controller timers exact, the\n\
+    plant's delays and deadlines kept as the bounds of its timing; the fourth proves that\n\
+    the turntable never reaches an error place at a 10 ms scan. The JSON format is\n\
+    documented in docs/analysis.md.\n\n",
     exit_codes!()))]
 pub struct AnalyzeArgs {
     /// The net (PNML).
@@ -197,9 +213,13 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "PNML")]
     pub plant: Option<PathBuf>,
     /// Prove that this place (`NAME`, `plant:NAME` or `controller:NAME`) is never marked in
-    /// the closed loop, or print a counterexample timeline.
+    /// the closed loop, or print a counterexample timeline (repeatable: one search for all).
     #[arg(long, value_name = "PLACE", requires = "plant")]
-    pub never: Option<String>,
+    pub never: Vec<String>,
+    /// Analyse the closed loop at this scan period (`10ms`): controller timers exact, plant
+    /// arc delays and transition deadlines kept. Without it: every timing.
+    #[arg(long, value_name = "PERIOD", requires = "plant", value_parser = parse_period)]
+    pub period: Option<Duration>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -321,6 +341,13 @@ pub struct PlcIdArgs {
 
 fn parse_time(s: &str) -> Result<Duration, String> {
     petriplc_net::time::parse_duration(s).map_err(|e| e.to_string())
+}
+
+fn parse_setting(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
+        _ => Err(format!("`{s}` is not NAME=VALUE (e.g. `K_alpha=45`)")),
+    }
 }
 
 fn parse_period(s: &str) -> Result<Duration, String> {

@@ -211,8 +211,71 @@ fn closed_loop_proves_the_valves_exclusive() {
     .assert()
     .success()
     .stdout(predicate::str::contains(
-        "proved: both_open is never marked",
+        "never plant:both_open: proved, never marked",
     ));
+}
+
+/// Untimed, the plant may fill the tank before the controller's next scan; at a 10 ms scan
+/// with the tank's delays kept, the controller closes V1 at N2 long before `high`.
+#[test]
+fn a_timed_closed_loop_proves_what_every_timing_cannot() {
+    let run = |timed: bool| {
+        let mut args = vec![
+            "analyze",
+            "examples/mixer/mixer.pnml",
+            "--names",
+            "sipn",
+            "--plant",
+            OBSERVED_TANK,
+            "--never",
+            "both_open",
+            "--never",
+            "overfill",
+            "--json",
+        ];
+        if timed {
+            args.extend(["--period", "10ms"]);
+        }
+        let out = petriplc(&args).output().unwrap();
+        let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+        (out.status.code(), report["closed_loop"].clone())
+    };
+    let (code, cl) = run(false);
+    assert_eq!(code, Some(1));
+    assert_eq!(
+        (cl["states"].as_u64(), cl["edges"].as_u64()),
+        (Some(25), Some(45))
+    );
+    let verdicts = |cl: &Value| -> Vec<String> {
+        cl["places"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} {}",
+                    p["label"].as_str().unwrap(),
+                    p["verdict"].as_str().unwrap()
+                )
+            })
+            .collect()
+    };
+    assert_eq!(
+        verdicts(&cl),
+        ["plant:both_open never", "plant:overfill reached"]
+    );
+    assert_eq!(cl["timed"], false);
+    let (code, cl) = run(true);
+    assert_eq!(code, Some(0));
+    assert_eq!(
+        verdicts(&cl),
+        ["plant:both_open never", "plant:overfill never"]
+    );
+    assert_eq!(
+        (cl["timed"].as_bool(), cl["period"].as_f64()),
+        (Some(true), Some(0.01))
+    );
+    assert!(cl["complete"].as_bool().unwrap());
 }
 
 #[test]
@@ -285,16 +348,24 @@ fn never_words_the_start_and_names_its_abstraction() {
     let out = String::from_utf8(out).unwrap();
     assert!(
         out.contains(
-            "never dry (closed loop, plant delays ignored; 1 state explored)\n  VIOLATED: dry is \
-             marked from the start, in the initial marking, before any\n  scan or plant move: \
-             there is nothing to replay\n"
+            "closed loop with plant tank_observed (every timing: any scan period, plant delays \
+             ignored)\n  1 state, 0 edges (search stopped early), "
+        ),
+        "{out}"
+    );
+    assert!(
+        out.contains(
+            "\n  never plant:dry: VIOLATED, marked from the start, in the initial marking, \
+             before\n  any scan or plant move: there is nothing to replay\n"
         ),
         "{out}"
     );
     let out = never("overfill").code(1).get_output().stdout.clone();
     let out = String::from_utf8(out).unwrap();
     assert!(
-        out.contains("VIOLATED: overfill is marked after 1 controller scan and 4 plant moves:"),
+        out.contains(
+            "never plant:overfill: VIOLATED, marked after 1 controller scan and 4 plant moves:"
+        ),
         "{out}"
     );
     assert!(

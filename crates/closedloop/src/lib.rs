@@ -11,6 +11,9 @@
 //! - **time** — delays are abstracted by a nondeterministic choice of which delayed
 //!   transitions have waited long enough (`plc.rs`), an over-approximation of every real
 //!   timing, so "never reachable" is proved for every scan period and every input timing;
+//!   or, for a closed loop at one scan period ([`PlcOptions::timed`]), counted in scans: the
+//!   controller's timers exact, the plant's arc delays and deadlines as the bounds of its
+//!   timing (`closed.rs`);
 //! - **plant** — a plant net moves one transition at a time (interleaving, seed 004's process
 //!   model) between controller scans, its guards and input places reading the controller's
 //!   outputs (`closed.rs`).
@@ -30,7 +33,7 @@ use std::time::Duration;
 
 use petriplc_net::{Net, ScanError, ScanOptions, TokenOverflow};
 
-pub use closed::{closed_loop, never, ClosedLoop, NeverResult, Target};
+pub use closed::{closed_loop, never, never_all, ClosedLoop, NeverReport, NeverResult, Target};
 pub use sipn::{sipn_checks, ConflictingOutputs, SipnReport, Unsafe, Unstable};
 pub use space::{explore_controller, PlcSpace};
 pub use witness::{Move, ScanStep, Witness};
@@ -52,8 +55,13 @@ pub struct PlcOptions {
     /// Set to `true` (e.g. by a Ctrl-C handler) to stop an exploration early, with
     /// `complete == false`.
     pub cancel: Option<Arc<AtomicBool>>,
-    /// The scan period counterexample timelines are written for: scan k at k × period.
+    /// The scan period counterexample timelines are written for: scan k at k × period; in
+    /// timed mode also the period the closed loop is analysed at.
     pub period: Duration,
+    /// Closed loop only: analyse at exactly `period` — controller timers exact, plant delays
+    /// as lower and plant deadlines as upper bounds of the plant's timing (`closed.rs`).
+    /// Off: every timing (delays may elapse at any scan, plant timing ignored).
+    pub timed: bool,
 }
 
 impl PlcOptions {
@@ -67,6 +75,7 @@ impl PlcOptions {
             max_states: Self::DEFAULT_MAX_STATES,
             cancel: None,
             period: Self::DEFAULT_PERIOD,
+            timed: false,
         }
     }
 
@@ -133,6 +142,14 @@ pub enum ClosedLoopError {
         net: String,
         #[source]
         source: TokenOverflow,
+    },
+    #[error("the scan period is 0; a timed analysis needs a period greater than 0 (e.g. 10ms)")]
+    ZeroPeriod,
+    #[error("plant `{net}`: transition `{transition}` has a deadline but reads `{signal}`, an input nothing drives; a deadline on a move that depends on a free input cannot be kept in a timed analysis — drive `{signal}` from the controller or drop the deadline")]
+    DeadlineReadsFreeInput {
+        net: String,
+        transition: String,
+        signal: String,
     },
     /// A bug: rebuilding the net without its delays failed.
     #[error("internal error: cannot abstract the delays of net `{net}`: {message}")]

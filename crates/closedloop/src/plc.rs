@@ -226,6 +226,21 @@ impl<'a> Stepper<'a> {
         eligible: &[usize],
         choice: u32,
     ) -> Result<Outcome, ScanError> {
+        let old = self.initial_delays(eligible, choice);
+        self.scan_from(m, signals, old, None)
+    }
+
+    /// One scan from `m` with `elapsed[k]` saying whether the delays of `timed[k]` have
+    /// elapsed at the scan's first pass (only those with all their delayed tokens may be
+    /// true). With `samples`, the marking each pass starts from (input places set) is
+    /// pushed there: the moments the timers sample (T2).
+    pub(crate) fn scan_from(
+        &mut self,
+        m: &Marking,
+        signals: &[i64],
+        elapsed: Vec<bool>,
+        mut samples: Option<&mut Vec<Marking>>,
+    ) -> Result<Outcome, ScanError> {
         let plc = self.plc;
         let n = plc.net.signals().len();
         if plc.timed.is_empty() {
@@ -240,7 +255,8 @@ impl<'a> Stepper<'a> {
                 elapsed: Vec::new(),
             });
         }
-        let mut old = self.initial_delays(eligible, choice);
+        let initial = elapsed;
+        let mut old = initial.clone();
         let mut cur = plc.sampled(m, signals);
         self.signals[..n].copy_from_slice(&signals[..n]);
         let until_stable = plc.options.evolve == Evolution::UntilStable;
@@ -265,6 +281,9 @@ impl<'a> Stepper<'a> {
                 second_half = fired.len();
             }
             let before = fired.len();
+            if let Some(samples) = samples.as_deref_mut() {
+                samples.push(cur.clone());
+            }
             cur = self.pass_once(&cur, &mut old, &mut fired)?;
             passes += 1;
             if !until_stable || fired.len() == before {
@@ -275,11 +294,11 @@ impl<'a> Stepper<'a> {
         Ok(Outcome {
             marking: cur,
             fired,
-            elapsed: eligible
+            elapsed: initial
                 .iter()
-                .enumerate()
-                .filter(|(i, _)| choice >> i & 1 == 1)
-                .map(|(_, &k)| plc.timed[k].t)
+                .zip(&plc.timed)
+                .filter(|(e, _)| **e)
+                .map(|(_, tt)| tt.t)
                 .collect(),
         })
     }

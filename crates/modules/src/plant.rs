@@ -5,7 +5,8 @@
 //!
 //! ```text
 //! [tank]
-//! plant = tank              # tank, tape or keyboard
+//! plant = tank              # tank, tape, keyboard or turntable
+//! # K_alpha = 45            # the turntable's settings (docs/runtime.md)
 //! # or: net = tank.pnml     # a plant net (plain naming by default; names, step, evolve,
 //! #                         # max_passes as for petrinet)
 //! map V1 VALVE1             # plant signal V1 is point VALVE1
@@ -15,14 +16,16 @@
 use petriplc_config::ModuleDecl;
 use petriplc_net::SignalType;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
-use petriplc_sim::{Keyboard, NetPlant, Plant, Tank, Tape};
+use petriplc_sim::{
+    Keyboard, NetPlant, Plant, Tank, Tape, Turntable, TurntableSettings, TURNTABLE_SETTINGS,
+};
 
 use crate::common::{self, at, chain, error, Bound, NetSettings, Port, NET_OPTIONS};
 
 const KIND: &str = "plant";
 
 /// The Rust plants this module can run.
-const RUST_PLANTS: &[&str] = &["tank", "tape", "keyboard"];
+const RUST_PLANTS: &[&str] = &["tank", "tape", "keyboard", "turntable"];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
     Ok(Box::new(PlantModule::new(decl)?))
@@ -31,6 +34,7 @@ pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError>
 /// What the settings ask for.
 enum Source {
     Rust(&'static str),
+    Turntable(TurntableSettings),
     Net(NetSettings),
 }
 
@@ -39,6 +43,7 @@ enum Sim {
     Tank(Tank),
     Tape(Tape),
     Keyboard(Keyboard),
+    Turntable(Box<Turntable>),
     Net(Box<NetPlant<'static>>),
 }
 
@@ -48,6 +53,7 @@ impl Sim {
             Sim::Tank(p) => p,
             Sim::Tape(p) => p,
             Sim::Keyboard(p) => p,
+            Sim::Turntable(p) => p.as_mut(),
             Sim::Net(p) => p.as_mut(),
         }
     }
@@ -57,6 +63,7 @@ impl Sim {
             Sim::Tank(p) => p,
             Sim::Tape(p) => p,
             Sim::Keyboard(p) => p,
+            Sim::Turntable(p) => p.as_ref(),
             Sim::Net(p) => p.as_ref(),
         }
     }
@@ -84,10 +91,12 @@ struct Run {
 impl PlantModule {
     /// Checks the settings; a plant net is read by `init`.
     pub fn new(decl: &ModuleDecl) -> Result<PlantModule, ModuleError> {
+        let turntable = common::setting(decl, "plant") == Some("turntable");
         let known: Vec<&str> = ["plant", "net", "speed"]
             .iter()
             .chain(NET_OPTIONS)
             .copied()
+            .chain(TURNTABLE_SETTINGS.iter().map(|t| t.0).filter(|_| turntable))
             .collect();
         common::check_decl(decl, KIND, &known)?;
         let source = match (common::setting(decl, "plant"), common::setting(decl, "net")) {
@@ -96,6 +105,14 @@ impl PlantModule {
                     &decl.name,
                     "both `plant` and `net` are set; a plant module runs one plant: keep one",
                 ))
+            }
+            (Some("turntable"), None) => {
+                let pairs = TURNTABLE_SETTINGS
+                    .iter()
+                    .filter_map(|t| common::setting(decl, t.0).map(|v| (t.0, v)));
+                Source::Turntable(
+                    TurntableSettings::parse(pairs).map_err(|e| error(&decl.name, e))?,
+                )
             }
             (Some(name), None) => match RUST_PLANTS.iter().find(|&&p| p == name) {
                 Some(p) => Source::Rust(p),
@@ -137,7 +154,7 @@ impl PlantModule {
                     )
                 })?,
         };
-        if let Source::Rust(_) = source {
+        if let Source::Rust(_) | Source::Turntable(_) = source {
             if let Some(k) = NET_OPTIONS.iter().find(|k| decl.settings.contains_key(**k)) {
                 return Err(error(
                     &decl.name,
@@ -167,6 +184,11 @@ impl Module for PlantModule {
                 };
                 (sim, format!("plant `{name}`"), None)
             }
+            Source::Turntable(settings) => (
+                Sim::Turntable(Box::new(Turntable::new(*settings))),
+                "plant `turntable`".to_string(),
+                None,
+            ),
             Source::Net(settings) => {
                 let net = settings.load(&self.name, ctx.base_dir)?;
                 let sim = Sim::Net(Box::new(NetPlant::new(net, settings.options(net))));

@@ -278,6 +278,59 @@ fn plant_steps_a_rust_plant_and_reports_its_summary() {
     );
 }
 
+/// The turntable with its settings from the section: turning left at K_alpha = 45 °/s. The
+/// timeline switches ML off at 1 s, before the plant's step then, so ML drove it for the 99
+/// steps from 0.01 s to 0.99 s: 44.55°, `alpha` in hundredths of a degree.
+#[test]
+fn the_turntable_takes_its_settings_from_the_section() {
+    let points: String = ["MR", "ML", "BF", "BB", "arrive_south", "arrive_east"]
+        .iter()
+        .map(|p| format!("point {p} \"\" motor\n"))
+        .chain(petriplc_sim::Turntable::OUTPUTS.iter().map(|p| {
+            let ty = if *p == "alpha" || *p == "x" {
+                " i32"
+            } else {
+                " u8"
+            };
+            format!("point {p} \"\" table{ty}\n")
+        }))
+        .collect();
+    let config = |settings: &str| {
+        format!(
+            "[PLC]\nmodule motor timeline\nmodule table plant\n{points}\
+             [motor]\nfile = motor.csv\n[table]\nplant = turntable\n{settings}\n"
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("motor.csv"),
+        "time,MR,ML,BF,BB,arrive_south,arrive_east\n0,0,1,0,0,0,0\n1,0,0,0,0,0,0\n",
+    )
+    .unwrap();
+    let mut plc = start(&config("K_alpha = 45"), dir.path()).unwrap();
+    for k in 0..=150 {
+        plc.tick(ms(10 * k)).unwrap();
+    }
+    assert_eq!(
+        (plc.value("alpha"), plc.value("SR"), plc.value("E_sector")),
+        (4455, 0, 0)
+    );
+    assert_eq!(
+        plc.status("table"),
+        "turntable at 44.55°, 0 delivered south, 0 east, 0 rejected"
+    );
+    assert_eq!(
+        start_err(&config("K_alpha = fast"), dir.path()),
+        "module table: turntable setting `K_alpha = fast`: give a number greater than 0 in °/s, \
+         with at most three decimals (e.g. `K_alpha = 12.5`)"
+    );
+    let e = start_err(&config("K_alpha = 45\nspeed = 2\nnames = sipn"), dir.path());
+    assert_eq!(
+        e,
+        "module table: `names` applies to a plant net (`net = FILE.pnml`), not to a built-in plant"
+    );
+}
+
 #[test]
 fn plant_settings_and_wiring_errors() {
     let dir = examples("mixer");
@@ -292,10 +345,13 @@ fn plant_settings_and_wiring_errors() {
     };
     assert!(start(&text("plant = tank", "tank"), &dir).is_ok());
     assert!(start(&text("net = tank.pnml", "tank"), &dir).is_ok());
+    // Only the turntable has settings of its own.
+    let e = start_err(&text("plant = tank\nK_alpha = 45", "tank"), &dir);
+    assert!(e.contains("K_alpha"), "{e}");
     assert_eq!(
         start_err(&text("plant = tanks", "tank"), &dir),
         "module tank: `plant = tanks` is not a built-in plant; use one of tank, tape, keyboard, \
-         or `net = FILE.pnml` for a plant net"
+         turntable, or `net = FILE.pnml` for a plant net"
     );
     assert_eq!(
         start_err(&text("plant = tank\nnet = tank.pnml", "tank"), &dir),
@@ -303,7 +359,7 @@ fn plant_settings_and_wiring_errors() {
     );
     assert_eq!(
         start_err(&text("", "tank"), &dir),
-        "module tank: no plant given; add `plant = NAME` (tank, tape, keyboard) or \
+        "module tank: no plant given; add `plant = NAME` (tank, tape, keyboard, turntable) or \
          `net = FILE.pnml` to section [tank]"
     );
     assert_eq!(

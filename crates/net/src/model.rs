@@ -68,6 +68,11 @@ pub struct Transition {
     pub id: String,
     pub name: String,
     pub guard: Guard,
+    /// For a net that models a process (a plant net): once enabled, the process fires this
+    /// transition within this time (unless it is disabled first). Scans ignore it — they
+    /// fire what is enabled at once —; the closed-loop analysis at a scan period uses it as
+    /// the upper bound of the plant's timing, arc delays being the lower bounds.
+    pub deadline: Option<Duration>,
 }
 
 /// What an arc does to its place.
@@ -557,6 +562,15 @@ pub enum ModelError {
     GuardReadsOutput { transition: String, signal: String },
     #[error("`{name}` is not a valid signal name; use letters, digits and `_`, starting with a letter or `_`")]
     BadSignalName { name: String },
+    #[error("transition `{transition}` has deadline 0; a deadline is a time greater than 0 (leave it out for none)")]
+    ZeroDeadline { transition: String },
+    #[error("transition `{transition}` has a deadline of {} but its arc `{arc}` waits {}; a transition cannot have to fire before its delays let it (make the deadline at least the longest delay)", crate::time::format_iec(*deadline), crate::time::format_iec(*delay))]
+    DeadlineBeforeDelay {
+        transition: String,
+        deadline: Duration,
+        arc: String,
+        delay: Duration,
+    },
 }
 
 impl ModelError {
@@ -578,7 +592,9 @@ impl ModelError {
             | MarkedInputPlace { place, .. }
             | InputAndOutput { place }
             | IntOutputTwice { first: place, .. } => place,
-            GuardReadsOutput { transition, .. } => transition,
+            GuardReadsOutput { transition, .. }
+            | ZeroDeadline { transition }
+            | DeadlineBeforeDelay { transition, .. } => transition,
             DirectionConflict { signal, .. } | TypeConflict { signal, .. } => signal,
             BadSignalName { name } => name,
         }
@@ -608,6 +624,7 @@ pub struct NetBuilder {
     transitions: Vec<TransitionSpec>,
     arcs: Vec<ArcSpec>,
     declared: Vec<(String, SignalDirection, SignalType)>,
+    deadlines: Vec<(TransitionId, Duration)>,
 }
 
 impl NetBuilder {
@@ -649,6 +666,12 @@ impl NetBuilder {
     pub fn arc(&mut self, a: ArcSpec) -> ArcId {
         self.arcs.push(a);
         ArcId::from(self.arcs.len() - 1)
+    }
+    /// Gives transition `t` (as returned by [`NetBuilder::transition`]) a deadline
+    /// ([`Transition::deadline`]); the last one given counts.
+    pub fn deadline(&mut self, t: TransitionId, deadline: Duration) -> &mut Self {
+        self.deadlines.push((t, deadline));
+        self
     }
     pub fn places_mut(&mut self) -> &mut [PlaceSpec] {
         &mut self.places
@@ -763,7 +786,20 @@ impl NetBuilder {
                 id: t.id.clone(),
                 name: t.name.clone(),
                 guard,
+                deadline: None,
             });
+        }
+        for &(t, d) in &self.deadlines {
+            if let Some(tr) = transitions.get_mut(t.index()) {
+                tr.deadline = Some(d);
+            }
+        }
+        for tr in &transitions {
+            if tr.deadline == Some(Duration::ZERO) {
+                errors.push(ModelError::ZeroDeadline {
+                    transition: tr.id.clone(),
+                });
+            }
         }
 
         let mut int_outputs: HashMap<SignalId, &str> = HashMap::new();
@@ -856,6 +892,19 @@ impl NetBuilder {
                 weight: a.weight,
                 delay: a.delay,
             });
+        }
+        for a in &arcs {
+            let tr = &transitions[a.transition.index()];
+            if let (Some(deadline), Some(delay)) = (tr.deadline, a.delay) {
+                if delay > deadline && !deadline.is_zero() {
+                    errors.push(ModelError::DeadlineBeforeDelay {
+                        transition: tr.id.clone(),
+                        deadline,
+                        arc: a.id.clone(),
+                        delay,
+                    });
+                }
+            }
         }
 
         if !errors.is_empty() {
@@ -1053,6 +1102,43 @@ mod tests {
                 "a5: arc `a5` goes from a transition to a place but is marked inhibitor; read and inhibitor arcs go from a place to a transition",
                 "a6: arc `a6` has a delay but is an inhibitor arc; delays go on normal or read arcs from a place",
             ],
+        );
+    }
+
+    #[test]
+    fn deadlines_are_checked_against_delays() {
+        let build = |deadline: u64, delay: u64| {
+            move |b: &mut NetBuilder| {
+                b.place(place("p", 1));
+                let t = b.transition(transition("t", ""));
+                b.deadline(t, Duration::from_millis(deadline));
+                b.arc(ArcSpec {
+                    delay: Some(Duration::from_millis(delay)),
+                    ..arc("a", "p", "t", 1)
+                });
+            }
+        };
+        let ok = "ok: 1 places, 1 transitions, 1 arcs, signals []";
+        check(build(600, 100), &[ok]);
+        check(build(100, 100), &[ok]);
+        check(
+            build(100, 600),
+            &[
+                "t: transition `t` has a deadline of T#100ms but its arc `a` waits T#600ms; a \
+               transition cannot have to fire before its delays let it (make the deadline at \
+               least the longest delay)",
+            ],
+        );
+        check(
+            build(0, 0),
+            &["t: transition `t` has deadline 0; a deadline is a time greater than 0 (leave it out for none)"],
+        );
+        let mut b = NetBuilder::new("n", "n");
+        build(600, 100)(&mut b);
+        let net = b.build().unwrap();
+        assert_eq!(
+            net.transition(TransitionId(0)).deadline,
+            Some(Duration::from_millis(600))
         );
     }
 

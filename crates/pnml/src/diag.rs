@@ -109,7 +109,7 @@ pub const CODES: &[(&str, &str)] = &[
     (ARC_TYPE_CONFLICT, "an arc's type is given twice, differently"),
     (ARC_ENDS, "an arc's source or target is unknown, or it joins two places or two transitions"),
     (GUARD, "a guard (or, with SIPN naming, a transition name) does not parse"),
-    (DELAY, "an arc delay is not a duration"),
+    (DELAY, "an arc delay or a transition deadline is not a duration, or a deadline is 0 or shorter than a delay of its transition"),
     (UNKNOWN_PETRIPLC, "an element inside <toolspecific tool=\"petriplc\"> that petriplc does not know here"),
     (REPEATED, "a label or petriplc element that may appear once appears twice"),
     (PETRIPLC_VALUE, "a bad value in petriplc's toolspecific data (step, evolve, signal, version)"),

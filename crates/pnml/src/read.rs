@@ -87,6 +87,7 @@ struct TransitionRead {
     name: String,
     name_at: usize,
     guard: Option<Expr<String>>,
+    deadline: Option<std::time::Duration>,
 }
 
 struct RefRead {
@@ -536,6 +537,7 @@ impl<'a> Reader<'a> {
             name: String::new(),
             name_at: el.start,
             guard: None,
+            deadline: None,
         };
         let mut extras = Extras::default();
         let mut once = Once::default();
@@ -557,6 +559,20 @@ impl<'a> Reader<'a> {
                         &mut once,
                     );
                     for item in items {
+                        if item.name == "deadline" {
+                            match time::parse_duration(&item.text) {
+                                Ok(d) => t.deadline = Some(d),
+                                Err(e) => {
+                                    let msg = format!(
+                                        "transition `{}`: deadline `{}` is not a duration: {e}",
+                                        shown(&id),
+                                        shown(item.text.trim())
+                                    );
+                                    self.error(diag::DELAY, item.start, Some(&id), msg);
+                                }
+                            }
+                            continue;
+                        }
                         // An unparsable guard still counts as given: the name must not
                         // stand in for it under SIPN naming and add a second error.
                         t.guard = Some(

@@ -18,7 +18,7 @@ pub const NET_ITEMS: &[&str] = &["step", "evolve", "signal"];
 /// petriplc elements allowed in a place's toolspecific block.
 pub const PLACE_ITEMS: &[&str] = &["output", "input", "capacity"];
 /// petriplc elements allowed in a transition's toolspecific block.
-pub const TRANSITION_ITEMS: &[&str] = &["guard"];
+pub const TRANSITION_ITEMS: &[&str] = &["guard", "deadline"];
 /// petriplc elements allowed in an arc's toolspecific block.
 pub const ARC_ITEMS: &[&str] = &["delay", "type"];
 /// Attributes of a `<signal>` declaration.

@@ -97,6 +97,9 @@ pub(crate) fn write(net: &Net, layout: Option<&Layout>) -> String {
                 text(&net.guard_text(i.into()))
             ));
         }
+        if let Some(d) = t.deadline {
+            tool.push(format!("<deadline>{}</deadline>", format_iec(d)));
+        }
         b.toolspecific(4, &tool);
         w.element(
             3,
@@ -407,10 +410,11 @@ mod tests {
                     input: Some("B1".into()),
                     ..place("i", 0)
                 });
-                b.transition(TransitionSpec {
+                let t = b.transition(TransitionSpec {
                     name: "fill & <go>".into(),
                     ..transition("t", "B1 & !(Level >= 3)")
                 });
+                b.deadline(t, Duration::from_secs(2));
                 b.arc(ArcSpec {
                     delay: Some(Duration::from_millis(1500)),
                     ..arc("a", "p", "t", ArcKind::Normal, 1)
@@ -447,6 +451,7 @@ mod tests {
         <name><text>fill &amp; &lt;go&gt;</text></name>
         <toolspecific tool="petriplc" version="1">
           <guard>B1 AND NOT (Level &gt;= 3)</guard>
+          <deadline>T#2s</deadline>
         </toolspecific>
       </transition>
       <arc id="a" source="p" target="t">

@@ -54,11 +54,12 @@ fn featured(special: &[ArcKind]) -> Net {
         name: "start".into(),
         guard: parse("B1 AND NOT (Level >= 3) OR N2 XOR TRUE").unwrap(),
     });
-    b.transition(TransitionSpec {
+    let stop = b.transition(TransitionSpec {
         id: "stop".into(),
         name: String::new(),
         guard: parse("").unwrap(),
     });
+    b.deadline(stop, Duration::from_secs(2));
     let arc = |id: &str, source: &str, target: &str, kind, weight, delay| ArcSpec {
         id: id.into(),
         source: source.into(),

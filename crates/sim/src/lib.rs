@@ -11,8 +11,10 @@ pub mod sim;
 pub mod timeline;
 pub mod trace;
 
-pub use plant::{builtin, Plant, PlantError, BUILTINS};
-pub use plants::{Keyboard, NetPlant, Tank, Tape};
+pub use plant::{builtin, builtin_with, Plant, PlantError, BUILTINS};
+pub use plants::{
+    Keyboard, NetPlant, Tank, Tape, Turntable, TurntableSettings, TURNTABLE_SETTINGS,
+};
 pub use plot::{render_svg, render_svg_with, write_svg, PlotError, PlotOptions};
 pub use sim::{SimError, SimOptions, Simulation};
 pub use timeline::{Timeline, TimelineCursor, TimelineError, TimelineProblem};

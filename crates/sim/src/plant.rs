@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use petriplc_net::ScanError;
 
-use crate::plants::{Keyboard, Tank, Tape};
+use crate::plants::{Keyboard, Tank, Tape, Turntable, TurntableSettings};
 
 /// A simulated process or device. Signals are wired to the controller by name.
 pub trait Plant {
@@ -55,15 +55,36 @@ pub const BUILTINS: &[(&str, &str)] = &[
         "tank",
         "mixer tank (seed 002): reads V1, V2 (inlets, 20 %/s each), V3 (drain, 25 %/s); drives N1 (<= 5 %), N2 (>= 50 %), N3 (>= 90 %)",
     ),
+    (
+        "turntable",
+        "turntable with a conveyor belt (seed 004, eq. 1-5): reads MR, ML, BF, BB, arrive_south, arrive_east; drives SR, SL, SWP, alpha, x, delivery counters and errors E_*",
+    ),
 ];
 
-/// A fresh built-in plant by name (see [`BUILTINS`]).
+/// A fresh built-in plant by name (see [`BUILTINS`]), with its default settings.
 pub fn builtin(name: &str) -> Option<Box<dyn Plant>> {
+    builtin_with(name, &[]).ok().flatten()
+}
+
+/// A fresh built-in plant by name with settings (name, value): `Ok(None)` for an unknown
+/// name, `Err` for a setting the plant does not have or a bad value. Only `turntable` has
+/// settings ([`TURNTABLE_SETTINGS`](crate::plants::TURNTABLE_SETTINGS)).
+pub fn builtin_with(
+    name: &str,
+    settings: &[(&str, &str)],
+) -> Result<Option<Box<dyn Plant>>, String> {
+    let none = |plant: Box<dyn Plant>| match settings.first() {
+        None => Ok(Some(plant)),
+        Some((key, _)) => Err(format!("the plant `{name}` has no settings (got `{key}`)")),
+    };
     match name {
-        "tape" => Some(Box::new(Tape::new())),
-        "keyboard" => Some(Box::new(Keyboard::new())),
-        "tank" => Some(Box::new(Tank::new())),
-        _ => None,
+        "tape" => none(Box::new(Tape::new())),
+        "keyboard" => none(Box::new(Keyboard::new())),
+        "tank" => none(Box::new(Tank::new())),
+        "turntable" => Ok(Some(Box::new(Turntable::new(TurntableSettings::parse(
+            settings.iter().copied(),
+        )?)))),
+        _ => Ok(None),
     }
 }
 
@@ -89,12 +110,22 @@ mod tests {
         check("tape", Some(("tape", 3, 1)));
         check("keyboard", Some(("keyboard", 15, 4)));
         check("tank", Some(("tank", 3, 3)));
+        check("turntable", Some(("turntable", 6, 16)));
         check("Tank", None);
         check("", None);
         assert_eq!(
             BUILTINS.iter().map(|b| b.0).collect::<Vec<_>>(),
-            ["tape", "keyboard", "tank"]
+            ["tape", "keyboard", "tank", "turntable"]
         );
+        let err = |name: &str, settings: &[(&str, &str)]| {
+            builtin_with(name, settings).err().unwrap_or_default()
+        };
+        assert_eq!(
+            err("tank", &[("L", "3")]),
+            "the plant `tank` has no settings (got `L`)"
+        );
+        assert_eq!(err("turntable", &[("L", "400"), ("K_x", "100.5")]), "");
+        assert!(builtin_with("nope", &[("L", "3")]).unwrap().is_none());
     }
 
     #[test]

@@ -1,8 +1,9 @@
 //! A trace as an SVG timing diagram: a title (the net, its scan period, the time window), a
-//! legend, then one labelled step-plot lane per input, output and place, stacked from top to
-//! bottom over a shared time axis.
+//! legend, then one labelled step-plot lane per observed plant output, input, output and
+//! place, stacked from top to bottom over a shared time axis.
 //!
-//! What is drawn is chosen to be read: inputs in the user's order (the trace's), a place's
+//! What is drawn is chosen to be read: the process first (what the plant does that the
+//! controller does not read: `plant:NAME`), inputs in the user's order (the trace's), a place's
 //! lane left out when it only repeats an output (every SIPN output is its place), and a signal
 //! that changes faster than the plot can show drawn as a shaded band instead of a moiré of
 //! edges (`--from`/`--to` zoom in). [`PlotOptions`] picks lanes and a window.
@@ -52,8 +53,9 @@ impl PlotError {
 /// What a plot shows.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct PlotOptions {
-    /// The lanes, in this order: input names (or `in:NAME`), output names, `m:PLACE`. When
-    /// absent: every input, output and place, less the places that repeat an output.
+    /// The lanes, in this order: input names (or `in:NAME`), output names, `m:PLACE`,
+    /// `plant:NAME`. When absent: every observed plant output, input, output and place, less
+    /// the places that repeat an output.
     pub signals: Option<Vec<String>>,
     /// The start of the time window (default 0).
     pub from: Option<Duration>,
@@ -99,12 +101,14 @@ impl PlotOptions {
     }
 }
 
-/// Where a lane's values come from: an index into the rows' inputs, outputs or marking.
+/// Where a lane's values come from: an index into the rows' inputs, outputs, marking or
+/// observed plant outputs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Source {
     Input(usize),
     Output(usize),
     Place(usize),
+    Plant(usize),
 }
 
 impl Source {
@@ -117,11 +121,19 @@ impl Source {
             Source::Input(j) => bool_of(row.inputs[j], trace.input_types[j]),
             Source::Output(j) => bool_of(row.outputs[j], trace.output_types[j]),
             Source::Place(j) => i64::from(row.marking[j]),
+            Source::Plant(j) => row.plant[j],
         }
     }
 }
 
 fn resolve(trace: &Trace, name: &str) -> Option<Source> {
+    if let Some(output) = name.strip_prefix("plant:") {
+        return trace
+            .plant
+            .iter()
+            .position(|p| p == output)
+            .map(Source::Plant);
+    }
     if let Some(place) = name.strip_prefix("m:") {
         return trace
             .places
@@ -147,10 +159,12 @@ fn known_names(trace: &Trace) -> Vec<String> {
         .chain(&trace.outputs)
         .cloned()
         .chain(trace.places.iter().map(|p| format!("m:{p}")))
+        .chain(trace.plant.iter().map(|p| format!("plant:{p}")))
         .collect()
 }
 
-/// Every input and output, and every place but those that alone drive an output and whose
+/// The process first (every observed plant output), then every input and output, and every
+/// place but those that alone drive an output and whose
 /// marking equals it at every recorded scan (the output's lane then names the place).
 fn default_lanes(trace: &Trace) -> Vec<(Source, Option<String>)> {
     let mut repeated: Vec<Option<usize>> = vec![None; trace.outputs.len()];
@@ -166,6 +180,7 @@ fn default_lanes(trace: &Trace) -> Vec<(Source, Option<String>)> {
             }
         }
     }
+    let plant = (0..trace.plant.len()).map(|j| (Source::Plant(j), None));
     let inputs = (0..trace.inputs.len()).map(|j| (Source::Input(j), None));
     let outputs = repeated
         .iter()
@@ -174,7 +189,7 @@ fn default_lanes(trace: &Trace) -> Vec<(Source, Option<String>)> {
     let places = (0..trace.places.len())
         .filter(|j| !repeated.contains(&Some(*j)))
         .map(|j| (Source::Place(j), None));
-    inputs.chain(outputs).chain(places).collect()
+    plant.chain(inputs).chain(outputs).chain(places).collect()
 }
 
 const WIDTH: u32 = 1000;
@@ -190,6 +205,7 @@ const MIN_EDGE_GAP: f64 = 3.0;
 const INPUT: RGBColor = RGBColor(31, 119, 180);
 const OUTPUT: RGBColor = RGBColor(214, 39, 40);
 const PLACE: RGBColor = RGBColor(44, 140, 44);
+const PLANT: RGBColor = RGBColor(148, 103, 189);
 const SHADE: RGBColor = RGBColor(243, 243, 243);
 const TEXT: RGBColor = RGBColor(40, 40, 40);
 const GREY: RGBColor = RGBColor(120, 120, 120);
@@ -319,6 +335,17 @@ fn view(trace: &Trace, options: &PlotOptions) -> Result<View, PlotError> {
                     SignalType::Int
                 };
                 (format!("m:{}", trace.places[j]), PLACE, ty)
+            }
+            Source::Plant(j) => {
+                // An output that only ever is 0 or 1 (over the whole run) reads best as a
+                // boolean lane.
+                let all = || trace.rows.iter().map(|r| r.plant[j]);
+                let ty = if all().min().unwrap_or(0) >= 0 && all().max().unwrap_or(0) <= 1 {
+                    SignalType::Bool
+                } else {
+                    SignalType::Int
+                };
+                (format!("plant:{}", trace.plant[j]), PLANT, ty)
             }
         };
         lanes.push(Lane::new(label, color, ty, values.into_iter()));
@@ -551,7 +578,12 @@ fn draw_header(
         ))?;
     }
     let mut legend: Vec<(&str, RGBColor, Swatch)> = Vec::new();
-    for (name, color) in [("input", INPUT), ("output", OUTPUT), ("marking", PLACE)] {
+    for (name, color) in [
+        ("plant", PLANT),
+        ("input", INPUT),
+        ("output", OUTPUT),
+        ("marking", PLACE),
+    ] {
         if view.lanes.iter().any(|l| l.color == color) {
             legend.push((name, color, Swatch::Line));
         }
@@ -703,7 +735,7 @@ mod tests {
                     label = e.name().as_ref() == "text"
                         && e.attributes().flatten().any(|a| {
                             a.key.as_ref() == "fill"
-                                && ["#1F77B4", "#D62728", "#2C8C2C"].contains(&&*a.value)
+                                && ["#1F77B4", "#D62728", "#2C8C2C", "#9467BD"].contains(&&*a.value)
                         });
                     depth += 1;
                 }
@@ -730,6 +762,7 @@ mod tests {
             outputs: outputs.to_vec(),
             marking: marking.to_vec(),
             fired: vec![],
+            plant: vec![],
         }
     }
 
@@ -743,6 +776,7 @@ mod tests {
             output_types: vec![SignalType::Bool],
             places: vec!["idle".into(), "buffer".into()],
             output_places: vec![vec![0, 1]],
+            plant: vec![],
             rows: vec![
                 row(0, &[0, -2], &[0], &[1, 0]),
                 row(300, &[1, 5], &[1], &[0, 3]),
@@ -863,6 +897,50 @@ mod tests {
         assert!(e
             .to_string()
             .starts_with("--from 1 s is not before the end of the run (1 s)"));
+    }
+
+    #[test]
+    fn draws_the_plant_first() {
+        let mut t = trace();
+        t.plant = vec!["alpha".into(), "E_fall".into()];
+        for (r, v) in t.rows.iter_mut().zip([[0, 0], [4500, 0], [9000, 1]]) {
+            r.plant = v.to_vec();
+        }
+        check(
+            &t,
+            &PlotOptions::default(),
+            "demo · scan every 100 ms · 0 to 1 s",
+            &[
+                "plant:alpha [0..9000]",
+                "plant:E_fall",
+                "START",
+                "SPEED [-2..5]",
+                "L1",
+                "m:idle",
+                "m:buffer [0..3]",
+            ],
+        );
+        let svg = parse(&render_svg(&t).unwrap());
+        assert!(svg.texts.iter().any(|t| t == "plant"), "legend plant");
+        // Picked by name, in the order given; a window keeps a boolean plant lane boolean.
+        check(
+            &t,
+            &options(
+                Some(&["L1", "plant:E_fall", "plant:alpha"]),
+                Some(500),
+                None,
+            ),
+            "demo · scan every 100 ms · 0.5 to 1 s",
+            &["L1", "plant:E_fall", "plant:alpha [0..9000]"],
+        );
+        let e = options(Some(&["plant:beta"]), None, None)
+            .check(&t)
+            .unwrap_err();
+        assert!(
+            e.to_string()
+                .ends_with("m:buffer, plant:alpha, plant:E_fall"),
+            "{e}"
+        );
     }
 
     #[test]

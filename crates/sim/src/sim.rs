@@ -127,6 +127,8 @@ struct PlantWiring<'n> {
     sources: Vec<Source>,
     /// Plant output index → controller input it drives.
     drives: Vec<(usize, SignalId)>,
+    /// Plant outputs that drive nothing, recorded in the trace for the plot.
+    observed: Vec<usize>,
     inputs: Vec<i64>,
     outputs: Vec<i64>,
     forced: Vec<Option<i64>>,
@@ -276,10 +278,14 @@ impl<'n> Simulation<'n> {
                         drives.push((i, s));
                     }
                 }
+                let observed = (0..plant_outputs.len())
+                    .filter(|i| !drives.iter().any(|(j, _)| j == i))
+                    .collect();
                 Some(PlantWiring {
                     plant,
                     sources,
                     drives,
+                    observed,
                     inputs: vec![0; plant_inputs.len()],
                     outputs: vec![0; plant_outputs.len()],
                     forced: vec![None; plant_inputs.len()],
@@ -330,6 +336,10 @@ impl<'n> Simulation<'n> {
             .collect();
 
         let cursor = timeline.as_ref().map(CursorState::new).unwrap_or_default();
+        if let Some(pw) = &plant {
+            let names = pw.plant.outputs();
+            trace.plant = pw.observed.iter().map(|&i| names[i].clone()).collect();
+        }
         Ok(Simulation {
             net,
             opts,
@@ -443,6 +453,10 @@ impl<'n> Simulation<'n> {
             .extend(self.output_ids.iter().map(|s| self.signals[s.index()]));
         row.marking.clear();
         row.marking.extend_from_slice(&self.scanner.marking().0);
+        row.plant.clear();
+        if let Some(pw) = &self.plant {
+            row.plant.extend(pw.observed.iter().map(|&i| pw.outputs[i]));
+        }
         row.fired.clear();
         row.fired.extend(
             self.scanner

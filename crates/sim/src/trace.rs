@@ -20,6 +20,8 @@ pub struct TraceRow {
     pub marking: Vec<u32>,
     /// Labels of the transitions fired by the scan, in firing order.
     pub fired: Vec<String>,
+    /// The plant's observed outputs, in the order of [`Trace::plant`].
+    pub plant: Vec<i64>,
 }
 
 /// A run's recorded rows and the names that give their columns meaning.
@@ -42,6 +44,9 @@ pub struct Trace {
     /// [`Trace::places`]). The plot leaves out a place's lane when the place alone drives an
     /// output and its marking equals that output throughout.
     pub output_places: Vec<Vec<usize>>,
+    /// Plant outputs that drive no controller input, observed only (the turntable's angle,
+    /// its error outputs): plotted, not written to the CSV, which is the controller's trace.
+    pub plant: Vec<String>,
     /// The first scan's row, then one for every scan whose inputs, outputs or marking changed
     /// or in which something fired.
     pub rows: Vec<TraceRow>,
@@ -124,6 +129,7 @@ impl Trace {
                 || last.inputs != row.inputs
                 || last.outputs != row.outputs
                 || last.marking != row.marking
+                || last.plant != row.plant
         });
         if keep {
             self.rows.push(row.clone());
@@ -131,14 +137,32 @@ impl Trace {
         keep
     }
 
-    /// How many data lines [`Trace::write_csv`] writes: one per kept row.
-    pub fn csv_rows(&self) -> usize {
-        self.rows.len()
+    /// The rows the CSV shows: the first, then those where an input, output or marking
+    /// changed or something fired (rows kept only for a plant change are left out: the CSV,
+    /// the controller's trace, has no columns for them).
+    pub fn csv_row_iter(&self) -> impl Iterator<Item = &TraceRow> + '_ {
+        self.rows.iter().enumerate().filter_map(move |(i, row)| {
+            let shown = match i.checked_sub(1).map(|j| &self.rows[j]) {
+                None => true,
+                Some(prev) => {
+                    !row.fired.is_empty()
+                        || prev.inputs != row.inputs
+                        || prev.outputs != row.outputs
+                        || prev.marking != row.marking
+                }
+            };
+            shown.then_some(row)
+        })
     }
 
-    /// Writes `time,in:<input>…,<output>…,m:<place>…,fired`, one line per kept row (the first
-    /// scan, then every scan in which an input, output or marking changed or something fired),
-    /// with `\n` line ends and fields quoted only where CSV needs it. Boolean signals are
+    /// How many data lines [`Trace::write_csv`] writes.
+    pub fn csv_rows(&self) -> usize {
+        self.csv_row_iter().count()
+    }
+
+    /// Writes `time,in:<input>…,<output>…,m:<place>…,fired`, one line per
+    /// [`Trace::csv_row_iter`] row (the first scan, then every scan in which an input, output
+    /// or marking changed or something fired), with `\n` line ends and fields quoted only where CSV needs it. Boolean signals are
     /// written 0 or 1.
     pub fn write_csv(&self, mut w: impl Write) -> io::Result<()> {
         let mut line = String::from("time");
@@ -154,7 +178,7 @@ impl Trace {
         push_field(&mut line, "fired");
         line.push('\n');
         w.write_all(line.as_bytes())?;
-        for row in &self.rows {
+        for row in self.csv_row_iter() {
             line.clear();
             line.push_str(&format_seconds(row.time));
             let signals = row
@@ -175,6 +199,35 @@ impl Trace {
                 line.push_str(&m.to_string());
             }
             push_field(&mut line, &row.fired.join(" "));
+            line.push('\n');
+            w.write_all(line.as_bytes())?;
+        }
+        w.flush()
+    }
+
+    /// The controller's inputs as a timeline in `petriplc sim --inputs`'s format: `time` and
+    /// one column per input, a row for the first scan and for every scan whose inputs
+    /// changed. Replaying it drives the controller alone through the same scans — the
+    /// closed loop opened, e.g. for the generated C.
+    pub fn write_inputs_csv(&self, mut w: impl Write) -> io::Result<()> {
+        let mut line = String::from("time");
+        for name in &self.inputs {
+            push_field(&mut line, name);
+        }
+        line.push('\n');
+        w.write_all(line.as_bytes())?;
+        let mut last: Option<&Vec<i64>> = None;
+        for row in &self.rows {
+            if last == Some(&row.inputs) {
+                continue;
+            }
+            last = Some(&row.inputs);
+            line.clear();
+            line.push_str(&format_seconds(row.time));
+            for v in &row.inputs {
+                line.push(',');
+                line.push_str(&v.to_string());
+            }
             line.push('\n');
             w.write_all(line.as_bytes())?;
         }
@@ -216,6 +269,7 @@ mod tests {
             outputs: outputs.to_vec(),
             marking: marking.to_vec(),
             fired: fired.iter().map(|s| s.to_string()).collect(),
+            plant: vec![],
         }
     }
 
@@ -277,6 +331,42 @@ mod tests {
         );
         assert_eq!(trace.end, Duration::from_millis(70));
         assert_eq!(trace.csv_rows(), 5);
+    }
+
+    #[test]
+    fn inputs_are_written_as_a_timeline() {
+        let mut trace = lamp_trace();
+        for r in [
+            row(0, &[0], &[0, 1], &[1, 0, 0], &[]),
+            row(10, &[1], &[0, 1], &[1, 0, 0], &[]),
+            row(20, &[1], &[1, 0], &[0, 1, 1], &["t_on"]),
+            row(30, &[0], &[1, 0], &[0, 1, 1], &[]),
+        ] {
+            trace.record(&r);
+        }
+        let mut out = Vec::new();
+        trace.write_inputs_csv(&mut out).unwrap();
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "time,button\n0,0\n0.01,1\n0.03,0\n"
+        );
+    }
+
+    /// A plant value that changes keeps the row for the plot, not for the CSV.
+    #[test]
+    fn plant_changes_are_kept_but_not_written() {
+        let mut trace = lamp_trace();
+        trace.plant = vec!["level".into()];
+        let with = |ms: u64, level: i64| TraceRow {
+            plant: vec![level],
+            ..row(ms, &[0], &[0, 1], &[1, 0, 0], &[])
+        };
+        check(
+            &mut trace,
+            &[with(0, 0), with(10, 5), with(20, 5), with(30, 7)],
+            &[0, 10, 30],
+            "time,in:button,level,lamp,m:off,m:on,m:count,fired\n0,0,0,1,1,0,0,\n",
+        );
     }
 
     #[test]

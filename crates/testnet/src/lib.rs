@@ -4,7 +4,8 @@
 //! ```text
 //! p NAME INITIAL [>OUTPUT] [<INPUT] [cap=N]   a place, optionally driving an output / mirroring
 //!                                             an input, with a capacity
-//! t NAME PRE… -> POST… [if GUARD]        arcs: `p`, `p*2` (weight), `p@0.5` (delay), `?p` read, `!p` inhibitor
+//! t NAME PRE… -> POST… [if GUARD]        arcs: `p`, `p*2` (weight), `p@0.5` (delay), `?p` read, `!p` inhibitor;
+//!                                        `within=0.6` anywhere among them: a deadline
 //! s NAME in|out bool|int                 a signal declaration
 //! step sequential | evolve until-stable  the net's scan options
 //! ```
@@ -46,13 +47,17 @@ pub fn net(text: &str) -> Net {
                 let (arcs_text, guard) = rest.split_once(" if ").unwrap_or((rest, ""));
                 let mut words = arcs_text.split_whitespace();
                 let id = words.next().unwrap().to_string();
-                b.transition(TransitionSpec {
+                let t = b.transition(TransitionSpec {
                     id: id.clone(),
                     name: id.clone(),
                     guard: parse(guard).unwrap(),
                 });
                 let mut into = false;
                 for w in words {
+                    if let Some(d) = w.strip_prefix("within=") {
+                        b.deadline(t, petriplc_net::time::parse_duration(d).unwrap());
+                        continue;
+                    }
                     if w == "->" {
                         into = true;
                         continue;
@@ -135,7 +140,7 @@ mod tests {
             p b 0
             p lvl 0 <Level
             t go a*2 ?lvl !b -> b if Level > 3
-            t back b@0.5 -> a
+            t back b@0.5 -> a within=1s
         ");
         assert_eq!(n.places().len(), 3);
         assert_eq!(n.transitions().len(), 2);
@@ -143,5 +148,9 @@ mod tests {
         assert_eq!(n.place(petriplc_net::PlaceId(0)).capacity, Some(3));
         assert_eq!(n.guard_text(petriplc_net::TransitionId(0)), "Level > 3");
         assert_eq!(n.timed_arcs().len(), 1);
+        assert_eq!(
+            n.transition(petriplc_net::TransitionId(1)).deadline,
+            Some(Duration::from_secs(1))
+        );
     }
 }

@@ -35,11 +35,24 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         ),
         _ => None,
     };
+    let settings: Vec<(&str, &str)> = args
+        .plant_set
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.as_str()))
+        .collect();
     let plant: Option<Box<dyn Plant + '_>> = match (&args.plant, &plant_net) {
         (None, _) => None,
+        (Some(_), Some(_)) if !settings.is_empty() => {
+            return Err(anyhow!(
+                "--plant-set applies to a built-in plant; a plant net's behaviour is in its file"
+            ))
+            .bad_input()
+        }
         (Some(_), Some(net)) => Some(Box::new(NetPlant::new(net, ScanOptions::of(net)))),
         (Some(name), None) => Some(
-            petriplc_sim::builtin(name)
+            petriplc_sim::builtin_with(name, &settings)
+                .map_err(|e| anyhow!("--plant-set: {e}"))
+                .bad_input()?
                 .ok_or_else(|| unknown_plant(name))
                 .bad_input()?,
         ),
@@ -148,6 +161,25 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     // What a partial trace says about itself, last in the CSV and on the plot.
     let note = stopped.as_ref().map(Stopped::note);
 
+    if let Some(path) = &args.inputs_out {
+        crate::output::create_parent(path)?;
+        let mut file = io::BufWriter::new(
+            fs::File::create(path)
+                .with_context(|| format!("cannot create {}", path.display()))
+                .run_failure()?,
+        );
+        trace
+            .write_inputs_csv(&mut file)
+            .and_then(|()| file.flush())
+            .with_context(|| format!("cannot write {}", path.display()))
+            .run_failure()?;
+        let what = if note.is_some() {
+            "the controller's inputs as a timeline, incomplete"
+        } else {
+            "the controller's inputs as a timeline"
+        };
+        crate::output::wrote(path, what);
+    }
     match (&args.out, &args.plot) {
         (None, None) => crate::output::to_stdout(|out| {
             trace.write_csv(&mut *out)?;

@@ -190,11 +190,14 @@ impl Reader<'_> {
             b.place(p.spec.clone());
         }
         for t in &self.transitions {
-            b.transition(TransitionSpec {
+            let id = b.transition(TransitionSpec {
                 id: t.id.clone(),
                 name: t.name.clone(),
                 guard: t.guard.clone().unwrap_or(Expr::Const(true)),
             });
+            if let Some(d) = t.deadline {
+                b.deadline(id, d);
+            }
         }
         'arcs: for a in &self.arcs {
             let mut spec = a.clone();
@@ -252,6 +255,7 @@ impl Reader<'_> {
             | IntOutputTwice { .. }
             | GuardReadsOutput { .. }
             | BadSignalName { .. } => diag::SIGNAL_RULE,
+            ZeroDeadline { .. } | DeadlineBeforeDelay { .. } => diag::DELAY,
         };
         // Signal errors name a signal, not an element: point at the use that went wrong.
         let of = |name: &String| uses.get(name.as_str()).into_iter().flatten();

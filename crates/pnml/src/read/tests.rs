@@ -252,6 +252,24 @@ arc a2 t1->p2 normal"#,
     }
 
     #[test]
+    fn deadlines_are_read_and_checked() {
+        check(
+            &page(
+                r#"
+<transition id="t1"><toolspecific tool="petriplc" version="1"><deadline>later</deadline></toolspecific></transition>
+<transition id="t2"><toolspecific tool="petriplc" version="1"><deadline>T#0s</deadline></toolspecific></transition>
+<transition id="t3"><toolspecific tool="petriplc" version="1"><deadline>0.1</deadline><deadline>1</deadline></toolspecific></transition>
+<place id="p"/>
+<arc id="a" source="p" target="t3"><toolspecific tool="petriplc" version="1"><delay>T#200ms</delay></toolspecific></arc>"#,
+            ),
+            "t.pnml:2:63: error[P014]: transition `t1`: deadline `later` is not a duration: `later` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`) [t1]\n\
+             t.pnml:3:1: error[P014]: transition `t2` has deadline 0; a deadline is a time greater than 0 (leave it out for none) [t2]\n\
+             t.pnml:4:1: error[P014]: transition `t3` has a deadline of T#100ms but its arc `a` waits T#200ms; a transition cannot have to fire before its delays let it (make the deadline at least the longest delay) [t3]\n\
+             t.pnml:4:87: error[P016]: transition `t3` has a second `<deadline>`; give it once [t3]",
+        );
+    }
+
+    #[test]
     fn survives_hostile_nesting() {
         let deep = format!("<pnml>{}", "<page>".repeat(50_000));
         check(&deep, "t.pnml:1:1537: error[P001]: elements are nested more than 256 deep; PNML needs far fewer [-]");
@@ -513,7 +531,7 @@ arc a3 t1->p2 normal"#,
             "t.pnml:2:57: error[P015]: place `p`: `<ouput>` is not a petriplc element of a place; known here: <output>, <input>, <capacity> [p]\n\
              t.pnml:2:74: error[P017]: place `p`: `<output>` is empty; write the signal's name [p]\n\
              t.pnml:2:92: error[P015]: place `p`: `<guard>` is not a petriplc element of a place; known here: <output>, <input>, <capacity> [p]\n\
-             t.pnml:3:62: error[P015]: transition `t`: `<delay>` is not a petriplc element of a transition; known here: <guard> [t]\n\
+             t.pnml:3:62: error[P015]: transition `t`: `<delay>` is not a petriplc element of a transition; known here: <guard>, <deadline> [t]\n\
              t.pnml:3:151: error[P016]: transition `t` has a second `<guard>`; give it once [t]\n\
              t.pnml:4:77: error[P015]: arc `a`: `<capacity>` is not a petriplc element of an arc; known here: <delay>, <type> [a]",
         );

@@ -17,8 +17,8 @@ use petriplc_reach::{self as reach, ExploreOptions, StateId};
 use petriplc_structure::{self as structure, Limits};
 
 use self::report::{
-    ConflictFacts, EffectiveConflict, InvariantFacts, Never, NeverFacts, Report, SipnFacts,
-    SpaceFacts, StructuralConflict, Unstable,
+    ClosedLoopFacts, ConflictFacts, EffectiveConflict, InvariantFacts, Never, NeverFacts, Report,
+    SipnFacts, SpaceFacts, StructuralConflict, Unstable,
 };
 use crate::args::AnalyzeArgs;
 use crate::failure::{BadInputExt, Failure, RunExt};
@@ -311,58 +311,87 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
     }
 
     // 7. Closed loop with a plant.
-    let mut violated = None;
+    let mut violated = Vec::new();
     if let Some(plant) = &plant {
-        let cl = closedloop::closed_loop(&net, plant, &plc).bad_input()?;
-        if let Some(place) = &args.never {
-            let verdict = closedloop::never(&cl, place).bad_input()?;
-            let (states, verdict) = match verdict {
-                NeverResult::Proved { states, .. } => (states, Never::Proved),
-                NeverResult::Incomplete { states } => {
-                    report.complete = false;
-                    report
-                        .incomplete
-                        .push(format!("closed-loop search stopped after {states} states"));
-                    (states, Never::Unknown)
-                }
-                NeverResult::Reached {
-                    states,
-                    moves,
-                    timeline_csv,
-                    replays,
-                } => {
-                    let mut scans = 0;
-                    let steps = moves
-                        .iter()
-                        .map(|m| {
-                            let line = m.describe(&net, plant, scans);
-                            if matches!(m, closedloop::Move::Scan(_)) {
-                                scans += 1;
-                            }
-                            line
-                        })
-                        .collect();
-                    violated = Some(if moves.is_empty() {
-                        format!("`{place}` is marked from the start")
-                    } else {
-                        format!("`{place}` can be marked: see the run above")
-                    });
-                    (
+        let opts = PlcOptions {
+            timed: args.period.is_some(),
+            period: args.period.unwrap_or(plc.period),
+            ..plc.clone()
+        };
+        let cl = closedloop::closed_loop(&net, plant, &opts).bad_input()?;
+        if !args.never.is_empty() {
+            let places: Vec<&str> = args.never.iter().map(String::as_str).collect();
+            let started = std::time::Instant::now();
+            let found = closedloop::never_all(&cl, &places).bad_input()?;
+            let seconds = started.elapsed().as_secs_f64();
+            if !found.complete
+                && found
+                    .verdicts
+                    .iter()
+                    .any(|(_, v)| !matches!(v, NeverResult::Reached { .. }))
+            {
+                report.complete = false;
+                report.incomplete.push(format!(
+                    "closed-loop search stopped after {} states",
+                    found.states
+                ));
+            }
+            let mut verdicts = Vec::new();
+            for ((label, verdict), asked) in found.verdicts.into_iter().zip(&args.never) {
+                let (states, verdict) = match verdict {
+                    NeverResult::Proved { states, .. } => (states, Never::Proved),
+                    NeverResult::Incomplete { states } => (states, Never::Unknown),
+                    NeverResult::Reached {
                         states,
-                        Never::Reached {
-                            plant_moves: moves.len() - scans,
-                            scans,
-                            steps,
-                            timeline: timeline_csv,
-                            replays,
-                        },
-                    )
-                }
-            };
-            report.never = Some(NeverFacts {
-                place: place.clone(),
-                states,
-                verdict,
+                        moves,
+                        timeline_csv,
+                        replays,
+                    } => {
+                        let mut scans = 0;
+                        let steps = moves
+                            .iter()
+                            .map(|m| {
+                                let line = m.describe(&net, plant, scans);
+                                if matches!(m, closedloop::Move::Scan(_)) {
+                                    scans += 1;
+                                }
+                                line
+                            })
+                            .collect();
+                        // (why, whether there is a run to see)
+                        violated.push(if moves.is_empty() {
+                            (format!("`{asked}` is marked from the start"), false)
+                        } else {
+                            (format!("`{asked}` can be marked"), true)
+                        });
+                        (
+                            states,
+                            Never::Reached {
+                                plant_moves: moves.len() - scans,
+                                scans,
+                                steps,
+                                timeline: timeline_csv,
+                                replays,
+                            },
+                        )
+                    }
+                };
+                verdicts.push(NeverFacts {
+                    place: asked.clone(),
+                    label,
+                    states,
+                    verdict,
+                });
+            }
+            report.closed_loop = Some(ClosedLoopFacts {
+                plant: plant.id.clone(),
+                period: args.period,
+                states: found.states,
+                edges: found.edges,
+                complete: found.complete,
+                time_locks: found.time_locks,
+                seconds,
+                places: verdicts,
             });
         }
     }
@@ -376,12 +405,22 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
         report.to_text()
     };
     crate::output::to_stdout(|out| out.write_all(text.as_bytes()))?;
-    match violated {
-        Some(why) => Err(Failure::Run(anyhow!(why))),
-        None if cancel.load(Ordering::SeqCst) => Err(Failure::Interrupted(anyhow!(
-            "interrupted by Ctrl-C: the report above is partial"
+    let runs = violated.iter().filter(|(_, run)| *run).count();
+    let whys: Vec<&str> = violated.iter().map(|(why, _)| why.as_str()).collect();
+    match runs {
+        _ if whys.is_empty() && cancel.load(Ordering::SeqCst) => Err(Failure::Interrupted(
+            anyhow!("interrupted by Ctrl-C: the report above is partial"),
+        )),
+        _ if whys.is_empty() => Ok(()),
+        0 => Err(Failure::Run(anyhow!("{}", whys.join("; ")))),
+        1 => Err(Failure::Run(anyhow!(
+            "{}: see the run above",
+            whys.join("; ")
         ))),
-        None => Ok(()),
+        _ => Err(Failure::Run(anyhow!(
+            "{}: see the runs above",
+            whys.join("; ")
+        ))),
     }
 }
 

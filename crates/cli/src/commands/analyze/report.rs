@@ -21,7 +21,7 @@ pub struct Report {
     pub invariants: InvariantFacts,
     pub conflicts: ConflictFacts,
     pub sipn: Option<SipnFacts>,
-    pub never: Option<NeverFacts>,
+    pub closed_loop: Option<ClosedLoopFacts>,
 }
 
 /// Facts from the reachability graph.
@@ -98,10 +98,30 @@ pub struct Unstable {
     pub cycle: Vec<String>,
 }
 
-/// The answer to `--never PLACE`.
+/// The closed loop with `--plant` and `--never`: its state space and a verdict per place.
+#[derive(Debug)]
+pub struct ClosedLoopFacts {
+    pub plant: String,
+    /// `Some` for a timed analysis (`--period`).
+    pub period: Option<std::time::Duration>,
+    pub states: u64,
+    pub edges: u64,
+    pub complete: bool,
+    pub time_locks: u64,
+    /// Wall-clock time of the search.
+    pub seconds: f64,
+    pub places: Vec<NeverFacts>,
+}
+
+/// The answer to one `--never PLACE`.
 #[derive(Debug)]
 pub struct NeverFacts {
+    /// As given on the command line.
     pub place: String,
+    /// Qualified: `plant:NAME` or `controller:NAME`.
+    pub label: String,
+    /// States found when the verdict was known (for `reached`: when the place was first
+    /// marked; otherwise all of them).
     pub states: u64,
     pub verdict: Never,
 }
@@ -238,17 +258,38 @@ impl Report {
                 }),
             );
         }
-        if let Some(n) = &self.never {
-            let (verdict, steps, timeline) = match &n.verdict {
-                Never::Proved => ("never", Value::Null, Value::Null),
-                Never::Reached {
-                    steps, timeline, ..
-                } => ("reached", json!(steps), json!(timeline)),
-                Never::Unknown => ("unknown", Value::Null, Value::Null),
-            };
+        if let Some(cl) = &self.closed_loop {
+            let places: Vec<Value> = cl
+                .places
+                .iter()
+                .map(|n| {
+                    let (verdict, steps, timeline) = match &n.verdict {
+                        Never::Proved => ("never", Value::Null, Value::Null),
+                        Never::Reached {
+                            steps, timeline, ..
+                        } => ("reached", json!(steps), json!(timeline)),
+                        Never::Unknown => ("unknown", Value::Null, Value::Null),
+                    };
+                    json!({"place": n.place, "label": n.label, "verdict": verdict, "states": n.states, "steps": steps, "timeline": timeline})
+                })
+                .collect();
+            // The first place alone, as before several could be asked.
+            if let Some(first) = places.first() {
+                put("never", first.clone());
+            }
             put(
-                "never",
-                json!({"place": n.place, "verdict": verdict, "states": n.states, "steps": steps, "timeline": timeline}),
+                "closed_loop",
+                json!({
+                    "plant": cl.plant,
+                    "timed": cl.period.is_some(),
+                    "period": cl.period.map(|p| p.as_secs_f64()),
+                    "states": cl.states,
+                    "edges": cl.edges,
+                    "complete": cl.complete,
+                    "time_locks": cl.time_locks,
+                    "seconds": cl.seconds,
+                    "places": places,
+                }),
             );
         }
         Value::Object(out)
@@ -432,38 +473,74 @@ impl Report {
                 "  contradictory outputs:  impossible (an output is the OR of its places)"
             );
         }
-        if let Some(n) = &self.never {
+        if let Some(cl) = &self.closed_loop {
+            let timing = match cl.period {
+                Some(p) => format!(
+                    "timed at a {} scan period: controller timers exact, plant delays and deadlines kept",
+                    petriplc_net::time::format_iec(p).trim_start_matches("T#")
+                ),
+                None => "every timing: any scan period, plant delays ignored".to_string(),
+            };
+            let _ = writeln!(o, "\nclosed loop with plant {} ({timing})", cl.plant);
             let _ = writeln!(
                 o,
-                "\nnever {} (closed loop, plant delays ignored; {} explored)",
-                n.place,
-                plural(n.states, "state")
+                "  {}, {}{}, {:.2} s",
+                plural(cl.states, "state"),
+                plural(cl.edges, "edge"),
+                if cl.complete {
+                    ""
+                } else {
+                    " (search stopped early)"
+                },
+                cl.seconds
             );
-            never_text(&mut o, n);
+            if cl.time_locks > 0 {
+                let _ = writeln!(
+                    o,
+                    "  {} where a plant deadline is due and no move can meet it (time locks): check the plant's delays and deadlines",
+                    plural(cl.time_locks, "state")
+                );
+            }
+            for n in &cl.places {
+                never_text(&mut o, n, cl.period.is_some());
+            }
+            if cl.places.iter().any(|n| matches!(n.verdict, Never::Proved)) {
+                let _ = writeln!(
+                    o,
+                    "  {}",
+                    if cl.period.is_some() {
+                        "(proved: never marked at this scan period, for every plant timing its delays\n  \
+                         and deadlines allow and every value of the free inputs)"
+                    } else {
+                        "(proved: never marked for every scan period, every timing of the plant and\n  \
+                         every value of the free inputs)"
+                    }
+                );
+            }
         }
         o
     }
 }
 
 /// The `--never` verdict for people, saying which abstraction it is about
-/// (docs/analysis-plc.md, section 5).
-fn never_text(o: &mut String, n: &NeverFacts) {
-    let place = &n.place;
+/// (docs/analysis-plc.md, section 5): `timed` keeps the plant's delays and deadlines at one
+/// scan period; otherwise the plant's moves ignore its delays. (What `proved` covers is said
+/// once, under the verdicts.)
+fn never_text(o: &mut String, n: &NeverFacts, timed: bool) {
+    let label = &n.label;
     let count = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
     let _ = match &n.verdict {
-        Never::Proved => writeln!(
-            o,
-            "  proved: {place} is never marked, for every scan period, every timing of the plant\n  \
-             and every value of the free inputs"
-        ),
+        Never::Proved => writeln!(o, "  never {label}: proved, never marked"),
         Never::Unknown => writeln!(
             o,
-            "  unknown: a limit stopped the search (raise --max-states); nothing is proved"
+            "  never {label}: unknown, the search stopped after {} (raise --max-states);\n  \
+             nothing is proved",
+            plural(n.states, "state")
         ),
         Never::Reached { steps, .. } if steps.is_empty() => writeln!(
             o,
-            "  VIOLATED: {place} is marked from the start, in the initial marking, before any\n  \
-             scan or plant move: there is nothing to replay"
+            "  never {label}: VIOLATED, marked from the start, in the initial marking, before\n  \
+             any scan or plant move: there is nothing to replay"
         ),
         Never::Reached {
             steps,
@@ -474,16 +551,16 @@ fn never_text(o: &mut String, n: &NeverFacts) {
         } => {
             let _ = writeln!(
                 o,
-                "  VIOLATED: {place} is marked after {} and {}:\n    {}",
+                "  never {label}: VIOLATED, marked after {} and {}:\n    {}",
                 count(*scans, "controller scan"),
                 count(*plant_moves, "plant move"),
                 steps.join("\n    ")
             );
-            if *plant_moves > 0 {
+            if *plant_moves > 0 && !timed {
                 let _ = writeln!(
                     o,
                     "  The plant's moves here ignore its delays: if this run needs the plant to be\n  \
-                     faster than its delays allow, the real loop never takes it."
+                     faster than its delays allow, the real loop never takes it (--period keeps them)."
                 );
             }
             if !replays {
