@@ -43,9 +43,13 @@ fn wait_for_status(id: &str) -> String {
             .args(["status", "--plc-id", id])
             .output()
             .unwrap();
-        // Exit 0 also while it starts (its lock is held); the table comes once it runs.
+        // Exit 0 also while it starts (its lock is held: `PLC ID (process N) is starting or
+        // stopping`); the table, with its module header, comes once it runs.
         let text = String::from_utf8_lossy(&out.stdout);
-        if out.status.success() && text.starts_with(&format!("PLC {id} (process ")) {
+        if out.status.success()
+            && text.starts_with(&format!("PLC {id} (process "))
+            && text.contains("\nmodule ")
+        {
             return text.into_owned();
         }
         assert!(
@@ -97,7 +101,9 @@ fn the_mixer_goes_through_full_cycles() {
 #[test]
 fn status_and_stop_reach_a_running_plc() {
     let id = plc_id("status");
+    // `--for` only so that a failing test leaves no PLC behind: `stop` ends it long before.
     let mut run = mixer(&id)
+        .args(["--for", "60s"])
         .args(FREE_PORTS)
         .stderr(Stdio::piped())
         .spawn()
