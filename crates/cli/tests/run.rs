@@ -141,6 +141,52 @@ fn run_config(dir: &TempDir, text: &str, id: &str, extra: &[&str]) -> std::proce
         .unwrap()
 }
 
+/// `petriplc stop` may reach a PLC the moment it holds its id, still starting: the PLC then
+/// stops cleanly once started (exit 0), never killed half-way by the signal.
+#[test]
+fn a_stop_while_starting_stops_the_plc_cleanly() {
+    let dir = TempDir::new().unwrap();
+    let conf = dir.path().join("plc.conf");
+    fs::write(
+        &conf,
+        "[PLC]\nmodule q shutdown\npoint s \"\" q\n[q]\npoint = s\nscan_period = 0.01\n",
+    )
+    .unwrap();
+    for round in 0..5 {
+        let id = plc_id(&format!("early{round}"));
+        let run = Process::cargo_bin("petriplc")
+            .unwrap()
+            .arg("run")
+            .arg(&conf)
+            .args(["--plc-id", &id, "--for", "30s"])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = Instant::now();
+        // 4 until the PLC holds its id; then `stop` waits for it to be proven and signals it.
+        loop {
+            let stop = Command::cargo_bin("petriplc")
+                .unwrap()
+                .args(["stop", "--plc-id", &id])
+                .output()
+                .unwrap();
+            match stop.status.code() {
+                Some(0) => break,
+                Some(4) if started.elapsed() < Duration::from_secs(20) => {}
+                _ => panic!("round {round}: {stop:?}"),
+            }
+        }
+        let out = run.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            out.status.success(),
+            "round {round}: {:?}\n{err}",
+            out.status
+        );
+        assert!(err.contains(&format!("PLC {id} stopped")), "{err}");
+    }
+}
+
 #[test]
 fn bad_configurations_start_nothing() {
     let dir = TempDir::new().unwrap();

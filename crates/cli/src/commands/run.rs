@@ -51,19 +51,21 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     // While the vitrine holds the terminal, log lines go to its footer (and are printed when
     // it gives the terminal back) instead of over the display.
     init_logging(&args, petriplc_vitrine::takes_terminal(&config))?;
-    let plc = Plc::start_with(config, &args.config, builtin, &options)
-        .map_err(|e| not_started(&args, e))?;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
         // Ctrl-C, SIGTERM (`petriplc stop`) and SIGHUP stop the PLC cleanly; a second one
-        // while stopping ends the process at once.
+        // while stopping ends the process at once. Set before the PLC takes its id: `stop`
+        // may signal it from then on, and one arriving while it starts stops it once started
+        // rather than killing it half-way.
         let _ = ctrlc::set_handler(move || {
             if stop.swap(true, Ordering::SeqCst) {
                 std::process::exit(130);
             }
         });
     }
+    let plc = Plc::start_with(config, &args.config, builtin, &options)
+        .map_err(|e| not_started(&args, e))?;
     let failed_before = plc.failed();
     let last = plc.wait(&stop);
     eprint!("{last}");
