@@ -563,11 +563,8 @@ impl<'a> Reader<'a> {
                             match time::parse_duration(&item.text) {
                                 Ok(d) => t.deadline = Some(d),
                                 Err(e) => {
-                                    let msg = format!(
-                                        "transition `{}`: deadline `{}` is not a duration: {e}",
-                                        shown(&id),
-                                        shown(item.text.trim())
-                                    );
+                                    // `e` names the text and says what it is not.
+                                    let msg = format!("transition `{}`: deadline: {e}", shown(&id));
                                     self.error(diag::DELAY, item.start, Some(&id), msg);
                                 }
                             }

@@ -262,7 +262,7 @@ arc a2 t1->p2 normal"#,
 <place id="p"/>
 <arc id="a" source="p" target="t3"><toolspecific tool="petriplc" version="1"><delay>T#200ms</delay></toolspecific></arc>"#,
             ),
-            "t.pnml:2:63: error[P014]: transition `t1`: deadline `later` is not a duration: `later` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`) [t1]\n\
+            "t.pnml:2:63: error[P014]: transition `t1`: deadline: `later` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`) [t1]\n\
              t.pnml:3:1: error[P014]: transition `t2` has deadline 0; a deadline is a time greater than 0 (leave it out for none) [t2]\n\
              t.pnml:4:1: error[P014]: transition `t3` has a deadline of T#100ms but its arc `a` waits T#200ms; a transition cannot have to fire before its delays let it (make the deadline at least the longest delay) [t3]\n\
              t.pnml:4:87: error[P016]: transition `t3` has a second `<deadline>`; give it once [t3]",
