@@ -1,0 +1,3 @@
+//! MatPLC's DSP function blocks and the filter design behind them, free of the PLC runtime.
+
+pub mod design;
