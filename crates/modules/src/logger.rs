@@ -1,5 +1,6 @@
 //! `logger`: writes point values to a CSV file as `time,point,value` rows, every point at
-//! the first scan and then each change, flushed at the end of every scan that wrote a row so
+//! the first scan and then each change (an f32 point as the shortest decimal that reads back
+//! as the same f32, without exponent: `20.5`, `-0.001`; `NaN`, `inf`, `-inf`), flushed at the end of every scan that wrote a row so
 //! that a crash keeps the log up to the last scan.
 //!
 //! ```text

@@ -12,7 +12,7 @@ pub mod timeline;
 pub mod trace;
 
 pub use plant::{builtin, Plant, PlantError, BUILTINS};
-pub use plants::{Keyboard, NetPlant, Tank, Tape};
+pub use plants::{Keyboard, NetPlant, Tank, Tape, Thermal, ThermalParams};
 pub use plot::{render_svg, write_svg, PlotError};
 pub use sim::{SimError, SimOptions, Simulation};
 pub use timeline::{Timeline, TimelineCursor, TimelineError, TimelineProblem};

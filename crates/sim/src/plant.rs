@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use petriplc_net::ScanError;
 
-use crate::plants::{Keyboard, Tank, Tape};
+use crate::plants::{Keyboard, Tank, Tape, Thermal, ThermalParams};
 
 /// A simulated process or device. Signals are wired to the controller by name.
 pub trait Plant {
@@ -26,6 +26,12 @@ pub trait Plant {
     /// One line describing its state for the end-of-run report, e.g.
     /// "tape 111111 (6 ones), head at 0".
     fn summary(&self) -> String;
+    /// For a signal carrying a real quantity in fixed point, how many units make one (the
+    /// `thermal` plant's `temp` counts thousandths of a degree: 1000). The soft PLC's `plant`
+    /// module binds such a signal to an f32 point as the real value.
+    fn scale(&self, _signal: &str) -> Option<f64> {
+        None
+    }
 }
 
 /// Why a plant step failed.
@@ -55,6 +61,10 @@ pub const BUILTINS: &[(&str, &str)] = &[
         "tank",
         "mixer tank (seed 002): reads V1, V2 (inlets, 20 %/s each), V3 (drain, 25 %/s); drives N1 (<= 5 %), N2 (>= 50 %), N3 (>= 90 %)",
     ),
+    (
+        "thermal",
+        "heated vessel, first order plus dead time (2 degC/%, tau 60 s, dead time 5 s, from 20 degC): reads heater (0.001 %); drives temp (0.001 degC)",
+    ),
 ];
 
 /// A fresh built-in plant by name (see [`BUILTINS`]).
@@ -63,6 +73,7 @@ pub fn builtin(name: &str) -> Option<Box<dyn Plant>> {
         "tape" => Some(Box::new(Tape::new())),
         "keyboard" => Some(Box::new(Keyboard::new())),
         "tank" => Some(Box::new(Tank::new())),
+        "thermal" => Some(Box::new(Thermal::new(ThermalParams::default()))),
         _ => None,
     }
 }
@@ -89,11 +100,12 @@ mod tests {
         check("tape", Some(("tape", 3, 1)));
         check("keyboard", Some(("keyboard", 15, 4)));
         check("tank", Some(("tank", 3, 3)));
+        check("thermal", Some(("thermal", 1, 1)));
         check("Tank", None);
         check("", None);
         assert_eq!(
             BUILTINS.iter().map(|b| b.0).collect::<Vec<_>>(),
-            ["tape", "keyboard", "tank"]
+            ["tape", "keyboard", "tank", "thermal"]
         );
     }
 

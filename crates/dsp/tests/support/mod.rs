@@ -32,10 +32,18 @@ pub fn python() -> PathBuf {
 
 /// SciPy's answers to `requests` (see scipy_reference.py), one per request.
 pub fn ask(requests: &[Value]) -> Vec<Value> {
-    let script = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../dsp/tests/scipy_reference.py"
-    );
+    ask_script(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../dsp/tests/scipy_reference.py"
+        ),
+        requests,
+    )
+}
+
+/// The answers of a reference script that reads a JSON list of requests on stdin and
+/// prints `{"scipy": VERSION, "answers": [...]}`.
+pub fn ask_script(script: &str, requests: &[Value]) -> Vec<Value> {
     let mut child = Command::new(python())
         .arg(script)
         .stdin(Stdio::piped())
@@ -48,7 +56,7 @@ pub fn ask(requests: &[Value]) -> Vec<Value> {
     let out = child.wait_with_output().unwrap();
     assert!(
         out.status.success(),
-        "scipy_reference.py failed: {}",
+        "{script} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -61,12 +69,39 @@ pub fn ask(requests: &[Value]) -> Vec<Value> {
     answers
 }
 
+/// A number as JSON: NaN and infinities, which JSON lacks, as the strings "nan", "inf"
+/// and "-inf" (the reference scripts read them back).
+pub fn num(x: f64) -> Value {
+    if x.is_finite() {
+        Value::from(x)
+    } else if x.is_nan() {
+        Value::from("nan")
+    } else if x > 0.0 {
+        Value::from("inf")
+    } else {
+        Value::from("-inf")
+    }
+}
+
+/// A list of numbers as JSON (see [`num`]).
+pub fn nums(xs: &[f64]) -> Value {
+    Value::Array(xs.iter().map(|&x| num(x)).collect())
+}
+
+/// A JSON number, or "nan"/"inf"/"-inf", or null (NaN).
+pub fn float(x: &Value) -> f64 {
+    match x {
+        Value::String(s) => s.parse().unwrap_or_else(|_| panic!("not a number: {s}")),
+        _ => x.as_f64().unwrap_or(f64::NAN),
+    }
+}
+
 /// A JSON array of numbers as a vector.
 pub fn floats(v: &Value) -> Vec<f64> {
     v.as_array()
         .unwrap_or_else(|| panic!("not an array: {v}"))
         .iter()
-        .map(|x| x.as_f64().unwrap_or(f64::NAN))
+        .map(float)
         .collect()
 }
 
