@@ -746,7 +746,8 @@ fn timeline_and_logger_carry_f32_points() {
     )
     .unwrap();
     let conf = "[PLC]\nmodule feed timeline\nmodule log logger\npoint x \"\" feed f32\n\
-                point n \"\" feed i8\n[feed]\nfile = in.csv\n[log]\nfile = log.csv\n";
+                point n \"\" feed i8\n[feed]\nfile = in.csv\n[log]\nfile = log.csv\n\
+                plot = trend.svg\n";
     let mut plc = start(conf, dir.path()).unwrap();
     for k in 0..3 {
         plc.tick(Duration::from_millis(100 * k)).unwrap();
@@ -757,6 +758,9 @@ fn timeline_and_logger_carry_f32_points() {
         log,
         "time,point,value\n0,x,20.5\n0,n,1\n0.1,x,-0.001\n0.1,n,2\n0.2,x,NaN\n"
     );
+    // The trend: the f32 point only, with its legend.
+    let svg = std::fs::read_to_string(dir.path().join("trend.svg")).unwrap();
+    assert!(svg.contains(">\nx\n<") && !svg.contains(">\nn\n<"), "{svg}");
     std::fs::write(dir.path().join("in.csv"), "time,x,n\n0,1,1.5\n").unwrap();
     assert_eq!(
         start_err(conf, dir.path()),

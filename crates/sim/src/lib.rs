@@ -10,6 +10,7 @@ pub mod plot;
 pub mod sim;
 pub mod timeline;
 pub mod trace;
+pub mod trend;
 
 pub use plant::{builtin, Plant, PlantError, BUILTINS};
 pub use plants::{Keyboard, NetPlant, Tank, Tape, Thermal, ThermalParams};
@@ -17,3 +18,4 @@ pub use plot::{render_svg, write_svg, PlotError};
 pub use sim::{SimError, SimOptions, Simulation};
 pub use timeline::{Timeline, TimelineCursor, TimelineError, TimelineProblem};
 pub use trace::{Trace, TraceRow};
+pub use trend::{render_trend_svg, write_trend_svg, Series};
