@@ -9,11 +9,12 @@
 //! points = B1 V1 V2 V3      # default: every point of the configuration
 //! log N1                    # rows add points too
 //! plot = out/mixer.svg      # optional: a trend of the f32 points, drawn when the PLC stops
+//! title = mixer levels      # the trend's title (default: the log file's name)
 //! ```
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use petriplc_config::{ModuleDecl, PointValue};
 use petriplc_net::time::format_seconds;
@@ -35,6 +36,7 @@ pub struct Logger {
     file: String,
     points: Vec<String>,
     plot: Option<String>,
+    title: Option<String>,
     run: Option<Run>,
 }
 
@@ -58,7 +60,7 @@ struct Run {
 impl Logger {
     /// Checks the settings; the file is created by `init`.
     pub fn new(decl: &ModuleDecl) -> Result<Logger, ModuleError> {
-        common::check_decl(decl, KIND, &["file", "points", "plot"])?;
+        common::check_decl(decl, KIND, &["file", "points", "plot", "title"])?;
         Ok(Logger {
             name: decl.name.clone(),
             file: common::require(decl, "file")?.to_string(),
@@ -66,6 +68,7 @@ impl Logger {
                 .map(|v| v.split_whitespace().map(String::from).collect())
                 .unwrap_or_default(),
             plot: common::setting(decl, "plot").map(String::from),
+            title: common::setting(decl, "title").map(String::from),
             run: None,
         })
     }
@@ -117,7 +120,10 @@ impl Module for Logger {
                 let p = ctx.path(p);
                 // Created now (and drawn at close), so a bad path stops the PLC at start.
                 File::create(&p).map_err(|e| {
-                    error(&self.name, format!("cannot create plot `{}`: {e}", p.display()))
+                    error(
+                        &self.name,
+                        format!("cannot create plot `{}`: {e}", p.display()),
+                    )
                 })?;
                 Some(p)
             }
@@ -216,11 +222,22 @@ impl Module for Logger {
             // `close` cannot report; every row was already flushed at the end of its scan.
             let _ = run.out.flush();
             if let Some(path) = &run.plot {
-                let full = run.trend.iter().any(|(_, s)| s.samples.len() >= PLOT_SAMPLES);
+                let full = run
+                    .trend
+                    .iter()
+                    .any(|(_, s)| s.samples.len() >= PLOT_SAMPLES);
+                let name = self.title.clone().unwrap_or_else(|| {
+                    Path::new(&self.file)
+                        .file_name()
+                        .map_or(self.file.clone(), |f| f.to_string_lossy().into_owned())
+                });
                 let title = format!(
-                    "{}{}",
-                    self.file,
-                    if full { " (the start: too many samples)" } else { "" }
+                    "{name}{}",
+                    if full {
+                        " (the start: too many samples)"
+                    } else {
+                        ""
+                    }
                 );
                 let series: Vec<Series> = run.trend.iter().map(|(_, s)| s.clone()).collect();
                 if let Err(e) = write_trend_svg(&title, &series, run.last, path) {

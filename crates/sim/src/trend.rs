@@ -92,9 +92,9 @@ fn draw(
         for run in runs.into_iter().filter(|r| !r.is_empty()) {
             let drawn = chart.draw_series(LineSeries::new(run, color.stroke_width(2)))?;
             if first {
-                drawn
-                    .label(s.name.clone())
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], color.stroke_width(2)));
+                drawn.label(s.name.clone()).legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 18, y)], color.stroke_width(2))
+                });
                 first = false;
             }
         }
@@ -150,7 +150,10 @@ mod tests {
         }
         // Per series its lines and its legend's sample: temp one line, heater two (broken
         // by its NaN), `empty` none.
-        let lines = |color: &str| svg.matches(&format!("stroke=\"{color}\" stroke-width=\"2\"")).count();
+        let lines = |color: &str| {
+            svg.matches(&format!("stroke=\"{color}\" stroke-width=\"2\""))
+                .count()
+        };
         assert_eq!(lines("#1F77B4"), 1 + 1);
         assert_eq!(lines("#D62728"), 2 + 1);
         assert_eq!(lines("#2C8C2C"), 0);
