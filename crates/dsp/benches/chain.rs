@@ -66,7 +66,7 @@ fn filters(sections: usize) -> Vec<Vec<String>> {
     let section = "-1.6 0.8 -1.5 0.7";
     (0..sections / 10)
         .map(|k| {
-            let coeffs = vec![section; 10].join(" ");
+            let coeffs = [section; 10].join(" ");
             cells(&format!("filter p{k} p{} iir 0.01 {coeffs}", k + 1))
         })
         .collect()

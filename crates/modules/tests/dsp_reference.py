@@ -211,6 +211,8 @@ def ramp(p, xs, ts):
         if math.isinf(a):
             return inf
         q = dist / (a * dt * dt)
+        if not math.isfinite(q) or q > 1e12:
+            return math.sqrt(2 * dist * a)
         m = max(math.floor(math.sqrt(0.25 + 2 * q) - 0.5), 0)
         while (m + 1) * (m + 2) / 2 <= q:
             m += 1

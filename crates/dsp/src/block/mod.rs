@@ -12,6 +12,19 @@ pub mod ramp;
 pub mod select;
 pub mod source;
 
+/// `x` limited to `[lo, hi]`: like `f64::clamp`, but never panics (bounds that are NaN or
+/// crossed, which a block built by hand might hold, limit nothing and take `lo` first), and
+/// a NaN `x` stays NaN.
+pub fn limit(x: f64, lo: f64, hi: f64) -> f64 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
 pub use alarm::{Alarm, Compare, Hysteresis, Limit, MAX_LIMITS};
 pub use arith::{convert, Add, Mult, NumType, Pow};
 pub use delay::Delay;

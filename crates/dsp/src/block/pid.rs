@@ -183,10 +183,10 @@ impl Pid {
     }
 
     fn limit(&self, v: f64, dt: f64, started: bool) -> f64 {
-        let mut u = v.clamp(self.config.min_out, self.config.max_out);
+        let mut u = super::limit(v, self.config.min_out, self.config.max_out);
         if started && self.config.rate.is_finite() && dt > 0.0 {
             let step = self.config.rate * dt;
-            u = u.clamp(self.u - step, self.u + step);
+            u = super::limit(u, self.u - step, self.u + step);
         }
         u
     }

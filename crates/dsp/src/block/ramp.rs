@@ -44,6 +44,11 @@ fn braking_speed(dist: f64, a: f64, dt: f64) -> f64 {
         return f64::INFINITY;
     }
     let q = dist / (a * dt * dt);
+    if !q.is_finite() || q > 1e12 {
+        // Thousands of scans from the target: the continuous braking curve, to well within
+        // rounding (and no loop over a step count that f64 cannot count in ones).
+        return (2.0 * dist * a).sqrt();
+    }
     let mut m = ((0.25 + 2.0 * q).sqrt() - 0.5).floor().max(0.0);
     while (m + 1.0) * (m + 2.0) / 2.0 <= q {
         m += 1.0;
@@ -54,6 +59,8 @@ fn braking_speed(dist: f64, a: f64, dt: f64) -> f64 {
     let f = ((q - m * (m + 1.0) / 2.0) / (m + 1.0)).clamp(0.0, 1.0);
     (m + f) * a * dt
 }
+
+use super::limit;
 
 impl Ramp {
     pub fn new(config: RampConfig) -> Ramp {
@@ -102,9 +109,11 @@ impl Ramp {
         } else {
             0.0
         };
-        let v = wanted
-            .clamp(self.v - c.neg_d2xdt2 * dt, self.v + c.pos_d2xdt2 * dt)
-            .clamp(-c.neg_dxdt, c.pos_dxdt);
+        let v = limit(
+            limit(wanted, self.v - c.neg_d2xdt2 * dt, self.v + c.pos_d2xdt2 * dt),
+            -c.neg_dxdt,
+            c.pos_dxdt,
+        );
         let next = self.x + v * dt;
         // Rounding must not carry a follower that lands on its target past it: an overshoot
         // of a few units in the last place is a landing, a larger one was forced by the

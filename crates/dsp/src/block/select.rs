@@ -40,7 +40,7 @@ impl Nonlinear {
         } else {
             self.deadband_out
         };
-        y.clamp(self.cutoff_bot, self.cutoff_top)
+        super::limit(y, self.cutoff_bot, self.cutoff_top)
     }
 }
 
