@@ -110,7 +110,11 @@ impl Ramp {
             0.0
         };
         let v = limit(
-            limit(wanted, self.v - c.neg_d2xdt2 * dt, self.v + c.pos_d2xdt2 * dt),
+            limit(
+                wanted,
+                self.v - c.neg_d2xdt2 * dt,
+                self.v + c.pos_d2xdt2 * dt,
+            ),
             -c.neg_dxdt,
             c.pos_dxdt,
         );
