@@ -36,7 +36,7 @@ fn the_oven_heats_holds_and_cools_down() {
     let mut phases = Vec::new();
     let mut at_temp = None;
     let mut hold_temps = Vec::new();
-    for k in 0..400u64 {
+    for k in 0..250u64 {
         plc.tick(Duration::from_millis(100 * k)).unwrap();
         let phase = ["Ready", "HeatUp", "Hold", "Cool"]
             .into_iter()
@@ -56,11 +56,11 @@ fn the_oven_heats_holds_and_cools_down() {
         assert!((0.0..=100.0).contains(&heater), "heater {heater}");
     }
     assert_eq!(phases, ["Ready", "HeatUp", "Hold", "Cool", "Ready"]);
-    // At temperature about 15 s after the start at 1 s, held within 2 °C for 8 s, and the
+    // At temperature about 7 s after the start at 1 s, held within 2 °C for 5 s, and the
     // vessel cold again by the end.
     let at = at_temp.unwrap();
-    assert!((100..200).contains(&at), "at temperature at scan {at}");
-    assert!(hold_temps.len() >= 79, "{}", hold_temps.len());
+    assert!((60..120).contains(&at), "at temperature at scan {at}");
+    assert!(hold_temps.len() >= 49, "{}", hold_temps.len());
     assert!(
         hold_temps.iter().all(|t| (t - 180.0).abs() <= 2.0),
         "{hold_temps:?}"
