@@ -1,5 +1,5 @@
-"""SciPy's answers for the DSP tests: reads a JSON list of requests on stdin and prints a JSON
-list of answers, one per request, in the same order. Needs scipy (pinned by
+"""SciPy's answers for the DSP tests: reads a JSON list of requests per line on stdin and
+prints a line of JSON answers for each, one per request, in the same order. Needs scipy (pinned by
 scripts/test-all.sh into target/py).
 
 Requests ("op" and its arguments, frequencies in Hz with "fs"):
@@ -112,14 +112,17 @@ def finite_or_none(v):
 
 
 def main():
-    requests = json.load(sys.stdin)
-    out = []
-    for r in requests:
-        try:
-            out.append(answer(r))
-        except Exception as e:  # reported per request, so the test names the case
-            out.append({"error": f"{type(e).__name__}: {e}"})
-    json.dump(finite_or_none({"scipy": scipy.__version__, "answers": out}), sys.stdout)
+    # One JSON list of requests per line, one line of answers each, until stdin closes.
+    for line in sys.stdin:
+        out = []
+        for r in json.loads(line):
+            try:
+                out.append(answer(r))
+            except Exception as e:  # reported per request, so the test names the case
+                out.append({"error": f"{type(e).__name__}: {e}"})
+        json.dump(finite_or_none({"scipy": scipy.__version__, "answers": out}), sys.stdout)
+        sys.stdout.write("\n")
+        sys.stdout.flush()
 
 
 if __name__ == "__main__":

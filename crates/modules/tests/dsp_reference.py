@@ -1,5 +1,5 @@
-"""References for the dsp module's tests: reads a JSON list of requests on stdin, prints
-{"scipy": VERSION, "answers": [...]}, one answer per request.
+"""References for the dsp module's tests: reads a JSON list of requests per line on stdin and
+prints a line {"scipy": VERSION, "answers": [...]} for each, one answer per request.
 
   filter    design, gain, steady, x   -> y: scipy.signal.sosfilt (or lfilter for FIR) on x
   pid_loop  pid, plant, times_ns, sp, mode, manual
@@ -375,19 +375,22 @@ def decode(v):
 
 
 def main():
-    requests = decode(json.load(sys.stdin))
-    out = []
-    for r in requests:
-        op = r["op"]
-        if op == "filter":
-            out.append(run_filter(r))
-        elif op == "pid_loop":
-            out.append(pid_loop(r))
-        elif op == "block":
-            out.append(block(r))
-        else:
-            raise ValueError(f"unknown op {op}")
-    json.dump(finite_or_none({"scipy": scipy.__version__, "answers": out}), sys.stdout)
+    # One JSON list of requests per line, one line of answers each, until stdin closes.
+    for line in sys.stdin:
+        out = []
+        for r in decode(json.loads(line)):
+            op = r["op"]
+            if op == "filter":
+                out.append(run_filter(r))
+            elif op == "pid_loop":
+                out.append(pid_loop(r))
+            elif op == "block":
+                out.append(block(r))
+            else:
+                raise ValueError(f"unknown op {op}")
+        json.dump(finite_or_none({"scipy": scipy.__version__, "answers": out}), sys.stdout)
+        sys.stdout.write("\n")
+        sys.stdout.flush()
 
 
 if __name__ == "__main__":

@@ -4,9 +4,10 @@
 
 #![allow(dead_code)]
 
-use std::io::Write;
+use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
+use std::process::{Child, ChildStdout, Command, Stdio};
+use std::sync::Mutex;
 
 use serde_json::Value;
 
@@ -41,25 +42,36 @@ pub fn ask(requests: &[Value]) -> Vec<Value> {
     )
 }
 
-/// The answers of a reference script that reads a JSON list of requests on stdin and
-/// prints `{"scipy": VERSION, "answers": [...]}`.
+/// The answers of a reference script that reads one JSON list of requests per line on
+/// stdin and prints one line `{"scipy": VERSION, "answers": [...]}` for each. The script
+/// runs once per test process and serves every test in it (importing SciPy takes seconds).
 pub fn ask_script(script: &str, requests: &[Value]) -> Vec<Value> {
-    let mut child = Command::new(python())
-        .arg(script)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot run {}: {e}", python().display()));
-    let input = serde_json::to_vec(&Value::Array(requests.to_vec())).unwrap();
-    child.stdin.take().unwrap().write_all(&input).unwrap();
-    let out = child.wait_with_output().unwrap();
+    static SERVERS: Mutex<Vec<(String, Child, BufReader<ChildStdout>)>> = Mutex::new(Vec::new());
+    let mut servers = SERVERS.lock().unwrap_or_else(|e| e.into_inner());
+    if !servers.iter().any(|s| s.0 == script) {
+        let mut child = Command::new(python())
+            .arg(script)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot run {}: {e}", python().display()));
+        let out = BufReader::new(child.stdout.take().unwrap());
+        servers.push((script.to_string(), child, out));
+    }
+    let server = servers.iter_mut().find(|s| s.0 == script).unwrap();
+    let mut line = serde_json::to_string(&Value::Array(requests.to_vec())).unwrap();
+    line.push('\n');
+    let stdin = server.1.stdin.as_mut().unwrap();
+    stdin.write_all(line.as_bytes()).unwrap();
+    stdin.flush().unwrap();
+    let mut reply = String::new();
+    server.2.read_line(&mut reply).unwrap();
     assert!(
-        out.status.success(),
-        "{script} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
+        !reply.is_empty(),
+        "{script} ended without answering (its error is above)"
     );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v: Value = serde_json::from_str(&reply).unwrap();
     assert_eq!(
         v["scipy"], SCIPY,
         "the reference must be scipy {SCIPY}; run scripts/test-all.sh"
