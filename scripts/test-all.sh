@@ -55,6 +55,13 @@ if ! target/py/bin/python -c "import serial, pymodbus, sys; sys.exit(pymodbus.__
 fi
 export PETRIPLC_PYTHON="$PWD/target/py/bin/python"
 
+# SciPy (pinned) is the reference the DSP blocks' filter design and outputs are held to.
+SCIPY_VERSION=1.17.1
+if ! target/py/bin/python -c "import scipy, sys; sys.exit(scipy.__version__ != '$SCIPY_VERSION')" 2>/dev/null; then
+  echo "== installing scipy $SCIPY_VERSION (and numpy 2.4.6) into target/py"
+  target/py/bin/python -m pip install -q "scipy==$SCIPY_VERSION" "numpy==2.4.6"
+fi
+
 # playwright-core (pinned) drives chromium in the HMI's browser test.
 PLAYWRIGHT_VERSION=1.65.1
 if ! grep -qs "\"version\": \"$PLAYWRIGHT_VERSION\"" target/node/node_modules/playwright-core/package.json; then

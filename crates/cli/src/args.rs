@@ -118,7 +118,7 @@ pub struct SimArgs {
     /// Input timeline: CSV with header `time,SIG1,SIG2,...`; a value holds until the next row.
     #[arg(long, value_name = "CSV")]
     pub inputs: Option<PathBuf>,
-    /// A plant: a built-in name (`tape`, `keyboard`, `tank`, `turntable`) or a plant net
+    /// A plant: a built-in name (`tape`, `keyboard`, `tank`, `turntable`, `thermal`) or a plant net
     /// (PNML) whose outputs feed the controller's inputs by name.
     #[arg(long, value_name = "NAME|PNML")]
     pub plant: Option<String>,

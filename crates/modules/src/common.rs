@@ -228,6 +228,9 @@ impl NetSettings {
 pub struct Port {
     pub name: String,
     pub ty: SignalType,
+    /// A real quantity in fixed point, `scale` units per 1 (`Plant::scale`): it may be bound
+    /// to an f32 point, which then holds the real value.
+    pub scale: Option<f64>,
 }
 
 /// A signal bound to its point.
@@ -237,11 +240,18 @@ pub struct Bound {
     pub point: String,
     pub handle: Handle,
     pub ty: SignalType,
+    pub scale: Option<f64>,
 }
 
 impl Bound {
-    /// A bool signal sees any non-zero point as 1; an int signal sees the point's value.
+    /// A bool signal sees any non-zero point as 1; an int signal sees the point's value (a
+    /// fixed-point signal bound to an f32 point: the value times the scale, rounded).
     pub fn read(&self, map: &ModuleMap) -> i64 {
+        if let (Some(scale), PointKind::Float) = (self.scale, self.handle.kind()) {
+            let v = (f64::from(map.get_f32(&self.handle)) * scale).round();
+            // NaN reads as 0; ±∞ saturate.
+            return v as i64;
+        }
         match self.ty {
             SignalType::Bool => i64::from(map.get_bool(&self.handle)),
             SignalType::Int => match self.handle.kind() {
@@ -253,6 +263,11 @@ impl Bound {
     }
 
     pub fn write(&self, map: &mut ModuleMap, value: i64) -> Result<(), String> {
+        if let (Some(scale), PointKind::Float) = (self.scale, self.handle.kind()) {
+            return map
+                .set_f32(&self.handle, (value as f64 / scale) as f32)
+                .map_err(|e| e.to_string());
+        }
         match self.ty {
             SignalType::Bool => map
                 .set_bool(&self.handle, value != 0)
@@ -378,7 +393,7 @@ pub fn bind(
                 return None;
             }
         };
-        if handle.kind() == PointKind::Float {
+        if handle.kind() == PointKind::Float && port.scale.is_none() {
             problems.push(format!(
                 "{dir} signal `{}` of {what} is bound to point `{point}`, a float point; \
                  {} signals carry whole numbers: declare `{point}` as `u` or `i`",
@@ -404,6 +419,7 @@ pub fn bind(
             point: point.to_string(),
             handle,
             ty: port.ty,
+            scale: port.scale,
         })
     };
     let ins: Vec<Bound> = inputs.iter().filter_map(|p| bind_one(p, false)).collect();

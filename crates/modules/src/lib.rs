@@ -1,13 +1,14 @@
 //! The built-in modules of `petriplc run`: `petrinet` scans a PNML net every PLC scan,
 //! `plant` simulates the process for software-in-the-loop, `timeline` drives points from a
-//! CSV timeline, `logger` writes point changes to CSV and `shutdown` stops the PLC when a
-//! point goes true.
+//! CSV timeline, `logger` writes point changes to CSV, `shutdown` stops the PLC when a
+//! point goes true and `dsp` runs MatPLC's function blocks (petriplc-dsp) on points.
 //!
 //! Each kind has a [`Factory`](petriplc_runtime::module::Factory) that checks the module's
 //! settings from its declaration alone (so a typo is reported before the PLC creates its
 //! process image); files are read and points looked up in `init`.
 
 pub mod common;
+mod dsp;
 mod logger;
 mod petrinet;
 mod plant;
@@ -16,6 +17,7 @@ mod timeline;
 
 use petriplc_runtime::module::Factory;
 
+pub use dsp::DspModule;
 pub use logger::Logger;
 pub use petrinet::Petrinet;
 pub use plant::PlantModule;
@@ -23,7 +25,7 @@ pub use shutdown::Shutdown;
 pub use timeline::TimelineModule;
 
 /// Every built-in module kind, for messages that list the known kinds.
-pub const KINDS: &[&str] = &["petrinet", "plant", "timeline", "logger", "shutdown"];
+pub const KINDS: &[&str] = &["petrinet", "plant", "timeline", "logger", "shutdown", "dsp"];
 
 /// The factory of a built-in module kind (see [`KINDS`]).
 pub fn builtin(kind: &str) -> Option<Factory> {
@@ -33,6 +35,7 @@ pub fn builtin(kind: &str) -> Option<Factory> {
         "timeline" => timeline::factory,
         "logger" => logger::factory,
         "shutdown" => shutdown::factory,
+        "dsp" => dsp::factory,
         _ => return None,
     };
     Some(factory)

@@ -1,5 +1,6 @@
 //! `logger`: writes point values to a CSV file as `time,point,value` rows, every point at
-//! the first scan and then each change, flushed at the end of every scan that wrote a row so
+//! the first scan and then each change (an f32 point as the shortest decimal that reads back
+//! as the same f32, without exponent: `20.5`, `-0.001`; `NaN`, `inf`, `-inf`), flushed at the end of every scan that wrote a row so
 //! that a crash keeps the log up to the last scan.
 //!
 //! ```text
@@ -7,16 +8,19 @@
 //! file = out/mixer-log.csv  # relative to the configuration file; created or truncated
 //! points = B1 V1 V2 V3      # default: every point of the configuration
 //! log N1                    # rows add points too
+//! plot = out/mixer.svg      # optional: a trend of the f32 points, drawn when the PLC stops
+//! title = mixer levels      # the trend's title (default: the log file's name)
 //! ```
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use petriplc_config::{ModuleDecl, PointValue};
 use petriplc_net::time::format_seconds;
 use petriplc_runtime::image::Handle;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
+use petriplc_sim::{write_trend_svg, Series};
 
 use crate::common::{self, error};
 
@@ -31,8 +35,14 @@ pub struct Logger {
     name: String,
     file: String,
     points: Vec<String>,
+    plot: Option<String>,
+    title: Option<String>,
     run: Option<Run>,
 }
+
+/// The most samples a trend keeps per point (about 5 MB for ten points): beyond, the plot
+/// shows the start of the run and says so.
+const PLOT_SAMPLES: usize = 65_536;
 
 struct Run {
     out: BufWriter<File>,
@@ -41,18 +51,24 @@ struct Run {
     /// scan). Raw bits, so that a float point's change is never missed by a comparison.
     points: Vec<(Handle, String, Option<u32>)>,
     rows: u64,
+    /// With `plot`: the f32 points' samples (index into `points`, series).
+    trend: Vec<(usize, Series)>,
+    plot: Option<PathBuf>,
+    last: f64,
 }
 
 impl Logger {
     /// Checks the settings; the file is created by `init`.
     pub fn new(decl: &ModuleDecl) -> Result<Logger, ModuleError> {
-        common::check_decl(decl, KIND, &["file", "points"])?;
+        common::check_decl(decl, KIND, &["file", "points", "plot", "title"])?;
         Ok(Logger {
             name: decl.name.clone(),
             file: common::require(decl, "file")?.to_string(),
             points: common::setting(decl, "points")
                 .map(|v| v.split_whitespace().map(String::from).collect())
                 .unwrap_or_default(),
+            plot: common::setting(decl, "plot").map(String::from),
+            title: common::setting(decl, "title").map(String::from),
             run: None,
         })
     }
@@ -98,6 +114,38 @@ impl Module for Logger {
             return Err(error(&self.name, problems.join(&sep)));
         }
         let path = ctx.path(&self.file);
+        let plot = match &self.plot {
+            None => None,
+            Some(p) => {
+                let p = ctx.path(p);
+                // Created now (and drawn at close), so a bad path stops the PLC at start.
+                File::create(&p).map_err(|e| {
+                    error(
+                        &self.name,
+                        format!("cannot create plot `{}`: {e}", p.display()),
+                    )
+                })?;
+                Some(p)
+            }
+        };
+        let trend = if plot.is_some() {
+            points
+                .iter()
+                .enumerate()
+                .filter(|(_, (h, _, _))| h.kind() == petriplc_config::PointKind::Float)
+                .map(|(i, (_, name, _))| {
+                    (
+                        i,
+                        Series {
+                            name: name.clone(),
+                            samples: Vec::new(),
+                        },
+                    )
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let file = File::create(&path).map_err(|e| {
             let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
             let hint = match dir {
@@ -121,6 +169,9 @@ impl Module for Logger {
             path,
             points,
             rows: 0,
+            trend,
+            plot,
+            last: 0.0,
         });
         Ok(())
     }
@@ -131,12 +182,19 @@ impl Module for Logger {
         };
         let mut time: Option<String> = None;
         let mut result = Ok(());
-        for (h, name, last) in &mut run.points {
+        let t = ctx.now.as_secs_f64();
+        run.last = t;
+        for (i, (h, name, last)) in run.points.iter_mut().enumerate() {
             let raw = ctx.map.get_u32(h);
             if *last == Some(raw) {
                 continue;
             }
             *last = Some(raw);
+            if let Some((_, s)) = run.trend.iter_mut().find(|(j, _)| *j == i) {
+                if s.samples.len() < PLOT_SAMPLES {
+                    s.samples.push((t, f64::from(f32::from_bits(raw))));
+                }
+            }
             let t = time.get_or_insert_with(|| format_seconds(ctx.now));
             let value = match ctx.map.get(h) {
                 PointValue::Unsigned(v) => v.to_string(),
@@ -163,6 +221,29 @@ impl Module for Logger {
         if let Some(run) = &mut self.run {
             // `close` cannot report; every row was already flushed at the end of its scan.
             let _ = run.out.flush();
+            if let Some(path) = &run.plot {
+                let full = run
+                    .trend
+                    .iter()
+                    .any(|(_, s)| s.samples.len() >= PLOT_SAMPLES);
+                let name = self.title.clone().unwrap_or_else(|| {
+                    Path::new(&self.file)
+                        .file_name()
+                        .map_or(self.file.clone(), |f| f.to_string_lossy().into_owned())
+                });
+                let title = format!(
+                    "{name}{}",
+                    if full {
+                        " (the start: too many samples)"
+                    } else {
+                        ""
+                    }
+                );
+                let series: Vec<Series> = run.trend.iter().map(|(_, s)| s.clone()).collect();
+                if let Err(e) = write_trend_svg(&title, &series, run.last, path) {
+                    log::error!("module {}: {e}", self.name);
+                }
+            }
         }
     }
 

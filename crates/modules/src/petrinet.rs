@@ -63,6 +63,7 @@ impl Module for Petrinet {
                 .map(|&s| Port {
                     name: net.signal(s).name.clone(),
                     ty: net.signal(s).ty,
+                    scale: None,
                 })
                 .collect()
         };

@@ -5,19 +5,25 @@
 //!
 //! ```text
 //! [tank]
-//! plant = tank              # tank, tape, keyboard or turntable
+//! plant = tank              # tank, tape, keyboard, turntable or thermal
 //! # K_alpha = 45            # the turntable's settings (docs/runtime.md)
 //! # or: net = tank.pnml     # a plant net (plain naming by default; names, step, evolve,
 //! #                         # max_passes as for petrinet)
 //! map V1 VALVE1             # plant signal V1 is point VALVE1
 //! speed = 4                 # plant time runs 4 times faster than the PLC's
 //! ```
+//!
+//! `plant = thermal` (a heated vessel, first order plus dead time) takes its constants as
+//! settings: `gain` (°C per % of heater power, default 2), `time_constant` (s, 60),
+//! `dead_time` (s, 5), `ambient` (°C, 20) and `initial` (°C, the ambient). Its `heater`
+//! (%) and `temp` (°C) bind to f32 points.
 
 use petriplc_config::ModuleDecl;
 use petriplc_net::SignalType;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
 use petriplc_sim::{
-    Keyboard, NetPlant, Plant, Tank, Tape, Turntable, TurntableSettings, TURNTABLE_SETTINGS,
+    Keyboard, NetPlant, Plant, Tank, Tape, Thermal, ThermalParams, Turntable, TurntableSettings,
+    TURNTABLE_SETTINGS,
 };
 
 use crate::common::{self, at, chain, error, Bound, NetSettings, Port, NET_OPTIONS};
@@ -25,7 +31,10 @@ use crate::common::{self, at, chain, error, Bound, NetSettings, Port, NET_OPTION
 const KIND: &str = "plant";
 
 /// The Rust plants this module can run.
-const RUST_PLANTS: &[&str] = &["tank", "tape", "keyboard", "turntable"];
+const RUST_PLANTS: &[&str] = &["tank", "tape", "keyboard", "turntable", "thermal"];
+
+/// The settings of `plant = thermal`.
+const THERMAL_SETTINGS: &[&str] = &["gain", "time_constant", "dead_time", "ambient", "initial"];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
     Ok(Box::new(PlantModule::new(decl)?))
@@ -35,6 +44,7 @@ pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError>
 enum Source {
     Rust(&'static str),
     Turntable(TurntableSettings),
+    Thermal(ThermalParams),
     Net(NetSettings),
 }
 
@@ -44,6 +54,7 @@ enum Sim {
     Tape(Tape),
     Keyboard(Keyboard),
     Turntable(Box<Turntable>),
+    Thermal(Thermal),
     Net(Box<NetPlant<'static>>),
 }
 
@@ -54,6 +65,7 @@ impl Sim {
             Sim::Tape(p) => p,
             Sim::Keyboard(p) => p,
             Sim::Turntable(p) => p.as_mut(),
+            Sim::Thermal(p) => p,
             Sim::Net(p) => p.as_mut(),
         }
     }
@@ -64,6 +76,7 @@ impl Sim {
             Sim::Tape(p) => p,
             Sim::Keyboard(p) => p,
             Sim::Turntable(p) => p.as_ref(),
+            Sim::Thermal(p) => p,
             Sim::Net(p) => p.as_ref(),
         }
     }
@@ -95,6 +108,7 @@ impl PlantModule {
         let known: Vec<&str> = ["plant", "net", "speed"]
             .iter()
             .chain(NET_OPTIONS)
+            .chain(THERMAL_SETTINGS)
             .copied()
             .chain(TURNTABLE_SETTINGS.iter().map(|t| t.0).filter(|_| turntable))
             .collect();
@@ -154,7 +168,22 @@ impl PlantModule {
                     )
                 })?,
         };
-        if let Source::Rust(_) | Source::Turntable(_) = source {
+        let source = match source {
+            Source::Rust("thermal") => Source::Thermal(thermal_params(decl)?),
+            other => other,
+        };
+        if !matches!(source, Source::Thermal(_)) {
+            if let Some(k) = THERMAL_SETTINGS
+                .iter()
+                .find(|k| decl.settings.contains_key(**k))
+            {
+                return Err(error(
+                    &decl.name,
+                    format!("`{k}` is a setting of `plant = thermal`, not of this plant"),
+                ));
+            }
+        }
+        if let Source::Rust(_) | Source::Turntable(_) | Source::Thermal(_) = source {
             if let Some(k) = NET_OPTIONS.iter().find(|k| decl.settings.contains_key(**k)) {
                 return Err(error(
                     &decl.name,
@@ -173,6 +202,49 @@ impl PlantModule {
     }
 }
 
+/// `plant = thermal`'s constants from the section, each checked.
+fn thermal_params(decl: &ModuleDecl) -> Result<ThermalParams, ModuleError> {
+    let mut p = ThermalParams::default();
+    let mut initial = None;
+    for &key in THERMAL_SETTINGS {
+        let Some(text) = common::setting(decl, key) else {
+            continue;
+        };
+        let value = text
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| error(&decl.name, format!("`{key} = {text}` is not a number")))?;
+        let positive = |v: f64| {
+            if v > 0.0 {
+                Ok(v)
+            } else {
+                Err(error(
+                    &decl.name,
+                    format!("`{key} = {text}` must be above 0"),
+                ))
+            }
+        };
+        match key {
+            "gain" => p.gain = value,
+            "time_constant" => p.time_constant = positive(value)?,
+            "dead_time" => {
+                if !(0.0..=3600.0).contains(&value) {
+                    return Err(error(
+                        &decl.name,
+                        format!("`dead_time = {text}` must be from 0 to 3600 s"),
+                    ));
+                }
+                p.dead_time = value;
+            }
+            "ambient" => p.ambient = value,
+            _ => initial = Some(value),
+        }
+    }
+    p.initial = initial.unwrap_or(p.ambient);
+    Ok(p)
+}
+
 impl Module for PlantModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         let (mut sim, what, types) = match &self.source {
@@ -189,17 +261,32 @@ impl Module for PlantModule {
                 "plant `turntable`".to_string(),
                 None,
             ),
+            Source::Thermal(params) => (
+                Sim::Thermal(Thermal::new(*params)),
+                "plant `thermal`".to_string(),
+                None,
+            ),
             Source::Net(settings) => {
                 let net = settings.load(&self.name, ctx.base_dir)?;
                 let sim = Sim::Net(Box::new(NetPlant::new(net, settings.options(net))));
                 (sim, format!("plant net `{}`", settings.file), Some(net))
             }
         };
-        // A Rust plant's signals carry plain values; a plant net's have their declared types.
+        // A Rust plant's signals carry plain values (some in fixed point); a plant net's have
+        // their declared types.
+        let scales: Vec<(String, f64)> = {
+            let p = sim.plant();
+            p.inputs()
+                .into_iter()
+                .chain(p.outputs())
+                .filter_map(|n| p.scale(&n).map(|s| (n, s)))
+                .collect()
+        };
         let port = |name: String| Port {
             ty: types
                 .and_then(|n| n.signal_by_name(&name).map(|s| n.signal(s).ty))
                 .unwrap_or(SignalType::Int),
+            scale: scales.iter().find(|(n, _)| *n == name).map(|(_, s)| *s),
             name,
         };
         let inputs: Vec<Port> = sim.plant().inputs().into_iter().map(port).collect();

@@ -1,6 +1,7 @@
 //! `timeline`: drives points from a timeline CSV (petriplc-sim's format: `time,A,B,...`,
 //! each value holding until a later row changes it); every column drives the point of the
-//! same name, which this module must own. Before a column's first row its point keeps
+//! same name, which this module must own. A column driving an f32 point takes decimal values
+//! (`20.5`, `-1e-3`, `nan`, `inf`); the others take whole numbers and TRUE/FALSE. Before a column's first row its point keeps
 //! its init value (restored at each restart with `repeat`). Every value is checked against
 //! its point at `init`.
 //!
@@ -12,7 +13,7 @@
 
 use std::time::Duration;
 
-use petriplc_config::{ModuleDecl, PointValue};
+use petriplc_config::{ModuleDecl, PointKind, PointValue};
 use petriplc_net::time::format_seconds;
 use petriplc_runtime::image::Handle;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
@@ -69,8 +70,8 @@ fn seconds(d: Duration) -> String {
 impl Module for TimelineModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         common::rows(ctx, KIND, &[])?;
-        let timeline =
-            Timeline::read_file(ctx.path(&self.file)).map_err(|e| error(&self.name, chain(&e)))?;
+        let timeline = Timeline::read_file_decimal(ctx.path(&self.file))
+            .map_err(|e| error(&self.name, chain(&e)))?;
         let module = self.name.as_str();
         let mut problems = Vec::new();
         let mut columns = Vec::new();
@@ -97,7 +98,28 @@ impl Module for TimelineModule {
                 continue;
             }
             // Checked now, so a bad cell stops the PLC before it starts, not minutes in.
-            if let Some(&(t, v)) = timeline.changes(i).iter().find(|&&(_, v)| !fits(&h, v)) {
+            let decimals = timeline.decimal_changes(i).unwrap_or_default();
+            let whole = |v: f64| v.is_finite() && v.fract() == 0.0;
+            if h.kind() != PointKind::Float {
+                if let Some(&(t, v)) = decimals.iter().find(|&&(_, v)| !whole(v)) {
+                    problems.push(format!(
+                        "timeline `{}` sets `{col}` to {v} at t={}s, but point `{col}` is {} \
+                         ({} bits), which holds whole numbers: declare it f32, or write a \
+                         whole number",
+                        self.file,
+                        format_seconds(t),
+                        kind_name(h.kind()),
+                        h.bits()
+                    ));
+                    continue;
+                }
+            }
+            if let Some(&(t, v)) = timeline
+                .changes(i)
+                .iter()
+                .filter(|_| h.kind() != PointKind::Float)
+                .find(|&&(_, v)| !fits(&h, v))
+            {
                 problems.push(format!(
                     "timeline `{}` sets `{col}` to {v} at t={}s, which point `{col}` ({}, {} \
                      bits) cannot hold",
@@ -138,9 +160,16 @@ impl Module for TimelineModule {
         };
         run.last = t;
         for (i, (h, col, initial)) in run.columns.iter().enumerate() {
-            let result = match run.timeline.value_at(i, t) {
-                Some(v) => write_int(ctx.map, h, col, v),
-                None => ctx.map.set(h, *initial).map_err(|e| e.to_string()),
+            let result = if h.kind() == PointKind::Float {
+                match run.timeline.decimal_at(i, t) {
+                    Some(v) => ctx.map.set_f32(h, v as f32).map_err(|e| e.to_string()),
+                    None => ctx.map.set(h, *initial).map_err(|e| e.to_string()),
+                }
+            } else {
+                match run.timeline.value_at(i, t) {
+                    Some(v) => write_int(ctx.map, h, col, v),
+                    None => ctx.map.set(h, *initial).map_err(|e| e.to_string()),
+                }
             };
             result
                 .map_err(|e| error(&self.name, format!("{}: column `{col}`: {e}", at(ctx.now))))?;

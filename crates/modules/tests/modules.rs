@@ -351,7 +351,7 @@ fn plant_settings_and_wiring_errors() {
     assert_eq!(
         start_err(&text("plant = tanks", "tank"), &dir),
         "module tank: `plant = tanks` is not a built-in plant; use one of tank, tape, keyboard, \
-         turntable, or `net = FILE.pnml` for a plant net"
+         turntable, thermal, or `net = FILE.pnml` for a plant net"
     );
     assert_eq!(
         start_err(&text("plant = tank\nnet = tank.pnml", "tank"), &dir),
@@ -359,8 +359,8 @@ fn plant_settings_and_wiring_errors() {
     );
     assert_eq!(
         start_err(&text("", "tank"), &dir),
-        "module tank: no plant given; add `plant = NAME` (tank, tape, keyboard, turntable) or \
-         `net = FILE.pnml` to section [tank]"
+        "module tank: no plant given; add `plant = NAME` (tank, tape, keyboard, turntable, \
+         thermal) or `net = FILE.pnml` to section [tank]"
     );
     assert_eq!(
         start_err(&text("plant = tank\nnames = sipn", "tank"), &dir),

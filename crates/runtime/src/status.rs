@@ -247,8 +247,9 @@ impl fmt::Display for PlcStatus {
                 m.restarts
             );
             writeln!(f, "{}", line.trim_end())?;
-            if !m.detail.is_empty() {
-                writeln!(f, "{:<12} {}", "", m.detail)?;
+            // A detail of several lines (a dsp module's filter coefficients) stays indented.
+            for line in m.detail.lines() {
+                writeln!(f, "{:<12} {}", "", line)?;
             }
         }
         if !self.marking.is_empty() {

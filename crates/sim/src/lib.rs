@@ -10,12 +10,15 @@ pub mod plot;
 pub mod sim;
 pub mod timeline;
 pub mod trace;
+pub mod trend;
 
 pub use plant::{builtin, builtin_with, Plant, PlantError, BUILTINS};
 pub use plants::{
-    Keyboard, NetPlant, Tank, Tape, Turntable, TurntableSettings, TURNTABLE_SETTINGS,
+    Keyboard, NetPlant, Tank, Tape, Thermal, ThermalParams, Turntable, TurntableSettings,
+    TURNTABLE_SETTINGS,
 };
 pub use plot::{render_svg, render_svg_with, write_svg, PlotError, PlotOptions};
 pub use sim::{SimError, SimOptions, Simulation};
 pub use timeline::{Timeline, TimelineCursor, TimelineError, TimelineProblem};
 pub use trace::{Trace, TraceRow};
+pub use trend::{render_trend_svg, write_trend_svg, Series};

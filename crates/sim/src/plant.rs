@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use petriplc_net::ScanError;
 
-use crate::plants::{Keyboard, Tank, Tape, Turntable, TurntableSettings};
+use crate::plants::{Keyboard, Tank, Tape, Thermal, ThermalParams, Turntable, TurntableSettings};
 
 /// A simulated process or device. Signals are wired to the controller by name.
 pub trait Plant {
@@ -26,6 +26,12 @@ pub trait Plant {
     /// One line describing its state for the end-of-run report, e.g.
     /// "tape 111111 (6 ones), head at 0".
     fn summary(&self) -> String;
+    /// For a signal carrying a real quantity in fixed point, how many units make one (the
+    /// `thermal` plant's `temp` counts thousandths of a degree: 1000). The soft PLC's `plant`
+    /// module binds such a signal to an f32 point as the real value.
+    fn scale(&self, _signal: &str) -> Option<f64> {
+        None
+    }
 }
 
 /// Why a plant step failed.
@@ -59,6 +65,10 @@ pub const BUILTINS: &[(&str, &str)] = &[
         "turntable",
         "turntable with a conveyor belt (seed 004, eq. 1-5): reads MR, ML, BF, BB, arrive_south, arrive_east; drives SR, SL, SWP, alpha, x, delivery counters and errors E_*",
     ),
+    (
+        "thermal",
+        "heated vessel, first order plus dead time (2 degC/%, tau 60 s, dead time 5 s, from 20 degC): reads heater (0.001 %); drives temp (0.001 degC)",
+    ),
 ];
 
 /// A fresh built-in plant by name (see [`BUILTINS`]), with its default settings.
@@ -84,6 +94,7 @@ pub fn builtin_with(
         "turntable" => Ok(Some(Box::new(Turntable::new(TurntableSettings::parse(
             settings.iter().copied(),
         )?)))),
+        "thermal" => none(Box::new(Thermal::new(ThermalParams::default()))),
         _ => Ok(None),
     }
 }
@@ -111,11 +122,12 @@ mod tests {
         check("keyboard", Some(("keyboard", 15, 4)));
         check("tank", Some(("tank", 3, 3)));
         check("turntable", Some(("turntable", 6, 16)));
+        check("thermal", Some(("thermal", 1, 1)));
         check("Tank", None);
         check("", None);
         assert_eq!(
             BUILTINS.iter().map(|b| b.0).collect::<Vec<_>>(),
-            ["tape", "keyboard", "tank", "turntable"]
+            ["tape", "keyboard", "tank", "turntable", "thermal"]
         );
         let err = |name: &str, settings: &[(&str, &str)]| {
             builtin_with(name, settings).err().unwrap_or_default()

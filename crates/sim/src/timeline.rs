@@ -9,6 +9,10 @@
 //! 2,false,1,
 //! ```
 //!
+//! `petriplc sim` drives net signals, which carry whole numbers. The soft PLC's `timeline`
+//! module also drives f32 points: it reads with [`Timeline::parse_decimal`], which accepts
+//! decimal values too (`1.5`, `-2e-3`, `nan`, `inf`).
+//!
 //! The file is parsed by hand rather than with a CSV library: the format has no quoting, and
 //! hand-parsing lets every error point at the exact line and column of the offending cell.
 
@@ -85,6 +89,8 @@ pub enum TimelineProblem {
     BadTime(TimeError),
     #[error("`{text}` is not a value for `{column}`: write 0/1, TRUE/FALSE or an integer, or leave the cell empty to keep the previous value")]
     BadValue { column: String, text: String },
+    #[error("`{text}` is not a value for `{column}`: write 0/1, TRUE/FALSE, an integer or a decimal number (1.5, -2e-3, nan, inf), or leave the cell empty to keep the previous value")]
+    BadDecimal { column: String, text: String },
     #[error("time {}s comes before {}s on line {previous_line}; sort the rows by time (equal times are allowed)", format_seconds(*time), format_seconds(*previous))]
     DecreasingTime {
         time: Duration,
@@ -109,12 +115,15 @@ fn not_utf8(file: &str, e: std::string::FromUtf8Error) -> TimelineError {
 }
 
 /// A parsed timeline: column names and, per column, the times its value changes.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Timeline {
     source: String,
     columns: Vec<String>,
-    /// Per column: (time, value) for every row whose cell is not empty, in time order.
+    /// Per column: (time, value) for every row whose cell is not empty, in time order (with
+    /// decimals allowed: every cell holding a whole number).
     changes: Vec<Vec<(Duration, i64)>>,
+    /// With decimals allowed ([`Timeline::parse_decimal`]): every non-empty cell's value.
+    reals: Option<Vec<Vec<(Duration, f64)>>>,
     rows: usize,
     end: Duration,
 }
@@ -122,6 +131,20 @@ pub struct Timeline {
 impl Timeline {
     /// Parses timeline text; `source_name` (usually the file name) prefixes error messages.
     pub fn parse(text: &str, source_name: &str) -> Result<Timeline, TimelineError> {
+        Timeline::parse_values(text, source_name, false)
+    }
+
+    /// Like [`Timeline::parse`], also accepting decimal values (for float points), which
+    /// [`Timeline::decimal_changes`] and [`Timeline::decimal_at`] give.
+    pub fn parse_decimal(text: &str, source_name: &str) -> Result<Timeline, TimelineError> {
+        Timeline::parse_values(text, source_name, true)
+    }
+
+    fn parse_values(
+        text: &str,
+        source_name: &str,
+        decimal: bool,
+    ) -> Result<Timeline, TimelineError> {
         let err = |line: usize, column: usize, problem: TimelineProblem| TimelineError::Syntax {
             file: source_name.to_string(),
             line,
@@ -174,6 +197,7 @@ impl Timeline {
         }
 
         let mut changes = vec![Vec::new(); columns.len()];
+        let mut reals = vec![Vec::new(); columns.len()];
         let mut last: Option<(Duration, usize)> = None;
         let mut rows = 0;
         for (line_no, line) in lines {
@@ -208,6 +232,23 @@ impl Timeline {
                 if cell.is_empty() {
                     continue;
                 }
+                if decimal {
+                    let value = parse_decimal(cell).ok_or_else(|| {
+                        let problem = TimelineProblem::BadDecimal {
+                            column: columns[i].clone(),
+                            text: cell.to_string(),
+                        };
+                        err(line_no, col, problem)
+                    })?;
+                    reals[i].push((time, value));
+                    // Whole numbers also as integers, for integer points.
+                    if value.fract() == 0.0 && value.abs() < 9.0e15 {
+                        changes[i].push((time, value as i64));
+                    } else if let Some(v) = parse_value(cell) {
+                        changes[i].push((time, v));
+                    }
+                    continue;
+                }
                 let value = parse_value(cell).ok_or_else(|| {
                     let problem = TimelineProblem::BadValue {
                         column: columns[i].clone(),
@@ -223,6 +264,7 @@ impl Timeline {
             source: source_name.to_string(),
             columns,
             changes,
+            reals: decimal.then_some(reals),
             rows,
             end: last.map_or(Duration::ZERO, |(t, _)| t),
         })
@@ -230,14 +272,37 @@ impl Timeline {
 
     /// Reads and parses a timeline file.
     pub fn read_file(path: impl AsRef<Path>) -> Result<Timeline, TimelineError> {
-        let path = path.as_ref();
+        let (text, file) = Timeline::read_text(path.as_ref())?;
+        Timeline::parse(&text, &file)
+    }
+
+    /// Reads and parses a timeline file, accepting decimal values
+    /// ([`Timeline::parse_decimal`]).
+    pub fn read_file_decimal(path: impl AsRef<Path>) -> Result<Timeline, TimelineError> {
+        let (text, file) = Timeline::read_text(path.as_ref())?;
+        Timeline::parse_decimal(&text, &file)
+    }
+
+    fn read_text(path: &Path) -> Result<(String, String), TimelineError> {
         let file = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|source| TimelineError::Io {
             file: file.clone(),
             source,
         })?;
         let text = String::from_utf8(bytes).map_err(|e| not_utf8(&file, e))?;
-        Timeline::parse(&text, &file)
+        Ok((text, file))
+    }
+
+    /// With decimals allowed: every (time, value) a column is set to, whole or not.
+    pub fn decimal_changes(&self, column: usize) -> Option<&[(Duration, f64)]> {
+        self.reals.as_ref()?.get(column).map(Vec::as_slice)
+    }
+
+    /// With decimals allowed: the value of `column` at `t` (see [`Timeline::value_at`]).
+    pub fn decimal_at(&self, column: usize, t: Duration) -> Option<f64> {
+        let ch = self.decimal_changes(column)?;
+        let n = ch.partition_point(|&(time, _)| time <= t);
+        n.checked_sub(1).map(|i| ch[i].1)
     }
 
     /// Where the timeline came from, as given to [`Timeline::parse`].
@@ -289,17 +354,29 @@ impl fmt::Display for Timeline {
             write!(f, ",{c}")?;
         }
         writeln!(f)?;
-        let mut next = vec![0; self.columns.len()];
+        if let Some(reals) = &self.reals {
+            return write_rows(f, reals);
+        }
+        write_rows(f, &self.changes)
+    }
+}
+
+/// The rows of a timeline: at each time some column changes, its last value at that time.
+fn write_rows<V: fmt::Display + Copy>(
+    f: &mut fmt::Formatter<'_>,
+    changes: &[Vec<(Duration, V)>],
+) -> fmt::Result {
+    {
+        let mut next = vec![0; changes.len()];
         loop {
-            let t = self
-                .changes
+            let t = changes
                 .iter()
                 .zip(&next)
                 .filter_map(|(ch, &i)| ch.get(i).map(|c| c.0))
                 .min();
             let Some(t) = t else { break };
             write!(f, "{}", format_seconds(t))?;
-            for (ch, i) in self.changes.iter().zip(next.iter_mut()) {
+            for (ch, i) in changes.iter().zip(next.iter_mut()) {
                 // Several rows at one time: only the last value at that time is observable.
                 let mut value = None;
                 while let Some(&(_, v)) = ch.get(*i).filter(|c| c.0 == t) {
@@ -394,6 +471,15 @@ fn split_cells(line: &str) -> Vec<(usize, &str)> {
         column += raw.chars().count() + 1;
     }
     out
+}
+
+/// A whole value (see `parse_value`) or a decimal number (`f64`'s syntax: `1.5`, `-2e-3`,
+/// `nan`, `inf`).
+fn parse_decimal(cell: &str) -> Option<f64> {
+    match parse_value(cell) {
+        Some(v) => Some(v as f64),
+        None => cell.parse().ok(),
+    }
 }
 
 /// `0`/`1`, `TRUE`/`FALSE` in any case, or a (possibly signed) integer.
@@ -529,6 +615,33 @@ mod tests {
         assert!(e.to_string().ends_with(
             "latin1.csv:3:6: byte 0xe9 is not UTF-8 text; save the timeline as UTF-8 (plain ASCII will do)"
         ), "{e}");
+    }
+
+    #[test]
+    fn decimals_for_float_points() {
+        let tl =
+            Timeline::parse_decimal("time,A,B\n0,1.5,2\n1,nan,-2e-3\n2,-inf,3.0\n", "d").unwrap();
+        assert_eq!(tl.decimal_at(0, secs(0.5)), Some(1.5));
+        assert!(tl.decimal_at(0, secs(1.0)).unwrap().is_nan());
+        assert_eq!(tl.decimal_at(0, secs(2.0)), Some(f64::NEG_INFINITY));
+        assert_eq!(tl.decimal_at(1, secs(1.0)), Some(-0.002));
+        // Whole values, however written, are also there as integers.
+        assert_eq!(tl.changes(1), &[(secs(0.0), 2), (secs(2.0), 3)]);
+        assert_eq!(tl.decimal_changes(7), None);
+        assert_eq!(
+            tl.to_string(),
+            "time,A,B\n0,1.5,2\n1,NaN,-0.002\n2,-inf,3\n"
+        );
+        let e = Timeline::parse_decimal("time,A\n0,warm\n", "d").unwrap_err();
+        assert_eq!(e.to_string(), "d:2:3: `warm` is not a value for `A`: write 0/1, TRUE/FALSE, an integer or a decimal number (1.5, -2e-3, nan, inf), or leave the cell empty to keep the previous value");
+        // The simulation's timelines stay whole.
+        assert!(Timeline::parse("time,A\n0,1.5\n", "d").is_err());
+        assert_eq!(
+            Timeline::parse("time,A\n0,1\n", "d")
+                .unwrap()
+                .decimal_at(0, secs(0.0)),
+            None
+        );
     }
 
     #[test]

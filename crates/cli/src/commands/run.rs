@@ -25,6 +25,7 @@ const KINDS: &[&str] = &[
     "timeline",
     "logger",
     "shutdown",
+    "dsp",
     "modbus_server",
     "modbus_client",
     "vitrine",

@@ -1,5 +1,5 @@
 //! The runtime's in-process harness with this crate's built-in kinds.
-#![allow(dead_code)]
+#![allow(dead_code, unused_imports)]
 
 use std::path::Path;
 
