@@ -28,6 +28,7 @@ const KINDS: &[&str] = &[
     "modbus_client",
     "vitrine",
     "hmi",
+    "mqtt",
 ];
 
 /// The factory of a built-in module kind, from whichever crate has it.
@@ -36,6 +37,7 @@ fn builtin(kind: &str) -> Option<Factory> {
         .or_else(|| petriplc_modbus::builtin(kind))
         .or_else(|| petriplc_vitrine::builtin(kind))
         .or_else(|| petriplc_hmi::builtin(kind))
+        .or_else(|| petriplc_mqtt::builtin(kind))
 }
 
 pub fn run(args: RunArgs) -> Result<(), Failure> {
