@@ -29,6 +29,7 @@ const KINDS: &[&str] = &[
     "vitrine",
     "hmi",
     "mqtt",
+    "opcua_server",
 ];
 
 /// The factory of a built-in module kind, from whichever crate has it.
@@ -38,6 +39,7 @@ fn builtin(kind: &str) -> Option<Factory> {
         .or_else(|| petriplc_vitrine::builtin(kind))
         .or_else(|| petriplc_hmi::builtin(kind))
         .or_else(|| petriplc_mqtt::builtin(kind))
+        .or_else(|| petriplc_opcua::builtin(kind))
 }
 
 pub fn run(args: RunArgs) -> Result<(), Failure> {
