@@ -30,7 +30,7 @@ use std::time::Duration;
 
 use opcua::crypto::{CertificateStore, SecurityPolicy, X509Data};
 use opcua::server::node_manager::memory::{InMemoryNodeManager, InMemoryNodeManagerBuilder};
-use opcua::server::{ServerBuilder, ServerHandle, ANONYMOUS_USER_TOKEN_ID};
+use opcua::server::{ServerBuilder, ServerHandle, ServerUserToken, ANONYMOUS_USER_TOKEN_ID};
 use opcua::types::{
     ApplicationDescription, DataTypeId, DataValue, DateTime, LocalizedText, MessageSecurityMode,
     NodeId, Variant,
@@ -52,6 +52,8 @@ pub const KINDS: &[&str] = &[KIND];
 /// The scan period when the section sets none; also the smallest sampling and publishing
 /// interval the server grants.
 pub const DEFAULT_SCAN_PERIOD: Duration = Duration::from_millis(10);
+/// The stack's id for the users of the password file.
+const USERS_TOKEN: &str = "users";
 /// How often the PLC's status file (module states, markings) is read again.
 const STATUS_EVERY: Duration = Duration::from_millis(100);
 
@@ -403,7 +405,15 @@ impl Module for OpcuaServer {
         let layout = Arc::new(layout);
         let ns_uri = format!("urn:petriplc:{}", ctx.plc_id);
         let scan_ms = (self.scan_period.as_millis() as u64).max(1);
-        let anonymous = [ANONYMOUS_USER_TOKEN_ID];
+        // What the stack logs per endpoint; the sessions themselves are checked by `Auth`.
+        let mut tokens: Vec<&str> = Vec::new();
+        if self.settings.anonymous != Anonymous::No {
+            tokens.push(ANONYMOUS_USER_TOKEN_ID);
+        }
+        let has_users = !users.is_empty();
+        if has_users {
+            tokens.push(USERS_TOKEN);
+        }
         let mut builder = ServerBuilder::new()
             .application_name(app.clone())
             .application_uri(uri.clone())
@@ -419,6 +429,15 @@ impl Module for OpcuaServer {
             .subscription_poll_interval_ms(scan_ms)
             .discovery_urls(vec![endpoint.clone()])
             .diagnostics_enabled(false)
+            .add_user_token(
+                USERS_TOKEN,
+                ServerUserToken {
+                    user: "users of the password file".to_string(),
+                    // Never compared: `Auth` checks passwords against the bcrypt hashes.
+                    pass: Some(format!("{:x}", std::process::id())),
+                    ..Default::default()
+                },
+            )
             .with_authenticator(Arc::new(space::Auth {
                 anonymous: self.settings.anonymous,
                 users: Arc::new(users),
@@ -436,7 +455,7 @@ impl Module for OpcuaServer {
                     "/",
                     SecurityPolicy::None,
                     MessageSecurityMode::None,
-                    &anonymous as &[&str],
+                    &tokens as &[&str],
                 ),
             );
         }
@@ -448,7 +467,7 @@ impl Module for OpcuaServer {
                         "/",
                         SecurityPolicy::Basic256Sha256,
                         MessageSecurityMode::SignAndEncrypt,
-                        &anonymous as &[&str],
+                        &tokens as &[&str],
                     ),
                 )
                 .add_endpoint(
@@ -457,7 +476,7 @@ impl Module for OpcuaServer {
                         "/",
                         SecurityPolicy::Aes256Sha256RsaPss,
                         MessageSecurityMode::SignAndEncrypt,
-                        &anonymous as &[&str],
+                        &tokens as &[&str],
                     ),
                 );
         }
