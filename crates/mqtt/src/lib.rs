@@ -84,6 +84,8 @@ pub struct Mqtt {
     name: String,
     settings: Settings,
     run: Option<Run>,
+    /// The status line when the module closed (for the PLC's final report).
+    closed: String,
 }
 
 struct Run {
@@ -103,6 +105,7 @@ impl Mqtt {
             name: decl.name.clone(),
             settings: Settings::parse(decl)?,
             run: None,
+            closed: String::new(),
         })
     }
 }
@@ -246,6 +249,9 @@ impl Module for Mqtt {
     }
 
     fn close(&mut self) {
+        if self.run.is_some() {
+            self.closed = self.status();
+        }
         if let Some(mut run) = self.run.take() {
             run.link.stop();
         }
@@ -253,7 +259,7 @@ impl Module for Mqtt {
 
     fn status(&self) -> String {
         let Some(run) = &self.run else {
-            return String::new();
+            return self.closed.clone();
         };
         let s = &run.shared;
         let state = if s.up.load(Ordering::Relaxed) {

@@ -106,7 +106,13 @@ impl Link {
         let thread = std::thread::Builder::new()
             .name(format!("mqtt {name}"))
             .spawn(move || {
-                let (client, eventloop) = AsyncClient::new(options, 256);
+                let (client, mut eventloop) = AsyncClient::new(options, 256);
+                // Without TCP_NODELAY, Nagle's algorithm and delayed acknowledgements hold a
+                // QoS 1 publish behind the previous one's PUBACK: tens of ms per change.
+                let mut network = rumqttc::NetworkOptions::new();
+                network.set_tcp_nodelay(true);
+                network.set_connection_timeout(5);
+                eventloop.network_options = network;
                 let (conn_tx, conn_rx) = watch::channel(0u64);
                 rt.block_on(async move {
                     let publisher = tokio::spawn(publish(

@@ -64,7 +64,7 @@ impl Broker {
         // As root, mosquitto drops to user `mosquitto`, who cannot read the test's files.
         let user = if is_root() { "user root\n" } else { "" };
         let conf = format!(
-            "{user}listener {port} 127.0.0.1\n{}\npersistence false\nlog_dest stderr\n\
+            "{user}listener {port} 127.0.0.1\nset_tcp_nodelay true\n{}\npersistence false\nlog_dest stderr\n\
              log_type error\n",
             if extra.contains("password_file") {
                 extra.to_string()

@@ -106,6 +106,8 @@ pub struct OpcuaServer {
     settings: Settings,
     scan_period: Duration,
     run: Option<Run>,
+    /// The status line when the module closed (for the PLC's final report).
+    closed: String,
 }
 
 struct Run {
@@ -136,6 +138,7 @@ impl OpcuaServer {
             settings,
             scan_period: scan_period.max(Duration::from_millis(1)),
             run: None,
+            closed: String::new(),
         })
     }
 
@@ -633,6 +636,9 @@ impl Module for OpcuaServer {
     }
 
     fn close(&mut self) {
+        if self.run.is_some() {
+            self.closed = self.status();
+        }
         if let Some(mut run) = self.run.take() {
             run.handle.cancel();
             if let Some(t) = run.thread.take() {
@@ -650,7 +656,7 @@ impl Module for OpcuaServer {
                 run.endpoint,
                 run.shared.written.load(Ordering::Relaxed)
             ),
-            None => String::new(),
+            None => self.closed.clone(),
         }
     }
 
