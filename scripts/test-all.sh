@@ -28,6 +28,11 @@ command -v mbpoll >/dev/null 2>&1 || missing+=(mbpoll)
 command -v tmux >/dev/null 2>&1 || missing+=(tmux)
 command -v chromium >/dev/null 2>&1 || missing+=(chromium)
 command -v npm >/dev/null 2>&1 || missing+=(nodejs npm)
+# Debian's mosquitto is the broker the MQTT tests start (on free loopback ports), with its
+# clients mosquitto_pub/mosquitto_sub/mosquitto_passwd; openssl makes their TLS certificates.
+{ command -v mosquitto || [ -x /usr/sbin/mosquitto ]; } >/dev/null 2>&1 || missing+=(mosquitto)
+command -v mosquitto_pub >/dev/null 2>&1 || missing+=(mosquitto-clients)
+command -v openssl >/dev/null 2>&1 || missing+=(openssl)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "== installing ${missing[*]}"
   as_root apt-get update -qq
@@ -60,6 +65,15 @@ SCIPY_VERSION=1.17.1
 if ! target/py/bin/python -c "import scipy, sys; sys.exit(scipy.__version__ != '$SCIPY_VERSION')" 2>/dev/null; then
   echo "== installing scipy $SCIPY_VERSION (and numpy 2.4.6) into target/py"
   target/py/bin/python -m pip install -q "scipy==$SCIPY_VERSION" "numpy==2.4.6"
+fi
+
+# Python asyncua (pinned), a third-party OPC UA client for the opcua_server tests, and
+# paho-mqtt (pinned), a third-party MQTT client for the two-cell test.
+ASYNCUA_VERSION=2.1.0
+PAHO_VERSION=2.2.0
+if ! target/py/bin/python -c "import sys; from importlib.metadata import version as v; sys.exit(not (v('asyncua') == '$ASYNCUA_VERSION' and v('paho-mqtt') == '$PAHO_VERSION'))" 2>/dev/null; then
+  echo "== installing asyncua $ASYNCUA_VERSION and paho-mqtt $PAHO_VERSION into target/py"
+  target/py/bin/python -m pip install -q "asyncua==$ASYNCUA_VERSION" "paho-mqtt==$PAHO_VERSION"
 fi
 
 # playwright-core (pinned) drives chromium in the HMI's browser test.

@@ -30,6 +30,8 @@ const KINDS: &[&str] = &[
     "modbus_client",
     "vitrine",
     "hmi",
+    "mqtt",
+    "opcua_server",
 ];
 
 /// The factory of a built-in module kind, from whichever crate has it.
@@ -38,6 +40,8 @@ fn builtin(kind: &str) -> Option<Factory> {
         .or_else(|| petriplc_modbus::builtin(kind))
         .or_else(|| petriplc_vitrine::builtin(kind))
         .or_else(|| petriplc_hmi::builtin(kind))
+        .or_else(|| petriplc_mqtt::builtin(kind))
+        .or_else(|| petriplc_opcua::builtin(kind))
 }
 
 pub fn run(args: RunArgs) -> Result<(), Failure> {

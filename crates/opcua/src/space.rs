@@ -1,0 +1,513 @@
+//! The address space and its rules: a folder per module below Objects, a typed variable per
+//! point (browse and display name = the point's name, description, `Owner` property), every
+//! petrinet module's marking and every module's status as read-only variables; writes only to
+//! the points this module owns, by users allowed to write.
+
+use std::collections::HashMap;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+use async_trait::async_trait;
+use opcua::nodes::{ObjectBuilder, VariableBuilder};
+use opcua::server::address_space::{AccessLevel, AddressSpace};
+use opcua::server::authenticator::{
+    user_pass_security_policy_id, user_pass_security_policy_uri, AuthManager, Password, UserToken,
+};
+use opcua::server::diagnostics::NamespaceMetadata;
+use opcua::server::node_manager::memory::{
+    InMemoryNodeManagerImpl, InMemoryNodeManagerImplBuilder,
+};
+use opcua::server::node_manager::{RequestContext, ServerContext, WriteNode};
+use opcua::server::ServerEndpoint;
+use opcua::sync::RwLock;
+use opcua::types::{
+    AttributeId, DataTypeId, DataValue, DateTime, Error, NodeId, ObjectId, QualifiedName,
+    StatusCode, UAString, UserTokenPolicy, UserTokenType, VariableTypeId, Variant,
+};
+use petriplc_config::{PointKind, PointValue};
+
+use crate::settings::Anonymous;
+use crate::users::Users;
+use crate::{lock, Shared};
+
+/// One variable of the address space.
+#[derive(Clone, Debug)]
+pub struct Var {
+    /// The string part of its node id.
+    pub id: String,
+    pub name: String,
+    pub description: String,
+    /// The string id of the folder it sits in.
+    pub parent: String,
+    pub data_type: DataTypeId,
+    /// Some point this module owns: its index among the points.
+    pub writable: Option<usize>,
+    /// The point's kind and width, for checking written values.
+    pub kind: Option<(PointKind, u8)>,
+    /// `Owner` property (points only).
+    pub owner: Option<String>,
+}
+
+/// A folder below Objects, one per module.
+#[derive(Clone, Debug)]
+pub struct Folder {
+    pub id: String,
+    pub name: String,
+    pub description: String,
+    /// Sub-folders (`Status`, `Marking`): (id, name).
+    pub children: Vec<(String, String)>,
+}
+
+/// What the address space holds, decided at init.
+#[derive(Clone, Debug, Default)]
+pub struct Layout {
+    pub folders: Vec<Folder>,
+    pub vars: Vec<Var>,
+}
+
+/// The OPC UA type of a point.
+pub fn data_type(kind: PointKind, bits: u8) -> DataTypeId {
+    match (kind, bits) {
+        (PointKind::Float, _) => DataTypeId::Float,
+        (PointKind::Unsigned, 1) => DataTypeId::Boolean,
+        (PointKind::Unsigned, 2..=8) => DataTypeId::Byte,
+        (PointKind::Unsigned, 9..=16) => DataTypeId::UInt16,
+        (PointKind::Unsigned, _) => DataTypeId::UInt32,
+        (PointKind::Signed, 1..=8) => DataTypeId::SByte,
+        (PointKind::Signed, 9..=16) => DataTypeId::Int16,
+        (PointKind::Signed, _) => DataTypeId::Int32,
+    }
+}
+
+/// A point's value as the variant of its node's type.
+pub fn variant(v: PointValue, ty: DataTypeId) -> Variant {
+    match (v, ty) {
+        (PointValue::Float(f), _) => Variant::Float(f),
+        (PointValue::Unsigned(u), DataTypeId::Boolean) => Variant::Boolean(u != 0),
+        (PointValue::Unsigned(u), DataTypeId::Byte) => Variant::Byte(u as u8),
+        (PointValue::Unsigned(u), DataTypeId::UInt16) => Variant::UInt16(u as u16),
+        (PointValue::Unsigned(u), _) => Variant::UInt32(u),
+        (PointValue::Signed(i), DataTypeId::SByte) => Variant::SByte(i as i8),
+        (PointValue::Signed(i), DataTypeId::Int16) => Variant::Int16(i as i16),
+        (PointValue::Signed(i), _) => Variant::Int32(i),
+    }
+}
+
+/// A written value for a point of `kind` and `bits`: the node's own type, or any integer
+/// type whose value fits (clients often send Int64 for whole numbers); floats only into float
+/// points, and never a value the point cannot hold.
+pub fn written(v: &Variant, kind: PointKind, bits: u8) -> Result<PointValue, StatusCode> {
+    let int: i64 = match *v {
+        Variant::Boolean(b) => i64::from(b),
+        Variant::SByte(x) => i64::from(x),
+        Variant::Byte(x) => i64::from(x),
+        Variant::Int16(x) => i64::from(x),
+        Variant::UInt16(x) => i64::from(x),
+        Variant::Int32(x) => i64::from(x),
+        Variant::UInt32(x) => i64::from(x),
+        Variant::Int64(x) => x,
+        Variant::UInt64(x) => i64::try_from(x).map_err(|_| StatusCode::BadOutOfRange)?,
+        Variant::Float(f) if kind == PointKind::Float => return Ok(PointValue::Float(f)),
+        Variant::Double(d) if kind == PointKind::Float => {
+            let f = d as f32;
+            if d.is_finite() && !f.is_finite() {
+                return Err(StatusCode::BadOutOfRange);
+            }
+            return Ok(PointValue::Float(f));
+        }
+        _ => return Err(StatusCode::BadTypeMismatch),
+    };
+    if matches!(v, Variant::Boolean(_)) && !(kind == PointKind::Unsigned && bits == 1) {
+        return Err(StatusCode::BadTypeMismatch);
+    }
+    let bits = u32::from(bits);
+    match kind {
+        PointKind::Float => Ok(PointValue::Float(int as f32)),
+        PointKind::Unsigned if (0..(1i64 << bits)).contains(&int) => {
+            Ok(PointValue::Unsigned(int as u32))
+        }
+        PointKind::Signed if (-(1i64 << (bits - 1))..(1i64 << (bits - 1))).contains(&int) => {
+            Ok(PointValue::Signed(int as i32))
+        }
+        _ => Err(StatusCode::BadOutOfRange),
+    }
+}
+
+/// Builds the node manager of petriplc's namespace.
+pub struct PlcNodesBuilder {
+    pub uri: String,
+    pub layout: Arc<Layout>,
+    pub shared: Arc<Shared>,
+}
+
+/// petriplc's node manager.
+pub struct PlcNodes {
+    namespace: NamespaceMetadata,
+    layout: Arc<Layout>,
+    shared: Arc<Shared>,
+    /// Node id → index in `layout.vars`.
+    index: HashMap<NodeId, usize>,
+}
+
+impl PlcNodes {
+    fn node_id(&self, id: &str) -> NodeId {
+        NodeId::new(self.namespace.namespace_index, id.to_string())
+    }
+
+    /// A browse name in petriplc's namespace.
+    fn browse(&self, name: &str) -> QualifiedName {
+        QualifiedName::new(self.namespace.namespace_index, name)
+    }
+}
+
+impl InMemoryNodeManagerImplBuilder for PlcNodesBuilder {
+    type Impl = PlcNodes;
+
+    fn build(self, context: ServerContext, address_space: &mut AddressSpace) -> PlcNodes {
+        let namespace_index = {
+            let mut type_tree = context.type_tree.write();
+            type_tree.namespaces_mut().add_namespace(&self.uri)
+        };
+        address_space.add_namespace(&self.uri, namespace_index);
+        let index = self
+            .layout
+            .vars
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (NodeId::new(namespace_index, v.id.clone()), i))
+            .collect();
+        PlcNodes {
+            namespace: NamespaceMetadata {
+                namespace_uri: self.uri,
+                namespace_index,
+                ..Default::default()
+            },
+            layout: self.layout,
+            shared: self.shared,
+            index,
+        }
+    }
+}
+
+#[async_trait]
+impl InMemoryNodeManagerImpl for PlcNodes {
+    async fn init(&self, address_space: &mut AddressSpace, _context: ServerContext) {
+        let objects: NodeId = ObjectId::ObjectsFolder.into();
+        for f in &self.layout.folders {
+            let id = self.node_id(&f.id);
+            ObjectBuilder::new(&id, self.browse(&f.name), f.name.as_str())
+                .description(f.description.as_str())
+                .is_folder()
+                .organized_by(objects.clone())
+                .insert(address_space);
+            for (sub, name) in &f.children {
+                ObjectBuilder::new(&self.node_id(sub), self.browse(name), name.as_str())
+                    .is_folder()
+                    .organized_by(id.clone())
+                    .insert(address_space);
+            }
+        }
+        let values = lock(&self.shared.values).now.clone();
+        for (v, value) in self.layout.vars.iter().zip(values) {
+            let id = self.node_id(&v.id);
+            let access = if v.writable.is_some() {
+                AccessLevel::CURRENT_READ | AccessLevel::CURRENT_WRITE
+            } else {
+                AccessLevel::CURRENT_READ
+            };
+            VariableBuilder::new(&id, self.browse(&v.name), v.name.as_str())
+                .description(v.description.as_str())
+                .data_type(v.data_type)
+                .value(value)
+                .access_level(access)
+                .user_access_level(access)
+                .minimum_sampling_interval(self.shared.scan_ms)
+                .has_type_definition(VariableTypeId::BaseDataVariableType)
+                .organized_by(self.node_id(&v.parent))
+                .insert(address_space);
+            if let Some(owner) = &v.owner {
+                VariableBuilder::new(
+                    &self.node_id(&format!("{}.Owner", v.id)),
+                    self.browse("Owner"),
+                    "Owner",
+                )
+                .description("the module that writes this point")
+                .data_type(DataTypeId::String)
+                .value(owner.as_str())
+                .access_level(AccessLevel::CURRENT_READ)
+                .user_access_level(AccessLevel::CURRENT_READ)
+                .has_type_definition(VariableTypeId::PropertyType)
+                .property_of(id.clone())
+                .insert(address_space);
+            }
+        }
+        self.shared.ready.store(true, Ordering::Release);
+        // Changes made while the space was being built.
+        self.shared.wake.notify_one();
+    }
+
+    fn name(&self) -> &str {
+        "petriplc"
+    }
+
+    fn namespaces(&self) -> Vec<NamespaceMetadata> {
+        vec![self.namespace.clone()]
+    }
+
+    async fn write(
+        &self,
+        context: &RequestContext,
+        address_space: &RwLock<AddressSpace>,
+        nodes_to_write: &mut [&mut WriteNode],
+    ) -> Result<(), StatusCode> {
+        let mut space = address_space.write();
+        let mut changed = Vec::new();
+        for node in nodes_to_write.iter_mut() {
+            let w = node.value();
+            let Some(&i) = self.index.get(&w.node_id) else {
+                let status = if space.find(&w.node_id).is_some() {
+                    StatusCode::BadNotWritable
+                } else {
+                    StatusCode::BadNodeIdUnknown
+                };
+                node.set_status(status);
+                continue;
+            };
+            let var = &self.layout.vars[i];
+            let (Some(point), Some((kind, bits))) = (var.writable, var.kind) else {
+                // Another module's point, a marking or a status: read-only for everyone.
+                node.set_status(StatusCode::BadNotWritable);
+                continue;
+            };
+            if w.attribute_id != AttributeId::Value {
+                node.set_status(StatusCode::BadNotWritable);
+                continue;
+            }
+            if w.index_range.has_range() {
+                node.set_status(StatusCode::BadWriteNotSupported);
+                continue;
+            }
+            let level = context.authenticator.effective_user_access_level(
+                &context.token,
+                AccessLevel::CURRENT_READ | AccessLevel::CURRENT_WRITE,
+                &w.node_id,
+            );
+            if !level.contains(AccessLevel::CURRENT_WRITE) {
+                node.set_status(StatusCode::BadUserAccessDenied);
+                continue;
+            }
+            let Some(value) = &w.value.value else {
+                node.set_status(StatusCode::BadTypeMismatch);
+                continue;
+            };
+            match written(value, kind, bits) {
+                Ok(pv) => {
+                    lock(&self.shared.writes).push((point, pv));
+                    self.shared.written.fetch_add(1, Ordering::Relaxed);
+                    let shown = variant(pv, var.data_type);
+                    let now = DateTime::now();
+                    let dv = DataValue {
+                        value: Some(shown),
+                        status: Some(StatusCode::Good),
+                        source_timestamp: Some(now),
+                        server_timestamp: Some(now),
+                        ..Default::default()
+                    };
+                    if let Some(opcua::nodes::NodeType::Variable(v)) = space.find_mut(&w.node_id) {
+                        v.set_data_value(dv.clone());
+                    }
+                    changed.push((dv, w.node_id.clone()));
+                    node.set_status(StatusCode::Good);
+                }
+                Err(e) => node.set_status(e),
+            }
+        }
+        drop(space);
+        // Shown at once to every subscriber, as the read-back is; the point itself changes at
+        // the module's next scan.
+        context.subscriptions.notify_data_change(
+            changed
+                .iter()
+                .map(|(dv, id)| (dv.clone(), id, AttributeId::Value)),
+        );
+        Ok(())
+    }
+}
+
+/// Who may connect and what they may do.
+pub struct Auth {
+    pub anonymous: Anonymous,
+    pub users: Arc<Users>,
+    pub module: String,
+}
+
+const ANONYMOUS_POLICY: &str = "anonymous";
+
+#[async_trait]
+impl AuthManager for Auth {
+    async fn authenticate_anonymous_token(&self, _endpoint: &ServerEndpoint) -> Result<(), Error> {
+        if self.anonymous == Anonymous::No {
+            return Err(Error::new(
+                StatusCode::BadIdentityTokenRejected,
+                "anonymous access is off",
+            ));
+        }
+        Ok(())
+    }
+
+    async fn authenticate_username_identity_token(
+        &self,
+        _endpoint: &ServerEndpoint,
+        username: &str,
+        password: &Password,
+    ) -> Result<UserToken, Error> {
+        let users = Arc::clone(&self.users);
+        let (name, pw) = (username.to_string(), password.get().to_string());
+        // bcrypt is slow on purpose: keep it off the network threads.
+        let ok = tokio::task::spawn_blocking(move || users.check(&name, &pw))
+            .await
+            .unwrap_or(false);
+        if ok {
+            Ok(UserToken(format!("user:{username}")))
+        } else {
+            log::warn!(
+                "opcua_server {}: refused user `{username}` (unknown user or wrong password)",
+                self.module
+            );
+            Err(Error::new(
+                StatusCode::BadUserAccessDenied,
+                "unknown user or wrong password",
+            ))
+        }
+    }
+
+    fn effective_user_access_level(
+        &self,
+        token: &UserToken,
+        user_access_level: AccessLevel,
+        _node_id: &NodeId,
+    ) -> AccessLevel {
+        if token.is_anonymous() && self.anonymous != Anonymous::Write {
+            user_access_level - AccessLevel::CURRENT_WRITE
+        } else {
+            user_access_level
+        }
+    }
+
+    fn user_token_policies(&self, endpoint: &ServerEndpoint) -> Vec<UserTokenPolicy> {
+        let mut policies = Vec::new();
+        if self.anonymous != Anonymous::No {
+            policies.push(UserTokenPolicy {
+                policy_id: UAString::from(ANONYMOUS_POLICY),
+                token_type: UserTokenType::Anonymous,
+                issued_token_type: UAString::null(),
+                issuer_endpoint_url: UAString::null(),
+                security_policy_uri: UAString::null(),
+            });
+        }
+        if !self.users.is_empty() {
+            policies.push(UserTokenPolicy {
+                policy_id: user_pass_security_policy_id(endpoint),
+                token_type: UserTokenType::UserName,
+                issued_token_type: UAString::null(),
+                issuer_endpoint_url: UAString::null(),
+                security_policy_uri: user_pass_security_policy_uri(endpoint),
+            });
+        }
+        policies
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(v: Variant, kind: PointKind, bits: u8, expect: Result<PointValue, StatusCode>) {
+        assert_eq!(written(&v, kind, bits), expect, "{v:?} into {kind:?}{bits}");
+    }
+
+    #[test]
+    fn written_values_must_fit_their_points() {
+        use PointKind::*;
+        use PointValue as V;
+        check(Variant::Boolean(true), Unsigned, 1, Ok(V::Unsigned(1)));
+        check(Variant::Int64(1), Unsigned, 1, Ok(V::Unsigned(1)));
+        check(
+            Variant::Int64(2),
+            Unsigned,
+            1,
+            Err(StatusCode::BadOutOfRange),
+        );
+        check(
+            Variant::Boolean(true),
+            Unsigned,
+            8,
+            Err(StatusCode::BadTypeMismatch),
+        );
+        check(
+            Variant::UInt16(300),
+            Unsigned,
+            8,
+            Err(StatusCode::BadOutOfRange),
+        );
+        check(Variant::Int16(-5), Signed, 8, Ok(V::Signed(-5)));
+        check(
+            Variant::Int32(-129),
+            Signed,
+            8,
+            Err(StatusCode::BadOutOfRange),
+        );
+        check(
+            Variant::Float(1.5),
+            Unsigned,
+            8,
+            Err(StatusCode::BadTypeMismatch),
+        );
+        check(Variant::Double(1.5), Float, 32, Ok(V::Float(1.5)));
+        check(
+            Variant::Double(1e300),
+            Float,
+            32,
+            Err(StatusCode::BadOutOfRange),
+        );
+        check(Variant::Int32(7), Float, 32, Ok(V::Float(7.0)));
+        check(
+            Variant::from("1"),
+            Unsigned,
+            1,
+            Err(StatusCode::BadTypeMismatch),
+        );
+        check(
+            Variant::UInt64(u64::MAX),
+            Unsigned,
+            32,
+            Err(StatusCode::BadOutOfRange),
+        );
+    }
+
+    #[test]
+    fn points_map_to_the_smallest_opcua_type_that_holds_them() {
+        use PointKind::*;
+        let cases = [
+            (Unsigned, 1, DataTypeId::Boolean),
+            (Unsigned, 8, DataTypeId::Byte),
+            (Unsigned, 12, DataTypeId::UInt16),
+            (Unsigned, 32, DataTypeId::UInt32),
+            (Signed, 1, DataTypeId::SByte),
+            (Signed, 16, DataTypeId::Int16),
+            (Signed, 17, DataTypeId::Int32),
+            (Float, 32, DataTypeId::Float),
+        ];
+        for (k, b, t) in cases {
+            assert_eq!(data_type(k, b), t, "{k:?}{b}");
+        }
+        assert_eq!(
+            variant(PointValue::Unsigned(1), DataTypeId::Boolean),
+            Variant::Boolean(true)
+        );
+        assert_eq!(
+            variant(PointValue::Signed(-1), DataTypeId::SByte),
+            Variant::SByte(-1)
+        );
+    }
+}
