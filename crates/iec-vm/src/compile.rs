@@ -53,6 +53,10 @@ pub struct InstanceSpec {
 pub struct Code {
     pub ops: Vec<Op>,
     pub ext: Vec<ExtOp>,
+    /// Literals of [`Op::AndLits`] / [`Op::OrLits`]: (slot, 1 to negate).
+    pub lits: Vec<(u32, u64)>,
+    /// Stores of [`Op::CondStore`]: (slot, value).
+    pub stores: Vec<(u32, u64)>,
     pub arrays: Vec<ArrayInfo>,
     /// `(first pc, POU index or u32::MAX for configuration code, line)`, sorted by pc.
     pub lines: Vec<(u32, u32, u32)>,
@@ -93,6 +97,8 @@ enum Target {
 struct Unit {
     ops: Vec<Op>,
     ext: Vec<ExtOp>,
+    lits: Vec<(u32, u64)>,
+    stores: Vec<(u32, u64)>,
     arrays: Vec<ArrayInfo>,
     lines: Vec<(u32, u32)>,
     vars: u32,
@@ -532,6 +538,8 @@ impl<'p> Compiler<'p> {
         // Code.
         let mut ops = Vec::new();
         let mut ext_all = Vec::new();
+        let mut lits_all: Vec<(u32, u64)> = Vec::new();
+        let mut stores_all: Vec<(u32, u64)> = Vec::new();
         let mut arrays = Vec::new();
         let mut lines = Vec::new();
         let mut starts = Vec::new();
@@ -546,6 +554,8 @@ impl<'p> Compiler<'p> {
             let start = starts[ui];
             let ext_off = ext_all.len() as u32;
             let arr_off = arrays.len() as u32;
+            let lit_off = lits_all.len() as u32;
+            let store_off = stores_all.len() as u32;
             let (vars, temps) = (u.vars, u.temps);
             let base = if u.rel { 0 } else { frame_addr[ui] };
             let syms = &self.syms;
@@ -567,10 +577,14 @@ impl<'p> Compiler<'p> {
                     }
                     Op::Ext { x } => *x += ext_off,
                     Op::Index { a, .. } => *a += arr_off,
+                    Op::AndLits { start, .. } | Op::OrLits { start, .. } => *start += lit_off,
+                    Op::CondStore { start, .. } => *start += store_off,
                     _ => {}
                 }
                 ops[start as usize + k] = op;
             }
+            lits_all.extend(u.lits.iter().map(|&(s, n)| (reloc(s), n)));
+            stores_all.extend(u.stores.iter().map(|&(s, k)| (reloc(s), k)));
             for (k, tgt) in &u.calls {
                 let Target::Unit(t) = tgt;
                 match &mut ops[start as usize + *k] {
@@ -622,12 +636,19 @@ impl<'p> Compiler<'p> {
                 pou: s.pou,
                 task: s.task,
                 frame: frame_addr[prog_units[i]],
-                entry: starts[glue_units[i]],
+                // Without connections the program runs straight (its RET ends the run).
+                entry: if s.inputs.is_empty() && s.outputs.is_empty() {
+                    starts[prog_units[i]]
+                } else {
+                    starts[glue_units[i]]
+                },
             })
             .collect();
         Ok(Code {
             ops,
             ext: ext_all,
+            lits: lits_all,
+            stores: stores_all,
             arrays,
             lines,
             init,
@@ -779,12 +800,132 @@ impl<'c, 'p> Fx<'c, 'p> {
     // ---- statements ----
 
     fn stmts(&mut self, stmts: &[Stmt]) -> R<()> {
-        for s in stmts {
+        let mut i = 0;
+        while i < stmts.len() {
             let mark = self.temp_top;
-            self.stmt(s)?;
+            let used = self.fused(&stmts[i..])?;
+            if used == 0 {
+                self.stmt(&stmts[i])?;
+                i += 1;
+            } else {
+                i += used;
+            }
             self.temp_top = mark;
         }
         Ok(())
+    }
+
+    /// A BOOL variable held in a slot of this unit, possibly negated: `x` or `NOT x`.
+    fn bool_literal(&mut self, e: &Expr) -> R<Option<(u32, bool)>> {
+        let (inner, neg) = match &e.kind {
+            ExprKind::Unary(UnaryOp::Not, x) => (&**x, true),
+            _ => (e, false),
+        };
+        if inner.ty != petriplc_iec_sema::types::ids::BOOL {
+            return Ok(None);
+        }
+        if let ExprKind::Load(p) = &inner.kind {
+            if p.path.iter().all(|s| matches!(s, Step::Field(_) | Step::Member(_))) {
+                let pl = self.place_loc(p)?;
+                if let (Loc::Slot(x), None) = (pl.loc, pl.bit) {
+                    return Ok(Some((x, neg)));
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    /// Compiles a run of statements that fuse into one instruction; returns how many it
+    /// took (0: none fuse).
+    fn fused(&mut self, stmts: &[Stmt]) -> R<usize> {
+        // IF c THEN x := k; … END_IF, repeated with the same c: one CondStore.
+        let cond_stores = |me: &mut Self, s: &Stmt| -> R<Option<((u32, bool), Vec<(u32, u64)>)>> {
+            let StmtKind::If { branches, else_body } = &s.kind else { return Ok(None) };
+            if branches.len() != 1 || !else_body.is_empty() || branches[0].1.is_empty() {
+                return Ok(None);
+            }
+            let Some(lit) = me.bool_literal(&branches[0].0)? else { return Ok(None) };
+            let mut stores = Vec::new();
+            for b in &branches[0].1 {
+                let StmtKind::Assign { target, value } = &b.kind else { return Ok(None) };
+                let ExprKind::Const(v) = &value.kind else { return Ok(None) };
+                if !scalar(me.p(), target.ty) || target.path.iter().any(|s| matches!(s, Step::Index(_) | Step::Bit(_))) {
+                    return Ok(None);
+                }
+                let pl = me.place_loc(target)?;
+                let Loc::Slot(d) = pl.loc else { return Ok(None) };
+                if pl.bit.is_some() {
+                    return Ok(None);
+                }
+                stores.push((d, raw_const(me.p(), v, target.ty)));
+            }
+            Ok(Some((lit, stores)))
+        };
+        if let Some((lit, mut stores)) = cond_stores(self, &stmts[0])? {
+            let mut used = 1;
+            // A store to the condition ends the group (later IFs must see it).
+            if !stores.iter().any(|(d, _)| *d == lit.0) {
+                while used < stmts.len() {
+                    match cond_stores(self, &stmts[used])? {
+                        Some((l2, more)) if l2 == lit => {
+                            let stop = more.iter().any(|(d, _)| *d == lit.0);
+                            stores.extend(more);
+                            used += 1;
+                            if stop {
+                                break;
+                            }
+                        }
+                        _ => break,
+                    }
+                }
+            }
+            let span = stmts[0].span;
+            if stores.len() == 1 {
+                let (d, k) = stores[0];
+                let op = if lit.1 { Op::CondNotMovK { c: lit.0, d, k } } else { Op::CondMovK { c: lit.0, d, k } };
+                self.emit(op, span);
+            } else {
+                let u = &mut self.c.units[self.unit];
+                let start = u.stores.len() as u32;
+                u.stores.extend(stores.iter().copied());
+                let len = stores.len() as u32;
+                self.emit(Op::CondStore { c: lit.0, neg: lit.1, start, len }, span);
+            }
+            return Ok(used);
+        }
+        // x1 := y1; x2 := y2; … with consecutive slots on both sides: one MovN.
+        let plain_move = |me: &mut Self, s: &Stmt| -> R<Option<(u32, u32)>> {
+            let StmtKind::Assign { target, value } = &s.kind else { return Ok(None) };
+            let ExprKind::Load(src) = &value.kind else { return Ok(None) };
+            if target.ty != src.ty || !scalar(me.p(), target.ty) || matches!(me.p().types.get(target.ty), Type::Subrange { .. }) {
+                return Ok(None);
+            }
+            let no_index = |p: &Place| p.path.iter().all(|s| matches!(s, Step::Field(_) | Step::Member(_)));
+            if !no_index(target) || !no_index(src) {
+                return Ok(None);
+            }
+            let (d, sl) = (me.place_loc(target)?, me.place_loc(src)?);
+            match (d.loc, d.bit, sl.loc, sl.bit) {
+                (Loc::Slot(d), None, Loc::Slot(s), None) if d & TAG == FRAME && s & TAG == FRAME => Ok(Some((d, s))),
+                _ => Ok(None),
+            }
+        };
+        if let Some((d0, s0)) = plain_move(self, &stmts[0])? {
+            let mut n = 1u32;
+            while (n as usize) < stmts.len() {
+                match plain_move(self, &stmts[n as usize])? {
+                    Some((d, s)) if d == d0 + n && s == s0 + n => n += 1,
+                    _ => break,
+                }
+            }
+            // Overlapping ranges would change what sequential assignments do.
+            let overlap = d0 < s0 + n && s0 < d0 + n;
+            if n >= 3 && !overlap {
+                self.emit(Op::MovN { d: d0, s: s0, n }, stmts[0].span);
+                return Ok(n as usize);
+            }
+        }
+        Ok(0)
     }
 
     fn stmt(&mut self, s: &Stmt) -> R<()> {
@@ -1418,9 +1559,48 @@ impl<'c, 'p> Fx<'c, 'p> {
         }
     }
 
+    /// The operands of a chain `a op b op c …` (left-nested).
+    fn chain<'e>(e: &'e Expr, op: BinaryOp, out: &mut Vec<&'e Expr>) {
+        match &e.kind {
+            ExprKind::Binary(o, a, b) if *o == op && e.ty == petriplc_iec_sema::types::ids::BOOL => {
+                Self::chain(a, op, out);
+                Self::chain(b, op, out);
+            }
+            _ => out.push(e),
+        }
+    }
+
     fn binary(&mut self, op: BinaryOp, a: &Expr, b: &Expr, ty: TypeId, want: Option<u32>, span: Span) -> R<u32> {
         let p = self.p();
         let (ae, be) = (elem_or_dint(p, a.ty), elem_or_dint(p, b.ty));
+        // Chains of three or more BOOL terms: one instruction over their literals.
+        if matches!(op, BinaryOp::And | BinaryOp::Or) && ae == Elem::Bool {
+            let mut terms = Vec::new();
+            Self::chain(a, op, &mut terms);
+            Self::chain(b, op, &mut terms);
+            if terms.len() >= 3 {
+                let mut lits = Vec::with_capacity(terms.len());
+                for t in terms {
+                    let lit = match self.bool_literal(t)? {
+                        Some(l) => l,
+                        None => {
+                            // Computed first (all terms are evaluated, as IEC does).
+                            let x = self.expr(t, None)?;
+                            (x, false)
+                        }
+                    };
+                    lits.push((lit.0, lit.1 as u64));
+                }
+                let d = want.unwrap_or_else(|| self.temp(1));
+                let u = &mut self.c.units[self.unit];
+                let start = u.lits.len() as u32;
+                let len = lits.len() as u32;
+                u.lits.extend(lits);
+                let o = if op == BinaryOp::And { Op::AndLits { d, start, len } } else { Op::OrLits { d, start, len } };
+                self.emit(o, span);
+                return Ok(d);
+            }
+        }
         // a AND NOT b, a OR NOT b on BOOL.
         if matches!(op, BinaryOp::And | BinaryOp::Or) && ae == Elem::Bool {
             if let ExprKind::Unary(UnaryOp::Not, inner) = &b.kind {
@@ -1846,6 +2026,12 @@ impl Op {
                 *s = f(*s);
             }
             Op::MovK { d, .. } => *d = f(*d),
+            Op::AndLits { d, .. } | Op::OrLits { d, .. } => *d = f(*d),
+            Op::CondStore { c, .. } => *c = f(*c),
+            Op::MovN { d, s, .. } => {
+                *d = f(*d);
+                *s = f(*s);
+            }
             Op::CondMovK { c, d, .. } | Op::CondNotMovK { c, d, .. } => {
                 *c = f(*c);
                 *d = f(*d);

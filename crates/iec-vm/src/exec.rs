@@ -131,6 +131,43 @@ pub fn run(
                     m!(d) = k
                 }
             }
+            Op::AndLits { d, start, len } => {
+                let mut v = 1;
+                for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
+                    if m!(s) ^ neg == 0 {
+                        v = 0;
+                        break;
+                    }
+                }
+                m!(d) = v;
+            }
+            Op::OrLits { d, start, len } => {
+                let mut v = 0;
+                for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
+                    if m!(s) ^ neg != 0 {
+                        v = 1;
+                        break;
+                    }
+                }
+                m!(d) = v;
+            }
+            Op::CondStore { c, neg, start, len } => {
+                if (m!(c) != 0) != neg {
+                    for &(s, k) in &code.stores[start as usize..(start + len) as usize] {
+                        m!(s) = k;
+                    }
+                }
+            }
+            Op::MovN { d, s, n } => {
+                let (d, s, n) = (base + d as usize, base + s as usize, n as usize);
+                if n <= 16 {
+                    for k in 0..n {
+                        mem[d + k] = mem[s + k];
+                    }
+                } else {
+                    mem.copy_within(s..s + n, d);
+                }
+            }
             Op::And { d, a, b } => m!(d) = m!(a) & m!(b),
             Op::AndN { d, a, b } => m!(d) = m!(a) & (m!(b) ^ 1),
             Op::Or { d, a, b } => m!(d) = m!(a) | m!(b),

@@ -41,6 +41,8 @@ pub struct Engine {
     pub code: Code,
     natives: Vec<Box<dyn NativeFb>>,
     pou_files: Vec<String>,
+    /// Tasks by priority, then declaration order.
+    task_order: Vec<usize>,
 }
 
 impl fmt::Debug for Engine {
@@ -78,11 +80,16 @@ impl Engine {
             .iter()
             .map(|p| sources.get(p.span.file).map_or_else(String::new, |f| f.name.clone()))
             .collect();
+        let mut task_order: Vec<usize> = (0..project.configuration.as_ref().map_or(0, |c| c.tasks.len())).collect();
+        if let Some(c) = &project.configuration {
+            task_order.sort_by_key(|&t| (c.tasks[t].priority, t));
+        }
         Ok(Arc::new(Engine {
             project,
             code,
             natives,
             pou_files,
+            task_order,
         }))
     }
 
@@ -280,6 +287,39 @@ impl Engine {
     }
 }
 
+/// Runs one program instance; a panic inside (a bug in the engine) becomes a fault.
+fn run_one(
+    engine: &Engine,
+    mem: &mut [u64],
+    stack: &mut Vec<(u32, u32)>,
+    iterations: u64,
+    instance: usize,
+    now: i64,
+    check: &mut dyn FnMut() -> bool,
+) -> Result<(), Fault> {
+    let Some(inst) = engine.code.instances.get(instance) else {
+        return Ok(());
+    };
+    let mut budget = Budget {
+        iterations: iterations.max(1),
+        check,
+    };
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        exec::run(&engine.code, &engine.natives, mem, inst.entry, now, &mut budget, stack)
+    }));
+    match r {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(f)) => Err(engine.locate(f)),
+        Err(_) => Err(Fault {
+            pou: format!("PROGRAM instance {}", inst.name),
+            file: String::new(),
+            line: 0,
+            kind: FaultKind::Internal,
+            message: "internal error in the IEC engine (please report it)".into(),
+        }),
+    }
+}
+
 fn gcd(a: i64, b: i64) -> i64 {
     if b == 0 {
         a
@@ -379,40 +419,8 @@ impl Machine {
 
     /// Runs one program instance once at time `now` (nanoseconds).
     pub fn run_instance(&mut self, instance: usize, now: i64) -> Result<(), Fault> {
-        self.run_instance_checked(instance, now, &mut || true)
-    }
-
-    fn run_instance_checked(
-        &mut self,
-        instance: usize,
-        now: i64,
-        check: &mut dyn FnMut() -> bool,
-    ) -> Result<(), Fault> {
-        let engine = Arc::clone(&self.engine);
-        let Some(inst) = engine.code.instances.get(instance) else {
-            return Ok(());
-        };
-        let mut budget = Budget {
-            iterations: self.iterations.max(1),
-            check,
-        };
-        let mem = &mut self.mem;
-        let stack = &mut self.stack;
-        // A panic here would be a bug in the engine: it fails the program, not the process.
-        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            exec::run(&engine.code, &engine.natives, mem, inst.entry, now, &mut budget, stack)
-        }));
-        match r {
-            Ok(Ok(())) => Ok(()),
-            Ok(Err(f)) => Err(engine.locate(f)),
-            Err(_) => Err(Fault {
-                pou: format!("PROGRAM instance {}", inst.name),
-                file: String::new(),
-                line: 0,
-                kind: FaultKind::Internal,
-                message: "internal error in the IEC engine (please report it)".into(),
-            }),
-        }
+        let Machine { engine, mem, stack, iterations, .. } = self;
+        run_one(engine, mem, stack, *iterations, instance, now, &mut || true)
     }
 
     /// One scan at `now` (nanoseconds): every task whose interval has come, by priority (then
@@ -420,25 +428,27 @@ impl Machine {
     /// scan, after the tasks. `check` is called every 65 536 loop iterations and stops the
     /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
-        let engine = Arc::clone(&self.engine);
+        let Machine { engine, mem, stack, iterations, next_due } = self;
+        let engine: &Engine = engine;
         let instances = &engine.code.instances;
-        let Some(cfg) = engine.project.configuration.as_ref().filter(|_| instances.iter().any(|i| i.task.is_some())) else {
-            for i in 0..instances.len() {
-                self.run_instance_checked(i, now, &mut *check)?;
+        let tasks = match engine.project.configuration.as_ref() {
+            Some(c) if instances.iter().any(|i| i.task.is_some()) => &c.tasks,
+            _ => {
+                for i in 0..instances.len() {
+                    run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                }
+                return Ok(());
             }
-            return Ok(());
         };
-        let mut order: Vec<usize> = (0..cfg.tasks.len()).collect();
-        order.sort_by_key(|&t| (cfg.tasks[t].priority, t));
-        for t in order {
-            let due = match cfg.tasks[t].interval {
+        for &t in &engine.task_order {
+            let due = match tasks[t].interval {
                 None => true,
                 Some(iv) => {
-                    let next = self.next_due[t].unwrap_or(now);
+                    let next = next_due[t].unwrap_or(now);
                     if now >= next {
                         // The next multiple of the interval after now (missed ones are skipped).
                         let k = (now - next) / iv + 1;
-                        self.next_due[t] = Some(next + k * iv);
+                        next_due[t] = Some(next + k * iv);
                         true
                     } else {
                         false
@@ -450,13 +460,13 @@ impl Machine {
             }
             for (i, inst) in instances.iter().enumerate() {
                 if inst.task == Some(t as u32) {
-                    self.run_instance_checked(i, now, &mut *check)?;
+                    run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
                 }
             }
         }
         for (i, inst) in instances.iter().enumerate() {
             if inst.task.is_none() {
-                self.run_instance_checked(i, now, &mut *check)?;
+                run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
             }
         }
         Ok(())

@@ -105,6 +105,16 @@ pub enum Op {
     /// variables).
     Init { s: u32, n: u32 },
 
+    /// `d` = AND of the literals `lits[start..start + len]` (a slot, and 1 to negate it),
+    /// stopping at the first FALSE: an enabling condition in one instruction.
+    AndLits { d: u32, start: u32, len: u32 },
+    /// `d` = OR of the literals, stopping at the first TRUE.
+    OrLits { d: u32, start: u32, len: u32 },
+    /// If slot `c` (negated when `neg`) is TRUE, stores `stores[start..start + len]`
+    /// (slot, constant): consecutive `IF c THEN x := constant; END_IF`.
+    CondStore { c: u32, neg: bool, start: u32, len: u32 },
+    /// Copies `n` slots from `s` to `d` (consecutive assignments of consecutive variables).
+    MovN { d: u32, s: u32, n: u32 },
     Not { d: u32, s: u32 },
     /// Bitwise NOT within `bits` bits.
     BNot { d: u32, s: u32, bits: u8 },
