@@ -787,7 +787,6 @@ impl<'a> Checker<'a> {
         cx.kind = Some(ast.kind);
         cx.const_only = true;
         let mut result = None;
-        // Parameters first, in the order inputs, in-outs, outputs (each in declaration order).
         let order = [
             VarKind::Input,
             VarKind::InOut,
@@ -824,7 +823,12 @@ impl<'a> Checker<'a> {
             cx.names.insert(ast.name.key(), 0);
         }
         let mut edges: Vec<(VarId, ast::Edge)> = Vec::new();
-        for kind in order {
+        // Parameters in declaration order (positional arguments follow it), then the rest.
+        let param = |k: VarKind| matches!(k, VarKind::Input | VarKind::InOut | VarKind::Output);
+        for b in ast.var_blocks.iter().filter(|b| param(b.kind)) {
+            self.var_block(ast, b, &mut cx, &mut edges);
+        }
+        for kind in order.into_iter().filter(|k| !param(*k)) {
             for b in ast.var_blocks.iter().filter(|b| b.kind == kind) {
                 self.var_block(ast, b, &mut cx, &mut edges);
             }

@@ -65,7 +65,7 @@ impl Project {
 pub struct Pou {
     pub name: String,
     pub kind: PouKind,
-    /// Parameters first (inputs, in-outs, outputs in declaration order), then the others.
+    /// Parameters first (inputs, in-outs and outputs in declaration order), then the others.
     pub vars: Vec<Var>,
     /// A FUNCTION's result variable.
     pub result: Option<VarId>,
