@@ -597,7 +597,28 @@ pub fn display(project: &Project, ty: TypeId, v: &Value) -> String {
             .map_or_else(|| i.to_string(), |(n, _)| n.clone()),
         (_, Value::Int(i)) => i.to_string(),
         (_, Value::Real(f)) => ops::format_real(*f, Elem::Lreal),
-        (_, Value::Str(s)) => format!("'{}'", String::from_utf8_lossy(s)),
+        (_, Value::Str(s)) => string_literal(s),
         _ => String::new(),
     }
+}
+
+/// A string as an IEC literal: `'it$'s'`, with `$$`, `$'`, `$N`, `$T`, `$R` and `$hh` for
+/// other control characters.
+pub fn string_literal(s: &[u8]) -> String {
+    let mut out = String::from("'");
+    for &b in s {
+        match b {
+            b'\'' => out.push_str("$'"),
+            b'$' => out.push_str("$$"),
+            b'\n' => out.push_str("$N"),
+            b'\t' => out.push_str("$T"),
+            b'\r' => out.push_str("$R"),
+            0x0c => out.push_str("$P"),
+            b if b < 0x20 || b == 0x7f => out.push_str(&format!("${b:02X}")),
+            b if b < 0x80 => out.push(b as char),
+            b => out.push_str(&format!("${b:02X}")),
+        }
+    }
+    out.push('\'');
+    out
 }
