@@ -124,7 +124,11 @@ impl<'a> Checker<'a> {
             .map(|d| (d.name.key(), d))
             .collect();
         for (key, d) in names {
-            if self.type_decls.get(&key).is_some_and(|x| std::ptr::eq(*x, d)) {
+            if self
+                .type_decls
+                .get(&key)
+                .is_some_and(|x| std::ptr::eq(*x, d))
+            {
                 self.named_type(&key, d.name.span);
             }
         }
@@ -160,10 +164,7 @@ impl<'a> Checker<'a> {
                 Element::Types(ds) => {
                     for d in ds {
                         let key = d.name.key();
-                        if Elem::from_name(&key).is_some()
-                            || key == "STRING"
-                            || key == "WSTRING"
-                        {
+                        if Elem::from_name(&key).is_some() || key == "STRING" || key == "WSTRING" {
                             self.error(
                                 diag::DUPLICATE,
                                 d.name.span,
@@ -185,7 +186,10 @@ impl<'a> Checker<'a> {
                         self.error(
                             diag::DUPLICATE,
                             p.name.span,
-                            format!("`{}` is an elementary type and cannot name a POU", p.name.name),
+                            format!(
+                                "`{}` is an elementary type and cannot name a POU",
+                                p.name.name
+                            ),
                         );
                         continue;
                     }
@@ -194,13 +198,20 @@ impl<'a> Checker<'a> {
                         continue;
                     }
                     seen.insert(key.clone(), p.name.span);
-                    if self.native_names.contains_key(&key)
-                        || stdlib::is_standard_function(&key)
-                    {
+                    if self.native_names.contains_key(&key) || stdlib::is_standard_function(&key) {
                         self.diags.warning(
                             diag::SHADOWS_STANDARD,
                             p.name.span,
-                            format!("{} {} replaces the standard {} of that name in this project", p.kind.keyword(), p.name.name, if self.native_names.contains_key(&key) { "function block" } else { "function" }),
+                            format!(
+                                "{} {} replaces the standard {} of that name in this project",
+                                p.kind.keyword(),
+                                p.name.name,
+                                if self.native_names.contains_key(&key) {
+                                    "function block"
+                                } else {
+                                    "function"
+                                }
+                            ),
                         );
                     }
                     let id = self.pou_asts.len() as PouId;
@@ -245,7 +256,10 @@ impl<'a> Checker<'a> {
             self.error(
                 diag::RECURSION,
                 use_span,
-                format!("type {} contains itself; a structure or array cannot hold its own type", d.name.name),
+                format!(
+                    "type {} contains itself; a structure or array cannot hold its own type",
+                    d.name.name
+                ),
             );
             return Some((ids::ERROR, None));
         }
@@ -332,7 +346,11 @@ impl<'a> Checker<'a> {
                     Some(x) => match i64::try_from(x) {
                         Ok(x) => x,
                         Err(_) => {
-                            self.error(diag::OUT_OF_RANGE, e.span, "enumeration value out of range");
+                            self.error(
+                                diag::OUT_OF_RANGE,
+                                e.span,
+                                "enumeration value out of range",
+                            );
                             0
                         }
                     },
@@ -432,9 +450,9 @@ impl<'a> Checker<'a> {
                     return (ids::ERROR, None);
                 }
                 let id = self.types.array(dims, et);
-                let default = edef.filter(|_| count <= 1_000_000).map(|v| {
-                    Value::Array(vec![v; count as usize])
-                });
+                let default = edef
+                    .filter(|_| count <= 1_000_000)
+                    .map(|v| Value::Array(vec![v; count as usize]));
                 (id, default)
             }
             TypeSpec::Subrange { base, lo, hi, span } => {
@@ -454,7 +472,10 @@ impl<'a> Checker<'a> {
                     self.error(
                         diag::BAD_DECLARATION,
                         *span,
-                        format!("subrange {l}..{h} is empty or outside {} ({tl}..{th})", b.name()),
+                        format!(
+                            "subrange {l}..{h} is empty or outside {} ({tl}..{th})",
+                            b.name()
+                        ),
                     );
                     return (ids::ERROR, None);
                 }
@@ -502,7 +523,11 @@ impl<'a> Checker<'a> {
             self.error(
                 diag::UNKNOWN_TYPE,
                 id.span,
-                format!("`{}` is a {}, not a type; only function blocks can be instantiated", id.name, self.pou_asts[p as usize].kind.keyword()),
+                format!(
+                    "`{}` is a {}, not a type; only function blocks can be instantiated",
+                    id.name,
+                    self.pou_asts[p as usize].kind.keyword()
+                ),
             );
             return (ids::ERROR, None);
         }
@@ -510,7 +535,11 @@ impl<'a> Checker<'a> {
             return (self.types.fb(FbRef::Native(n)), None);
         }
         if id.is("WSTRING") {
-            self.error(diag::UNSUPPORTED, id.span, "WSTRING is not supported; use STRING");
+            self.error(
+                diag::UNSUPPORTED,
+                id.span,
+                "WSTRING is not supported; use STRING",
+            );
             return (ids::ERROR, None);
         }
         let hint = if ["CHAR", "WCHAR"].iter().any(|w| id.is(w)) {
@@ -578,7 +607,11 @@ impl<'a> Checker<'a> {
                         Some(r) => match self.const_int(r, cx) {
                             Some(n) if n >= 0 => n as u64,
                             Some(_) => {
-                                self.error(diag::BAD_INITIAL, r.span, "a repeat count is not negative");
+                                self.error(
+                                    diag::BAD_INITIAL,
+                                    r.span,
+                                    "a repeat count is not negative",
+                                );
                                 return None;
                             }
                             None => return None,
@@ -611,11 +644,21 @@ impl<'a> Checker<'a> {
             (Init::Struct { fields, .. }, Type::Struct { fields: decl, name }) => {
                 let mut out = Vec::new();
                 for (n, v) in fields {
-                    let Some(i) = decl.iter().position(|f| f.name.eq_ignore_ascii_case(&n.name)) else {
+                    let Some(i) = decl
+                        .iter()
+                        .position(|f| f.name.eq_ignore_ascii_case(&n.name))
+                    else {
                         self.error(
                             diag::NO_FIELD,
                             n.span,
-                            format!("structure {name} has no field `{}`; its fields are {}", n.name, decl.iter().map(|f| f.name.as_str()).collect::<Vec<_>>().join(", ")),
+                            format!(
+                                "structure {name} has no field `{}`; its fields are {}",
+                                n.name,
+                                decl.iter()
+                                    .map(|f| f.name.as_str())
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            ),
                         );
                         continue;
                     };
@@ -631,13 +674,20 @@ impl<'a> Checker<'a> {
                     let found = match fb {
                         FbRef::User(p) => {
                             self.interface(p);
-                            self.pous[p as usize].var_by_name(&n.name).map(|i| {
-                                (i, self.pous[p as usize].vars[i as usize].ty)
+                            self.pous[p as usize]
+                                .var_by_name(&n.name)
+                                .map(|i| (i, self.pous[p as usize].vars[i as usize].ty))
+                        }
+                        FbRef::Native(k) => {
+                            self.natives[k as usize].var_by_name(&n.name).map(|i| {
+                                (
+                                    i,
+                                    TypeTable::elem_id(
+                                        self.natives[k as usize].vars[i as usize].ty,
+                                    ),
+                                )
                             })
                         }
-                        FbRef::Native(k) => self.natives[k as usize].var_by_name(&n.name).map(|i| {
-                            (i, TypeTable::elem_id(self.natives[k as usize].vars[i as usize].ty))
-                        }),
                     };
                     let Some((i, vty)) = found else {
                         self.error(
@@ -721,7 +771,10 @@ impl<'a> Checker<'a> {
                 self.error(
                     diag::UNSUPPORTED,
                     b.span,
-                    format!("{} blocks are not supported in a configuration; use VAR_GLOBAL", b.kind.keyword()),
+                    format!(
+                        "{} blocks are not supported in a configuration; use VAR_GLOBAL",
+                        b.kind.keyword()
+                    ),
                 );
                 continue;
             }
@@ -870,7 +923,12 @@ impl<'a> Checker<'a> {
             PouKind::FunctionBlock => !matches!(b.kind, VarKind::Global | VarKind::Other),
             PouKind::Function => matches!(
                 b.kind,
-                VarKind::Input | VarKind::Output | VarKind::InOut | VarKind::Local | VarKind::Temp | VarKind::External
+                VarKind::Input
+                    | VarKind::Output
+                    | VarKind::InOut
+                    | VarKind::Local
+                    | VarKind::Temp
+                    | VarKind::External
             ),
         };
         if !allowed {
@@ -890,7 +948,10 @@ impl<'a> Checker<'a> {
             );
             return;
         }
-        if b.retain == ast::Retain::Retain && matches!(b.kind, VarKind::Temp | VarKind::InOut | VarKind::External) || (b.retain == ast::Retain::Retain && pou.kind == PouKind::Function) {
+        if b.retain == ast::Retain::Retain
+            && matches!(b.kind, VarKind::Temp | VarKind::InOut | VarKind::External)
+            || (b.retain == ast::Retain::Retain && pou.kind == PouKind::Function)
+        {
             self.error(
                 diag::BAD_DECLARATION,
                 b.span,
@@ -1098,7 +1159,9 @@ impl<'a> Checker<'a> {
         let find = |n: String| vars.iter().position(|x| x.name == n);
         for (v, edge) in edges {
             let base = &vars[v as usize].name;
-            let (Some(prev), Some(raw)) = (find(format!("{base}$prev")), find(format!("{base}$raw"))) else {
+            let (Some(prev), Some(raw)) =
+                (find(format!("{base}$prev")), find(format!("{base}$raw")))
+            else {
                 continue;
             };
             let place = |id: usize| ir::Place {

@@ -56,9 +56,17 @@ impl Checker<'_> {
             Ok(None) => e,
             Err(why) => {
                 let msg = match why {
-                    OpError::Overflow => format!("this constant expression overflows {}", self.types.name(e.ty)),
-                    OpError::DivisionByZero => "this constant expression divides by zero".to_string(),
-                    OpError::Conversion => format!("this constant does not convert to {}", self.types.name(e.ty)),
+                    OpError::Overflow => format!(
+                        "this constant expression overflows {}",
+                        self.types.name(e.ty)
+                    ),
+                    OpError::DivisionByZero => {
+                        "this constant expression divides by zero".to_string()
+                    }
+                    OpError::Conversion => format!(
+                        "this constant does not convert to {}",
+                        self.types.name(e.ty)
+                    ),
                     OpError::Domain(w) => format!("this constant expression has no value: {w}"),
                 };
                 self.error(diag::OUT_OF_RANGE, e.span, msg);
@@ -129,7 +137,9 @@ impl Checker<'_> {
         let v = match &e.kind {
             ExprKind::Const(v) => return Ok(Some(v.clone())),
             ExprKind::Unary(op, x) => {
-                let Some(v) = self.eval(x)? else { return Ok(None) };
+                let Some(v) = self.eval(x)? else {
+                    return Ok(None);
+                };
                 self.eval_unary(*op, v, x.ty)?
             }
             ExprKind::Binary(op, a, b) => {
@@ -139,18 +149,26 @@ impl Checker<'_> {
                 self.eval_binary(*op, x, a.ty, y, b.ty, e.ty)?
             }
             ExprKind::Convert(x) => {
-                let Some(v) = self.eval(x)? else { return Ok(None) };
+                let Some(v) = self.eval(x)? else {
+                    return Ok(None);
+                };
                 self.convert_value(&v, x.ty, e.ty)?
             }
             ExprKind::Trunc(x) => {
-                let Some(v) = self.eval(x)? else { return Ok(None) };
-                let Class::Elem(to) = self.class(e.ty) else { return Ok(None) };
+                let Some(v) = self.eval(x)? else {
+                    return Ok(None);
+                };
+                let Class::Elem(to) = self.class(e.ty) else {
+                    return Ok(None);
+                };
                 Value::Int(ops::trunc_to_int(v.as_real().unwrap_or(0.0), to)?)
             }
             ExprKind::Builtin(b, args) => {
                 let mut vals = Vec::new();
                 for a in args {
-                    let Some(v) = self.eval(a)? else { return Ok(None) };
+                    let Some(v) = self.eval(a)? else {
+                        return Ok(None);
+                    };
                     vals.push(v);
                 }
                 match self.eval_builtin(*b, &vals, args, e.ty)? {
@@ -167,10 +185,14 @@ impl Checker<'_> {
         Ok(match (op, self.class(ty), v) {
             (UnaryOp::Plus, _, v) => v,
             (UnaryOp::Neg, Class::IntLit, Value::Int(i)) => Value::Int(-i),
-            (UnaryOp::Neg, Class::Elem(e), Value::Int(i)) => Value::Int(ops::int_binary(BinaryOp::Sub, 0, i, e)?),
+            (UnaryOp::Neg, Class::Elem(e), Value::Int(i)) => {
+                Value::Int(ops::int_binary(BinaryOp::Sub, 0, i, e)?)
+            }
             (UnaryOp::Neg, _, Value::Real(f)) => Value::Real(-f),
             (UnaryOp::Not, Class::Elem(Elem::Bool), Value::Int(i)) => Value::Int((i == 0) as i128),
-            (UnaryOp::Not, Class::Elem(e), Value::Int(i)) => Value::Int((!(i as u64) & ops::mask(e)) as i128),
+            (UnaryOp::Not, Class::Elem(e), Value::Int(i)) => {
+                Value::Int((!(i as u64) & ops::mask(e)) as i128)
+            }
             _ => return Err(OpError::Conversion),
         })
     }
@@ -196,7 +218,11 @@ impl Checker<'_> {
                         if op == BinaryOp::Div && *f == 0.0 {
                             return Err(OpError::DivisionByZero);
                         }
-                        let r = if op == BinaryOp::Mul { *i as f64 * f } else { *i as f64 / f };
+                        let r = if op == BinaryOp::Mul {
+                            *i as f64 * f
+                        } else {
+                            *i as f64 / f
+                        };
                         let r = ops::round_even(r);
                         if !r.is_finite() || r.abs() > 9.2e18 {
                             return Err(OpError::Overflow);
@@ -234,7 +260,11 @@ impl Checker<'_> {
                     _ => Elem::Lreal,
                 };
                 let r = ops::real_binary(op, a, b, e)?;
-                Ok(if cmp { Value::Int((r != 0.0) as i128) } else { Value::Real(r) })
+                Ok(if cmp {
+                    Value::Int((r != 0.0) as i128)
+                } else {
+                    Value::Real(r)
+                })
             }
             (Value::Real(a), Value::Int(n)) if op == BinaryOp::Power => {
                 let e = match xc {
@@ -270,7 +300,13 @@ impl Checker<'_> {
         }
     }
 
-    fn eval_builtin(&self, b: Builtin, v: &[Value], args: &[Expr], rt: TypeId) -> Result<Option<Value>, OpError> {
+    fn eval_builtin(
+        &self,
+        b: Builtin,
+        v: &[Value],
+        args: &[Expr],
+        rt: TypeId,
+    ) -> Result<Option<Value>, OpError> {
         let elem = |t: TypeId| match self.class(t) {
             Class::Elem(e) => Some(e),
             Class::RealLit => Some(Elem::Lreal),
@@ -279,26 +315,60 @@ impl Checker<'_> {
         };
         Ok(Some(match b {
             Builtin::Abs => match &v[0] {
-                Value::Int(i) => Value::Int(ops::int_binary(BinaryOp::Sub, 0, -i.abs(), elem(rt).unwrap_or(Elem::Lint))?),
+                Value::Int(i) => Value::Int(ops::int_binary(
+                    BinaryOp::Sub,
+                    0,
+                    -i.abs(),
+                    elem(rt).unwrap_or(Elem::Lint),
+                )?),
                 Value::Real(f) => Value::Real(f.abs()),
                 _ => return Ok(None),
             },
-            Builtin::Sqrt | Builtin::Ln | Builtin::Log | Builtin::Exp | Builtin::Sin | Builtin::Cos
-            | Builtin::Tan | Builtin::Asin | Builtin::Acos | Builtin::Atan => {
+            Builtin::Sqrt
+            | Builtin::Ln
+            | Builtin::Log
+            | Builtin::Exp
+            | Builtin::Sin
+            | Builtin::Cos
+            | Builtin::Tan
+            | Builtin::Asin
+            | Builtin::Acos
+            | Builtin::Atan => {
                 let x = v[0].as_real().unwrap_or(0.0);
                 Value::Real(ops::real_fn(b, x, elem(rt).unwrap_or(Elem::Lreal))?)
             }
             Builtin::Atan2 => {
                 let (y, x) = (v[0].as_real().unwrap_or(0.0), v[1].as_real().unwrap_or(0.0));
-                Value::Real(ops::real_result(y.atan2(x), elem(rt).unwrap_or(Elem::Lreal))?)
+                Value::Real(ops::real_result(
+                    y.atan2(x),
+                    elem(rt).unwrap_or(Elem::Lreal),
+                )?)
             }
             Builtin::Max | Builtin::Min => {
                 let mut best = v[0].clone();
                 for x in &v[1..] {
                     let better = match (x, &best) {
-                        (Value::Int(a), Value::Int(c)) => if b == Builtin::Max { a > c } else { a < c },
-                        (Value::Real(a), Value::Real(c)) => if b == Builtin::Max { a > c } else { a < c },
-                        (Value::Str(a), Value::Str(c)) => if b == Builtin::Max { a > c } else { a < c },
+                        (Value::Int(a), Value::Int(c)) => {
+                            if b == Builtin::Max {
+                                a > c
+                            } else {
+                                a < c
+                            }
+                        }
+                        (Value::Real(a), Value::Real(c)) => {
+                            if b == Builtin::Max {
+                                a > c
+                            } else {
+                                a < c
+                            }
+                        }
+                        (Value::Str(a), Value::Str(c)) => {
+                            if b == Builtin::Max {
+                                a > c
+                            } else {
+                                a < c
+                            }
+                        }
                         _ => return Ok(None),
                     };
                     if better {
@@ -309,7 +379,9 @@ impl Checker<'_> {
             }
             Builtin::Limit => match (&v[0], &v[1], &v[2]) {
                 (Value::Int(mn), Value::Int(x), Value::Int(mx)) => Value::Int(*x.max(mn).min(mx)),
-                (Value::Real(mn), Value::Real(x), Value::Real(mx)) => Value::Real(x.max(*mn).min(*mx)),
+                (Value::Real(mn), Value::Real(x), Value::Real(mx)) => {
+                    Value::Real(x.max(*mn).min(*mx))
+                }
                 _ => return Ok(None),
             },
             Builtin::Sel => {
@@ -327,8 +399,12 @@ impl Checker<'_> {
                 }
             }
             Builtin::Shl | Builtin::Shr | Builtin::Rol | Builtin::Ror => {
-                let (Some(x), Some(n)) = (v[0].as_int(), v[1].as_int()) else { return Ok(None) };
-                let Some(e) = elem(args[0].ty) else { return Ok(None) };
+                let (Some(x), Some(n)) = (v[0].as_int(), v[1].as_int()) else {
+                    return Ok(None);
+                };
+                let Some(e) = elem(args[0].ty) else {
+                    return Ok(None);
+                };
                 Value::Int(ops::shift(b, x, n, e)?)
             }
             Builtin::Len => match &v[0] {

@@ -99,7 +99,11 @@ impl<'a> Checker<'a> {
                 };
                 if e.is_real() {
                     let v = *value as f64;
-                    let v = if e == Elem::Real { value::to_real(v) } else { v };
+                    let v = if e == Elem::Real {
+                        value::to_real(v)
+                    } else {
+                        v
+                    };
                     return konst(Value::Real(v), TypeTable::elem_id(e), span);
                 }
                 if !e.is_integral() || e.is_duration() || e.is_date() {
@@ -109,7 +113,12 @@ impl<'a> Checker<'a> {
                     self.error(
                         diag::OUT_OF_RANGE,
                         span,
-                        format!("{value} does not fit {} ({}..{})", e.name(), e.range().0, e.range().1),
+                        format!(
+                            "{value} does not fit {} ({}..{})",
+                            e.name(),
+                            e.range().0,
+                            e.range().1
+                        ),
                     );
                     return err(span);
                 }
@@ -122,7 +131,10 @@ impl<'a> Checker<'a> {
                     self.error(
                         diag::TYPE_MISMATCH,
                         span,
-                        format!("{}# takes an integer; a real literal is typed REAL# or LREAL#", t.name),
+                        format!(
+                            "{}# takes an integer; a real literal is typed REAL# or LREAL#",
+                            t.name
+                        ),
                     );
                     err(span)
                 }
@@ -158,13 +170,24 @@ impl<'a> Checker<'a> {
                 let (t, _) = self.type_by_name(ty);
                 match self.types.get(t).clone() {
                     Type::Enum { values, name } => {
-                        match values.iter().find(|(n, _)| n.eq_ignore_ascii_case(&value.name)) {
+                        match values
+                            .iter()
+                            .find(|(n, _)| n.eq_ignore_ascii_case(&value.name))
+                        {
                             Some((_, v)) => konst(Value::Int(*v as i128), t, span),
                             None => {
                                 self.error(
                                     diag::UNDECLARED,
                                     value.span,
-                                    format!("enumeration {name} has no value `{}`; its values are {}", value.name, values.iter().map(|v| v.0.as_str()).collect::<Vec<_>>().join(", ")),
+                                    format!(
+                                        "enumeration {name} has no value `{}`; its values are {}",
+                                        value.name,
+                                        values
+                                            .iter()
+                                            .map(|v| v.0.as_str())
+                                            .collect::<Vec<_>>()
+                                            .join(", ")
+                                    ),
                                 );
                                 err(span)
                             }
@@ -175,7 +198,10 @@ impl<'a> Checker<'a> {
                         self.error(
                             diag::TYPE_MISMATCH,
                             ty.span,
-                            format!("`{}#{}`: {} is not an enumeration", ty.name, value.name, ty.name),
+                            format!(
+                                "`{}#{}`: {} is not an enumeration",
+                                ty.name, value.name, ty.name
+                            ),
                         );
                         err(span)
                     }
@@ -188,7 +214,10 @@ impl<'a> Checker<'a> {
         self.error(
             diag::TYPE_MISMATCH,
             t.span,
-            format!("`{}#` cannot type this literal; write e.g. INT#5, REAL#1.5, BOOL#TRUE, WORD#16#FF", t.name),
+            format!(
+                "`{}#` cannot type this literal; write e.g. INT#5, REAL#1.5, BOOL#TRUE, WORD#16#FF",
+                t.name
+            ),
         );
         err(t.span)
     }
@@ -206,7 +235,10 @@ impl<'a> Checker<'a> {
                     );
                     return err(id.span);
                 }
-                let v = var.init.clone().unwrap_or_else(|| self.default_value(var.ty));
+                let v = var
+                    .init
+                    .clone()
+                    .unwrap_or_else(|| self.default_value(var.ty));
                 return konst(v, var.ty, id.span);
             }
             if matches!(self.types.get(place.ty), Type::Fb(_)) {
@@ -233,7 +265,12 @@ impl<'a> Checker<'a> {
                     self.error(
                         diag::UNDECLARED,
                         id.span,
-                        format!("`{}` is a value of several enumerations ({}); write TYPE#{}", id.name, names.join(", "), id.name),
+                        format!(
+                            "`{}` is a value of several enumerations ({}); write TYPE#{}",
+                            id.name,
+                            names.join(", "),
+                            id.name
+                        ),
                     );
                     err(id.span)
                 }
@@ -246,7 +283,12 @@ impl<'a> Checker<'a> {
     fn undeclared(&mut self, id: &ast::Ident, cx: &Cx) {
         let key = id.key();
         let hint = if self.global_names.contains_key(&key) && cx.pou.is_some() {
-            format!("; it is a global variable: declare it in the POU's VAR_EXTERNAL (`{} : {};`)", id.name, self.types.name(self.globals[self.global_names[&key] as usize].ty))
+            format!(
+                "; it is a global variable: declare it in the POU's VAR_EXTERNAL (`{} : {};`)",
+                id.name,
+                self.types
+                    .name(self.globals[self.global_names[&key] as usize].ty)
+            )
         } else if self.pou_names.contains_key(&key) || stdlib::is_standard_function(&key) {
             "; it is a POU: call it with (…)".to_string()
         } else {
@@ -329,11 +371,22 @@ impl<'a> Checker<'a> {
                 let span = e.span;
                 match self.types.get(p.ty).clone() {
                     Type::Struct { fields, name } => {
-                        let Some(i) = fields.iter().position(|x| x.name.eq_ignore_ascii_case(&f.name)) else {
+                        let Some(i) = fields
+                            .iter()
+                            .position(|x| x.name.eq_ignore_ascii_case(&f.name))
+                        else {
                             self.error(
                                 diag::NO_FIELD,
                                 f.span,
-                                format!("structure {name} has no field `{}`; its fields are {}", f.name, fields.iter().map(|x| x.name.as_str()).collect::<Vec<_>>().join(", ")),
+                                format!(
+                                    "structure {name} has no field `{}`; its fields are {}",
+                                    f.name,
+                                    fields
+                                        .iter()
+                                        .map(|x| x.name.as_str())
+                                        .collect::<Vec<_>>()
+                                        .join(", ")
+                                ),
                             );
                             return None;
                         };
@@ -367,7 +420,10 @@ impl<'a> Checker<'a> {
                             self.error(
                                 diag::NOT_ASSIGNABLE,
                                 span,
-                                format!("`{}` is an in-out of {fb_name}: connect it in the call", f.name),
+                                format!(
+                                    "`{}` is an in-out of {fb_name}: connect it in the call",
+                                    f.name
+                                ),
                             );
                             return None;
                         }
@@ -405,7 +461,11 @@ impl<'a> Checker<'a> {
                     self.error(
                         diag::BAD_INDEX,
                         e.span,
-                        format!("this array has {} dimension(s); give {} subscript(s)", dims.len(), dims.len()),
+                        format!(
+                            "this array has {} dimension(s); give {} subscript(s)",
+                            dims.len(),
+                            dims.len()
+                        ),
                     );
                     return None;
                 }
@@ -429,7 +489,10 @@ impl<'a> Checker<'a> {
                             self.error(
                                 diag::BAD_INDEX,
                                 ie.span,
-                                format!("subscript {v} is outside dimension {} ({lo}..{hi})", i + 1),
+                                format!(
+                                    "subscript {v} is outside dimension {} ({lo}..{hi})",
+                                    i + 1
+                                ),
                             );
                             return None;
                         }
@@ -444,13 +507,19 @@ impl<'a> Checker<'a> {
             }
             A::Bit(base, n) => {
                 let mut p = self.place(base, cx, write)?;
-                let Some(el) = self.types.elem(p.ty).filter(|e| e.is_bitstring() || e.is_int()) else {
+                let Some(el) = self
+                    .types
+                    .elem(p.ty)
+                    .filter(|e| e.is_bitstring() || e.is_int())
+                else {
                     if p.ty != ids::ERROR {
                         let t = self.types.name(p.ty);
                         self.error(
                             diag::BAD_INDEX,
                             e.span,
-                            format!("bit access (.{n}) applies to bit strings and integers, not {t}"),
+                            format!(
+                                "bit access (.{n}) applies to bit strings and integers, not {t}"
+                            ),
                         );
                     }
                     return None;
@@ -459,7 +528,11 @@ impl<'a> Checker<'a> {
                     self.error(
                         diag::BAD_INDEX,
                         e.span,
-                        format!("{} has bits 0 to {}; .{n} does not exist", el.name(), el.bits() - 1),
+                        format!(
+                            "{} has bits 0 to {}; .{n} does not exist",
+                            el.name(),
+                            el.bits() - 1
+                        ),
                     );
                     return None;
                 }
@@ -491,7 +564,11 @@ impl<'a> Checker<'a> {
     }
 
     /// A member of a function block type: index, type, class, the FB's name.
-    pub fn fb_member(&mut self, fb: FbRef, f: &ast::Ident) -> Option<(VarId, TypeId, VarClass, String)> {
+    pub fn fb_member(
+        &mut self,
+        fb: FbRef,
+        f: &ast::Ident,
+    ) -> Option<(VarId, TypeId, VarClass, String)> {
         match fb {
             FbRef::User(p) => {
                 self.interface(p);
@@ -535,7 +612,11 @@ impl<'a> Checker<'a> {
                         self.error(
                             diag::NO_FIELD,
                             f.span,
-                            format!("{name} has no input or output `{}`; it has {}", f.name, list.join(", ")),
+                            format!(
+                                "{name} has no input or output `{}`; it has {}",
+                                f.name,
+                                list.join(", ")
+                            ),
                         );
                         None
                     }
@@ -642,7 +723,8 @@ impl<'a> Checker<'a> {
             }
             UnaryOp::Not => {
                 let x = if self.types.get(x.ty) == &Type::IntLit {
-                    match expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_bitstring())) {
+                    match expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_bitstring()))
+                    {
                         Some(t) => self.coerce(x, t, "the operand of NOT"),
                         None => x,
                     }
@@ -710,11 +792,21 @@ impl<'a> Checker<'a> {
     ) -> Expr {
         let hint = if op.is_comparison() { None } else { expected };
         let mut x = self.expr(a, cx, hint);
-        let mut y = self.expr(b, cx, hint.or(Some(x.ty)).filter(|t| *t != ids::INT_LIT && *t != ids::REAL_LIT));
-        if x.ty == ids::INT_LIT && self.types.get(y.ty) != &Type::IntLit && matches!(self.types.get(y.ty), Type::Enum { .. }) {
+        let mut y = self.expr(
+            b,
+            cx,
+            hint.or(Some(x.ty))
+                .filter(|t| *t != ids::INT_LIT && *t != ids::REAL_LIT),
+        );
+        if x.ty == ids::INT_LIT
+            && self.types.get(y.ty) != &Type::IntLit
+            && matches!(self.types.get(y.ty), Type::Enum { .. })
+        {
             // keep
         }
-        if matches!(self.types.get(x.ty), Type::Enum { .. }) || matches!(self.types.get(y.ty), Type::Enum { .. }) {
+        if matches!(self.types.get(x.ty), Type::Enum { .. })
+            || matches!(self.types.get(y.ty), Type::Enum { .. })
+        {
             // Re-resolve a bare enumeration value against the other side's type.
             if matches!(a.kind, A::Name(_)) && !matches!(self.types.get(x.ty), Type::Enum { .. }) {
                 x = self.expr(a, cx, Some(y.ty));
@@ -803,17 +895,27 @@ impl<'a> Checker<'a> {
         let tt = self.types.get(t).clone();
         let elem = self.types.elem(t);
         let ok = match op {
-            Or | Xor | And => {
-                matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_bit())
-            }
+            Or | Xor | And => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_bit()),
             Eq | Ne => true,
-            Lt | Le | Gt | Ge => !matches!(tt, Type::Enum { .. } | Type::Struct { .. } | Type::Array { .. } | Type::Fb(_)),
-            Add | Sub => matches!(tt, Type::IntLit | Type::RealLit) || elem.is_some_and(|e| e.is_num() || e.is_duration()),
-            Mul | Div => matches!(tt, Type::IntLit | Type::RealLit) || elem.is_some_and(|e| e.is_num()),
+            Lt | Le | Gt | Ge => !matches!(
+                tt,
+                Type::Enum { .. } | Type::Struct { .. } | Type::Array { .. } | Type::Fb(_)
+            ),
+            Add | Sub => {
+                matches!(tt, Type::IntLit | Type::RealLit)
+                    || elem.is_some_and(|e| e.is_num() || e.is_duration())
+            }
+            Mul | Div => {
+                matches!(tt, Type::IntLit | Type::RealLit) || elem.is_some_and(|e| e.is_num())
+            }
             Mod => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_int()),
             Power => true,
         };
-        let ok = ok && !matches!(tt, Type::Struct { .. } | Type::Array { .. } | Type::Fb(_) | Type::Void);
+        let ok = ok
+            && !matches!(
+                tt,
+                Type::Struct { .. } | Type::Array { .. } | Type::Fb(_) | Type::Void
+            );
         if !ok {
             let tn = self.types.name(t);
             let what = match op {
@@ -840,7 +942,13 @@ impl<'a> Checker<'a> {
 
     /// Brings two operands to one type (literals take the other side's type, elementary
     /// types widen); `None` after reporting a mismatch.
-    pub fn unify(&mut self, x: Expr, y: Expr, op: &str, span: Span) -> Option<(Expr, Expr, TypeId)> {
+    pub fn unify(
+        &mut self,
+        x: Expr,
+        y: Expr,
+        op: &str,
+        span: Span,
+    ) -> Option<(Expr, Expr, TypeId)> {
         let (tx, ty) = (self.base_type(x.ty), self.base_type(y.ty));
         let lit = |t: TypeId| t == ids::INT_LIT || t == ids::REAL_LIT;
         if tx == ty {
@@ -860,7 +968,9 @@ impl<'a> Checker<'a> {
             return Some((x, y, tx));
         }
         // Strings of any lengths compare and combine.
-        if let (Type::Str { len: a }, Type::Str { len: b }) = (self.types.get(tx), self.types.get(ty)) {
+        if let (Type::Str { len: a }, Type::Str { len: b }) =
+            (self.types.get(tx), self.types.get(ty))
+        {
             let t = self.types.string((*a).max(*b));
             return Some((x, y, t));
         }
@@ -946,7 +1056,15 @@ impl<'a> Checker<'a> {
                             self.error(
                                 diag::OUT_OF_RANGE,
                                 span,
-                                format!("{v} does not fit {} ({lo}..{hi}){}", self.types.name(to), if e == Elem::Bool { "; write TRUE or FALSE" } else { "" }),
+                                format!(
+                                    "{v} does not fit {} ({lo}..{hi}){}",
+                                    self.types.name(to),
+                                    if e == Elem::Bool {
+                                        "; write TRUE or FALSE"
+                                    } else {
+                                        ""
+                                    }
+                                ),
                             );
                             return err(span);
                         }
@@ -954,7 +1072,11 @@ impl<'a> Checker<'a> {
                     }
                     Some((e, _)) if e.is_real() => {
                         let f = v as f64;
-                        let f = if e == Elem::Real { value::to_real(f) } else { f };
+                        let f = if e == Elem::Real {
+                            value::to_real(f)
+                        } else {
+                            f
+                        };
                         return konst(Value::Real(f), to, span);
                     }
                     _ => {}
@@ -962,9 +1084,17 @@ impl<'a> Checker<'a> {
             }
             (Type::RealLit, Type::Elem(e)) if e.is_real() => {
                 let f = x.const_real().unwrap_or(0.0);
-                let f = if *e == Elem::Real { value::to_real(f) } else { f };
+                let f = if *e == Elem::Real {
+                    value::to_real(f)
+                } else {
+                    f
+                };
                 if !f.is_finite() {
-                    self.error(diag::OUT_OF_RANGE, span, format!("this value does not fit {}", e.name()));
+                    self.error(
+                        diag::OUT_OF_RANGE,
+                        span,
+                        format!("this value does not fit {}", e.name()),
+                    );
                     return err(span);
                 }
                 return konst(Value::Real(f), to, span);
@@ -975,7 +1105,11 @@ impl<'a> Checker<'a> {
                         self.error(
                             diag::OUT_OF_RANGE,
                             span,
-                            format!("this string has {} characters; {} holds {len}", s.len(), self.types.name(to)),
+                            format!(
+                                "this string has {} characters; {} holds {len}",
+                                s.len(),
+                                self.types.name(to)
+                            ),
                         );
                         return err(span);
                     }
@@ -991,7 +1125,10 @@ impl<'a> Checker<'a> {
             (Type::Subrange { base, .. }, Type::Elem(b)) if base.widens_to(*b) => {
                 return self.convert(x, to)
             }
-            (Type::Elem(a), Type::Subrange { base, lo, hi }) | (Type::Subrange { base: a, .. }, Type::Subrange { base, lo, hi }) if a.widens_to(*base) => {
+            (Type::Elem(a), Type::Subrange { base, lo, hi })
+            | (Type::Subrange { base: a, .. }, Type::Subrange { base, lo, hi })
+                if a.widens_to(*base) =>
+            {
                 if let Some(v) = x.const_int() {
                     if v < *lo || v > *hi {
                         self.error(
@@ -1056,7 +1193,11 @@ impl<'a> Checker<'a> {
             } else {
                 "this is a variable, not a function"
             };
-            self.error(diag::NOT_CALLABLE, name.span, format!("`{}`: {what}", name.name));
+            self.error(
+                diag::NOT_CALLABLE,
+                name.span,
+                format!("`{}`: {what}", name.name),
+            );
             return err(span);
         }
         if let Some(x) = self.std_call(name, call, cx, expected) {
@@ -1083,7 +1224,10 @@ impl<'a> Checker<'a> {
             self.error(
                 diag::RECURSION,
                 span,
-                format!("{} calls itself; IEC 61131-3 does not allow recursion", self.pous[p as usize].name),
+                format!(
+                    "{} calls itself; IEC 61131-3 does not allow recursion",
+                    self.pous[p as usize].name
+                ),
             );
             return err(span);
         }
@@ -1122,7 +1266,11 @@ impl<'a> Checker<'a> {
                 pou: p,
                 inputs,
                 in_outs: bound.in_outs,
-                outputs: bound.outputs.into_iter().map(|(v, pl, _)| (v, pl)).collect(),
+                outputs: bound
+                    .outputs
+                    .into_iter()
+                    .map(|(v, pl, _)| (v, pl))
+                    .collect(),
             }),
             ty,
             span,
@@ -1154,7 +1302,12 @@ impl<'a> Checker<'a> {
         let params: Vec<(VarId, &crate::ir::Var)> = vars
             .iter()
             .enumerate()
-            .filter(|(_, v)| matches!(v.class, VarClass::Input | VarClass::InOut | VarClass::Output))
+            .filter(|(_, v)| {
+                matches!(
+                    v.class,
+                    VarClass::Input | VarClass::InOut | VarClass::Output
+                )
+            })
             .map(|(i, v)| (i as VarId, v))
             .collect();
         let list = |ps: &[(VarId, &crate::ir::Var)]| {
@@ -1177,13 +1330,20 @@ impl<'a> Checker<'a> {
                         ok = false;
                         continue;
                     }
-                    match params.iter().find(|(_, v)| v.name.eq_ignore_ascii_case(&n.name)) {
+                    match params
+                        .iter()
+                        .find(|(_, v)| v.name.eq_ignore_ascii_case(&n.name))
+                    {
                         Some(p) => *p,
                         None => {
                             self.error(
                                 diag::BAD_ARGUMENTS,
                                 n.span,
-                                format!("{callee} has no parameter `{}`; its parameters are {}", n.name, list(&params)),
+                                format!(
+                                    "{callee} has no parameter `{}`; its parameters are {}",
+                                    n.name,
+                                    list(&params)
+                                ),
                             );
                             ok = false;
                             continue;
@@ -1196,7 +1356,12 @@ impl<'a> Checker<'a> {
                         self.error(
                             diag::BAD_ARGUMENTS,
                             a.span,
-                            format!("{callee} takes {} argument(s) ({}), this is argument {}", params.len(), list(&params), k + 1),
+                            format!(
+                                "{callee} takes {} argument(s) ({}), this is argument {}",
+                                params.len(),
+                                list(&params),
+                                k + 1
+                            ),
                         );
                         ok = false;
                         continue;
@@ -1239,7 +1404,10 @@ impl<'a> Checker<'a> {
                         self.error(
                             diag::BAD_ARGUMENTS,
                             a.span,
-                            format!("`{}` is an in-out of {callee}: give a variable with `:=`", var.name),
+                            format!(
+                                "`{}` is an in-out of {callee}: give a variable with `:=`",
+                                var.name
+                            ),
                         );
                         ok = false;
                         continue;
@@ -1314,7 +1482,10 @@ impl<'a> Checker<'a> {
                 self.error(
                     diag::BAD_ARGUMENTS,
                     call.span,
-                    format!("in-out `{}` of {callee} must be given in every call ({} := variable)", var.name, var.name),
+                    format!(
+                        "in-out `{}` of {callee} must be given in every call ({} := variable)",
+                        var.name, var.name
+                    ),
                 );
                 ok = false;
             }
@@ -1360,7 +1531,11 @@ impl<'a> Checker<'a> {
         let mut out: Vec<Option<StdArg<'e>>> = Vec::new();
         for (k, a) in call.args.iter().enumerate() {
             if a.output {
-                self.error(diag::BAD_ARGUMENTS, a.span, format!("{fname} has no outputs to connect"));
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    a.span,
+                    format!("{fname} has no outputs to connect"),
+                );
                 return None;
             }
             let idx = match &a.name {
@@ -1398,7 +1573,11 @@ impl<'a> Checker<'a> {
                             self.error(
                                 diag::BAD_ARGUMENTS,
                                 n.span,
-                                format!("{fname} has no parameter `{}`; its parameters are {}", n.name, params.join(", ")),
+                                format!(
+                                    "{fname} has no parameter `{}`; its parameters are {}",
+                                    n.name,
+                                    params.join(", ")
+                                ),
                             );
                             return None;
                         }
@@ -1409,7 +1588,11 @@ impl<'a> Checker<'a> {
                 self.error(
                     diag::BAD_ARGUMENTS,
                     a.span,
-                    format!("{fname} takes {} argument(s) ({})", params.len(), params.join(", ")),
+                    format!(
+                        "{fname} takes {} argument(s) ({})",
+                        params.len(),
+                        params.join(", ")
+                    ),
                 );
                 return None;
             }
@@ -1424,7 +1607,10 @@ impl<'a> Checker<'a> {
                 self.error(diag::BAD_ARGUMENTS, a.span, "give this parameter a value");
                 return None;
             };
-            out[idx] = Some(StdArg { expr: v, span: a.span });
+            out[idx] = Some(StdArg {
+                expr: v,
+                span: a.span,
+            });
         }
         let n = out.len();
         if n < min || out.iter().any(|a| a.is_none()) {
@@ -1611,7 +1797,10 @@ impl<'a> Checker<'a> {
                 self.error(
                     diag::UNKNOWN_POU,
                     name.span,
-                    format!("unknown function `{}`: {to} is not an elementary type", name.name),
+                    format!(
+                        "unknown function `{}`: {to} is not an elementary type",
+                        name.name
+                    ),
                 );
                 return err(span);
             }
@@ -1623,7 +1812,10 @@ impl<'a> Checker<'a> {
                     self.error(
                         diag::UNKNOWN_POU,
                         name.span,
-                        format!("unknown function `{}`: {fr} is not an elementary type", name.name),
+                        format!(
+                            "unknown function `{}`: {fr} is not an elementary type",
+                            name.name
+                        ),
                     );
                     return err(span);
                 }
@@ -1639,8 +1831,14 @@ impl<'a> Checker<'a> {
                 // The argument must be of the named type (or widen to it).
                 let from_elem = self.types.elem(ft);
                 let ok_same = self.base_type(x.ty) == ft
-                    || matches!((self.types.get(x.ty), self.types.get(ft)), (Type::Str { .. }, Type::Str { .. }));
-                if ok_same || matches!(self.types.get(x.ty), Type::IntLit | Type::RealLit) || self.assignable(x.ty, ft) {
+                    || matches!(
+                        (self.types.get(x.ty), self.types.get(ft)),
+                        (Type::Str { .. }, Type::Str { .. })
+                    );
+                if ok_same
+                    || matches!(self.types.get(x.ty), Type::IntLit | Type::RealLit)
+                    || self.assignable(x.ty, ft)
+                {
                     self.coerce(x, ft, &format!("the argument of {}", name.name))
                 } else {
                     let (a, b) = (self.types.name(x.ty), self.types.name(ft));
@@ -1711,7 +1909,9 @@ impl<'a> Checker<'a> {
                 if date(a) && date(b) {
                     return a == b || a == Elem::Dt;
                 }
-                if (a.is_duration() || date(a)) && b.is_real() || (b.is_duration() || date(b)) && a.is_real() {
+                if (a.is_duration() || date(a)) && b.is_real()
+                    || (b.is_duration() || date(b)) && a.is_real()
+                {
                     return a.is_duration() || b.is_duration();
                 }
                 if a.is_duration() && date(b) || date(a) && b.is_duration() {
@@ -1807,7 +2007,10 @@ impl<'a> Checker<'a> {
                 self.fold(mk(vec![g, a, c], t))
             }
             Max | Min | Limit => {
-                let mut xs: Vec<Expr> = args.iter().map(|a| self.expr(a.expr, cx, expected)).collect();
+                let mut xs: Vec<Expr> = args
+                    .iter()
+                    .map(|a| self.expr(a.expr, cx, expected))
+                    .collect();
                 if xs.iter().any(|x| x.ty == ids::ERROR) {
                     return err(span);
                 }
@@ -1843,7 +2046,10 @@ impl<'a> Checker<'a> {
                     return err(span);
                 }
                 let k = self.to_lint(k);
-                let mut xs: Vec<Expr> = args[1..].iter().map(|a| self.expr(a.expr, cx, expected)).collect();
+                let mut xs: Vec<Expr> = args[1..]
+                    .iter()
+                    .map(|a| self.expr(a.expr, cx, expected))
+                    .collect();
                 if xs.iter().any(|x| x.ty == ids::ERROR) {
                     return err(span);
                 }
@@ -1864,7 +2070,8 @@ impl<'a> Checker<'a> {
                 self.fold(mk(all, t))
             }
             Shl | Shr | Rol | Ror => {
-                let hint = expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_bitstring()));
+                let hint =
+                    expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_bitstring()));
                 let x = self.expr(args[0].expr, cx, hint);
                 let x = match (self.types.get(x.ty), hint) {
                     (Type::IntLit, Some(h)) => self.coerce(x, h, f),
@@ -1875,8 +2082,17 @@ impl<'a> Checker<'a> {
                 if x.ty == ids::ERROR || n.ty == ids::ERROR {
                     return err(span);
                 }
-                if !self.types.elem(x.ty).is_some_and(|e| e.is_bitstring() || e.is_int()) {
-                    self.arg_error(f, "a bit string (BYTE, WORD, DWORD, LWORD)", x.ty, args[0].span);
+                if !self
+                    .types
+                    .elem(x.ty)
+                    .is_some_and(|e| e.is_bitstring() || e.is_int())
+                {
+                    self.arg_error(
+                        f,
+                        "a bit string (BYTE, WORD, DWORD, LWORD)",
+                        x.ty,
+                        args[0].span,
+                    );
                     return err(span);
                 }
                 if !self.is_integral(n.ty) {
@@ -1907,7 +2123,9 @@ impl<'a> Checker<'a> {
                 let Some(s) = self.string_arg(f, &args[0], cx) else {
                     return err(span);
                 };
-                let (Some(l), Some(p)) = (self.int_arg(f, &args[1], cx), self.int_arg(f, &args[2], cx)) else {
+                let (Some(l), Some(p)) =
+                    (self.int_arg(f, &args[1], cx), self.int_arg(f, &args[2], cx))
+                else {
                     return err(span);
                 };
                 let ty = s.ty;
@@ -1948,7 +2166,9 @@ impl<'a> Checker<'a> {
                 let Some(s) = self.string_arg(f, &args[0], cx) else {
                     return err(span);
                 };
-                let (Some(l), Some(p)) = (self.int_arg(f, &args[1], cx), self.int_arg(f, &args[2], cx)) else {
+                let (Some(l), Some(p)) =
+                    (self.int_arg(f, &args[1], cx), self.int_arg(f, &args[2], cx))
+                else {
                     return err(span);
                 };
                 let ty = s.ty;
@@ -2039,7 +2259,13 @@ impl<'a> Checker<'a> {
     }
 
     /// Like `unify`, for finding a common type only.
-    fn unify_types(&mut self, x: Expr, y: Expr, op: &str, span: Span) -> Option<(Expr, Expr, TypeId)> {
+    fn unify_types(
+        &mut self,
+        x: Expr,
+        y: Expr,
+        op: &str,
+        span: Span,
+    ) -> Option<(Expr, Expr, TypeId)> {
         self.unify(x, y, op, span)
     }
 
@@ -2047,7 +2273,11 @@ impl<'a> Checker<'a> {
     fn settle_type(&self, t: TypeId, expected: Option<TypeId>) -> TypeId {
         match self.types.get(t) {
             Type::IntLit => expected
-                .filter(|e| self.types.elem(*e).is_some_and(|x| x.is_num() || x.is_bitstring()))
+                .filter(|e| {
+                    self.types
+                        .elem(*e)
+                        .is_some_and(|x| x.is_num() || x.is_bitstring())
+                })
                 .unwrap_or(ids::DINT),
             Type::RealLit => expected
                 .filter(|e| self.types.elem(*e).is_some_and(|x| x.is_real()))
@@ -2056,7 +2286,13 @@ impl<'a> Checker<'a> {
         }
     }
 
-    fn settle(&mut self, a: Expr, c: Expr, t: TypeId, expected: Option<TypeId>) -> (Expr, Expr, TypeId) {
+    fn settle(
+        &mut self,
+        a: Expr,
+        c: Expr,
+        t: TypeId,
+        expected: Option<TypeId>,
+    ) -> (Expr, Expr, TypeId) {
         let t2 = self.settle_type(t, expected);
         if t2 == t {
             return (a, c, t);
@@ -2072,13 +2308,19 @@ pub fn conversion_hint(types: &TypeTable, from: TypeId, to: TypeId) -> String {
     match (types.elem(from), types.elem(to)) {
         (Some(a), Some(b)) if a != b => {
             if a.is_real() && b.is_int() {
-                format!("; convert explicitly: {}_TO_{}(…) rounds, TRUNC(…) truncates", a.name(), b.name())
+                format!(
+                    "; convert explicitly: {}_TO_{}(…) rounds, TRUNC(…) truncates",
+                    a.name(),
+                    b.name()
+                )
             } else {
                 format!("; convert explicitly: {}_TO_{}(…)", a.name(), b.name())
             }
         }
         _ => match (types.get(from), types.elem(to)) {
-            (Type::RealLit, Some(b)) if b.is_int() => format!("; write an integer, or REAL_TO_{}(…)", b.name()),
+            (Type::RealLit, Some(b)) if b.is_int() => {
+                format!("; write an integer, or REAL_TO_{}(…)", b.name())
+            }
             _ => String::new(),
         },
     }

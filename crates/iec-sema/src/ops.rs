@@ -228,7 +228,9 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem) -> OpResult<Value> {
         Value::Real(f) => {
             let f = *f;
             if to.is_real() {
-                return Ok(Value::Real(real_result(f, to).map_err(|_| OpError::Conversion)?));
+                return Ok(Value::Real(
+                    real_result(f, to).map_err(|_| OpError::Conversion)?,
+                ));
             }
             if is_time_like(to) {
                 let ns = round_even(f * time_units(to) as f64);
@@ -251,7 +253,11 @@ pub fn to_text(v: &Value, from: Elem) -> Vec<u8> {
         (Value::Int(i), Elem::Ltime) => format!("LTIME#{}", format_duration(*i)),
         (Value::Int(i), Elem::Date) => format!("D#{}", format_date(*i)),
         (Value::Int(i), Elem::Tod) => format!("TOD#{}", format_tod(*i)),
-        (Value::Int(i), Elem::Dt) => format!("DT#{}-{}", format_date(*i), format_tod(i.rem_euclid(NANOS_PER_DAY))),
+        (Value::Int(i), Elem::Dt) => format!(
+            "DT#{}-{}",
+            format_date(*i),
+            format_tod(i.rem_euclid(NANOS_PER_DAY))
+        ),
         (Value::Int(i), _) => i.to_string(),
         (Value::Real(f), e) => format_real(*f, e),
         (Value::Str(s), _) => return s.clone(),
@@ -273,7 +279,11 @@ pub fn format_real(f: f64, e: Elem) -> String {
     // Rust writes 1e20 / 1.5e-7; IEC wants a digit after the point and an upper-case E.
     match s.split_once('e') {
         Some((m, x)) => {
-            let m = if m.contains('.') { m.to_string() } else { format!("{m}.0") };
+            let m = if m.contains('.') {
+                m.to_string()
+            } else {
+                format!("{m}.0")
+            };
             format!("{m}E{x}")
         }
         None => s,
@@ -329,10 +339,15 @@ pub fn format_tod(ns: i128) -> String {
 /// Reads a value of `to` from text (`STRING_TO_*`): the literal forms, with or without
 /// their type prefix; surrounding spaces are ignored.
 pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
-    let text = std::str::from_utf8(s).map_err(|_| OpError::Conversion)?.trim();
+    let text = std::str::from_utf8(s)
+        .map_err(|_| OpError::Conversion)?
+        .trim();
     let upper = text.to_ascii_uppercase();
     let body = match upper.split_once('#') {
-        Some((prefix, rest)) if Elem::from_name(prefix).is_some() || ["T", "LT", "D", "TOD", "DT"].contains(&prefix) => {
+        Some((prefix, rest))
+            if Elem::from_name(prefix).is_some()
+                || ["T", "LT", "D", "TOD", "DT"].contains(&prefix) =>
+        {
             if to.is_int() || to.is_bitstring() || to.is_real() || to == Elem::Bool {
                 rest.to_string()
             } else {
@@ -348,8 +363,13 @@ pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
             _ => Err(OpError::Conversion),
         },
         Elem::Real | Elem::Lreal => {
-            let f: f64 = body.replace('_', "").parse().map_err(|_| OpError::Conversion)?;
-            Ok(Value::Real(real_result(f, to).map_err(|_| OpError::Conversion)?))
+            let f: f64 = body
+                .replace('_', "")
+                .parse()
+                .map_err(|_| OpError::Conversion)?;
+            Ok(Value::Real(
+                real_result(f, to).map_err(|_| OpError::Conversion)?,
+            ))
         }
         Elem::Time | Elem::Ltime => lexer::parse_duration(&body)
             .map(Value::Int)
@@ -357,8 +377,12 @@ pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
         Elem::Date => lexer::parse_date(&body)
             .map(|d| Value::Int(d as i128 * NANOS_PER_DAY))
             .map_err(|_| OpError::Conversion),
-        Elem::Tod => lexer::parse_tod(&body).map(Value::Int).map_err(|_| OpError::Conversion),
-        Elem::Dt => lexer::parse_dt(&body).map(Value::Int).map_err(|_| OpError::Conversion),
+        Elem::Tod => lexer::parse_tod(&body)
+            .map(Value::Int)
+            .map_err(|_| OpError::Conversion),
+        Elem::Dt => lexer::parse_dt(&body)
+            .map(Value::Int)
+            .map_err(|_| OpError::Conversion),
         _ => {
             let (neg, digits) = match body.strip_prefix('-') {
                 Some(d) => (true, d),
@@ -508,7 +532,13 @@ pub fn find(a: &[u8], b: &[u8]) -> i128 {
 /// The real functions of one argument.
 pub fn real_fn(b: crate::ir::Builtin, x: f64, e: Elem) -> OpResult<f64> {
     use crate::ir::Builtin::*;
-    let domain = |ok: bool, what: &'static str| if ok { Ok(()) } else { Err(OpError::Domain(what)) };
+    let domain = |ok: bool, what: &'static str| {
+        if ok {
+            Ok(())
+        } else {
+            Err(OpError::Domain(what))
+        }
+    };
     let r = match b {
         Sqrt => {
             domain(x >= 0.0, "SQRT of a negative number")?;
@@ -548,10 +578,22 @@ mod tests {
 
     #[test]
     fn integer_rules() {
-        assert_eq!(int_binary(BinaryOp::Add, 127, 1, Elem::Sint), Err(OpError::Overflow));
-        assert_eq!(int_binary(BinaryOp::Sub, 0, 1, Elem::Usint), Err(OpError::Overflow));
-        assert_eq!(int_binary(BinaryOp::Div, -128, -1, Elem::Sint), Err(OpError::Overflow));
-        assert_eq!(int_binary(BinaryOp::Div, 7, 0, Elem::Int), Err(OpError::DivisionByZero));
+        assert_eq!(
+            int_binary(BinaryOp::Add, 127, 1, Elem::Sint),
+            Err(OpError::Overflow)
+        );
+        assert_eq!(
+            int_binary(BinaryOp::Sub, 0, 1, Elem::Usint),
+            Err(OpError::Overflow)
+        );
+        assert_eq!(
+            int_binary(BinaryOp::Div, -128, -1, Elem::Sint),
+            Err(OpError::Overflow)
+        );
+        assert_eq!(
+            int_binary(BinaryOp::Div, 7, 0, Elem::Int),
+            Err(OpError::DivisionByZero)
+        );
         assert_eq!(int_binary(BinaryOp::Mod, 7, 0, Elem::Int), Ok(0));
         assert_eq!(int_binary(BinaryOp::Mod, -7, 2, Elem::Int), Ok(-1));
         assert_eq!(int_binary(BinaryOp::Div, -7, 2, Elem::Int), Ok(-3));
@@ -564,9 +606,19 @@ mod tests {
     #[test]
     fn rounding_is_half_to_even() {
         let r = |v| real_to_int(v, Elem::Int).unwrap();
-        assert_eq!([r(1.6), r(-1.6), r(1.5), r(-1.5), r(1.4), r(-1.4), r(2.5), r(-2.5)], [
-            2, -2, 2, -2, 1, -1, 2, -2
-        ]);
+        assert_eq!(
+            [
+                r(1.6),
+                r(-1.6),
+                r(1.5),
+                r(-1.5),
+                r(1.4),
+                r(-1.4),
+                r(2.5),
+                r(-2.5)
+            ],
+            [2, -2, 2, -2, 1, -1, 2, -2]
+        );
         assert_eq!(real_to_int(40000.0, Elem::Int), Err(OpError::Conversion));
         assert_eq!(trunc_to_int(-1.6, Elem::Int), Ok(-1));
     }
@@ -576,8 +628,14 @@ mod tests {
         let c = |v: Value, f, t| convert_elem(&v, f, t).unwrap();
         assert_eq!(c(Value::Int(300), Elem::Int, Elem::Sint), Value::Int(44));
         assert_eq!(c(Value::Int(-1), Elem::Dint, Elem::Word), Value::Int(65535));
-        assert_eq!(c(Value::Int(1_500_000_000), Elem::Time, Elem::Dint), Value::Int(1500));
-        assert_eq!(c(Value::Int(1500), Elem::Dint, Elem::Time), Value::Int(1_500_000_000));
+        assert_eq!(
+            c(Value::Int(1_500_000_000), Elem::Time, Elem::Dint),
+            Value::Int(1500)
+        );
+        assert_eq!(
+            c(Value::Int(1500), Elem::Dint, Elem::Time),
+            Value::Int(1_500_000_000)
+        );
         assert_eq!(c(Value::Int(2), Elem::Int, Elem::Bool), Value::Int(1));
         assert_eq!(c(Value::Real(2.5), Elem::Real, Elem::Int), Value::Int(2));
         assert_eq!(
@@ -597,7 +655,10 @@ mod tests {
         assert_eq!(from_text(b"16#FF", Elem::Word), Ok(Value::Int(255)));
         assert_eq!(from_text(b"INT#-5", Elem::Int), Ok(Value::Int(-5)));
         assert_eq!(from_text(b"x", Elem::Int), Err(OpError::Conversion));
-        assert_eq!(from_text(b"T#1s", Elem::Time), Ok(Value::Int(1_000_000_000)));
+        assert_eq!(
+            from_text(b"T#1s", Elem::Time),
+            Ok(Value::Int(1_000_000_000))
+        );
         assert_eq!(from_text(b"300", Elem::Sint), Err(OpError::Conversion));
     }
 

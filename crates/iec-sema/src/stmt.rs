@@ -50,7 +50,10 @@ impl Checker<'_> {
                 if x.ty == ids::ERROR {
                     return None;
                 }
-                StmtKind::Assign { target: p, value: x }
+                StmtKind::Assign {
+                    target: p,
+                    value: x,
+                }
             }
             S::Call(call) => return self.call_stmt(call, cx),
             S::If {
@@ -63,7 +66,10 @@ impl Checker<'_> {
                     let body = self.stmts(body, cx);
                     out.push((c, body));
                 }
-                let else_body = else_body.as_ref().map(|b| self.stmts(b, cx)).unwrap_or_default();
+                let else_body = else_body
+                    .as_ref()
+                    .map(|b| self.stmts(b, cx))
+                    .unwrap_or_default();
                 StmtKind::If {
                     branches: out,
                     else_body,
@@ -97,7 +103,11 @@ impl Checker<'_> {
             }
             S::Exit | S::Continue => {
                 if cx.loops == 0 {
-                    let w = if matches!(s.kind, S::Exit) { "EXIT" } else { "CONTINUE" };
+                    let w = if matches!(s.kind, S::Exit) {
+                        "EXIT"
+                    } else {
+                        "CONTINUE"
+                    };
                     self.error(
                         diag::MISPLACED,
                         span,
@@ -117,7 +127,13 @@ impl Checker<'_> {
     }
 
     /// The value stored by an assignment, converted to the target's type.
-    fn assign_value(&mut self, x: ir::Expr, to: crate::types::TypeId, p: &Place, target: &ast::Expr) -> ir::Expr {
+    fn assign_value(
+        &mut self,
+        x: ir::Expr,
+        to: crate::types::TypeId,
+        p: &Place,
+        target: &ast::Expr,
+    ) -> ir::Expr {
         let _ = p;
         let what = match &target.kind {
             ast::ExprKind::Name(n) => format!("the value assigned to `{}`", n.name),
@@ -125,7 +141,10 @@ impl Checker<'_> {
         };
         // Aggregates must have the same type (strings of any lengths: truncated).
         match (self.types.get(x.ty).clone(), self.types.get(to).clone()) {
-            (Type::Array { .. }, _) | (Type::Struct { .. }, _) | (_, Type::Array { .. }) | (_, Type::Struct { .. }) => {
+            (Type::Array { .. }, _)
+            | (Type::Struct { .. }, _)
+            | (_, Type::Array { .. })
+            | (_, Type::Struct { .. }) => {
                 if x.ty != to {
                     let (a, b) = (self.types.name(x.ty), self.types.name(to));
                     self.error(
@@ -188,8 +207,14 @@ impl Checker<'_> {
                     ast::CaseLabel::Range(a, b) => (a, b),
                 };
                 let lo = self.case_value(a, sel_ty, cx);
-                let hi = if std::ptr::eq(a, b) { lo } else { self.case_value(b, sel_ty, cx) };
-                let (Some(lo), Some(hi)) = (lo, hi) else { continue };
+                let hi = if std::ptr::eq(a, b) {
+                    lo
+                } else {
+                    self.case_value(b, sel_ty, cx)
+                };
+                let (Some(lo), Some(hi)) = (lo, hi) else {
+                    continue;
+                };
                 let span = label.span();
                 if lo > hi {
                     self.error(
@@ -208,10 +233,8 @@ impl Checker<'_> {
                     );
                     continue;
                 }
-                if let Some((_, _, first)) = seen
-                    .iter()
-                    .find(|(l, h, _)| lo <= *h && hi >= *l)
-                    .copied()
+                if let Some((_, _, first)) =
+                    seen.iter().find(|(l, h, _)| lo <= *h && hi >= *l).copied()
                 {
                     // Covered entirely by earlier labels: unreachable; partly: overlapping.
                     let covered = self.covered(&seen, lo, hi);
@@ -260,7 +283,12 @@ impl Checker<'_> {
         false
     }
 
-    fn case_value(&mut self, e: &ast::Expr, sel_ty: crate::types::TypeId, cx: &mut Cx) -> Option<i128> {
+    fn case_value(
+        &mut self,
+        e: &ast::Expr,
+        sel_ty: crate::types::TypeId,
+        cx: &mut Cx,
+    ) -> Option<i128> {
         let was = cx.const_only;
         cx.const_only = true;
         let x = self.expr(e, cx, Some(sel_ty));
@@ -318,7 +346,8 @@ impl Checker<'_> {
         if !self.writable(&p, cx, var.span) {
             return None;
         }
-        let ok_ty = self.types.elem(p.ty).is_some_and(|e| e.is_int()) && !matches!(self.types.get(p.ty), Type::Subrange { .. });
+        let ok_ty = self.types.elem(p.ty).is_some_and(|e| e.is_int())
+            && !matches!(self.types.get(p.ty), Type::Subrange { .. });
         if !ok_ty {
             let t = self.types.name(p.ty);
             self.error(
@@ -384,7 +413,10 @@ impl Checker<'_> {
         if let ast::ExprKind::Name(n) = &call.callee.kind {
             let key = n.key();
             let is_var = cx.names.contains_key(&key)
-                || self.global_names.get(&key).is_some_and(|&g| self.global_direct[g as usize]);
+                || self
+                    .global_names
+                    .get(&key)
+                    .is_some_and(|&g| self.global_direct[g as usize]);
             if !is_var {
                 let e = ast::Expr {
                     kind: ast::ExprKind::Call(call.clone()),
@@ -414,7 +446,9 @@ impl Checker<'_> {
                 self.error(
                     diag::NOT_CALLABLE,
                     call.callee.span,
-                    format!("only function block instances and functions can be called; this is {t}"),
+                    format!(
+                        "only function block instances and functions can be called; this is {t}"
+                    ),
                 );
             }
             return None;
@@ -546,8 +580,15 @@ impl Checker<'_> {
         let mut cx = Cx::global();
         for r in &c.resources {
             for t in &r.tasks {
-                if tasks.iter().any(|x| x.name.eq_ignore_ascii_case(&t.name.name)) {
-                    self.error(diag::DUPLICATE, t.name.span, format!("task {} is declared twice", t.name.name));
+                if tasks
+                    .iter()
+                    .any(|x| x.name.eq_ignore_ascii_case(&t.name.name))
+                {
+                    self.error(
+                        diag::DUPLICATE,
+                        t.name.span,
+                        format!("task {} is declared twice", t.name.name),
+                    );
                     continue;
                 }
                 if let Some(s) = &t.single {
@@ -566,7 +607,11 @@ impl Checker<'_> {
                         match self.eval_const(&x) {
                             Some(Value::Int(ns)) if ns > 0 => Some(ns as i64),
                             Some(_) => {
-                                self.error(diag::CONFIG, e.span, "a task's INTERVAL is a duration above zero (e.g. T#10ms)");
+                                self.error(
+                                    diag::CONFIG,
+                                    e.span,
+                                    "a task's INTERVAL is a duration above zero (e.g. T#10ms)",
+                                );
                                 None
                             }
                             None => None,
@@ -583,7 +628,11 @@ impl Checker<'_> {
                             Some(Value::Int(p)) if (0..=i64::MAX as i128).contains(&p) => p as i64,
                             _ => {
                                 if x.ty != ids::ERROR {
-                                    self.error(diag::CONFIG, e.span, "a task's PRIORITY is an integer 0 or above (0 runs first)");
+                                    self.error(
+                                        diag::CONFIG,
+                                        e.span,
+                                        "a task's PRIORITY is an integer 0 or above (0 runs first)",
+                                    );
                                 }
                                 0
                             }
@@ -621,15 +670,25 @@ impl Checker<'_> {
         cx: &mut Cx,
         others: &[ir::ProgramInstance],
     ) -> Option<ir::ProgramInstance> {
-        if others.iter().any(|o| o.name.eq_ignore_ascii_case(&pc.name.name)) {
-            self.error(diag::DUPLICATE, pc.name.span, format!("program instance {} is declared twice", pc.name.name));
+        if others
+            .iter()
+            .any(|o| o.name.eq_ignore_ascii_case(&pc.name.name))
+        {
+            self.error(
+                diag::DUPLICATE,
+                pc.name.span,
+                format!("program instance {} is declared twice", pc.name.name),
+            );
             return None;
         }
         let Some(&pou) = self.pou_names.get(&pc.type_name.key()) else {
             self.error(
                 diag::CONFIG,
                 pc.type_name.span,
-                format!("no PROGRAM named {}; the instance needs a PROGRAM declared in the project", pc.type_name.name),
+                format!(
+                    "no PROGRAM named {}; the instance needs a PROGRAM declared in the project",
+                    pc.type_name.name
+                ),
             );
             return None;
         };
@@ -637,7 +696,11 @@ impl Checker<'_> {
             self.error(
                 diag::CONFIG,
                 pc.type_name.span,
-                format!("{} is a {}; a configuration instantiates PROGRAMs", pc.type_name.name, self.pous[pou as usize].kind.keyword()),
+                format!(
+                    "{} is a {}; a configuration instantiates PROGRAMs",
+                    pc.type_name.name,
+                    self.pous[pou as usize].kind.keyword()
+                ),
             );
             return None;
         }
@@ -645,12 +708,18 @@ impl Checker<'_> {
             self.error(
                 diag::UNSUPPORTED,
                 pc.type_name.span,
-                format!("program {} is not written in Structured Text; the engine cannot run it yet", pc.type_name.name),
+                format!(
+                    "program {} is not written in Structured Text; the engine cannot run it yet",
+                    pc.type_name.name
+                ),
             );
             return None;
         }
         let task = match &pc.task {
-            Some(t) => match tasks.iter().position(|x| x.name.eq_ignore_ascii_case(&t.name)) {
+            Some(t) => match tasks
+                .iter()
+                .position(|x| x.name.eq_ignore_ascii_case(&t.name))
+            {
                 Some(i) => Some(i as u32),
                 None => {
                     self.error(
@@ -675,11 +744,17 @@ impl Checker<'_> {
                 );
                 continue;
             };
-            let Some(v) = vars.iter().position(|x| x.name.eq_ignore_ascii_case(&n.name)) else {
+            let Some(v) = vars
+                .iter()
+                .position(|x| x.name.eq_ignore_ascii_case(&n.name))
+            else {
                 self.error(
                     diag::CONFIG,
                     n.span,
-                    format!("program {} has no parameter `{}`", pc.type_name.name, n.name),
+                    format!(
+                        "program {} has no parameter `{}`",
+                        pc.type_name.name, n.name
+                    ),
                 );
                 continue;
             };
@@ -695,7 +770,9 @@ impl Checker<'_> {
                 }
                 (VarClass::Output, true) => {
                     let Some(e) = &a.value else { continue };
-                    let Some(p) = self.place(e, cx, true) else { continue };
+                    let Some(p) = self.place(e, cx, true) else {
+                        continue;
+                    };
                     if !self.writable(&p, cx, e.span) {
                         continue;
                     }

@@ -177,7 +177,10 @@ fn literals_adapt_and_fold() {
     assert_eq!(v[0].init, Some(crate::value::Value::Int(-128)));
     assert_eq!(v[4].init, Some(crate::value::Value::Int(90_500_000_000)));
     check_errors(
-        &prog("s : SINT; x : INT;", "s := 1 + 200; x := 10 / 0; x := INT#32767 + 1;"),
+        &prog(
+            "s : SINT; x : INT;",
+            "s := 1 + 200; x := 10 / 0; x := INT#32767 + 1;",
+        ),
         &[
             "E113]: 201 does not fit SINT",
             "E113]: this constant expression divides by zero",
@@ -214,7 +217,10 @@ END_PROGRAM",
 #[test]
 fn statements_out_of_place() {
     check_errors(
-        &prog("i : INT;", "EXIT; IF i THEN CONTINUE; END_IF; WHILE i > 0 DO EXIT; END_WHILE;"),
+        &prog(
+            "i : INT;",
+            "EXIT; IF i THEN CONTINUE; END_IF; WHILE i > 0 DO EXIT; END_WHILE;",
+        ),
         &[
             "E142]: EXIT is only allowed inside FOR, WHILE or REPEAT",
             "E112]: a condition must be BOOL, not INT",

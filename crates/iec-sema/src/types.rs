@@ -214,16 +214,28 @@ pub struct Field {
 pub enum Type {
     Elem(Elem),
     /// `STRING[len]`, `len` bytes at most.
-    Str { len: u32 },
+    Str {
+        len: u32,
+    },
     /// Dimensions as inclusive bounds, outermost first.
-    Array { dims: Vec<(i64, i64)>, elem: TypeId },
-    Struct { name: String, fields: Vec<Field> },
+    Array {
+        dims: Vec<(i64, i64)>,
+        elem: TypeId,
+    },
+    Struct {
+        name: String,
+        fields: Vec<Field>,
+    },
     Enum {
         name: String,
         values: Vec<(String, i64)>,
     },
     /// A subrange of an integer type: assignments are checked against it.
-    Subrange { base: Elem, lo: i128, hi: i128 },
+    Subrange {
+        base: Elem,
+        lo: i128,
+        hi: i128,
+    },
     Fb(FbRef),
     /// An integer literal whose type the context decides.
     IntLit,
@@ -340,10 +352,7 @@ impl TypeTable {
     }
 
     pub fn array(&mut self, dims: Vec<(i64, i64)>, elem: TypeId) -> TypeId {
-        self.intern(
-            Key::Array(dims.clone(), elem),
-            Type::Array { dims, elem },
-        )
+        self.intern(Key::Array(dims.clone(), elem), Type::Array { dims, elem })
     }
 
     pub fn subrange(&mut self, base: Elem, lo: i128, hi: i128) -> TypeId {

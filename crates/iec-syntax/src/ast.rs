@@ -92,7 +92,10 @@ pub enum TypeSpec {
         span: Span,
     },
     /// `REF_TO`, `POINTER TO` and other forms the engine does not support (reported).
-    Unsupported { what: String, span: Span },
+    Unsupported {
+        what: String,
+        span: Span,
+    },
 }
 
 impl TypeSpec {
@@ -174,7 +177,10 @@ pub struct Pou {
 pub enum Body {
     St(Vec<Stmt>),
     /// Instruction List text (from a PLCopen `<IL>` body), kept for its front end.
-    Il { text: String, span: Span },
+    Il {
+        text: String,
+        span: Span,
+    },
     /// A graphical body (`LD`, `FBD`, `SFC`) from a PLCopen file, kept as its XML for the
     /// graphical front ends.
     Graphical {
@@ -450,17 +456,32 @@ impl BinaryOp {
 pub enum Literal {
     /// An integer (`5`, `16#FF`), typed when written `INT#5` (negative only when typed:
     /// `INT#-5`; an untyped `-5` is a negation of `5`).
-    Int { value: i128, ty: Option<Ident> },
-    Real { value: f64, ty: Option<Ident> },
-    Bool { value: bool, ty: Option<Ident> },
-    String { bytes: Vec<u8>, wide: bool },
+    Int {
+        value: i128,
+        ty: Option<Ident>,
+    },
+    Real {
+        value: f64,
+        ty: Option<Ident>,
+    },
+    Bool {
+        value: bool,
+        ty: Option<Ident>,
+    },
+    String {
+        bytes: Vec<u8>,
+        wide: bool,
+    },
     /// Durations, dates and times of day in nanoseconds.
     Time {
         kind: crate::lexer::TimeKind,
         nanos: i128,
     },
     /// `Color#Red`.
-    Enum { ty: Ident, value: Ident },
+    Enum {
+        ty: Ident,
+        value: Ident,
+    },
 }
 
 /// `CONFIGURATION name … END_CONFIGURATION`.

@@ -202,9 +202,6 @@ mod tests {
         let mut map = SourceMap::new();
         let f = map.add("a.st", "x\n  y := 1;");
         let d = Diagnostic::error(UNDECLARED, Span::new(f, 4, 5), "`y` is not declared");
-        assert_eq!(
-            d.render(&map),
-            "a.st:2:3: error[E100]: `y` is not declared"
-        );
+        assert_eq!(d.render(&map), "a.st:2:3: error[E100]: `y` is not declared");
     }
 }

@@ -340,9 +340,21 @@ impl Lexer<'_, '_> {
         );
     }
 
+    /// `{…}`, nested (Beremiz's `{{ C code }}` holds braces of its own).
     fn pragma(&mut self) {
         let start = self.pos;
-        while self.pos < self.src.len() && self.src[self.pos] != b'}' {
+        let mut depth = 0usize;
+        while self.pos < self.src.len() {
+            match self.src[self.pos] {
+                b'{' => depth += 1,
+                b'}' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        break;
+                    }
+                }
+                _ => {}
+            }
             self.pos += 1;
         }
         if self.pos < self.src.len() {
@@ -398,8 +410,8 @@ impl Lexer<'_, '_> {
                 let digits = if wide { 4 } else { 2 };
                 let hex = self.src.get(self.pos + 1..self.pos + 1 + digits);
                 if let Some(h) = hex.filter(|h| h.iter().all(u8::is_ascii_hexdigit)) {
-                    let v = u32::from_str_radix(std::str::from_utf8(h).unwrap_or("0"), 16)
-                        .unwrap_or(0);
+                    let v =
+                        u32::from_str_radix(std::str::from_utf8(h).unwrap_or("0"), 16).unwrap_or(0);
                     if wide {
                         let mut buf = [0u8; 4];
                         let c = char::from_u32(v).unwrap_or('\u{fffd}');
@@ -495,7 +507,9 @@ impl Lexer<'_, '_> {
                         diag::BAD_NUMBER,
                         start,
                         self.pos,
-                        format!("`{int}#{body}`: the base of a number must be 2, 8 or 16 (e.g. 16#FF)"),
+                        format!(
+                            "`{int}#{body}`: the base of a number must be 2, 8 or 16 (e.g. 16#FF)"
+                        ),
                     );
                     self.push(Tok::Int(0), start);
                     return;
@@ -507,7 +521,15 @@ impl Lexer<'_, '_> {
                     diag::BAD_NUMBER,
                     start,
                     self.pos,
-                    format!("`{}` is not a base-{radix} number; digits are {}", &self.text[start..self.pos], match radix { 2 => "0 and 1", 8 => "0 to 7", _ => "0 to 9 and A to F" }),
+                    format!(
+                        "`{}` is not a base-{radix} number; digits are {}",
+                        &self.text[start..self.pos],
+                        match radix {
+                            2 => "0 and 1",
+                            8 => "0 to 7",
+                            _ => "0 to 9 and A to F",
+                        }
+                    ),
                 );
                 0
             } else {
@@ -785,12 +807,17 @@ pub fn parse_duration(body: &str) -> Result<i128, String> {
             _ => return Err(HINT.into()),
         };
         if rank <= last_rank {
-            return Err("units of a duration go from the largest to the smallest (T#1h30m, not T#30m1h)".into());
+            return Err(
+                "units of a duration go from the largest to the smallest (T#1h30m, not T#30m1h)"
+                    .into(),
+            );
         }
         last_rank = rank;
         if num.contains('.') {
             if i < bytes.len() {
-                return Err("only the last unit of a duration may have a fraction (T#1m30.5s)".into());
+                return Err(
+                    "only the last unit of a duration may have a fraction (T#1m30.5s)".into(),
+                );
             }
             let v: f64 = num.parse().map_err(|_| HINT.to_string())?;
             total += v * scale as f64;
@@ -828,7 +855,8 @@ pub fn parse_date(body: &str) -> Result<i64, String> {
 
 /// `hh:mm:ss[.fff]`: nanoseconds since midnight.
 pub fn parse_tod(body: &str) -> Result<i128, String> {
-    const HINT: &str = "write a time of day as hh:mm:ss with optional fraction (e.g. TOD#14:30:00.5)";
+    const HINT: &str =
+        "write a time of day as hh:mm:ss with optional fraction (e.g. TOD#14:30:00.5)";
     let parts: Vec<&str> = body.split(':').collect();
     if parts.len() != 3 {
         return Err(HINT.into());
@@ -841,7 +869,9 @@ pub fn parse_tod(body: &str) -> Result<i128, String> {
     };
     let s: i128 = s_int.parse().map_err(|_| HINT)?;
     if h > 23 || m > 59 || s > 59 || !frac.chars().all(|c| c.is_ascii_digit()) || frac.len() > 9 {
-        return Err(format!("{body} is not a time of day (00:00:00 to 23:59:59.999999999)"));
+        return Err(format!(
+            "{body} is not a time of day (00:00:00 to 23:59:59.999999999)"
+        ));
     }
     let frac_ns: i128 = if frac.is_empty() {
         0
@@ -928,13 +958,14 @@ mod tests {
 
     #[test]
     fn numbers() {
-        check("16#FF 2#1010_1010 8#17 1_000", &[
-            Tok::Int(255),
-            Tok::Int(170),
-            Tok::Int(15),
-            Tok::Int(1000),
-        ]);
-        check("1.5 1.0E3 2.5e-1", &[Tok::Real(1.5), Tok::Real(1000.0), Tok::Real(0.25)]);
+        check(
+            "16#FF 2#1010_1010 8#17 1_000",
+            &[Tok::Int(255), Tok::Int(170), Tok::Int(15), Tok::Int(1000)],
+        );
+        check(
+            "1.5 1.0E3 2.5e-1",
+            &[Tok::Real(1.5), Tok::Real(1000.0), Tok::Real(0.25)],
+        );
         check("1..10", &[Tok::Int(1), Tok::DotDot, Tok::Int(10)]);
         check_error("2#102", diag::BAD_NUMBER);
         check_error("3#1", diag::BAD_NUMBER);
@@ -944,12 +975,15 @@ mod tests {
 
     #[test]
     fn keywords_are_case_insensitive() {
-        check("if Then END_if x", &[
-            Tok::Kw(Kw::If),
-            Tok::Kw(Kw::Then),
-            Tok::Kw(Kw::EndIf),
-            Tok::Ident,
-        ]);
+        check(
+            "if Then END_if x",
+            &[
+                Tok::Kw(Kw::If),
+                Tok::Kw(Kw::Then),
+                Tok::Kw(Kw::EndIf),
+                Tok::Ident,
+            ],
+        );
     }
 
     #[test]
@@ -974,52 +1008,60 @@ mod tests {
 
     #[test]
     fn strings_and_escapes() {
-        check("'a$'b$$c$N$41'", &[Tok::Str {
-            bytes: b"a'b$c\nA".to_vec(),
-            wide: false,
-        }]);
+        check(
+            "'a$'b$$c$N$41'",
+            &[Tok::Str {
+                bytes: b"a'b$c\nA".to_vec(),
+                wide: false,
+            }],
+        );
         check_error("'abc", diag::UNTERMINATED_STRING);
         check_error("'a$Qb'", diag::BAD_ESCAPE);
     }
 
     #[test]
     fn comments_nest_and_pragmas_vanish() {
-        check("a (* x (* y *) z *) b // c\n{pragma} /* d */ e", &[
-            Tok::Ident,
-            Tok::Ident,
-            Tok::Ident,
-        ]);
+        check(
+            "a (* x (* y *) z *) b // c\n{pragma} /* d */ {{ C { code } }} e",
+            &[Tok::Ident, Tok::Ident, Tok::Ident],
+        );
         check_error("(* (* *)", diag::UNTERMINATED_COMMENT);
     }
 
     #[test]
     fn typed_prefixes_and_direct_variables() {
-        check("INT#5 Color#Red %IX0.1 %lamp", &[
-            Tok::TypedPrefix,
-            Tok::Int(5),
-            Tok::TypedPrefix,
-            Tok::Ident,
-            Tok::Direct("IX0.1".into()),
-            Tok::Direct("lamp".into()),
-        ]);
+        check(
+            "INT#5 Color#Red %IX0.1 %lamp",
+            &[
+                Tok::TypedPrefix,
+                Tok::Int(5),
+                Tok::TypedPrefix,
+                Tok::Ident,
+                Tok::Direct("IX0.1".into()),
+                Tok::Direct("lamp".into()),
+            ],
+        );
     }
 
     #[test]
     fn operators() {
-        check(":= => .. ** <= >= <> < > = & ^", &[
-            Tok::Assign,
-            Tok::Arrow,
-            Tok::DotDot,
-            Tok::Power,
-            Tok::Le,
-            Tok::Ge,
-            Tok::Ne,
-            Tok::Lt,
-            Tok::Gt,
-            Tok::Eq,
-            Tok::Amp,
-            Tok::Caret,
-        ]);
+        check(
+            ":= => .. ** <= >= <> < > = & ^",
+            &[
+                Tok::Assign,
+                Tok::Arrow,
+                Tok::DotDot,
+                Tok::Power,
+                Tok::Le,
+                Tok::Ge,
+                Tok::Ne,
+                Tok::Lt,
+                Tok::Gt,
+                Tok::Eq,
+                Tok::Amp,
+                Tok::Caret,
+            ],
+        );
         check_error("a ? b", diag::BAD_CHAR);
     }
 

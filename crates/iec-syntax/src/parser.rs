@@ -198,7 +198,11 @@ impl<'a, 'd> Parser<'a, 'd> {
         let t = self.peek().clone();
         let after = self.prev_span();
         let msg = format!("expected `;` after this, found {}", self.describe(&t));
-        self.error_at(diag::MISSING_SEMI, Span::new(self.file, after.end as usize, after.end as usize), msg);
+        self.error_at(
+            diag::MISSING_SEMI,
+            Span::new(self.file, after.end as usize, after.end as usize),
+            msg,
+        );
         Err(Reported)
     }
 
@@ -212,7 +216,10 @@ impl<'a, 'd> Parser<'a, 'd> {
             self.error_at(
                 diag::SYNTAX,
                 t.span,
-                format!("`{}` is a reserved word and cannot be {what}; choose another name", k.text()),
+                format!(
+                    "`{}` is a reserved word and cannot be {what}; choose another name",
+                    k.text()
+                ),
             );
             return Err(Reported);
         }
@@ -226,7 +233,9 @@ impl<'a, 'd> Parser<'a, 'd> {
             self.error_at(
                 diag::SYNTAX,
                 span,
-                format!("nesting deeper than {MAX_DEPTH} levels; split the expression or statement"),
+                format!(
+                    "nesting deeper than {MAX_DEPTH} levels; split the expression or statement"
+                ),
             );
             // Skip to the end: nothing sensible can follow at this depth.
             self.pos = self.toks.len() - 1;
@@ -408,7 +417,8 @@ impl<'a, 'd> Parser<'a, 'd> {
                     );
                 }
                 let mut fields = Vec::new();
-                while !self.at_kw(Kw::EndStruct) && !self.is_top_start() && !self.at_kw(Kw::EndType) {
+                while !self.at_kw(Kw::EndStruct) && !self.is_top_start() && !self.at_kw(Kw::EndType)
+                {
                     let s = self.pos;
                     match self.var_decl() {
                         Ok(d) => fields.push(d),
@@ -594,7 +604,10 @@ impl<'a, 'd> Parser<'a, 'd> {
                 self.error_at(
                     diag::SYNTAX,
                     span,
-                    format!("a FUNCTION declares its result type: FUNCTION {} : INT", name.name),
+                    format!(
+                        "a FUNCTION declares its result type: FUNCTION {} : INT",
+                        name.name
+                    ),
                 );
                 None
             }
@@ -715,7 +728,9 @@ impl<'a, 'd> Parser<'a, 'd> {
             } else if self.eat_kw(Kw::NonRetain).is_some() {
                 retain = Retain::NonRetain;
             } else if self.at(&Tok::Ident)
-                && ["PERSISTENT"].iter().any(|w| self.text_of(self.peek().span).eq_ignore_ascii_case(w))
+                && ["PERSISTENT"]
+                    .iter()
+                    .any(|w| self.text_of(self.peek().span).eq_ignore_ascii_case(w))
             {
                 // TwinCAT's PERSISTENT: kept like RETAIN.
                 self.bump();
@@ -729,7 +744,10 @@ impl<'a, 'd> Parser<'a, 'd> {
             self.error_at(
                 diag::UNSUPPORTED,
                 t.span,
-                format!("{} blocks are not supported; declare the variables in VAR_GLOBAL", self.text_of(t.span)),
+                format!(
+                    "{} blocks are not supported; declare the variables in VAR_GLOBAL",
+                    self.text_of(t.span)
+                ),
             );
             while !self.at_kw(Kw::EndVar) && !self.is_top_start() {
                 self.bump();
@@ -739,7 +757,13 @@ impl<'a, 'd> Parser<'a, 'd> {
                 let s = self.pos;
                 if matches!(
                     self.peek().tok,
-                    Tok::Kw(Kw::EndProgram | Kw::EndFunction | Kw::EndFunctionBlock | Kw::EndConfiguration | Kw::EndResource)
+                    Tok::Kw(
+                        Kw::EndProgram
+                            | Kw::EndFunction
+                            | Kw::EndFunctionBlock
+                            | Kw::EndConfiguration
+                            | Kw::EndResource
+                    )
                 ) {
                     break;
                 }
@@ -935,7 +959,10 @@ impl<'a, 'd> Parser<'a, 'd> {
                     self.error_at(
                         diag::SYNTAX,
                         key.span,
-                        format!("`{}` is not a task setting; use INTERVAL, PRIORITY or SINGLE", key.name),
+                        format!(
+                            "`{}` is not a task setting; use INTERVAL, PRIORITY or SINGLE",
+                            key.name
+                        ),
                     );
                 }
                 if self.eat(&Tok::Comma).is_none() {
@@ -1160,7 +1187,10 @@ impl<'a, 'd> Parser<'a, 'd> {
                         diag::SYNTAX
                     };
                     let msg = if t.tok == Tok::Eq {
-                        format!("`=` compares; an assignment is written `{} := …;`", self.text_of(target.span))
+                        format!(
+                            "`=` compares; an assignment is written `{} := …;`",
+                            self.text_of(target.span)
+                        )
                     } else {
                         msg
                     };

@@ -34,11 +34,7 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
     let root = match xml::parse(text) {
         Ok(r) => r,
         Err(e) => {
-            diags.error(
-                diag::XML,
-                Span::new(file, e.offset, e.offset),
-                e.message,
-            );
+            diags.error(diag::XML, Span::new(file, e.offset, e.offset), e.message);
             return lib;
         }
     };
@@ -218,7 +214,11 @@ impl Reader<'_> {
             }
             "enum" => {
                 let mut values = Vec::new();
-                for v in t.child("values").into_iter().flat_map(|v| v.children_named("value")) {
+                for v in t
+                    .child("values")
+                    .into_iter()
+                    .flat_map(|v| v.children_named("value"))
+                {
                     let name = self.name_attr(v)?;
                     let val = match v.attr("value") {
                         Some(x) => Some(self.expr_at(x, v)?),
@@ -439,7 +439,10 @@ impl Reader<'_> {
             self.diags.error(
                 diag::PLCOPEN_STRUCTURE,
                 span,
-                format!("FUNCTION {} has no <returnType> in its <interface>", name.name),
+                format!(
+                    "FUNCTION {} has no <returnType> in its <interface>",
+                    name.name
+                ),
             );
         }
         let body = self.body(el, &name);

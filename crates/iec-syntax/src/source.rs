@@ -132,8 +132,12 @@ impl SourceMap {
         col_base: u32,
     ) -> FileId {
         let id = FileId(self.files.len() as u32);
-        self.files
-            .push(SourceFile::new(name.into(), text.into(), line_base, col_base));
+        self.files.push(SourceFile::new(
+            name.into(),
+            text.into(),
+            line_base,
+            col_base,
+        ));
         id
     }
 

@@ -137,7 +137,10 @@ pub fn parse(src: &str) -> Result<Element, XmlError> {
         }
     }
     if let Some(open) = stack.last() {
-        return Err(err(open.start, format!("`<{}>` is never closed", open.name)));
+        return Err(err(
+            open.start,
+            format!("`<{}>` is never closed", open.name),
+        ));
     }
     root.ok_or_else(|| err(src.len(), "the file holds no XML element".into()))
 }
@@ -151,9 +154,9 @@ fn element(s: &BytesStart<'_>, start: usize) -> Result<Element, String> {
     for a in s.attributes() {
         let a = a.map_err(|e| format!("malformed attribute: {e}"))?;
         let key = a.key.local_name().into_inner().to_string();
-        let value = a
-            .normalized_value(XmlVersion::Implicit1_0)
-            .map_err(|_| format!("attribute `{key}` holds an unknown entity or a bad character reference"))?;
+        let value = a.normalized_value(XmlVersion::Implicit1_0).map_err(|_| {
+            format!("attribute `{key}` holds an unknown entity or a bad character reference")
+        })?;
         attrs.push((key, value.into_owned()));
     }
     Ok(Element {

@@ -11,8 +11,8 @@
 use std::collections::HashMap;
 
 use petriplc_iec_sema::ir::{
-    self, BinaryOp, Builtin, Expr, ExprKind, FbCall, FnCall, Place, PouId, PouKind, Project, Root, Step, Stmt,
-    StmtKind, UnaryOp, VarClass,
+    self, BinaryOp, Builtin, Expr, ExprKind, FbCall, FnCall, Place, PouId, PouKind, Project, Root,
+    Step, Stmt, StmtKind, UnaryOp, VarClass,
 };
 use petriplc_iec_sema::types::{Elem, FbRef, Type, TypeId};
 use petriplc_iec_sema::value::{self, Value};
@@ -20,7 +20,7 @@ use petriplc_iec_syntax::source::Span;
 
 use crate::ext::{self, ExtOp, Kind};
 use crate::layout::{self, FrameLayout, Sizes};
-use crate::op::{int_class, ArrayInfo, Arith, Cmp, IntClass, Op};
+use crate::op::{int_class, Arith, ArrayInfo, Cmp, IntClass, Op};
 
 const TAG: u32 = 0xC000_0000;
 const FRAME: u32 = 0x0000_0000;
@@ -350,7 +350,10 @@ impl<'p> Compiler<'p> {
             let mut v = Vec::new();
             for (i, var) in p.vars.iter().enumerate() {
                 let again = match p.kind {
-                    PouKind::Function => !matches!(var.class, VarClass::Input | VarClass::InOut | VarClass::External(_)),
+                    PouKind::Function => !matches!(
+                        var.class,
+                        VarClass::Input | VarClass::InOut | VarClass::External(_)
+                    ),
                     _ => var.class == VarClass::Temp,
                 };
                 if again {
@@ -378,7 +381,11 @@ impl<'p> Compiler<'p> {
     }
 
     /// The glue of a program instance: inputs from globals, the run, outputs to globals.
-    fn compile_glue(&mut self, inst: &InstanceSpec, prog_unit: usize) -> Result<usize, CompileError> {
+    fn compile_glue(
+        &mut self,
+        inst: &InstanceSpec,
+        prog_unit: usize,
+    ) -> Result<usize, CompileError> {
         let unit_id = self.units.len();
         self.units.push(Unit {
             vars: 0,
@@ -437,11 +444,17 @@ impl<'p> Compiler<'p> {
         let p = self.p;
         match p.types.get(ty).clone() {
             Type::Elem(e) => {
-                let v = init.cloned().unwrap_or(if e.is_real() { Value::Real(0.0) } else { Value::Int(0) });
+                let v = init.cloned().unwrap_or(if e.is_real() {
+                    Value::Real(0.0)
+                } else {
+                    Value::Int(0)
+                });
                 mem[at] = ext::put_value(&v, e);
             }
             Type::Enum { values, .. } => {
-                let v = init.and_then(Value::as_int).unwrap_or(values.first().map_or(0, |v| v.1 as i128));
+                let v = init
+                    .and_then(Value::as_int)
+                    .unwrap_or(values.first().map_or(0, |v| v.1 as i128));
                 mem[at] = v as i64 as u64;
             }
             Type::Subrange { lo, base, .. } => {
@@ -469,7 +482,9 @@ impl<'p> Compiler<'p> {
                 let offs = self.sizes.field_offsets(p, ty);
                 for (k, f) in fields.iter().enumerate() {
                     let given = match init {
-                        Some(Value::Fields(fs)) => fs.iter().find(|(i, _)| *i == k as u32).map(|(_, v)| v),
+                        Some(Value::Fields(fs)) => {
+                            fs.iter().find(|(i, _)| *i == k as u32).map(|(_, v)| v)
+                        }
                         _ => None,
                     };
                     let v = given.or(f.init.as_ref()).cloned();
@@ -528,13 +543,14 @@ impl<'p> Compiler<'p> {
         if addr > MAX_OFF as u64 {
             return Err(CompileError::TooLarge);
         }
-        let resolve = |syms: &[(Region, u32)], s: u32, global_addr: &[u32], frame_addr: &[u32]| -> u32 {
-            let (r, off) = syms[s as usize];
-            match r {
-                Region::Global(g) => global_addr[g as usize] + off,
-                Region::Unit(u) => frame_addr[u] + off,
-            }
-        };
+        let resolve =
+            |syms: &[(Region, u32)], s: u32, global_addr: &[u32], frame_addr: &[u32]| -> u32 {
+                let (r, off) = syms[s as usize];
+                match r {
+                    Region::Global(g) => global_addr[g as usize] + off,
+                    Region::Unit(u) => frame_addr[u] + off,
+                }
+            };
         // Code.
         let mut ops = Vec::new();
         let mut ext_all = Vec::new();
@@ -572,9 +588,11 @@ impl<'p> Compiler<'p> {
                 let mut op = *op;
                 op.map_slots(reloc);
                 match &mut op {
-                    Op::Jmp { t } | Op::JmpF { t, .. } | Op::JmpT { t, .. } | Op::Loop { t } | Op::ForNext { t, .. } => {
-                        *t += start
-                    }
+                    Op::Jmp { t }
+                    | Op::JmpF { t, .. }
+                    | Op::JmpT { t, .. }
+                    | Op::Loop { t }
+                    | Op::ForNext { t, .. } => *t += start,
                     Op::Ext { x } => *x += ext_off,
                     Op::Index { a, .. } => *a += arr_off,
                     Op::AndLits { start, .. } | Op::OrLits { start, .. } => *start += lit_off,
@@ -588,7 +606,9 @@ impl<'p> Compiler<'p> {
             for (k, tgt) in &u.calls {
                 let Target::Unit(t) = tgt;
                 match &mut ops[start as usize + *k] {
-                    Op::CallFb { entry, .. } | Op::CallFbI { entry, .. } | Op::CallAbs { entry } => {
+                    Op::CallFb { entry, .. }
+                    | Op::CallFbI { entry, .. }
+                    | Op::CallAbs { entry } => {
                         *entry = starts[*t];
                     }
                     _ => {}
@@ -627,7 +647,9 @@ impl<'p> Compiler<'p> {
                 }
             }
         }
-        let layouts = (0..self.p.pous.len() as u32).map(|p| self.layout(p)).collect();
+        let layouts = (0..self.p.pous.len() as u32)
+            .map(|p| self.layout(p))
+            .collect();
         let inst_rt = instances
             .iter()
             .enumerate()
@@ -752,7 +774,11 @@ impl<'c, 'p> Fx<'c, 'p> {
 
     fn patch(&mut self, at: usize, target: u32) {
         match &mut self.c.units[self.unit].ops[at] {
-            Op::Jmp { t } | Op::JmpF { t, .. } | Op::JmpT { t, .. } | Op::Loop { t } | Op::ForNext { t, .. } => *t = target,
+            Op::Jmp { t }
+            | Op::JmpF { t, .. }
+            | Op::JmpT { t, .. }
+            | Op::Loop { t }
+            | Op::ForNext { t, .. } => *t = target,
             _ => {}
         }
     }
@@ -825,7 +851,10 @@ impl<'c, 'p> Fx<'c, 'p> {
             return Ok(None);
         }
         if let ExprKind::Load(p) = &inner.kind {
-            if p.path.iter().all(|s| matches!(s, Step::Field(_) | Step::Member(_))) {
+            if p.path
+                .iter()
+                .all(|s| matches!(s, Step::Field(_) | Step::Member(_)))
+            {
                 let pl = self.place_loc(p)?;
                 if let (Loc::Slot(x), None) = (pl.loc, pl.bit) {
                     return Ok(Some((x, neg)));
@@ -840,20 +869,39 @@ impl<'c, 'p> Fx<'c, 'p> {
     fn fused(&mut self, stmts: &[Stmt]) -> R<usize> {
         // IF c THEN x := k; … END_IF, repeated with the same c: one CondStore.
         let cond_stores = |me: &mut Self, s: &Stmt| -> R<Option<((u32, bool), Vec<(u32, u64)>)>> {
-            let StmtKind::If { branches, else_body } = &s.kind else { return Ok(None) };
+            let StmtKind::If {
+                branches,
+                else_body,
+            } = &s.kind
+            else {
+                return Ok(None);
+            };
             if branches.len() != 1 || !else_body.is_empty() || branches[0].1.is_empty() {
                 return Ok(None);
             }
-            let Some(lit) = me.bool_literal(&branches[0].0)? else { return Ok(None) };
+            let Some(lit) = me.bool_literal(&branches[0].0)? else {
+                return Ok(None);
+            };
             let mut stores = Vec::new();
             for b in &branches[0].1 {
-                let StmtKind::Assign { target, value } = &b.kind else { return Ok(None) };
-                let ExprKind::Const(v) = &value.kind else { return Ok(None) };
-                if !scalar(me.p(), target.ty) || target.path.iter().any(|s| matches!(s, Step::Index(_) | Step::Bit(_))) {
+                let StmtKind::Assign { target, value } = &b.kind else {
+                    return Ok(None);
+                };
+                let ExprKind::Const(v) = &value.kind else {
+                    return Ok(None);
+                };
+                if !scalar(me.p(), target.ty)
+                    || target
+                        .path
+                        .iter()
+                        .any(|s| matches!(s, Step::Index(_) | Step::Bit(_)))
+                {
                     return Ok(None);
                 }
                 let pl = me.place_loc(target)?;
-                let Loc::Slot(d) = pl.loc else { return Ok(None) };
+                let Loc::Slot(d) = pl.loc else {
+                    return Ok(None);
+                };
                 if pl.bit.is_some() {
                     return Ok(None);
                 }
@@ -882,31 +930,58 @@ impl<'c, 'p> Fx<'c, 'p> {
             let span = stmts[0].span;
             if stores.len() == 1 {
                 let (d, k) = stores[0];
-                let op = if lit.1 { Op::CondNotMovK { c: lit.0, d, k } } else { Op::CondMovK { c: lit.0, d, k } };
+                let op = if lit.1 {
+                    Op::CondNotMovK { c: lit.0, d, k }
+                } else {
+                    Op::CondMovK { c: lit.0, d, k }
+                };
                 self.emit(op, span);
             } else {
                 let u = &mut self.c.units[self.unit];
                 let start = u.stores.len() as u32;
                 u.stores.extend(stores.iter().copied());
                 let len = stores.len() as u32;
-                self.emit(Op::CondStore { c: lit.0, neg: lit.1, start, len }, span);
+                self.emit(
+                    Op::CondStore {
+                        c: lit.0,
+                        neg: lit.1,
+                        start,
+                        len,
+                    },
+                    span,
+                );
             }
             return Ok(used);
         }
         // x1 := y1; x2 := y2; … with consecutive slots on both sides: one MovN.
         let plain_move = |me: &mut Self, s: &Stmt| -> R<Option<(u32, u32)>> {
-            let StmtKind::Assign { target, value } = &s.kind else { return Ok(None) };
-            let ExprKind::Load(src) = &value.kind else { return Ok(None) };
-            if target.ty != src.ty || !scalar(me.p(), target.ty) || matches!(me.p().types.get(target.ty), Type::Subrange { .. }) {
+            let StmtKind::Assign { target, value } = &s.kind else {
+                return Ok(None);
+            };
+            let ExprKind::Load(src) = &value.kind else {
+                return Ok(None);
+            };
+            if target.ty != src.ty
+                || !scalar(me.p(), target.ty)
+                || matches!(me.p().types.get(target.ty), Type::Subrange { .. })
+            {
                 return Ok(None);
             }
-            let no_index = |p: &Place| p.path.iter().all(|s| matches!(s, Step::Field(_) | Step::Member(_)));
+            let no_index = |p: &Place| {
+                p.path
+                    .iter()
+                    .all(|s| matches!(s, Step::Field(_) | Step::Member(_)))
+            };
             if !no_index(target) || !no_index(src) {
                 return Ok(None);
             }
             let (d, sl) = (me.place_loc(target)?, me.place_loc(src)?);
             match (d.loc, d.bit, sl.loc, sl.bit) {
-                (Loc::Slot(d), None, Loc::Slot(s), None) if d & TAG == FRAME && s & TAG == FRAME => Ok(Some((d, s))),
+                (Loc::Slot(d), None, Loc::Slot(s), None)
+                    if d & TAG == FRAME && s & TAG == FRAME =>
+                {
+                    Ok(Some((d, s)))
+                }
                 _ => Ok(None),
             }
         };
@@ -939,17 +1014,36 @@ impl<'c, 'p> Fx<'c, 'p> {
             StmtKind::Eval(e) => {
                 self.expr(e, None)?;
             }
-            StmtKind::If { branches, else_body } => self.if_stmt(branches, else_body, span)?,
-            StmtKind::Case { selector, arms, else_body } => self.case(selector, arms, else_body, span)?,
-            StmtKind::For { var, from, to, by, body } => self.for_loop(var, from, to, by, body, span)?,
+            StmtKind::If {
+                branches,
+                else_body,
+            } => self.if_stmt(branches, else_body, span)?,
+            StmtKind::Case {
+                selector,
+                arms,
+                else_body,
+            } => self.case(selector, arms, else_body, span)?,
+            StmtKind::For {
+                var,
+                from,
+                to,
+                by,
+                body,
+            } => self.for_loop(var, from, to, by, body, span)?,
             StmtKind::While { cond, body } => {
                 let top = self.pc();
                 let c = self.expr(cond, None)?;
                 let exit = self.emit(Op::JmpF { c, t: 0 }, span);
-                self.loops.push(LoopCx { exits: vec![exit], continues: Vec::new() });
+                self.loops.push(LoopCx {
+                    exits: vec![exit],
+                    continues: Vec::new(),
+                });
                 self.stmts(body)?;
                 self.emit(Op::Loop { t: top }, span);
-                let l = self.loops.pop().unwrap_or(LoopCx { exits: vec![], continues: vec![] });
+                let l = self.loops.pop().unwrap_or(LoopCx {
+                    exits: vec![],
+                    continues: vec![],
+                });
                 let end = self.pc();
                 for e in l.exits {
                     self.patch(e, end);
@@ -960,13 +1054,19 @@ impl<'c, 'p> Fx<'c, 'p> {
             }
             StmtKind::Repeat { body, until } => {
                 let top = self.pc();
-                self.loops.push(LoopCx { exits: Vec::new(), continues: Vec::new() });
+                self.loops.push(LoopCx {
+                    exits: Vec::new(),
+                    continues: Vec::new(),
+                });
                 self.stmts(body)?;
                 let cond_pc = self.pc();
                 let c = self.expr(until, None)?;
                 let done = self.emit(Op::JmpT { c, t: 0 }, span);
                 self.emit(Op::Loop { t: top }, span);
-                let l = self.loops.pop().unwrap_or(LoopCx { exits: vec![], continues: vec![] });
+                let l = self.loops.pop().unwrap_or(LoopCx {
+                    exits: vec![],
+                    continues: vec![],
+                });
                 let end = self.pc();
                 self.patch(done, end);
                 for e in l.exits {
@@ -1010,7 +1110,11 @@ impl<'c, 'p> Fx<'c, 'p> {
                         let k = raw_const(self.p(), v, target.ty);
                         let k = self.store_raw_for(target.ty, k);
                         let (c, negated) = self.cond_operand(&branches[0].0)?;
-                        let op = if negated { Op::CondNotMovK { c, d, k } } else { Op::CondMovK { c, d, k } };
+                        let op = if negated {
+                            Op::CondNotMovK { c, d, k }
+                        } else {
+                            Op::CondMovK { c, d, k }
+                        };
                         self.emit(op, branches[0].1[0].span);
                         return Ok(());
                     }
@@ -1058,7 +1162,13 @@ impl<'c, 'p> Fx<'c, 'p> {
         raw
     }
 
-    fn case(&mut self, selector: &Expr, arms: &[ir::CaseArm], else_body: &[Stmt], span: Span) -> R<()> {
+    fn case(
+        &mut self,
+        selector: &Expr,
+        arms: &[ir::CaseArm],
+        else_body: &[Stmt],
+        span: Span,
+    ) -> R<()> {
         let sel = self.expr(selector, None)?;
         let sel = if matches!(self.temp_tag(sel), Some(TEMP)) {
             sel
@@ -1068,8 +1178,17 @@ impl<'c, 'p> Fx<'c, 'p> {
             self.emit(Op::Mov { d: t, s: sel }, span);
             t
         };
-        let unsigned = matches!(elem_of(self.p(), selector.ty), Some(Elem::Ulint | Elem::Lword));
-        let cmp = |op: Cmp, d: u32, a: u32, b: u32| if unsigned { Op::CmpU { op, d, a, b } } else { Op::CmpI { op, d, a, b } };
+        let unsigned = matches!(
+            elem_of(self.p(), selector.ty),
+            Some(Elem::Ulint | Elem::Lword)
+        );
+        let cmp = |op: Cmp, d: u32, a: u32, b: u32| {
+            if unsigned {
+                Op::CmpU { op, d, a, b }
+            } else {
+                Op::CmpI { op, d, a, b }
+            }
+        };
         let t = self.temp(1);
         let t2 = self.temp(1);
         let mut arm_jumps: Vec<Vec<usize>> = Vec::new();
@@ -1111,7 +1230,15 @@ impl<'c, 'p> Fx<'c, 'p> {
         Some(x & TAG)
     }
 
-    fn for_loop(&mut self, var: &Place, from: &Expr, to: &Expr, by: &Expr, body: &[Stmt], span: Span) -> R<()> {
+    fn for_loop(
+        &mut self,
+        var: &Place,
+        from: &Expr,
+        to: &Expr,
+        by: &Expr,
+        body: &[Stmt],
+        span: Span,
+    ) -> R<()> {
         let v = self.place_loc(var)?;
         let Loc::Slot(vs) = v.loc else {
             return Err(CompileError::Unsupported(
@@ -1143,7 +1270,13 @@ impl<'c, 'p> Fx<'c, 'p> {
             IntClass::ULong => (8, true),
         };
         // Entry test: by > 0 ? v <= to : v >= to.
-        let cmp = |op: Cmp, d: u32, a: u32, b: u32| if u { Op::CmpU { op, d, a, b } } else { Op::CmpI { op, d, a, b } };
+        let cmp = |op: Cmp, d: u32, a: u32, b: u32| {
+            if u {
+                Op::CmpU { op, d, a, b }
+            } else {
+                Op::CmpI { op, d, a, b }
+            }
+        };
         let t_c = self.temp(1);
         let negative = match by.const_int() {
             Some(k) => Some(k < 0),
@@ -1160,21 +1293,66 @@ impl<'c, 'p> Fx<'c, 'p> {
                 let zero = self.konst(0);
                 let t_pos = self.temp(1);
                 let t_a = self.temp(1);
-                self.emit(Op::CmpI { op: Cmp::Gt, d: t_pos, a: t_by, b: zero }, span);
+                self.emit(
+                    Op::CmpI {
+                        op: Cmp::Gt,
+                        d: t_pos,
+                        a: t_by,
+                        b: zero,
+                    },
+                    span,
+                );
                 self.emit(cmp(Cmp::Le, t_a, vs, t_to), span);
-                self.emit(Op::And { d: t_a, a: t_a, b: t_pos }, span);
+                self.emit(
+                    Op::And {
+                        d: t_a,
+                        a: t_a,
+                        b: t_pos,
+                    },
+                    span,
+                );
                 self.emit(cmp(Cmp::Ge, t_c, vs, t_to), span);
-                self.emit(Op::AndN { d: t_c, a: t_c, b: t_pos }, span);
-                self.emit(Op::Or { d: t_c, a: t_c, b: t_a }, span);
+                self.emit(
+                    Op::AndN {
+                        d: t_c,
+                        a: t_c,
+                        b: t_pos,
+                    },
+                    span,
+                );
+                self.emit(
+                    Op::Or {
+                        d: t_c,
+                        a: t_c,
+                        b: t_a,
+                    },
+                    span,
+                );
             }
         }
         let exit = self.emit(Op::JmpF { c: t_c, t: 0 }, span);
         let body_start = self.pc();
-        self.loops.push(LoopCx { exits: vec![exit], continues: Vec::new() });
+        self.loops.push(LoopCx {
+            exits: vec![exit],
+            continues: Vec::new(),
+        });
         self.stmts(body)?;
         let cont = self.pc();
-        self.emit(Op::ForNext { v: vs, to: t_to, by: t_by, t: body_start, r, u }, span);
-        let l = self.loops.pop().unwrap_or(LoopCx { exits: vec![], continues: vec![] });
+        self.emit(
+            Op::ForNext {
+                v: vs,
+                to: t_to,
+                by: t_by,
+                t: body_start,
+                r,
+                u,
+            },
+            span,
+        );
+        let l = self.loops.pop().unwrap_or(LoopCx {
+            exits: vec![],
+            continues: vec![],
+        });
         let end = self.pc();
         for x in l.exits {
             self.patch(x, end);
@@ -1240,7 +1418,9 @@ impl<'c, 'p> Fx<'c, 'p> {
                     }
                     Type::Fb(FbRef::Native(k)) => {
                         loc = self.offset(loc, *i);
-                        ty = petriplc_iec_sema::types::TypeTable::elem_id(self.c.p.natives[k as usize].vars[*i as usize].ty);
+                        ty = petriplc_iec_sema::types::TypeTable::elem_id(
+                            self.c.p.natives[k as usize].vars[*i as usize].ty,
+                        );
                     }
                     _ => {}
                 },
@@ -1391,7 +1571,15 @@ impl<'c, 'p> Fx<'c, 'p> {
             Some(n) => {
                 let w = self.load_loc(pl.loc, span)?;
                 let t = self.temp(1);
-                self.emit(Op::SetBit { d: t, s: w, n, v: s }, span);
+                self.emit(
+                    Op::SetBit {
+                        d: t,
+                        s: w,
+                        n,
+                        v: s,
+                    },
+                    span,
+                );
                 self.store_loc(pl.loc, t, span);
             }
         }
@@ -1446,15 +1634,35 @@ impl<'c, 'p> Fx<'c, 'p> {
     /// An implicit conversion of a scalar slot (widening; REAL to LREAL is exact).
     fn convert_slot(&mut self, v: u32, from: TypeId, to: TypeId, span: Span) -> R<u32> {
         let (fe, te) = (elem_or_dint(self.p(), from), elem_or_dint(self.p(), to));
-        if fe == te || (fe.is_integral() && te.is_integral() && !matches!(self.p().types.get(to), Type::Subrange { .. })) {
+        if fe == te
+            || (fe.is_integral()
+                && te.is_integral()
+                && !matches!(self.p().types.get(to), Type::Subrange { .. }))
+        {
             return Ok(v);
         }
         let d = self.temp(1);
         if let Type::Subrange { lo, hi, .. } = *self.p().types.get(to) {
-            self.ext(ExtOp::Check { d, s: v, lo: lo as i64, hi: hi as i64 }, span);
+            self.ext(
+                ExtOp::Check {
+                    d,
+                    s: v,
+                    lo: lo as i64,
+                    hi: hi as i64,
+                },
+                span,
+            );
             return Ok(d);
         }
-        self.ext(ExtOp::Conv { d, s: v, from: fe, to: te }, span);
+        self.ext(
+            ExtOp::Conv {
+                d,
+                s: v,
+                from: fe,
+                to: te,
+            },
+            span,
+        );
         Ok(d)
     }
 
@@ -1468,7 +1676,8 @@ impl<'c, 'p> Fx<'c, 'p> {
         match &e.kind {
             ExprKind::Const(v) => {
                 if let Value::Str(s) = v {
-                    let mut slots = vec![0u64; layout::string_slots(s.len().max(1) as u32) as usize];
+                    let mut slots =
+                        vec![0u64; layout::string_slots(s.len().max(1) as u32) as usize];
                     ext::write_str(&mut slots, 0, s, s.len() as u32);
                     let c = self.const_block(&slots);
                     let d = self.temp(1);
@@ -1529,7 +1738,14 @@ impl<'c, 'p> Fx<'c, 'p> {
                         if el == Elem::Bool {
                             self.emit(Op::Not { d, s: a }, span);
                         } else {
-                            self.emit(Op::BNot { d, s: a, bits: el.bits() as u8 }, span);
+                            self.emit(
+                                Op::BNot {
+                                    d,
+                                    s: a,
+                                    bits: el.bits() as u8,
+                                },
+                                span,
+                            );
                         }
                     }
                     UnaryOp::Neg => {
@@ -1562,7 +1778,9 @@ impl<'c, 'p> Fx<'c, 'p> {
     /// The operands of a chain `a op b op c …` (left-nested).
     fn chain<'e>(e: &'e Expr, op: BinaryOp, out: &mut Vec<&'e Expr>) {
         match &e.kind {
-            ExprKind::Binary(o, a, b) if *o == op && e.ty == petriplc_iec_sema::types::ids::BOOL => {
+            ExprKind::Binary(o, a, b)
+                if *o == op && e.ty == petriplc_iec_sema::types::ids::BOOL =>
+            {
                 Self::chain(a, op, out);
                 Self::chain(b, op, out);
             }
@@ -1570,7 +1788,15 @@ impl<'c, 'p> Fx<'c, 'p> {
         }
     }
 
-    fn binary(&mut self, op: BinaryOp, a: &Expr, b: &Expr, ty: TypeId, want: Option<u32>, span: Span) -> R<u32> {
+    fn binary(
+        &mut self,
+        op: BinaryOp,
+        a: &Expr,
+        b: &Expr,
+        ty: TypeId,
+        want: Option<u32>,
+        span: Span,
+    ) -> R<u32> {
         let p = self.p();
         let (ae, be) = (elem_or_dint(p, a.ty), elem_or_dint(p, b.ty));
         // Chains of three or more BOOL terms: one instruction over their literals.
@@ -1596,7 +1822,11 @@ impl<'c, 'p> Fx<'c, 'p> {
                 let start = u.lits.len() as u32;
                 let len = lits.len() as u32;
                 u.lits.extend(lits);
-                let o = if op == BinaryOp::And { Op::AndLits { d, start, len } } else { Op::OrLits { d, start, len } };
+                let o = if op == BinaryOp::And {
+                    Op::AndLits { d, start, len }
+                } else {
+                    Op::OrLits { d, start, len }
+                };
                 self.emit(o, span);
                 return Ok(d);
             }
@@ -1607,7 +1837,11 @@ impl<'c, 'p> Fx<'c, 'p> {
                 let x = self.expr(a, None)?;
                 let y = self.expr(inner, None)?;
                 let d = want.unwrap_or_else(|| self.temp(1));
-                let o = if op == BinaryOp::And { Op::AndN { d, a: x, b: y } } else { Op::OrN { d, a: x, b: y } };
+                let o = if op == BinaryOp::And {
+                    Op::AndN { d, a: x, b: y }
+                } else {
+                    Op::OrN { d, a: x, b: y }
+                };
                 self.emit(o, span);
                 return Ok(d);
             }
@@ -1615,7 +1849,11 @@ impl<'c, 'p> Fx<'c, 'p> {
                 let y = self.expr(inner, None)?;
                 let x = self.expr(b, None)?;
                 let d = want.unwrap_or_else(|| self.temp(1));
-                let o = if op == BinaryOp::And { Op::AndN { d, a: x, b: y } } else { Op::OrN { d, a: x, b: y } };
+                let o = if op == BinaryOp::And {
+                    Op::AndN { d, a: x, b: y }
+                } else {
+                    Op::OrN { d, a: x, b: y }
+                };
                 self.emit(o, span);
                 return Ok(d);
             }
@@ -1629,26 +1867,69 @@ impl<'c, 'p> Fx<'c, 'p> {
             match (op, ae, be) {
                 (BinaryOp::Mul | BinaryOp::Div, _, _) => {
                     self.ext(
-                        ExtOp::TimeScale { d, a: x, b: y, div: op == BinaryOp::Div, real: be.is_real() },
+                        ExtOp::TimeScale {
+                            d,
+                            a: x,
+                            b: y,
+                            div: op == BinaryOp::Div,
+                            real: be.is_real(),
+                        },
                         span,
                     );
                 }
                 (_, Elem::Tod, Elem::Time | Elem::Ltime) if re == Elem::Tod => {
-                    self.ext(ExtOp::TodAdd { d, a: x, b: y, sub: op == BinaryOp::Sub }, span);
+                    self.ext(
+                        ExtOp::TodAdd {
+                            d,
+                            a: x,
+                            b: y,
+                            sub: op == BinaryOp::Sub,
+                        },
+                        span,
+                    );
                 }
                 _ => {
-                    let ar = if op == BinaryOp::Add { Arith::Add } else { Arith::Sub };
-                    self.emit(Op::ArL { op: ar, d, a: x, b: y }, span);
+                    let ar = if op == BinaryOp::Add {
+                        Arith::Add
+                    } else {
+                        Arith::Sub
+                    };
+                    self.emit(
+                        Op::ArL {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        },
+                        span,
+                    );
                 }
             }
             return Ok(d);
         }
         if op == BinaryOp::Power {
-            self.ext(ExtOp::Pow { d, a: x, b: y, e: re, int_exp: !be.is_real() }, span);
+            self.ext(
+                ExtOp::Pow {
+                    d,
+                    a: x,
+                    b: y,
+                    e: re,
+                    int_exp: !be.is_real(),
+                },
+                span,
+            );
             return Ok(d);
         }
         if ae == Elem::Tod && re == Elem::Tod {
-            self.ext(ExtOp::TodAdd { d, a: x, b: y, sub: op == BinaryOp::Sub }, span);
+            self.ext(
+                ExtOp::TodAdd {
+                    d,
+                    a: x,
+                    b: y,
+                    sub: op == BinaryOp::Sub,
+                },
+                span,
+            );
             return Ok(d);
         }
         let cmp = match op {
@@ -1662,10 +1943,30 @@ impl<'c, 'p> Fx<'c, 'p> {
         };
         if let Some(c) = cmp {
             let o = match kind(p, a.ty) {
-                Kind::S => Op::CmpS { op: c, d, a: x, b: y },
-                Kind::F => Op::CmpF { op: c, d, a: x, b: y },
-                Kind::U => Op::CmpU { op: c, d, a: x, b: y },
-                Kind::I => Op::CmpI { op: c, d, a: x, b: y },
+                Kind::S => Op::CmpS {
+                    op: c,
+                    d,
+                    a: x,
+                    b: y,
+                },
+                Kind::F => Op::CmpF {
+                    op: c,
+                    d,
+                    a: x,
+                    b: y,
+                },
+                Kind::U => Op::CmpU {
+                    op: c,
+                    d,
+                    a: x,
+                    b: y,
+                },
+                Kind::I => Op::CmpI {
+                    op: c,
+                    d,
+                    a: x,
+                    b: y,
+                },
             };
             self.emit(o, span);
             return Ok(d);
@@ -1683,12 +1984,34 @@ impl<'c, 'p> Fx<'c, 'p> {
                     _ => Arith::Mod,
                 };
                 if re.is_real() {
-                    Op::ArF { op: ar, d, a: x, b: y, single: re == Elem::Real }
+                    Op::ArF {
+                        op: ar,
+                        d,
+                        a: x,
+                        b: y,
+                        single: re == Elem::Real,
+                    }
                 } else {
                     match int_class(re) {
-                        IntClass::Narrow(r) => Op::ArN { op: ar, d, a: x, b: y, r },
-                        IntClass::Long => Op::ArL { op: ar, d, a: x, b: y },
-                        IntClass::ULong => Op::ArU { op: ar, d, a: x, b: y },
+                        IntClass::Narrow(r) => Op::ArN {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                            r,
+                        },
+                        IntClass::Long => Op::ArL {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        },
+                        IntClass::ULong => Op::ArU {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        },
                     }
                 }
             }
@@ -1711,13 +2034,28 @@ impl<'c, 'p> Fx<'c, 'p> {
             let dp = self.temp(1);
             self.emit(Op::Lea { d: dp, s: buf }, span);
             let fe = elem_or_dint(p, from);
-            self.ext(ExtOp::ToStr { dp, s, from: fe, cap }, span);
+            self.ext(
+                ExtOp::ToStr {
+                    dp,
+                    s,
+                    from: fe,
+                    cap,
+                },
+                span,
+            );
             return Ok(dp);
         }
         if is_string(p, from) {
             let sp = self.expr(x, None)?;
             let d = want.unwrap_or_else(|| self.temp(1));
-            self.ext(ExtOp::FromStr { d, sp, to: elem_or_dint(p, to) }, span);
+            self.ext(
+                ExtOp::FromStr {
+                    d,
+                    sp,
+                    to: elem_or_dint(p, to),
+                },
+                span,
+            );
             return Ok(d);
         }
         let s = self.expr(x, None)?;
@@ -1728,13 +2066,33 @@ impl<'c, 'p> Fx<'c, 'p> {
                 s
             } else {
                 let t = self.temp(1);
-                self.ext(ExtOp::Conv { d: t, s, from: fe, to: base }, span);
+                self.ext(
+                    ExtOp::Conv {
+                        d: t,
+                        s,
+                        from: fe,
+                        to: base,
+                    },
+                    span,
+                );
                 t
             };
-            self.ext(ExtOp::Check { d, s: v, lo: lo as i64, hi: hi as i64 }, span);
+            self.ext(
+                ExtOp::Check {
+                    d,
+                    s: v,
+                    lo: lo as i64,
+                    hi: hi as i64,
+                },
+                span,
+            );
             return Ok(d);
         }
-        if fe == te || (fe.is_int() && te.is_int() && fe.widens_to(te)) || (fe.is_bitstring() && te.is_bitstring() && fe.widens_to(te)) || (fe == Elem::Time && te == Elem::Ltime) {
+        if fe == te
+            || (fe.is_int() && te.is_int() && fe.widens_to(te))
+            || (fe.is_bitstring() && te.is_bitstring() && fe.widens_to(te))
+            || (fe == Elem::Time && te == Elem::Ltime)
+        {
             if let Some(d) = want {
                 if d != s {
                     self.emit(Op::Mov { d, s }, span);
@@ -1744,7 +2102,15 @@ impl<'c, 'p> Fx<'c, 'p> {
             return Ok(s);
         }
         let d = want.unwrap_or_else(|| self.temp(1));
-        self.ext(ExtOp::Conv { d, s, from: fe, to: te }, span);
+        self.ext(
+            ExtOp::Conv {
+                d,
+                s,
+                from: fe,
+                to: te,
+            },
+            span,
+        );
         Ok(d)
     }
 
@@ -1757,7 +2123,14 @@ impl<'c, 'p> Fx<'c, 'p> {
         dp
     }
 
-    fn builtin(&mut self, b: Builtin, args: &[Expr], ty: TypeId, want: Option<u32>, span: Span) -> R<u32> {
+    fn builtin(
+        &mut self,
+        b: Builtin,
+        args: &[Expr],
+        ty: TypeId,
+        want: Option<u32>,
+        span: Span,
+    ) -> R<u32> {
         let p = self.p();
         let mut xs = Vec::with_capacity(args.len());
         for a in args {
@@ -1777,65 +2150,163 @@ impl<'c, 'p> Fx<'c, 'p> {
             Builtin::Abs => {
                 let d = out(self);
                 if re.is_real() {
-                    self.ext(ExtOp::Math { f: Builtin::Abs, d, s: xs[0], e: re }, span);
+                    self.ext(
+                        ExtOp::Math {
+                            f: Builtin::Abs,
+                            d,
+                            s: xs[0],
+                            e: re,
+                        },
+                        span,
+                    );
                 } else {
                     self.ext(ExtOp::AbsI { d, s: xs[0], e: re }, span);
                 }
                 d
             }
-            Builtin::Sqrt | Builtin::Ln | Builtin::Log | Builtin::Exp | Builtin::Sin | Builtin::Cos | Builtin::Tan
-            | Builtin::Asin | Builtin::Acos | Builtin::Atan => {
+            Builtin::Sqrt
+            | Builtin::Ln
+            | Builtin::Log
+            | Builtin::Exp
+            | Builtin::Sin
+            | Builtin::Cos
+            | Builtin::Tan
+            | Builtin::Asin
+            | Builtin::Acos
+            | Builtin::Atan => {
                 let d = out(self);
-                self.ext(ExtOp::Math { f: b, d, s: xs[0], e: re }, span);
+                self.ext(
+                    ExtOp::Math {
+                        f: b,
+                        d,
+                        s: xs[0],
+                        e: re,
+                    },
+                    span,
+                );
                 d
             }
             Builtin::Atan2 => {
                 let d = out(self);
-                self.ext(ExtOp::Atan2 { d, y: xs[0], x: xs[1], e: re }, span);
+                self.ext(
+                    ExtOp::Atan2 {
+                        d,
+                        y: xs[0],
+                        x: xs[1],
+                        e: re,
+                    },
+                    span,
+                );
                 d
             }
             Builtin::Max | Builtin::Min => {
                 let d = out(self);
-                self.ext(ExtOp::MinMax { max: b == Builtin::Max, d, args: xs, kind: k, cap }, span);
+                self.ext(
+                    ExtOp::MinMax {
+                        max: b == Builtin::Max,
+                        d,
+                        args: xs,
+                        kind: k,
+                        cap,
+                    },
+                    span,
+                );
                 d
             }
             Builtin::Limit => {
                 let d = out(self);
-                self.ext(ExtOp::Limit { d, mn: xs[0], x: xs[1], mx: xs[2], kind: k, cap }, span);
+                self.ext(
+                    ExtOp::Limit {
+                        d,
+                        mn: xs[0],
+                        x: xs[1],
+                        mx: xs[2],
+                        kind: k,
+                        cap,
+                    },
+                    span,
+                );
                 d
             }
             Builtin::Sel | Builtin::Mux => {
                 let d = out(self);
                 let kk = xs[0];
                 self.ext(
-                    ExtOp::Select { mux: b == Builtin::Mux, d, k: kk, args: xs[1..].to_vec(), kind: k, cap },
+                    ExtOp::Select {
+                        mux: b == Builtin::Mux,
+                        d,
+                        k: kk,
+                        args: xs[1..].to_vec(),
+                        kind: k,
+                        cap,
+                    },
                     span,
                 );
                 d
             }
             Builtin::Shl | Builtin::Shr | Builtin::Rol | Builtin::Ror => {
                 let d = out(self);
-                self.ext(ExtOp::Shift { f: b, d, s: xs[0], n: xs[1], e: re }, span);
+                self.ext(
+                    ExtOp::Shift {
+                        f: b,
+                        d,
+                        s: xs[0],
+                        n: xs[1],
+                        e: re,
+                    },
+                    span,
+                );
                 d
             }
             Builtin::Len | Builtin::Find => {
                 let d = want.unwrap_or_else(|| self.temp(1));
-                self.ext(ExtOp::Str { f: b, d, args: xs, cap: 0 }, span);
+                self.ext(
+                    ExtOp::Str {
+                        f: b,
+                        d,
+                        args: xs,
+                        cap: 0,
+                    },
+                    span,
+                );
                 d
             }
-            Builtin::Left | Builtin::Right | Builtin::Mid | Builtin::Concat | Builtin::Insert | Builtin::Delete
+            Builtin::Left
+            | Builtin::Right
+            | Builtin::Mid
+            | Builtin::Concat
+            | Builtin::Insert
+            | Builtin::Delete
             | Builtin::Replace => {
                 let d = self.string_buffer(ty, span);
-                self.ext(ExtOp::Str { f: b, d, args: xs, cap }, span);
+                self.ext(
+                    ExtOp::Str {
+                        f: b,
+                        d,
+                        args: xs,
+                        cap,
+                    },
+                    span,
+                );
                 d
             }
             Builtin::ConcatDateTod => {
                 let d = out(self);
-                self.ext(ExtOp::ConcatDateTod { d, a: xs[0], b: xs[1] }, span);
+                self.ext(
+                    ExtOp::ConcatDateTod {
+                        d,
+                        a: xs[0],
+                        b: xs[1],
+                    },
+                    span,
+                );
                 d
             }
             Builtin::DtToTod | Builtin::DtToDate | Builtin::Expt => {
-                return Err(CompileError::Unsupported(format!("{} as a builtin", b.name())));
+                return Err(CompileError::Unsupported(format!(
+                    "{} as a builtin",
+                    b.name()
+                )));
             }
         };
         Ok(d)
@@ -1936,19 +2407,24 @@ impl<'c, 'p> Fx<'c, 'p> {
 
     fn call_fb(&mut self, call: &FbCall, span: Span) -> R<()> {
         let inst = self.place_loc(&call.instance)?.loc;
-        let (vars_ty, offsets, natives): (Vec<TypeId>, Vec<Option<u32>>, Option<u32>) = match call.fb {
-            FbRef::User(q) => {
-                let layout = self.c.layout(q);
-                let tys = self.c.p.pou(q).vars.iter().map(|v| v.ty).collect();
-                (tys, layout.offsets, None)
-            }
-            FbRef::Native(k) => {
-                let sig = &self.c.p.natives[k as usize];
-                let tys = sig.vars.iter().map(|v| petriplc_iec_sema::types::TypeTable::elem_id(v.ty)).collect();
-                let offs = (0..sig.vars.len() as u32).map(Some).collect();
-                (tys, offs, Some(k))
-            }
-        };
+        let (vars_ty, offsets, natives): (Vec<TypeId>, Vec<Option<u32>>, Option<u32>) =
+            match call.fb {
+                FbRef::User(q) => {
+                    let layout = self.c.layout(q);
+                    let tys = self.c.p.pou(q).vars.iter().map(|v| v.ty).collect();
+                    (tys, layout.offsets, None)
+                }
+                FbRef::Native(k) => {
+                    let sig = &self.c.p.natives[k as usize];
+                    let tys = sig
+                        .vars
+                        .iter()
+                        .map(|v| petriplc_iec_sema::types::TypeTable::elem_id(v.ty))
+                        .collect();
+                    let offs = (0..sig.vars.len() as u32).map(Some).collect();
+                    (tys, offs, Some(k))
+                }
+            };
         // Inputs.
         for (v, e) in &call.inputs {
             let off = offsets[*v as usize].unwrap_or(0);
@@ -2019,9 +2495,20 @@ impl Op {
     /// Applies `f` to every slot operand.
     pub fn map_slots(&mut self, mut f: impl FnMut(u32) -> u32) {
         match self {
-            Op::Halt | Op::Ret | Op::Jmp { .. } | Op::Loop { .. } | Op::CallAbs { .. } | Op::Ext { .. } => {}
-            Op::Mov { d, s } | Op::Lea { d, s } | Op::Not { d, s } | Op::BNot { d, s, .. } | Op::NegN { d, s, .. }
-            | Op::NegL { d, s } | Op::NegF { d, s } | Op::GetBit { d, s, .. } => {
+            Op::Halt
+            | Op::Ret
+            | Op::Jmp { .. }
+            | Op::Loop { .. }
+            | Op::CallAbs { .. }
+            | Op::Ext { .. } => {}
+            Op::Mov { d, s }
+            | Op::Lea { d, s }
+            | Op::Not { d, s }
+            | Op::BNot { d, s, .. }
+            | Op::NegN { d, s, .. }
+            | Op::NegL { d, s }
+            | Op::NegF { d, s }
+            | Op::GetBit { d, s, .. } => {
                 *d = f(*d);
                 *s = f(*s);
             }
@@ -2062,9 +2549,19 @@ impl Op {
                 *sp = f(*sp);
             }
             Op::Init { s, .. } => *s = f(*s),
-            Op::And { d, a, b } | Op::AndN { d, a, b } | Op::Or { d, a, b } | Op::OrN { d, a, b } | Op::Xor { d, a, b }
-            | Op::CmpI { d, a, b, .. } | Op::CmpU { d, a, b, .. } | Op::CmpF { d, a, b, .. } | Op::CmpS { d, a, b, .. }
-            | Op::ArN { d, a, b, .. } | Op::ArL { d, a, b, .. } | Op::ArU { d, a, b, .. } | Op::ArF { d, a, b, .. } => {
+            Op::And { d, a, b }
+            | Op::AndN { d, a, b }
+            | Op::Or { d, a, b }
+            | Op::OrN { d, a, b }
+            | Op::Xor { d, a, b }
+            | Op::CmpI { d, a, b, .. }
+            | Op::CmpU { d, a, b, .. }
+            | Op::CmpF { d, a, b, .. }
+            | Op::CmpS { d, a, b, .. }
+            | Op::ArN { d, a, b, .. }
+            | Op::ArL { d, a, b, .. }
+            | Op::ArU { d, a, b, .. }
+            | Op::ArF { d, a, b, .. } => {
                 *d = f(*d);
                 *a = f(*a);
                 *b = f(*b);
@@ -2090,7 +2587,10 @@ impl ExtOp {
     pub fn map_slots(&mut self, mut f: impl FnMut(u32) -> u32) {
         let mut g = |x: &mut u32| *x = f(*x);
         match self {
-            ExtOp::Conv { d, s, .. } | ExtOp::Trunc { d, s, .. } | ExtOp::Check { d, s, .. } | ExtOp::Math { d, s, .. }
+            ExtOp::Conv { d, s, .. }
+            | ExtOp::Trunc { d, s, .. }
+            | ExtOp::Check { d, s, .. }
+            | ExtOp::Math { d, s, .. }
             | ExtOp::AbsI { d, s, .. } => {
                 g(d);
                 g(s);
@@ -2103,7 +2603,9 @@ impl ExtOp {
                 g(d);
                 g(sp);
             }
-            ExtOp::Pow { d, a, b, .. } | ExtOp::TimeScale { d, a, b, .. } | ExtOp::TodAdd { d, a, b, .. }
+            ExtOp::Pow { d, a, b, .. }
+            | ExtOp::TimeScale { d, a, b, .. }
+            | ExtOp::TodAdd { d, a, b, .. }
             | ExtOp::ConcatDateTod { d, a, b } => {
                 g(d);
                 g(a);

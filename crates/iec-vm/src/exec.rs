@@ -210,7 +210,10 @@ pub fn run(
                     Arith::Sub => x - y,
                     Arith::Mul => match x.checked_mul(y) {
                         Some(v) => v,
-                        None => fail!(FaultKind::Op(OpError::Overflow), format!("{x} * {y} leaves {}", range_text(r))),
+                        None => fail!(
+                            FaultKind::Op(OpError::Overflow),
+                            format!("{x} * {y} leaves {}", range_text(r))
+                        ),
                     },
                     Arith::Div => {
                         if y == 0 {
@@ -279,7 +282,13 @@ pub fn run(
                     ),
                 }
             }
-            Op::ArF { op, d, a, b, single } => {
+            Op::ArF {
+                op,
+                d,
+                a,
+                b,
+                single,
+            } => {
                 let (x, y) = (f64::from_bits(m!(a)), f64::from_bits(m!(b)));
                 let v = match op {
                     Arith::Add => x + y,
@@ -297,7 +306,11 @@ pub fn run(
                 if !v.is_finite() {
                     fail!(
                         FaultKind::Op(OpError::Overflow),
-                        format!("{x} {} {y} leaves the range of {}", sym(op), if single { "REAL" } else { "LREAL" })
+                        format!(
+                            "{x} {} {y} leaves the range of {}",
+                            sym(op),
+                            if single { "REAL" } else { "LREAL" }
+                        )
                     );
                 }
                 m!(d) = v.to_bits();
@@ -306,23 +319,37 @@ pub fn run(
                 let v = -(m!(s) as i64);
                 let (lo, hi) = RANGES[r as usize];
                 if v < lo || v > hi {
-                    fail!(FaultKind::Op(OpError::Overflow), format!("-({}) leaves {}", -v, range_text(r)));
+                    fail!(
+                        FaultKind::Op(OpError::Overflow),
+                        format!("-({}) leaves {}", -v, range_text(r))
+                    );
                 }
                 m!(d) = v as u64;
             }
             Op::NegL { d, s } => match (m!(s) as i64).checked_neg() {
                 Some(v) => m!(d) = v as u64,
-                None => fail!(FaultKind::Op(OpError::Overflow), format!("-({}) leaves the 64-bit range", m!(s) as i64)),
+                None => fail!(
+                    FaultKind::Op(OpError::Overflow),
+                    format!("-({}) leaves the 64-bit range", m!(s) as i64)
+                ),
             },
             Op::NegF { d, s } => m!(d) = (-f64::from_bits(m!(s))).to_bits(),
             Op::BNot { d, s, bits } => {
-                let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+                let mask = if bits >= 64 {
+                    u64::MAX
+                } else {
+                    (1u64 << bits) - 1
+                };
                 m!(d) = !m!(s) & mask;
             }
             Op::GetBit { d, s, n } => m!(d) = (m!(s) >> n) & 1,
             Op::SetBit { d, s, n, v } => {
                 let w = m!(s);
-                m!(d) = if m!(v) != 0 { w | (1 << n) } else { w & !(1 << n) };
+                m!(d) = if m!(v) != 0 {
+                    w | (1 << n)
+                } else {
+                    w & !(1 << n)
+                };
             }
             Op::LdG { d, g } => m!(d) = mem[g as usize],
             Op::StG { g, s } => mem[g as usize] = m!(s),
@@ -343,7 +370,10 @@ pub fn run(
                 if idx < info.lo || idx > info.hi {
                     fail!(
                         FaultKind::IndexOutOfRange,
-                        format!("index {idx} is outside the array's bounds {}..{}", info.lo, info.hi)
+                        format!(
+                            "index {idx} is outside the array's bounds {}..{}",
+                            info.lo, info.hi
+                        )
                     );
                 }
                 m!(d) = m!(p) + ((idx - info.lo) as u64) * info.stride as u64;
@@ -370,10 +400,16 @@ pub fn run(
             Op::Loop { t } => {
                 budget.iterations = budget.iterations.saturating_sub(1);
                 if budget.iterations == 0 {
-                    fail!(FaultKind::Watchdog, "a loop ran out of the scan's iteration budget".into());
+                    fail!(
+                        FaultKind::Watchdog,
+                        "a loop ran out of the scan's iteration budget".into()
+                    );
                 }
                 if budget.iterations % CHECK_EVERY == 0 && !(budget.check)() {
-                    fail!(FaultKind::Watchdog, "a loop ran past the watchdog time".into());
+                    fail!(
+                        FaultKind::Watchdog,
+                        "a loop ran past the watchdog time".into()
+                    );
                 }
                 pc = t as usize;
             }
@@ -405,10 +441,16 @@ pub fn run(
                 if next_ok {
                     budget.iterations = budget.iterations.saturating_sub(1);
                     if budget.iterations == 0 {
-                        fail!(FaultKind::Watchdog, "a FOR loop ran out of the scan's iteration budget".into());
+                        fail!(
+                            FaultKind::Watchdog,
+                            "a FOR loop ran out of the scan's iteration budget".into()
+                        );
                     }
                     if budget.iterations % CHECK_EVERY == 0 && !(budget.check)() {
-                        fail!(FaultKind::Watchdog, "a loop ran past the watchdog time".into());
+                        fail!(
+                            FaultKind::Watchdog,
+                            "a loop ran past the watchdog time".into()
+                        );
                     }
                     pc = t as usize;
                 }
@@ -463,7 +505,8 @@ pub fn run(
             },
             Op::Halt => return Ok(()),
             Op::Ext { x } => {
-                if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base) {
+                if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base)
+                {
                     fail!(FaultKind::Op(error), detail);
                 }
             }

@@ -31,35 +31,126 @@ pub fn kind_of(e: Elem) -> Kind {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum ExtOp {
-    Conv { d: u32, s: u32, from: Elem, to: Elem },
+    Conv {
+        d: u32,
+        s: u32,
+        from: Elem,
+        to: Elem,
+    },
     /// An elementary value (or enumeration, as DINT) written as text into the buffer at
     /// pointer `dp` (capacity `cap`).
-    ToStr { dp: u32, s: u32, from: Elem, cap: u32 },
-    FromStr { d: u32, sp: u32, to: Elem },
-    Trunc { d: u32, s: u32, to: Elem },
+    ToStr {
+        dp: u32,
+        s: u32,
+        from: Elem,
+        cap: u32,
+    },
+    FromStr {
+        d: u32,
+        sp: u32,
+        to: Elem,
+    },
+    Trunc {
+        d: u32,
+        s: u32,
+        to: Elem,
+    },
     /// A value stored into a subrange: `lo <= s <= hi`.
-    Check { d: u32, s: u32, lo: i64, hi: i64 },
+    Check {
+        d: u32,
+        s: u32,
+        lo: i64,
+        hi: i64,
+    },
     /// `a ** b`; `int_exp`: b is an integer.
-    Pow { d: u32, a: u32, b: u32, e: Elem, int_exp: bool },
+    Pow {
+        d: u32,
+        a: u32,
+        b: u32,
+        e: Elem,
+        int_exp: bool,
+    },
     /// TIME * or / a number (`real`: the number is a real).
-    TimeScale { d: u32, a: u32, b: u32, div: bool, real: bool },
+    TimeScale {
+        d: u32,
+        a: u32,
+        b: u32,
+        div: bool,
+        real: bool,
+    },
     /// TOD ± TIME, wrapping around midnight.
-    TodAdd { d: u32, a: u32, b: u32, sub: bool },
-    Math { f: Builtin, d: u32, s: u32, e: Elem },
-    AbsI { d: u32, s: u32, e: Elem },
-    Atan2 { d: u32, y: u32, x: u32, e: Elem },
+    TodAdd {
+        d: u32,
+        a: u32,
+        b: u32,
+        sub: bool,
+    },
+    Math {
+        f: Builtin,
+        d: u32,
+        s: u32,
+        e: Elem,
+    },
+    AbsI {
+        d: u32,
+        s: u32,
+        e: Elem,
+    },
+    Atan2 {
+        d: u32,
+        y: u32,
+        x: u32,
+        e: Elem,
+    },
     /// MAX/MIN over `args` (pointers when `kind` is S; then `d` is the result buffer pointer).
-    MinMax { max: bool, d: u32, args: Vec<u32>, kind: Kind, cap: u32 },
-    Limit { d: u32, mn: u32, x: u32, mx: u32, kind: Kind, cap: u32 },
+    MinMax {
+        max: bool,
+        d: u32,
+        args: Vec<u32>,
+        kind: Kind,
+        cap: u32,
+    },
+    Limit {
+        d: u32,
+        mn: u32,
+        x: u32,
+        mx: u32,
+        kind: Kind,
+        cap: u32,
+    },
     /// SEL and MUX over scalars or (kind S) strings; `k` is G or K.
-    Select { mux: bool, d: u32, k: u32, args: Vec<u32>, kind: Kind, cap: u32 },
-    Shift { f: Builtin, d: u32, s: u32, n: u32, e: Elem },
+    Select {
+        mux: bool,
+        d: u32,
+        k: u32,
+        args: Vec<u32>,
+        kind: Kind,
+        cap: u32,
+    },
+    Shift {
+        f: Builtin,
+        d: u32,
+        s: u32,
+        n: u32,
+        e: Elem,
+    },
     /// String functions: `args` are pointers (strings) and integer slots in the standard's
     /// order; the result goes to the buffer at pointer `d` (or slot `d` for LEN and FIND).
-    Str { f: Builtin, d: u32, args: Vec<u32>, cap: u32 },
-    ConcatDateTod { d: u32, a: u32, b: u32 },
+    Str {
+        f: Builtin,
+        d: u32,
+        args: Vec<u32>,
+        cap: u32,
+    },
+    ConcatDateTod {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
     /// A FOR loop's step must not be 0.
-    NonZeroStep { s: u32 },
+    NonZeroStep {
+        s: u32,
+    },
 }
 
 /// Why an operation stopped the program, with the values involved.
@@ -192,7 +283,10 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             let raw = slot(mem, base, *s);
             let v = get_value(raw, *from);
             let r = ops::convert_elem(&v, *from, *to).map_err(|e| {
-                fault(e, format!("{}_TO_{}({})", from.name(), to.name(), show(raw, *from)))
+                fault(
+                    e,
+                    format!("{}_TO_{}({})", from.name(), to.name(), show(raw, *from)),
+                )
             })?;
             mem[base + *d as usize] = put_value(&r, *to);
         }
@@ -205,7 +299,10 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         ExtOp::FromStr { d, sp, to } => {
             let s = read_str(mem, ptr(mem, base, *sp));
             let r = ops::from_text(&s, *to).map_err(|e| {
-                fault(e, format!("STRING_TO_{}('{}')", to.name(), String::from_utf8_lossy(&s)))
+                fault(
+                    e,
+                    format!("STRING_TO_{}('{}')", to.name(), String::from_utf8_lossy(&s)),
+                )
             })?;
             mem[base + *d as usize] = put_value(&r, *to);
         }
@@ -225,7 +322,13 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             }
             mem[base + *d as usize] = v as u64;
         }
-        ExtOp::Pow { d, a, b, e, int_exp } => {
+        ExtOp::Pow {
+            d,
+            a,
+            b,
+            e,
+            int_exp,
+        } => {
             let x = real(mem, base, *a);
             let r = if *int_exp {
                 let n = int(mem, base, *b);
@@ -237,23 +340,46 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             };
             mem[base + *d as usize] = r.to_bits();
         }
-        ExtOp::TimeScale { d, a, b, div, real: is_real } => {
+        ExtOp::TimeScale {
+            d,
+            a,
+            b,
+            div,
+            real: is_real,
+        } => {
             let t = int(mem, base, *a);
             let r = if *is_real {
                 let f = real(mem, base, *b);
                 if *div && f == 0.0 {
-                    return Err(fault(OpError::DivisionByZero, format!("{} / 0.0", ops::format_duration(t))));
+                    return Err(fault(
+                        OpError::DivisionByZero,
+                        format!("{} / 0.0", ops::format_duration(t)),
+                    ));
                 }
                 let r = ops::round_even(if *div { t as f64 / f } else { t as f64 * f });
                 if !r.is_finite() || r.abs() > 9.2e18 {
-                    return Err(fault(OpError::Overflow, format!("{} {} {f}", ops::format_duration(t), if *div { "/" } else { "*" })));
+                    return Err(fault(
+                        OpError::Overflow,
+                        format!(
+                            "{} {} {f}",
+                            ops::format_duration(t),
+                            if *div { "/" } else { "*" }
+                        ),
+                    ));
                 }
                 r as i128
             } else {
                 let n = int(mem, base, *b);
                 let op = if *div { BinaryOp::Div } else { BinaryOp::Mul };
                 ops::int_binary(op, t, n, Elem::Lint).map_err(|e| {
-                    fault(e, format!("T#{} {} {n}", ops::format_duration(t), if *div { "/" } else { "*" }))
+                    fault(
+                        e,
+                        format!(
+                            "T#{} {} {n}",
+                            ops::format_duration(t),
+                            if *div { "/" } else { "*" }
+                        ),
+                    )
                 })?
             };
             mem[base + *d as usize] = r as i64 as u64;
@@ -265,7 +391,8 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         }
         ExtOp::Math { f, d, s, e } => {
             let v = real(mem, base, *s);
-            let r = ops::real_fn(*f, v, *e).map_err(|er| fault(er, format!("{}({v})", f.name())))?;
+            let r =
+                ops::real_fn(*f, v, *e).map_err(|er| fault(er, format!("{}({v})", f.name())))?;
             mem[base + *d as usize] = r.to_bits();
         }
         ExtOp::AbsI { d, s, e } => {
@@ -280,7 +407,13 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
                 .map_err(|er| fault(er, "ATAN2".to_string()))?;
             mem[base + *d as usize] = r.to_bits();
         }
-        ExtOp::MinMax { max, d, args, kind, cap } => {
+        ExtOp::MinMax {
+            max,
+            d,
+            args,
+            kind,
+            cap,
+        } => {
             let mut best = args[0];
             for &a in &args[1..] {
                 let better = if *max {
@@ -294,7 +427,14 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             }
             set_from(mem, base, *d, best, *kind, *cap);
         }
-        ExtOp::Limit { d, mn, x, mx, kind, cap } => {
+        ExtOp::Limit {
+            d,
+            mn,
+            x,
+            mx,
+            kind,
+            cap,
+        } => {
             let pick = if less(mem, base, *x, *mn, *kind) {
                 *mn
             } else if less(mem, base, *mx, *x, *kind) {
@@ -304,7 +444,14 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             };
             set_from(mem, base, *d, pick, *kind, *cap);
         }
-        ExtOp::Select { mux, d, k, args, kind, cap } => {
+        ExtOp::Select {
+            mux,
+            d,
+            k,
+            args,
+            kind,
+            cap,
+        } => {
             let i = if *mux {
                 let k = int(mem, base, *k);
                 match usize::try_from(k).ok().filter(|&i| i < args.len()) {
@@ -312,7 +459,11 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
                     None => {
                         return Err(fault(
                             OpError::Domain("MUX selector out of range"),
-                            format!("MUX with K = {k} and {} inputs (K is 0..{})", args.len(), args.len() - 1),
+                            format!(
+                                "MUX with K = {k} and {} inputs (K is 0..{})",
+                                args.len(),
+                                args.len() - 1
+                            ),
                         ))
                     }
                 }
@@ -324,7 +475,8 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         ExtOp::Shift { f, d, s, n, e } => {
             let v = get_value(slot(mem, base, *s), *e).as_int().unwrap_or(0);
             let k = int(mem, base, *n);
-            let r = ops::shift(*f, v, k, *e).map_err(|er| fault(er, format!("{}(…, {k})", f.name())))?;
+            let r = ops::shift(*f, v, k, *e)
+                .map_err(|er| fault(er, format!("{}(…, {k})", f.name())))?;
             mem[base + *d as usize] = r as i64 as u64;
         }
         ExtOp::Str { f, d, args, cap } => string_fn(*f, *d, args, *cap, mem, base)?,
@@ -345,7 +497,14 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
     Ok(())
 }
 
-fn string_fn(f: Builtin, d: u32, args: &[u32], cap: u32, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
+fn string_fn(
+    f: Builtin,
+    d: u32,
+    args: &[u32],
+    cap: u32,
+    mem: &mut [u64],
+    base: usize,
+) -> Result<(), OpFault> {
     let s = |k: usize, mem: &[u64]| read_str(mem, ptr(mem, base, args[k]));
     let n = |k: usize, mem: &[u64]| int(mem, base, args[k]);
     let describe = |e: OpError, what: String| fault(e, what);
@@ -358,12 +517,22 @@ fn string_fn(f: Builtin, d: u32, args: &[u32], cap: u32, mem: &mut [u64], base: 
             mem[base + d as usize] = ops::find(&s(0, mem), &s(1, mem)) as u64;
             return Ok(());
         }
-        Builtin::Left => ops::left(&s(0, mem), n(1, mem)).map_err(|e| describe(e, format!("LEFT with L = {}", n(1, mem))))?,
-        Builtin::Right => ops::right(&s(0, mem), n(1, mem)).map_err(|e| describe(e, format!("RIGHT with L = {}", n(1, mem))))?,
+        Builtin::Left => ops::left(&s(0, mem), n(1, mem))
+            .map_err(|e| describe(e, format!("LEFT with L = {}", n(1, mem))))?,
+        Builtin::Right => ops::right(&s(0, mem), n(1, mem))
+            .map_err(|e| describe(e, format!("RIGHT with L = {}", n(1, mem))))?,
         Builtin::Mid => {
             let x = s(0, mem);
             ops::mid(&x, n(1, mem), n(2, mem)).map_err(|e| {
-                describe(e, format!("MID with L = {}, P = {} on a string of {} characters", n(1, mem), n(2, mem), x.len()))
+                describe(
+                    e,
+                    format!(
+                        "MID with L = {}, P = {} on a string of {} characters",
+                        n(1, mem),
+                        n(2, mem),
+                        x.len()
+                    ),
+                )
             })?
         }
         Builtin::Concat => {
@@ -376,19 +545,42 @@ fn string_fn(f: Builtin, d: u32, args: &[u32], cap: u32, mem: &mut [u64], base: 
         Builtin::Insert => {
             let x = s(0, mem);
             ops::insert(&x, &s(1, mem), n(2, mem)).map_err(|e| {
-                describe(e, format!("INSERT with P = {} into a string of {} characters", n(2, mem), x.len()))
+                describe(
+                    e,
+                    format!(
+                        "INSERT with P = {} into a string of {} characters",
+                        n(2, mem),
+                        x.len()
+                    ),
+                )
             })?
         }
         Builtin::Delete => {
             let x = s(0, mem);
             ops::delete(&x, n(1, mem), n(2, mem)).map_err(|e| {
-                describe(e, format!("DELETE with L = {}, P = {} on a string of {} characters", n(1, mem), n(2, mem), x.len()))
+                describe(
+                    e,
+                    format!(
+                        "DELETE with L = {}, P = {} on a string of {} characters",
+                        n(1, mem),
+                        n(2, mem),
+                        x.len()
+                    ),
+                )
             })?
         }
         Builtin::Replace => {
             let x = s(0, mem);
             ops::replace(&x, &s(1, mem), n(2, mem), n(3, mem)).map_err(|e| {
-                describe(e, format!("REPLACE with L = {}, P = {} on a string of {} characters", n(2, mem), n(3, mem), x.len()))
+                describe(
+                    e,
+                    format!(
+                        "REPLACE with L = {}, P = {} on a string of {} characters",
+                        n(2, mem),
+                        n(3, mem),
+                        x.len()
+                    ),
+                )
             })?
         }
         _ => Vec::new(),

@@ -19,5 +19,8 @@ pub mod op;
 
 pub use compile::{CompileError, InstanceSpec};
 pub use exec::FaultKind;
-pub use machine::{display, string_literal, Engine, Fault, Machine, RetainImage, Retained, VarRef, DEFAULT_ITERATIONS};
+pub use machine::{
+    display, string_literal, Engine, Fault, Machine, RetainImage, Retained, VarRef,
+    DEFAULT_ITERATIONS,
+};
 pub use native::{NativeCtx, NativeFb};

@@ -29,7 +29,11 @@ pub struct Fault {
 
 impl fmt::Display for Fault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}:{}: in {}: {}", self.file, self.line, self.pou, self.message)
+        write!(
+            f,
+            "{}:{}: in {}: {}",
+            self.file, self.line, self.pou, self.message
+        )
     }
 }
 
@@ -69,18 +73,28 @@ impl Engine {
     ) -> Result<Arc<Engine>, CompileError> {
         if !native::matches(&natives, &project.natives) {
             return Err(CompileError::Unsupported(
-                "the native function blocks do not match the ones the project was checked with".into(),
+                "the native function blocks do not match the ones the project was checked with"
+                    .into(),
             ));
         }
         let line_of = |span| sources.line(span);
         let mut code = compile::compile(&project, instances, &line_of)?;
-        code.native_sizes = project.natives.iter().map(|n| n.vars.len() as u32).collect();
+        code.native_sizes = project
+            .natives
+            .iter()
+            .map(|n| n.vars.len() as u32)
+            .collect();
         let pou_files = project
             .pous
             .iter()
-            .map(|p| sources.get(p.span.file).map_or_else(String::new, |f| f.name.clone()))
+            .map(|p| {
+                sources
+                    .get(p.span.file)
+                    .map_or_else(String::new, |f| f.name.clone())
+            })
             .collect();
-        let mut task_order: Vec<usize> = (0..project.configuration.as_ref().map_or(0, |c| c.tasks.len())).collect();
+        let mut task_order: Vec<usize> =
+            (0..project.configuration.as_ref().map_or(0, |c| c.tasks.len())).collect();
         if let Some(c) = &project.configuration {
             task_order.sort_by_key(|&t| (c.tasks[t].priority, t));
         }
@@ -105,13 +119,22 @@ impl Engine {
             None => (u32::MAX, 0),
         };
         let (name, file) = if pou == u32::MAX {
-            let c = self.project.configuration.as_ref().map_or("the configuration".to_string(), |c| format!("CONFIGURATION {}", c.name));
+            let c = self
+                .project
+                .configuration
+                .as_ref()
+                .map_or("the configuration".to_string(), |c| {
+                    format!("CONFIGURATION {}", c.name)
+                });
             (c, String::new())
         } else {
             let p = self.project.pou(pou);
             (
                 format!("{} {}", p.kind.keyword(), p.name),
-                self.pou_files.get(pou as usize).cloned().unwrap_or_default(),
+                self.pou_files
+                    .get(pou as usize)
+                    .cloned()
+                    .unwrap_or_default(),
             )
         };
         let what = match &f.error {
@@ -148,12 +171,25 @@ impl Engine {
     pub fn lookup(&self, path: &str) -> Option<VarRef> {
         let mut parts = split_path(path)?.into_iter();
         let first = parts.next()?;
-        let Segment::Name(first) = first else { return None };
+        let Segment::Name(first) = first else {
+            return None;
+        };
         let p = &self.project;
         let (mut addr, mut ty, mut class) = if let Some(g) = p.global_by_name(&first) {
-            (self.code.global_addr[g as usize], p.globals[g as usize].ty, VarClass::Global)
-        } else if let Some(inst) = self.code.instances.iter().find(|i| i.name.eq_ignore_ascii_case(&first)) {
-            let Some(Segment::Name(v)) = parts.next() else { return None };
+            (
+                self.code.global_addr[g as usize],
+                p.globals[g as usize].ty,
+                VarClass::Global,
+            )
+        } else if let Some(inst) = self
+            .code
+            .instances
+            .iter()
+            .find(|i| i.name.eq_ignore_ascii_case(&first))
+        {
+            let Some(Segment::Name(v)) = parts.next() else {
+                return None;
+            };
             return self.member(inst.frame, inst.pou, &v, parts.collect());
         } else {
             return None;
@@ -174,7 +210,10 @@ impl Engine {
         let (mut addr, ty) = match decl.class {
             VarClass::External(g) => (self.code.global_addr[g as usize], decl.ty),
             VarClass::InOut | VarClass::Hidden => return None,
-            _ => (frame + self.code.layouts[pou as usize].offsets[v as usize]?, decl.ty),
+            _ => (
+                frame + self.code.layouts[pou as usize].offsets[v as usize]?,
+                decl.ty,
+            ),
         };
         let mut ty = ty;
         let mut class = decl.class;
@@ -191,7 +230,9 @@ impl Engine {
         let p = &self.project;
         match (p.types.get(ty), seg) {
             (Type::Struct { fields, .. }, Segment::Name(n)) => {
-                let i = fields.iter().position(|f| f.name.eq_ignore_ascii_case(&n))?;
+                let i = fields
+                    .iter()
+                    .position(|f| f.name.eq_ignore_ascii_case(&n))?;
                 let offs = self.code.sizes.field_offsets(p, ty);
                 Some((addr + offs[i], fields[i].ty, VarClass::Local))
             }
@@ -202,7 +243,11 @@ impl Engine {
             (Type::Fb(FbRef::Native(k)), Segment::Name(n)) => {
                 let sig = &p.natives[*k as usize];
                 let i = sig.var_by_name(&n)?;
-                Some((addr + i, petriplc_iec_sema::types::TypeTable::elem_id(sig.vars[i as usize].ty), VarClass::Local))
+                Some((
+                    addr + i,
+                    petriplc_iec_sema::types::TypeTable::elem_id(sig.vars[i as usize].ty),
+                    VarClass::Local,
+                ))
             }
             (Type::Array { dims, elem }, Segment::Index(idx)) => {
                 if idx.len() != dims.len() {
@@ -257,8 +302,13 @@ impl Engine {
         let p = self.project.pou(pou);
         let layout = &self.code.layouts[pou as usize];
         for (i, v) in p.vars.iter().enumerate() {
-            let Some(off) = layout.offsets[i] else { continue };
-            if matches!(v.class, VarClass::InOut | VarClass::Temp | VarClass::External(_)) {
+            let Some(off) = layout.offsets[i] else {
+                continue;
+            };
+            if matches!(
+                v.class,
+                VarClass::InOut | VarClass::Temp | VarClass::External(_)
+            ) {
                 continue;
             }
             let name = format!("{path}.{}", v.name);
@@ -305,7 +355,15 @@ fn run_one(
         check,
     };
     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        exec::run(&engine.code, &engine.natives, mem, inst.entry, now, &mut budget, stack)
+        exec::run(
+            &engine.code,
+            &engine.natives,
+            mem,
+            inst.entry,
+            now,
+            &mut budget,
+            stack,
+        )
     }));
     match r {
         Ok(Ok(())) => Ok(()),
@@ -366,7 +424,8 @@ fn split_path(path: &str) -> Option<Vec<Segment>> {
         }
         if let Some(r) = rest.strip_prefix('[') {
             let end = r.find(']')?;
-            let idx: Option<Vec<i64>> = r[..end].split(',').map(|s| s.trim().parse().ok()).collect();
+            let idx: Option<Vec<i64>> =
+                r[..end].split(',').map(|s| s.trim().parse().ok()).collect();
             out.push(Segment::Index(idx?));
             rest = &r[end + 1..];
             continue;
@@ -390,14 +449,20 @@ pub struct Machine {
 
 impl fmt::Debug for Machine {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Machine").field("engine", &self.engine).finish()
+        f.debug_struct("Machine")
+            .field("engine", &self.engine)
+            .finish()
     }
 }
 
 impl Machine {
     /// A machine in its initial state (a cold start).
     pub fn new(engine: Arc<Engine>) -> Self {
-        let tasks = engine.project.configuration.as_ref().map_or(0, |c| c.tasks.len());
+        let tasks = engine
+            .project
+            .configuration
+            .as_ref()
+            .map_or(0, |c| c.tasks.len());
         Machine {
             mem: engine.code.init.clone(),
             engine,
@@ -419,7 +484,13 @@ impl Machine {
 
     /// Runs one program instance once at time `now` (nanoseconds).
     pub fn run_instance(&mut self, instance: usize, now: i64) -> Result<(), Fault> {
-        let Machine { engine, mem, stack, iterations, .. } = self;
+        let Machine {
+            engine,
+            mem,
+            stack,
+            iterations,
+            ..
+        } = self;
         run_one(engine, mem, stack, *iterations, instance, now, &mut || true)
     }
 
@@ -428,7 +499,13 @@ impl Machine {
     /// scan, after the tasks. `check` is called every 65 536 loop iterations and stops the
     /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
-        let Machine { engine, mem, stack, iterations, next_due } = self;
+        let Machine {
+            engine,
+            mem,
+            stack,
+            iterations,
+            next_due,
+        } = self;
         let engine: &Engine = engine;
         let instances = &engine.code.instances;
         let tasks = match engine.project.configuration.as_ref() {
@@ -493,7 +570,9 @@ impl Machine {
                 let from = match value {
                     Value::Real(_) => Elem::Lreal,
                     Value::Str(s) => {
-                        let r = ops::from_text(s, e).map_err(|_| format!("`{}` is not a {}", String::from_utf8_lossy(s), e.name()))?;
+                        let r = ops::from_text(s, e).map_err(|_| {
+                            format!("`{}` is not a {}", String::from_utf8_lossy(s), e.name())
+                        })?;
                         self.mem[v.addr as usize] = ext::put_value(&r, e);
                         return Ok(());
                     }
@@ -521,7 +600,9 @@ impl Machine {
                 Ok(())
             }
             Type::Enum { values, .. } => {
-                let i = value.as_int().ok_or("an enumeration takes its value's number")?;
+                let i = value
+                    .as_int()
+                    .ok_or("an enumeration takes its value's number")?;
                 if !values.iter().any(|(_, x)| *x as i128 == i) {
                     return Err(format!("{i} is not a value of the enumeration"));
                 }
@@ -559,7 +640,11 @@ impl Machine {
                 .into_iter()
                 .map(|r| {
                     let a = r.addr as usize;
-                    (r.path, r.type_name, self.mem[a..a + r.len as usize].to_vec())
+                    (
+                        r.path,
+                        r.type_name,
+                        self.mem[a..a + r.len as usize].to_vec(),
+                    )
                 })
                 .collect(),
         }
@@ -587,7 +672,9 @@ impl Machine {
 /// durations as IEC literals, strings in quotes.
 pub fn display(project: &Project, ty: TypeId, v: &Value) -> String {
     match (project.types.get(ty), v) {
-        (Type::Elem(Elem::Bool), Value::Int(i)) => (*i != 0).then_some("1").unwrap_or("0").to_string(),
+        (Type::Elem(Elem::Bool), Value::Int(i)) => {
+            (*i != 0).then_some("1").unwrap_or("0").to_string()
+        }
         (Type::Elem(e), v) if e.is_real() || e.is_duration() || e.is_date() => {
             String::from_utf8_lossy(&ops::to_text(v, *e)).into_owned()
         }

@@ -48,7 +48,11 @@ fn main() {
     times.sort_by(|a, b| a.total_cmp(b));
     println!("{:.1} {:.3}", times[repeats / 2], compile.as_secs_f64());
     if std::env::var_os("SCAN_TIME_OPS").is_some() {
-        eprintln!("{} instructions, {} slots", engine.code.ops.len(), engine.code.init.len());
+        eprintln!(
+            "{} instructions, {} slots",
+            engine.code.ops.len(),
+            engine.code.init.len()
+        );
         for op in engine.code.ops.iter().take(80) {
             eprintln!("{op:?}");
         }

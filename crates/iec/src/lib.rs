@@ -60,7 +60,9 @@ impl Sources {
 
     /// Adds a source by its text; `name` is what messages print.
     pub fn add_text(&mut self, name: &str, text: &str) {
-        let lib = if syntax::plcopen::is_plcopen(text) || (name.to_ascii_lowercase().ends_with(".xml") && text.trim_start().starts_with('<')) {
+        let lib = if syntax::plcopen::is_plcopen(text)
+            || (name.to_ascii_lowercase().ends_with(".xml") && text.trim_start().starts_with('<'))
+        {
             syntax::plcopen::read(&mut self.map, name, text, &mut self.diags)
         } else {
             let f = self.map.add(name, text);
@@ -135,7 +137,9 @@ pub fn check(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> 
     };
     let all = all.sorted();
     if all.has_errors() {
-        return Err(IecError::Invalid(sources.render(&all).trim_end().to_string()));
+        return Err(IecError::Invalid(
+            sources.render(&all).trim_end().to_string(),
+        ));
     }
     let warnings = all
         .items
@@ -156,7 +160,11 @@ pub struct Build {
 }
 
 /// The program instances `select` names in a checked project.
-pub fn instances(project: &Project, select: &Select, map: &SourceMap) -> Result<Vec<InstanceSpec>, IecError> {
+pub fn instances(
+    project: &Project,
+    select: &Select,
+    map: &SourceMap,
+) -> Result<Vec<InstanceSpec>, IecError> {
     let err = |span: Span, msg: String| {
         let d = Diagnostic::error(diag::NO_PROGRAM, span, msg);
         IecError::Invalid(d.render(map))
@@ -165,12 +173,22 @@ pub fn instances(project: &Project, select: &Select, map: &SourceMap) -> Result<
     match select {
         Select::Pou(name) => {
             let Some(p) = project.pou_by_name(name) else {
-                let programs: Vec<&str> = project.programs().map(|(_, p)| p.name.as_str()).collect();
-                return Err(err(any_span, format!("no POU named `{name}`; the programs are {}", list(&programs))));
+                let programs: Vec<&str> =
+                    project.programs().map(|(_, p)| p.name.as_str()).collect();
+                return Err(err(
+                    any_span,
+                    format!(
+                        "no POU named `{name}`; the programs are {}",
+                        list(&programs)
+                    ),
+                ));
             };
             let pou = project.pou(p);
             if pou.kind != PouKind::Program {
-                return Err(err(pou.span, format!("{name} is a {}; choose a PROGRAM", pou.kind.keyword())));
+                return Err(err(
+                    pou.span,
+                    format!("{name} is a {}; choose a PROGRAM", pou.kind.keyword()),
+                ));
             }
             Ok(vec![InstanceSpec {
                 name: pou.name.clone(),
@@ -197,7 +215,8 @@ pub fn instances(project: &Project, select: &Select, map: &SourceMap) -> Result<
                     })
                     .collect());
             }
-            let programs: Vec<(u32, &sema::ir::Pou)> = project.programs().filter(|(_, p)| p.runnable).collect();
+            let programs: Vec<(u32, &sema::ir::Pou)> =
+                project.programs().filter(|(_, p)| p.runnable).collect();
             match programs.as_slice() {
                 [(id, p)] => Ok(vec![InstanceSpec {
                     name: p.name.clone(),
@@ -206,7 +225,10 @@ pub fn instances(project: &Project, select: &Select, map: &SourceMap) -> Result<
                     inputs: Vec::new(),
                     outputs: Vec::new(),
                 }]),
-                [] => Err(err(any_span, "no PROGRAM to run; declare one (PROGRAM main … END_PROGRAM)".into())),
+                [] => Err(err(
+                    any_span,
+                    "no PROGRAM to run; declare one (PROGRAM main … END_PROGRAM)".into(),
+                )),
                 many => {
                     let names: Vec<&str> = many.iter().map(|(_, p)| p.name.as_str()).collect();
                     Err(err(many[1].1.span, format!("several programs ({}); choose one (--pou NAME, or `pou = NAME`) or add a CONFIGURATION", list(&names))))

@@ -152,7 +152,13 @@ impl IecTrace {
             output_types: self
                 .boolean
                 .iter()
-                .map(|b| if *b { SignalType::Bool } else { SignalType::Int })
+                .map(|b| {
+                    if *b {
+                        SignalType::Bool
+                    } else {
+                        SignalType::Int
+                    }
+                })
                 .collect(),
             rows: self
                 .rows
@@ -209,7 +215,8 @@ impl<'p> IecSimulation<'p> {
         }
         let machine = Machine::new(engine.clone());
         let several = engine.instances().len() > 1;
-        let configured = engine.project.configuration.is_some() && engine.instances().iter().any(|i| i.task.is_some());
+        let configured = engine.project.configuration.is_some()
+            && engine.instances().iter().any(|i| i.task.is_some());
         // Inputs and outputs of every program instance, and the globals.
         let mut inputs: Vec<Var> = Vec::new();
         let mut outputs: Vec<Var> = Vec::new();
@@ -219,8 +226,14 @@ impl<'p> IecSimulation<'p> {
                 if !traceable(&engine, ty) {
                     continue;
                 }
-                let Some(var) = engine.lookup(&format!("{}.{name}", inst.name)) else { continue };
-                let shown = if several { format!("{}.{name}", inst.name) } else { name.clone() };
+                let Some(var) = engine.lookup(&format!("{}.{name}", inst.name)) else {
+                    continue;
+                };
+                let shown = if several {
+                    format!("{}.{name}", inst.name)
+                } else {
+                    name.clone()
+                };
                 let v = Var { name: shown, var };
                 match class {
                     VarClass::Input => inputs.push(v),
@@ -242,7 +255,11 @@ impl<'p> IecSimulation<'p> {
                 });
             }
         }
-        let find = |list: &[Var], name: &str| list.iter().find(|v| v.name.eq_ignore_ascii_case(name)).cloned();
+        let find = |list: &[Var], name: &str| {
+            list.iter()
+                .find(|v| v.name.eq_ignore_ascii_case(name))
+                .cloned()
+        };
         let input_of = |name: &str| find(&inputs, name).or_else(|| find(&globals, name));
         let output_of = |name: &str| find(&outputs, name).or_else(|| find(&globals, name));
 
@@ -278,9 +295,11 @@ impl<'p> IecSimulation<'p> {
             }
         }
         let column_of = |name: &str| {
-            timeline
-                .as_ref()
-                .and_then(|tl| tl.columns().iter().position(|c| c.eq_ignore_ascii_case(name)))
+            timeline.as_ref().and_then(|tl| {
+                tl.columns()
+                    .iter()
+                    .position(|c| c.eq_ignore_ascii_case(name))
+            })
         };
         let mut warnings = Vec::new();
         let plant = match plant {
@@ -336,7 +355,9 @@ impl<'p> IecSimulation<'p> {
         };
         for v in &inputs {
             let driven = timeline_inputs.iter().any(|(_, t)| t.var == v.var)
-                || plant.as_ref().is_some_and(|p| p.drives.iter().any(|d| d.1 == v.var));
+                || plant
+                    .as_ref()
+                    .is_some_and(|p| p.drives.iter().any(|d| d.1 == v.var));
             if !driven {
                 warnings.push(format!(
                     "input {} is driven by neither the timeline nor the plant; it keeps its initial value",
@@ -432,7 +453,11 @@ impl<'p> IecSimulation<'p> {
         self.machine.set(v, &value).map_err(bad)
     }
 
-    fn scan_at(&mut self, t: Duration, cursor: Option<&mut TimelineCursor<'_>>) -> Result<(), SimError> {
+    fn scan_at(
+        &mut self,
+        t: Duration,
+        cursor: Option<&mut TimelineCursor<'_>>,
+    ) -> Result<(), SimError> {
         let values: Vec<Option<i64>> = match cursor {
             Some(c) => c.seek(t).to_vec(),
             None => Vec::new(),

@@ -77,14 +77,18 @@ fn assignments(text: &str) -> Vec<(String, String)> {
     out.into_iter()
         .filter(|a| !a.trim().is_empty())
         .map(|a| {
-            let (n, v) = a.split_once('=').unwrap_or_else(|| panic!("`{a}` is not name = value"));
+            let (n, v) = a
+                .split_once('=')
+                .unwrap_or_else(|| panic!("`{a}` is not name = value"));
             (n.trim().to_string(), v.trim().to_string())
         })
         .collect()
 }
 
 fn parse_spec(path: &Path, text: &str) -> Spec {
-    let start = text.find("(*").unwrap_or_else(|| panic!("{}: no header comment", path.display()));
+    let start = text
+        .find("(*")
+        .unwrap_or_else(|| panic!("{}: no header comment", path.display()));
     let end = text[start..].find("*)").map(|e| start + e).unwrap();
     let mut spec = Spec {
         period_ns: 10_000_000,
@@ -93,8 +97,15 @@ fn parse_spec(path: &Path, text: &str) -> Spec {
     for line in text[start + 2..end].lines() {
         let line = line.trim();
         let scan = |rest: &str| -> (usize, String) {
-            let (n, body) = rest.split_once(':').unwrap_or_else(|| panic!("{}: `{line}`", path.display()));
-            (n.trim().parse().unwrap_or_else(|_| panic!("{}: `{line}`", path.display())), body.trim().to_string())
+            let (n, body) = rest
+                .split_once(':')
+                .unwrap_or_else(|| panic!("{}: `{line}`", path.display()));
+            (
+                n.trim()
+                    .parse()
+                    .unwrap_or_else(|_| panic!("{}: `{line}`", path.display())),
+                body.trim().to_string(),
+            )
         };
         if let Some(rest) = line.strip_prefix("period:") {
             let d = petriplc_net::time::parse_duration(rest.trim()).unwrap();
@@ -116,7 +127,11 @@ fn parse_spec(path: &Path, text: &str) -> Spec {
             spec.scans = spec.scans.max(n);
         }
     }
-    assert!(spec.scans > 0, "{}: no `after N:` or `fault N:` line", path.display());
+    assert!(
+        spec.scans > 0,
+        "{}: no `after N:` or `fault N:` line",
+        path.display()
+    );
     spec
 }
 
@@ -145,7 +160,9 @@ fn same(expected: &str, actual: &str, real: bool) -> bool {
     };
     if real {
         if let (Ok(a), Ok(b)) = (e.parse::<f64>(), actual.parse::<f64>()) {
-            return a == b || (a - b).abs() <= 1e-12 || (a - b).abs() <= 1e-6 * a.abs().max(b.abs());
+            return a == b
+                || (a - b).abs() <= 1e-12
+                || (a - b).abs() <= 1e-6 * a.abs().max(b.abs());
         }
     }
     e == actual
@@ -183,7 +200,9 @@ fn run(path: &Path) -> Vec<String> {
                     Ok(i) => petriplc_iec_sema::value::Value::Int(i),
                     Err(_) => match value.parse::<f64>() {
                         Ok(f) => petriplc_iec_sema::value::Value::Real(f),
-                        Err(_) => petriplc_iec_sema::value::Value::Str(value.trim_matches('\'').as_bytes().to_vec()),
+                        Err(_) => petriplc_iec_sema::value::Value::Str(
+                            value.trim_matches('\'').as_bytes().to_vec(),
+                        ),
                     },
                 },
             };
@@ -197,7 +216,9 @@ fn run(path: &Path) -> Vec<String> {
             (Some((n, text)), Err(f)) if *n == k => {
                 let msg = f.to_string();
                 if !msg.contains(text.as_str()) {
-                    problems.push(format!("scan {k} faulted with `{msg}`, expected one containing `{text}`"));
+                    problems.push(format!(
+                        "scan {k} faulted with `{msg}`, expected one containing `{text}`"
+                    ));
                 }
                 return problems;
             }
@@ -216,8 +237,13 @@ fn run(path: &Path) -> Vec<String> {
                 problems.push(format!("after {k}: no variable {name}"));
                 continue;
             };
-            let real = matches!(engine.project.types.get(v.ty), Type::Elem(Elem::Real | Elem::Lreal));
-            let actual = m.get(v).map_or_else(|| "?".into(), |x| display(&engine.project, v.ty, &x));
+            let real = matches!(
+                engine.project.types.get(v.ty),
+                Type::Elem(Elem::Real | Elem::Lreal)
+            );
+            let actual = m
+                .get(v)
+                .map_or_else(|| "?".into(), |x| display(&engine.project, v.ty, &x));
             if !same(expected, &actual, real) {
                 problems.push(format!("after {k}: {name} = {actual}, expected {expected}"));
             }
@@ -244,15 +270,29 @@ fn every_corpus_program_gives_its_expected_values() {
         let t = std::time::Instant::now();
         let problems = run(f);
         if std::env::var_os("CORPUS_TIMES").is_some() {
-            eprintln!("{:>8.1} ms {}", t.elapsed().as_secs_f64() * 1e3, f.display());
+            eprintln!(
+                "{:>8.1} ms {}",
+                t.elapsed().as_secs_f64() * 1e3,
+                f.display()
+            );
         }
         if !problems.is_empty() {
             failures.push(format!("{}:\n  {}", f.display(), problems.join("\n  ")));
         }
     }
     eprintln!("conformance: {} programs", files.len());
-    assert!(files.len() >= 150, "the corpus has {} programs; it needs at least 150", files.len());
-    assert!(failures.is_empty(), "{} of {} programs fail:\n{}", failures.len(), files.len(), failures.join("\n"));
+    assert!(
+        files.len() >= 150,
+        "the corpus has {} programs; it needs at least 150",
+        files.len()
+    );
+    assert!(
+        failures.is_empty(),
+        "{} of {} programs fail:\n{}",
+        failures.len(),
+        files.len(),
+        failures.join("\n")
+    );
 }
 
 /// The program text blark reads: the file without its CONFIGURATION.
@@ -281,7 +321,12 @@ fn for_blark(text: &str) -> String {
 /// an escaped quote, harmless within a file's last string but not across files).
 fn python() -> PathBuf {
     std::env::var_os("PETRIPLC_PYTHON").map_or_else(
-        || PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/py/bin/python")),
+        || {
+            PathBuf::from(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../target/py/bin/python"
+            ))
+        },
         PathBuf::from,
     )
 }
@@ -314,9 +359,21 @@ fn blark_parses_every_corpus_program() {
         std::fs::write(&to, for_blark(&std::fs::read_to_string(&f).unwrap())).unwrap();
         paths.push(to);
     }
-    let out = Command::new(&py).arg("-c").arg(BLARK_DRIVER).args(&paths).output().expect("python runs");
+    let out = Command::new(&py)
+        .arg("-c")
+        .arg(BLARK_DRIVER)
+        .args(&paths)
+        .output()
+        .expect("python runs");
     let _ = std::fs::remove_dir_all(&dir);
-    let report = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "blark refuses corpus programs:\n{report}");
+    let report = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.status.success(),
+        "blark refuses corpus programs:\n{report}"
+    );
     eprintln!("blark parsed {} corpus programs", paths.len());
 }

@@ -18,12 +18,42 @@ const EXAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
 
 /// (name, net, SIPN naming, timeline, built-in plant), as the examples' READMEs run them.
 const NETS: &[(&str, &str, bool, Option<&str>, Option<&str>)] = &[
-    ("mixer", "mixer/mixer.pnml", true, Some("mixer/timeline.csv"), None),
+    (
+        "mixer",
+        "mixer/mixer.pnml",
+        true,
+        Some("mixer/timeline.csv"),
+        None,
+    ),
     ("tank", "mixer/tank.pnml", false, None, None),
-    ("blink", "blink/blink.pnml", false, Some("blink/timeline.csv"), None),
-    ("philosophers", "philosophers/philosophers.pnml", false, Some("philosophers/timeline.csv"), None),
-    ("keyboard", "keyboard/keyboard.pnml", false, Some("keyboard/timeline.csv"), Some("keyboard")),
-    ("busy-beaver", "busy-beaver/busy-beaver.pnml", false, None, Some("tape")),
+    (
+        "blink",
+        "blink/blink.pnml",
+        false,
+        Some("blink/timeline.csv"),
+        None,
+    ),
+    (
+        "philosophers",
+        "philosophers/philosophers.pnml",
+        false,
+        Some("philosophers/timeline.csv"),
+        None,
+    ),
+    (
+        "keyboard",
+        "keyboard/keyboard.pnml",
+        false,
+        Some("keyboard/timeline.csv"),
+        Some("keyboard"),
+    ),
+    (
+        "busy-beaver",
+        "busy-beaver/busy-beaver.pnml",
+        false,
+        None,
+        Some("tape"),
+    ),
 ];
 
 const RULES: [(StepRule, Evolution); 4] = [
@@ -80,16 +110,63 @@ fn compare(
         .unwrap_or_else(|e| panic!("{what}: the engine refuses the generated ST:\n{e}\n{st}"));
     let engine = build.engine.clone();
     let mut m = Machine::new(engine.clone());
+    // The PLCopen XML project `petriplc compile --lang st` writes (the POU, and a
+    // configuration whose task runs it every 10 ms) runs in step with the bare ST.
+    let xml = generate(
+        net,
+        &Request {
+            language: Language::St,
+            form: Form::Project,
+            options: options.clone(),
+            created: "2026-01-01T00:00:00".into(),
+        },
+    )
+    .expect("the project is generated")
+    .text;
+    let xml_build = build_text(&format!("{name}.xml"), &xml, &Select::Auto)
+        .unwrap_or_else(|e| panic!("{what}: the engine refuses the generated PLCopen XML:\n{e}"));
+    let xml_engine = xml_build.engine.clone();
+    assert!(
+        xml_engine.project.configuration.is_some(),
+        "{what}: the project has its configuration"
+    );
+    let mut mx = Machine::new(xml_engine.clone());
+    let inst = xml_engine.instances()[0].name.clone();
+    let xml_var = |ident: &str| {
+        xml_engine
+            .lookup(&format!("{inst}.{ident}"))
+            .unwrap_or_else(|| panic!("{what}: no variable {ident} in the XML project"))
+    };
     let pou = &lowered.pou;
     let var = |ident: &str| {
         engine
             .lookup(&format!("{pou}.{ident}"))
             .unwrap_or_else(|| panic!("{what}: no variable {ident}"))
     };
-    let inputs: Vec<_> = lowered.inputs.iter().map(|io| (io.name.clone(), var(&io.ident))).collect();
-    let outputs: Vec<_> = lowered.outputs.iter().map(|io| (io.name.clone(), var(&io.ident))).collect();
-    let places: Vec<_> = lowered.places.iter().map(|p| (p.label.clone(), var(&p.ident))).collect();
+    let inputs: Vec<_> = lowered
+        .inputs
+        .iter()
+        .map(|io| (io.name.clone(), var(&io.ident)))
+        .collect();
+    let outputs: Vec<_> = lowered
+        .outputs
+        .iter()
+        .map(|io| (io.name.clone(), var(&io.ident)))
+        .collect();
+    let places: Vec<_> = lowered
+        .places
+        .iter()
+        .map(|p| (p.label.clone(), var(&p.ident)))
+        .collect();
     let unstable = engine.lookup(&format!("{pou}.{}", lowered.helpers.unstable));
+    let xml_inputs: Vec<_> = lowered.inputs.iter().map(|io| xml_var(&io.ident)).collect();
+    let xml_watch: Vec<_> = lowered
+        .outputs
+        .iter()
+        .map(|io| io.ident.clone())
+        .chain(lowered.places.iter().map(|p| p.ident.clone()))
+        .map(|i| (var(&i), xml_var(&i)))
+        .collect();
 
     let opts = SimOptions {
         period: Duration::from_millis(10),
@@ -110,11 +187,25 @@ fn compare(
         if r == Ok(false) {
             break;
         }
-        for (n, v) in &inputs {
+        for ((n, v), xv) in inputs.iter().zip(&xml_inputs) {
             let value = sim.signal(n).unwrap_or(0);
             m.set(*v, &Value::Int(value as i128)).unwrap();
+            mx.set(*xv, &Value::Int(value as i128)).unwrap();
         }
         let iec = m.scan(t.as_nanos() as i64, &mut || true);
+        let iec_xml = mx.scan(t.as_nanos() as i64, &mut || true);
+        assert_eq!(
+            iec.is_ok(),
+            iec_xml.is_ok(),
+            "{what} at t={t:?}: the XML project and the ST differ"
+        );
+        for (a, b) in &xml_watch {
+            assert_eq!(
+                m.get(*a),
+                mx.get(*b),
+                "{what} at t={t:?}: the XML project and the ST differ"
+            );
+        }
         scans += 1;
         match r {
             Err(e) => {
@@ -152,7 +243,8 @@ fn generated_st_runs_as_the_net_simulates() {
     let mut runs = 0;
     for &(name, path, sipn, timeline, plant) in NETS {
         let net = read(path, sipn);
-        let timeline = timeline.map(|t| Timeline::read_file(Path::new(&format!("{EXAMPLES}/{t}"))).unwrap());
+        let timeline =
+            timeline.map(|t| Timeline::read_file(Path::new(&format!("{EXAMPLES}/{t}"))).unwrap());
         for (step, evolve) in RULES {
             for markings in [Markings::Auto, Markings::Int] {
                 total += compare(name, &net, timeline.as_ref(), plant, step, evolve, markings);

@@ -16,7 +16,10 @@ fn run(src: &str, scans: usize, vars: &[&str]) -> Vec<String> {
         .map(|v| {
             let r = b.engine.lookup(v).unwrap_or_else(|| panic!("no {v}"));
             let val = m.get(r).unwrap();
-            format!("{v}={}", petriplc_iec_vm::display(&b.engine.project, r.ty, &val))
+            format!(
+                "{v}={}",
+                petriplc_iec_vm::display(&b.engine.project, r.ty, &val)
+            )
         })
         .collect()
 }
@@ -36,5 +39,17 @@ END_PROGRAM",
         5,
         &["main.s", "main.i", "main.r", "main.b", "main.t.Q", "main.t.ET", "main.str", "main.a[3]"],
     );
-    assert_eq!(r, vec!["main.s=55", "main.i=6", "main.r=3.0", "main.b=1", "main.t.Q=1", "main.t.ET=T#30ms", "main.str='abcd'", "main.a[3]=9"]);
+    assert_eq!(
+        r,
+        vec![
+            "main.s=55",
+            "main.i=6",
+            "main.r=3.0",
+            "main.b=1",
+            "main.t.Q=1",
+            "main.t.ET=T#30ms",
+            "main.str='abcd'",
+            "main.a[3]=9"
+        ]
+    );
 }

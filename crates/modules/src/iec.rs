@@ -35,7 +35,14 @@ use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanCo
 use crate::common::{self, error};
 
 const KIND: &str = "iec";
-const SETTINGS: &[&str] = &["program", "project", "pou", "task", "max_iterations", "watchdog"];
+const SETTINGS: &[&str] = &[
+    "program",
+    "project",
+    "pou",
+    "task",
+    "max_iterations",
+    "watchdog",
+];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
     Ok(Box::new(IecModule::new(decl)?))
@@ -113,13 +120,19 @@ impl IecModule {
         let iterations = match common::setting(decl, "max_iterations") {
             None => petriplc_iec::vm::DEFAULT_ITERATIONS,
             Some(v) => v.parse::<u64>().ok().filter(|n| *n > 0).ok_or_else(|| {
-                error(&decl.name, format!("`max_iterations = {v}`: give a whole number above 0"))
+                error(
+                    &decl.name,
+                    format!("`max_iterations = {v}`: give a whole number above 0"),
+                )
             })?,
         };
         let watchdog = match common::setting(decl, "watchdog") {
             None => None,
             Some(v) => Some(parse_time(v).filter(|d| !d.is_zero()).ok_or_else(|| {
-                error(&decl.name, format!("`watchdog = {v}`: give a duration such as T#100ms or 0.1"))
+                error(
+                    &decl.name,
+                    format!("`watchdog = {v}`: give a duration such as T#100ms or 0.1"),
+                )
             })?),
         };
         Ok(IecModule {
@@ -172,7 +185,9 @@ impl IecModule {
             Some(Elem::Int) => Some((Conv::Signed, 16, Some(PointKind::Signed))),
             Some(Elem::Uint | Elem::Word) => Some((Conv::Unsigned, 16, Some(PointKind::Unsigned))),
             Some(Elem::Dint) => Some((Conv::Signed, 32, Some(PointKind::Signed))),
-            Some(Elem::Udint | Elem::Dword) => Some((Conv::Unsigned, 32, Some(PointKind::Unsigned))),
+            Some(Elem::Udint | Elem::Dword) => {
+                Some((Conv::Unsigned, 32, Some(PointKind::Unsigned)))
+            }
             Some(Elem::Real) => Some((Conv::Real, 32, Some(PointKind::Float))),
             Some(Elem::Time) => Some((Conv::TimeMs, 32, Some(PointKind::Signed))),
             _ => None,
@@ -183,7 +198,8 @@ impl IecModule {
             ));
             return None;
         };
-        let enum_ok = matches!(engine.project.types.get(at.ty), Type::Enum { .. }) && kind != PointKind::Float;
+        let enum_ok = matches!(engine.project.types.get(at.ty), Type::Enum { .. })
+            && kind != PointKind::Float;
         let ok = enum_ok
             || (bits == need_bits
                 && match need_kind {
@@ -199,7 +215,9 @@ impl IecModule {
                     if need_kind == Some(PointKind::Signed) { "i" } else { "u" }
                 ),
             };
-            problems.push(format!("variable `{var}` is {ty_name} but it is bound to {point_desc}; {fix}"));
+            problems.push(format!(
+                "variable `{var}` is {ty_name} but it is bound to {point_desc}; {fix}"
+            ));
             return None;
         }
         let output = ctx.map.owns(&handle);
@@ -220,10 +238,12 @@ impl Module for IecModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         let path = ctx.path(&self.file);
         let mut sources = Sources::new();
-        sources
-            .add_file(&path)
-            .map_err(|e| error(&self.name, e))?;
-        if self.project && !petriplc_iec::syntax::plcopen::is_plcopen(&std::fs::read_to_string(&path).unwrap_or_default()) {
+        sources.add_file(&path).map_err(|e| error(&self.name, e))?;
+        if self.project
+            && !petriplc_iec::syntax::plcopen::is_plcopen(
+                &std::fs::read_to_string(&path).unwrap_or_default(),
+            )
+        {
             return Err(error(&self.name, format!("`project = {}` is not a PLCopen XML project; for Structured Text write `program = {}`", self.file, self.file)));
         }
         let checked = petriplc_iec::check(&sources, &Natives::default())
@@ -241,12 +261,27 @@ impl Module for IecModule {
                 .map(|c| c.tasks.iter().map(|t| t.name.clone()).collect::<Vec<_>>())
                 .unwrap_or_default();
             let Some(t) = tasks.iter().position(|n| n.eq_ignore_ascii_case(task)) else {
-                return Err(error(&self.name, format!("`task = {task}`: the configuration has no such task (its tasks: {})", if tasks.is_empty() { "none".into() } else { tasks.join(", ") })));
+                return Err(error(
+                    &self.name,
+                    format!(
+                        "`task = {task}`: the configuration has no such task (its tasks: {})",
+                        if tasks.is_empty() {
+                            "none".into()
+                        } else {
+                            tasks.join(", ")
+                        }
+                    ),
+                ));
             };
             specs.retain(|s| s.task == Some(t as u32));
         }
-        let engine = Engine::new(checked.project, &specs, Natives::default().fbs, &sources.map)
-            .map_err(|e| error(&self.name, e))?;
+        let engine = Engine::new(
+            checked.project,
+            &specs,
+            Natives::default().fbs,
+            &sources.map,
+        )
+        .map_err(|e| error(&self.name, e))?;
         let mut machine = Machine::new(engine.clone());
         machine.iterations = self.iterations;
 
@@ -258,7 +293,9 @@ impl Module for IecModule {
                 [var, point] => {
                     let found = engine.lookup(var).or_else(|| {
                         (engine.instances().len() == 1)
-                            .then(|| engine.lookup(&format!("{}.{var}", engine.instances()[0].name)))
+                            .then(|| {
+                                engine.lookup(&format!("{}.{var}", engine.instances()[0].name))
+                            })
                             .flatten()
                     });
                     match found {
@@ -269,13 +306,17 @@ impl Module for IecModule {
                 _ => problems.push(format!("{}: a map row is `map VARIABLE POINT`", row.origin)),
             }
         }
-        let mapped = |name: &str, w: &[(String, VarRef, String)]| w.iter().any(|(v, _, _)| v.eq_ignore_ascii_case(name));
+        let mapped = |name: &str, w: &[(String, VarRef, String)]| {
+            w.iter().any(|(v, _, _)| v.eq_ignore_ascii_case(name))
+        };
         for g in &engine.project.globals {
             let Some(loc) = &g.location else { continue };
             if mapped(&g.name, &wanted) {
                 continue;
             }
-            let Some(r) = engine.lookup(&g.name) else { continue };
+            let Some(r) = engine.lookup(&g.name) else {
+                continue;
+            };
             if ctx.map.handle(loc).is_ok() {
                 wanted.push((g.name.clone(), r, loc.clone()));
             } else {
@@ -289,7 +330,9 @@ impl Module for IecModule {
         if lone {
             for (k, inst) in engine.instances().iter().enumerate() {
                 for (name, class, _) in engine.instance_vars(k) {
-                    if !matches!(class, VarClass::Input | VarClass::Output) || mapped(&name, &wanted) {
+                    if !matches!(class, VarClass::Input | VarClass::Output)
+                        || mapped(&name, &wanted)
+                    {
                         continue;
                     }
                     if let Some(r) = engine.lookup(&format!("{}.{name}", inst.name)) {
@@ -350,16 +393,38 @@ impl Module for IecModule {
         for b in &run.outputs {
             let raw = run.machine.slot(b.at.addr);
             let r = match b.conv {
-                Conv::Bool => ctx.map.set_bool(&b.handle, raw != 0).map_err(|e| e.to_string()),
-                Conv::Unsigned => ctx.map.set_u32(&b.handle, raw as u32).map_err(|e| e.to_string()),
-                Conv::Signed => ctx.map.set_i32(&b.handle, raw as i64 as i32).map_err(|e| e.to_string()),
-                Conv::Real => ctx.map.set_f32(&b.handle, f64::from_bits(raw) as f32).map_err(|e| e.to_string()),
+                Conv::Bool => ctx
+                    .map
+                    .set_bool(&b.handle, raw != 0)
+                    .map_err(|e| e.to_string()),
+                Conv::Unsigned => ctx
+                    .map
+                    .set_u32(&b.handle, raw as u32)
+                    .map_err(|e| e.to_string()),
+                Conv::Signed => ctx
+                    .map
+                    .set_i32(&b.handle, raw as i64 as i32)
+                    .map_err(|e| e.to_string()),
+                Conv::Real => ctx
+                    .map
+                    .set_f32(&b.handle, f64::from_bits(raw) as f32)
+                    .map_err(|e| e.to_string()),
                 Conv::TimeMs => {
                     let ms = raw as i64 / 1_000_000;
                     common::write_int(ctx.map, &b.handle, &b.point, ms)
                 }
             };
-            r.map_err(|e| error(&self.name, format!("{}: variable `{}` → point `{}`: {e}", common::at(ctx.now), b.var, b.point)))?;
+            r.map_err(|e| {
+                error(
+                    &self.name,
+                    format!(
+                        "{}: variable `{}` → point `{}`: {e}",
+                        common::at(ctx.now),
+                        b.var,
+                        b.point
+                    ),
+                )
+            })?;
         }
         run.scans += 1;
         Ok(Control::Continue)
@@ -368,7 +433,12 @@ impl Module for IecModule {
     fn status(&self) -> String {
         match &self.run {
             Some(run) => {
-                let names: Vec<&str> = run.engine.instances().iter().map(|i| i.name.as_str()).collect();
+                let names: Vec<&str> = run
+                    .engine
+                    .instances()
+                    .iter()
+                    .map(|i| i.name.as_str())
+                    .collect();
                 format!(
                     "{} ({}): {} scans, {} inputs, {} outputs",
                     self.file,

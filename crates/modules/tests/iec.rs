@@ -42,7 +42,11 @@ fn a_program_binds_its_inputs_and_outputs_by_name() {
         seen.push(format!("{}{}", plc.value("n"), plc.value("odd")));
     }
     assert_eq!(seen.join(" "), "00 00 11 11 11 11 20 20");
-    assert!(plc.status("ctl").contains("8 scans, 1 inputs, 2 outputs"), "{}", plc.status("ctl"));
+    assert!(
+        plc.status("ctl").contains("8 scans, 1 inputs, 2 outputs"),
+        "{}",
+        plc.status("ctl")
+    );
 }
 
 #[test]
@@ -56,7 +60,10 @@ VAR_GLOBAL level AT %IW0 : INT; alarm AT %horn : BOOL; END_VAR
 RESOURCE r ON PLC TASK t (INTERVAL := T#20ms); PROGRAM main WITH t : p; END_RESOURCE
 END_CONFIGURATION
 ";
-    let dir = dir_with(&[("p.st", src), ("lv.csv", "time,tank_level\n0,50\n0.03,150\n")]);
+    let dir = dir_with(&[
+        ("p.st", src),
+        ("lv.csv", "time,tank_level\n0,50\n0.03,150\n"),
+    ]);
     let mut plc = start(
         "[PLC]\nmodule lv timeline\nmodule ctl iec\n\
          point tank_level \"\" lv i16\npoint horn \"\" ctl\n\
@@ -100,9 +107,18 @@ END_PROGRAM
 
 #[test]
 fn a_program_that_does_not_compile_is_refused_with_every_error() {
-    let dir = dir_with(&[("bad.st", "PROGRAM p\nVAR x : INT; END_VAR\nx := y;\nx := 1.5;\nEND_PROGRAM\n")]);
-    let err = start_err("[PLC]\nmodule ctl iec\n[ctl]\nprogram = bad.st\n", dir.path());
-    assert!(err.contains("bad.st:3:6: error[E100]: `y` is not declared"), "{err}");
+    let dir = dir_with(&[(
+        "bad.st",
+        "PROGRAM p\nVAR x : INT; END_VAR\nx := y;\nx := 1.5;\nEND_PROGRAM\n",
+    )]);
+    let err = start_err(
+        "[PLC]\nmodule ctl iec\n[ctl]\nprogram = bad.st\n",
+        dir.path(),
+    );
+    assert!(
+        err.contains("bad.st:3:6: error[E100]: `y` is not declared"),
+        "{err}"
+    );
     assert!(err.contains("bad.st:4:6: error[E110]"), "{err}");
 }
 
@@ -136,9 +152,16 @@ END_PROGRAM
 fn an_endless_loop_is_stopped_by_the_iteration_budget() {
     let src = "PROGRAM p VAR i : INT; END_VAR WHILE TRUE DO i := 1; END_WHILE; END_PROGRAM";
     let dir = dir_with(&[("p.st", src)]);
-    let mut plc = start("[PLC]\nmodule ctl iec\n[ctl]\nprogram = p.st\nmax_iterations = 1000\n", dir.path()).unwrap();
+    let mut plc = start(
+        "[PLC]\nmodule ctl iec\n[ctl]\nprogram = p.st\nmax_iterations = 1000\n",
+        dir.path(),
+    )
+    .unwrap();
     let e = plc.tick(ms(0)).unwrap_err().to_string();
-    assert!(e.contains("watchdog: a loop ran out of the scan's iteration budget"), "{e}");
+    assert!(
+        e.contains("watchdog: a loop ran out of the scan's iteration budget"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -150,7 +173,10 @@ fn the_chaser_runs_on_the_plc() {
         .replace("module vitrine     vitrine", "module vitrine     timeline")
         + "[vitrine]\nfile = keys.csv\n";
     let dir = dir_with(&[
-        ("chaser.st", &std::fs::read_to_string(example.join("chaser.st")).unwrap()),
+        (
+            "chaser.st",
+            &std::fs::read_to_string(example.join("chaser.st")).unwrap(),
+        ),
         ("keys.csv", "time,left,right\n0,0,0\n"),
     ]);
     let mut plc = start(&text, dir.path()).unwrap();

@@ -140,8 +140,10 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
 /// `petriplc sim PROGRAM.st|PROJECT.xml`.
 fn run_iec(args: SimArgs) -> Result<(), Failure> {
     if args.step_through {
-        return Err(anyhow!("--step-through is for nets; trace an IEC program with --vars"))
-            .bad_input();
+        return Err(anyhow!(
+            "--step-through is for nets; trace an IEC program with --vars"
+        ))
+        .bad_input();
     }
     if args.step.is_some() || args.evolve.is_some() || args.names != Names::Plain {
         return Err(anyhow!(

@@ -43,7 +43,13 @@ fn sexpr(e: &Expr) -> String {
                 .map(|a| format!(
                     "{}{}{}",
                     a.name.as_ref().map_or(String::new(), |n| n.name.clone()),
-                    if a.name.is_none() { "" } else if a.output { "=>" } else { ":=" },
+                    if a.name.is_none() {
+                        ""
+                    } else if a.output {
+                        "=>"
+                    } else {
+                        ":="
+                    },
                     a.value.as_ref().map_or(String::new(), sexpr)
                 ))
                 .collect::<Vec<_>>()
@@ -87,7 +93,10 @@ fn postfix_forms() {
     check_expr("w.3", "w.3");
     check_expr("w.%X5", "w.5");
     check_expr("MAX(1, x)", "MAX(1,x)");
-    check_expr("LIMIT(MN := 0, IN := x, MX := 10)", "LIMIT(MN:=0,IN:=x,MX:=10)");
+    check_expr(
+        "LIMIT(MN := 0, IN := x, MX := 10)",
+        "LIMIT(MN:=0,IN:=x,MX:=10)",
+    );
     check_expr("f(q => y, r =>)", "f(q=>y,r=>)");
     check_expr("INT#-5", "-5");
 }
@@ -121,7 +130,10 @@ END_PROGRAM",
     assert_eq!(p.var_blocks.len(), 4);
     let Body::St(b) = &p.body else { panic!() };
     assert_eq!(b.len(), 9);
-    let StmtKind::Case { arms, else_body, .. } = &b[1].kind else {
+    let StmtKind::Case {
+        arms, else_body, ..
+    } = &b[1].kind
+    else {
         panic!()
     };
     assert_eq!(arms.len(), 2);
@@ -215,7 +227,11 @@ END_PROGRAM",
 
 #[test]
 fn deep_nesting_is_refused_not_a_crash() {
-    let src = format!("PROGRAM p x := {}1{}; END_PROGRAM", "(".repeat(5000), ")".repeat(5000));
+    let src = format!(
+        "PROGRAM p x := {}1{}; END_PROGRAM",
+        "(".repeat(5000),
+        ")".repeat(5000)
+    );
     let (_, d) = diags_of(&src);
     assert!(d.contains("nesting deeper than"), "{d}");
     let src = format!("PROGRAM p {} END_PROGRAM", "IF x THEN ".repeat(5000));
