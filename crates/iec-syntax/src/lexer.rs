@@ -223,6 +223,8 @@ pub enum Tok {
     Ge,
     Amp,
     Caret,
+    /// A character that starts no token (already reported): the parser stays quiet on it.
+    Error,
     Eof,
 }
 
@@ -388,6 +390,18 @@ impl Lexer<'_, '_> {
             let b = self.src[self.pos];
             if b == quote {
                 self.pos += 1;
+                break;
+            }
+            if b == b'\n' {
+                // A string does not go past its line (a line break is written $N): the
+                // rest of the file is read as code, not swallowed.
+                let q = quote as char;
+                self.error(
+                    diag::UNTERMINATED_STRING,
+                    start,
+                    start + 1,
+                    format!("this string has no closing {q} on its line; end it with {q} (write $N for a line break, $$ for a dollar sign, ${q} for the quote)"),
+                );
                 break;
             }
             if b == b'$' {
@@ -742,6 +756,7 @@ impl Lexer<'_, '_> {
                     self.pos,
                     format!("unexpected character `{ch}`"),
                 );
+                self.push(Tok::Error, start);
                 return;
             }
         };
@@ -1062,7 +1077,10 @@ mod tests {
                 Tok::Caret,
             ],
         );
-        check_error("a ? b", diag::BAD_CHAR);
+        let mut d = Diagnostics::new();
+        let toks: Vec<Tok> = lex(FileId(0), "a ? b", &mut d).into_iter().map(|t| t.tok).collect();
+        assert_eq!(toks, [Tok::Ident, Tok::Error, Tok::Ident, Tok::Eof]);
+        assert_eq!(d.items[0].code, diag::BAD_CHAR);
     }
 
     #[test]

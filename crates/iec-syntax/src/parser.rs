@@ -167,9 +167,13 @@ impl<'a, 'd> Parser<'a, 'd> {
         self.diags.error(code, span, msg);
     }
 
-    /// Reports "expected X" at the current token.
+    /// Reports "expected X" at the current token (unless the lexer already reported the
+    /// problem there: a bad character, or a comment or string that ran to the end).
     fn expected(&mut self, what: &str) -> Reported {
         let t = self.peek().clone();
+        if self.quiet_at(&t) {
+            return Reported;
+        }
         let code = if t.tok == Tok::Eof {
             diag::MISSING_END
         } else {
@@ -178,6 +182,16 @@ impl<'a, 'd> Parser<'a, 'd> {
         let msg = format!("expected {what}, found {}", self.describe(&t));
         self.error_at(code, t.span, msg);
         Reported
+    }
+
+    fn quiet_at(&self, t: &Token) -> bool {
+        t.tok == Tok::Error
+            || (t.tok == Tok::Eof
+                && self
+                    .diags
+                    .items
+                    .iter()
+                    .any(|d| d.code == diag::UNTERMINATED_COMMENT))
     }
 
     fn expect(&mut self, t: &Tok, what: &str) -> PResult<Token> {
@@ -191,12 +205,27 @@ impl<'a, 'd> Parser<'a, 'd> {
         }
     }
 
+    /// A keyword that may be missing: reported, and parsing goes on as if it were there.
+    fn soft_kw(&mut self, kw: Kw) {
+        if self.eat_kw(kw).is_none() {
+            let _ = self.expected(&format!("`{}`", kw.text()));
+        }
+    }
+
     fn expect_semi(&mut self) -> PResult<()> {
         if self.eat(&Tok::Semi).is_some() {
             return Ok(());
         }
         let t = self.peek().clone();
         let after = self.prev_span();
+        let unterminated = self
+            .diags
+            .items
+            .iter()
+            .any(|d| d.code == diag::UNTERMINATED_STRING && d.span.start == after.start && d.span.file == after.file);
+        if self.quiet_at(&t) || unterminated {
+            return Err(Reported);
+        }
         let msg = format!("expected `;` after this, found {}", self.describe(&t));
         self.error_at(
             diag::MISSING_SEMI,
@@ -667,6 +696,9 @@ impl<'a, 'd> Parser<'a, 'd> {
             Some(t) => t.span,
             None => {
                 let t = self.peek().clone();
+                if self.quiet_at(&t) {
+                    return Err(Reported);
+                }
                 let msg = format!(
                     "{} {} has no {}; found {}",
                     kind.keyword(),
@@ -766,6 +798,21 @@ impl<'a, 'd> Parser<'a, 'd> {
                     )
                 ) {
                     break;
+                }
+                if self.looks_like_statement() {
+                    let span = self.peek().span;
+                    self.error_at(
+                        diag::MISSING_END,
+                        span,
+                        format!("the {} block before this statement has no END_VAR; close it with END_VAR", self.text_of(t.span)),
+                    );
+                    return Ok(VarBlock {
+                        kind,
+                        constant,
+                        retain,
+                        vars,
+                        span: t.span.to(self.prev_span()),
+                    });
                 }
                 match self.var_decl() {
                     Ok(d) => vars.push(d),
@@ -1088,6 +1135,18 @@ impl<'a, 'd> Parser<'a, 'd> {
         }
     }
 
+    /// `x :=`, `x[…] :=`, `x.y :=`, `f(` or a statement keyword: not a declaration.
+    fn looks_like_statement(&self) -> bool {
+        match self.peek().tok {
+            Tok::Kw(Kw::If | Kw::Case | Kw::For | Kw::While | Kw::Repeat | Kw::Return | Kw::Exit | Kw::Continue) => {
+                // `IF : INT;` is a declaration with a reserved name (reported as such).
+                !matches!(self.peek_at(1).tok, Tok::Colon | Tok::Comma)
+            }
+            Tok::Ident => matches!(self.peek_at(1).tok, Tok::Assign | Tok::LBracket | Tok::Dot | Tok::LParen),
+            _ => false,
+        }
+    }
+
     /// `1, 2..5, Red:` at the start of a CASE arm.
     fn looks_like_case_label(&self) -> bool {
         let mut k = 0;
@@ -1132,7 +1191,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             Tok::Kw(Kw::While) => {
                 self.bump();
                 let cond = self.expr()?;
-                self.expect_kw(Kw::Do)?;
+                self.soft_kw(Kw::Do);
                 let body = self.statements(&[]);
                 self.expect_end(Kw::EndWhile, start, "WHILE")?;
                 StmtKind::While { cond, body }
@@ -1226,14 +1285,14 @@ impl<'a, 'd> Parser<'a, 'd> {
         let start = self.bump().span;
         let mut branches = Vec::new();
         let cond = self.expr()?;
-        self.expect_kw(Kw::Then)?;
+        self.soft_kw(Kw::Then);
         let body = self.statements(&[]);
         branches.push((cond, body));
         let mut else_body = None;
         loop {
             if self.eat_kw(Kw::Elsif).is_some() {
                 let cond = self.expr()?;
-                self.expect_kw(Kw::Then)?;
+                self.soft_kw(Kw::Then);
                 let body = self.statements(&[]);
                 branches.push((cond, body));
             } else if self.eat_kw(Kw::Else).is_some() {
@@ -1253,7 +1312,7 @@ impl<'a, 'd> Parser<'a, 'd> {
     fn case_stmt(&mut self) -> PResult<StmtKind> {
         let start = self.bump().span;
         let selector = self.expr()?;
-        self.expect_kw(Kw::Of)?;
+        self.soft_kw(Kw::Of);
         let mut arms = Vec::new();
         let mut else_body = None;
         loop {
@@ -1311,14 +1370,24 @@ impl<'a, 'd> Parser<'a, 'd> {
         let var = self.ident("the FOR loop's control variable")?;
         self.expect(&Tok::Assign, "`:=` and the initial value")?;
         let from = self.expr()?;
-        self.expect_kw(Kw::To)?;
+        if self.eat_kw(Kw::To).is_none() {
+            // Reported once; the header is skipped up to DO and the body still read.
+            self.expected("`TO`");
+            while !matches!(self.peek().tok, Tok::Kw(Kw::Do | Kw::EndFor) | Tok::Semi | Tok::Eof) {
+                self.bump();
+            }
+            self.eat_kw(Kw::Do);
+            let _ = self.statements(&[]);
+            self.expect_end(Kw::EndFor, start, "FOR")?;
+            return Err(Reported);
+        }
         let to = self.expr()?;
         let by = if self.eat_kw(Kw::By).is_some() {
             Some(self.expr()?)
         } else {
             None
         };
-        self.expect_kw(Kw::Do)?;
+        self.soft_kw(Kw::Do);
         let body = self.statements(&[]);
         self.expect_end(Kw::EndFor, start, "FOR")?;
         Ok(StmtKind::For {
@@ -1602,6 +1671,10 @@ impl<'a, 'd> Parser<'a, 'd> {
                     kind: ExprKind::Paren(Box::new(e)),
                     span: t.span.to(end.span),
                 })
+            }
+            Tok::Error => {
+                self.bump();
+                Err(Reported)
             }
             _ => Err(self.expected("an expression")),
         }
