@@ -949,8 +949,8 @@ impl<'a> Checker<'a> {
             return;
         }
         if b.retain == ast::Retain::Retain
-            && matches!(b.kind, VarKind::Temp | VarKind::InOut | VarKind::External)
-            || (b.retain == ast::Retain::Retain && pou.kind == PouKind::Function)
+            && (matches!(b.kind, VarKind::Temp | VarKind::InOut | VarKind::External)
+                || pou.kind == PouKind::Function)
         {
             self.error(
                 diag::BAD_DECLARATION,

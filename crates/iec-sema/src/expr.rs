@@ -497,7 +497,7 @@ impl<'a> Checker<'a> {
                             return None;
                         }
                     }
-                    let x = self.to_lint(x);
+                    let x = self.widen_to_lint(x);
                     subs.push(x);
                 }
                 p.path.push(Step::Index(subs));
@@ -1014,7 +1014,7 @@ impl<'a> Checker<'a> {
         }
     }
 
-    fn to_lint(&mut self, x: Expr) -> Expr {
+    fn widen_to_lint(&mut self, x: Expr) -> Expr {
         if x.ty == ids::LINT {
             return x;
         }
@@ -2015,9 +2015,9 @@ impl<'a> Checker<'a> {
                     return err(span);
                 }
                 let mut t = xs[0].ty;
-                for i in 1..xs.len() {
+                for x in &xs[1..] {
                     let acc = konst(Value::Int(0), t, span);
-                    let Some((_, _, nt)) = self.unify_types(acc, xs[i].clone(), f, span) else {
+                    let Some((_, _, nt)) = self.unify_types(acc, x.clone(), f, span) else {
                         return err(span);
                     };
                     t = nt;
@@ -2045,7 +2045,7 @@ impl<'a> Checker<'a> {
                     self.arg_error(f, "an integer selector K", k.ty, args[0].span);
                     return err(span);
                 }
-                let k = self.to_lint(k);
+                let k = self.widen_to_lint(k);
                 let mut xs: Vec<Expr> = args[1..]
                     .iter()
                     .map(|a| self.expr(a.expr, cx, expected))
@@ -2054,9 +2054,9 @@ impl<'a> Checker<'a> {
                     return err(span);
                 }
                 let mut t = xs[0].ty;
-                for i in 1..xs.len() {
+                for x in &xs[1..] {
                     let acc = konst(Value::Int(0), t, span);
-                    let Some((_, _, nt)) = self.unify_types(acc, xs[i].clone(), f, span) else {
+                    let Some((_, _, nt)) = self.unify_types(acc, x.clone(), f, span) else {
                         return err(span);
                     };
                     t = nt;
@@ -2099,7 +2099,7 @@ impl<'a> Checker<'a> {
                     self.arg_error(f, "an integer N", n.ty, args[1].span);
                     return err(span);
                 }
-                let n = self.to_lint(n);
+                let n = self.widen_to_lint(n);
                 let ty = self.base_type(x.ty);
                 self.fold(mk(vec![x, n], ty))
             }
@@ -2248,7 +2248,7 @@ impl<'a> Checker<'a> {
             self.arg_error(f, "an integer", x.ty, a.span);
             return None;
         }
-        Some(self.to_lint(x))
+        Some(self.widen_to_lint(x))
     }
 
     pub fn str_len(&self, ty: TypeId) -> u32 {

@@ -128,7 +128,7 @@ pub enum StmtKind {
         target: Place,
         value: Expr,
     },
-    CallFb(FbCall),
+    CallFb(Box<FbCall>),
     /// A function called for its effects (outputs, in-outs); the result is dropped.
     Eval(Expr),
     If {
@@ -141,13 +141,7 @@ pub enum StmtKind {
         else_body: Vec<Stmt>,
     },
     /// Bounds and step are evaluated once, before the first iteration.
-    For {
-        var: Place,
-        from: Expr,
-        to: Expr,
-        by: Expr,
-        body: Vec<Stmt>,
-    },
+    For(Box<ForLoop>),
     While {
         cond: Expr,
         body: Vec<Stmt>,
@@ -166,6 +160,15 @@ pub enum StmtKind {
         label: u32,
         cond: Option<(Expr, bool)>,
     },
+}
+
+#[derive(Clone, Debug)]
+pub struct ForLoop {
+    pub var: Place,
+    pub from: Expr,
+    pub to: Expr,
+    pub by: Expr,
+    pub body: Vec<Stmt>,
 }
 
 #[derive(Clone, Debug)]

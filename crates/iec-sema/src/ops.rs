@@ -348,11 +348,7 @@ pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
             if Elem::from_name(prefix).is_some()
                 || ["T", "LT", "D", "TOD", "DT"].contains(&prefix) =>
         {
-            if to.is_int() || to.is_bitstring() || to.is_real() || to == Elem::Bool {
-                rest.to_string()
-            } else {
-                rest.to_string()
-            }
+            rest.to_string()
         }
         _ => upper.clone(),
     };

@@ -397,13 +397,13 @@ impl Checker<'_> {
         if f.ty == ids::ERROR || t.ty == ids::ERROR || b.ty == ids::ERROR {
             return None;
         }
-        Some(StmtKind::For {
+        Some(StmtKind::For(Box::new(ir::ForLoop {
             var: p,
             from: f,
             to: t,
             by: b,
             body,
-        })
+        })))
     }
 
     /// `inst(IN := …, Q => …);` or a function called as a statement.
@@ -496,13 +496,13 @@ impl Checker<'_> {
             self.calls.push((cx.pou, p, span));
         }
         Some(Stmt {
-            kind: StmtKind::CallFb(FbCall {
+            kind: StmtKind::CallFb(Box::new(FbCall {
                 instance: inst,
                 fb,
                 inputs: bound.inputs,
                 in_outs: bound.in_outs,
                 outputs: bound.outputs,
-            }),
+            })),
             span,
         })
     }

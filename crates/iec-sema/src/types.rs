@@ -182,16 +182,24 @@ impl Elem {
         if self == to {
             return true;
         }
-        match (self, to) {
-            (Sint, Int | Dint | Lint) | (Int, Dint | Lint) | (Dint, Lint) => true,
-            (Usint, Uint | Udint | Ulint) | (Uint, Udint | Ulint) | (Udint, Ulint) => true,
-            (Usint, Int | Dint | Lint) | (Uint, Dint | Lint) | (Udint, Lint) => true,
-            (Sint | Int | Usint | Uint, Real | Lreal) => true,
-            (Dint | Udint | Real, Lreal) => true,
-            (Byte, Word | Dword | Lword) | (Word, Dword | Lword) | (Dword, Lword) => true,
-            (Time, Ltime) => true,
-            _ => false,
-        }
+        matches!(
+            (self, to),
+            (Sint, Int | Dint | Lint)
+                | (Int, Dint | Lint)
+                | (Dint, Lint)
+                | (Usint, Uint | Udint | Ulint)
+                | (Uint, Udint | Ulint)
+                | (Udint, Ulint)
+                | (Usint, Int | Dint | Lint)
+                | (Uint, Dint | Lint)
+                | (Udint, Lint)
+                | (Sint | Int | Usint | Uint, Real | Lreal)
+                | (Dint | Udint | Real, Lreal)
+                | (Byte, Word | Dword | Lword)
+                | (Word, Dword | Lword)
+                | (Dword, Lword)
+                | (Time, Ltime)
+        )
     }
 }
 

@@ -86,6 +86,9 @@ struct Reported;
 
 type PResult<T> = Result<T, Reported>;
 
+/// An enumeration's values with their optional explicit numbers.
+type EnumValues = Vec<(Ident, Option<Expr>)>;
+
 struct Parser<'a, 'd> {
     file: FileId,
     text: &'a str,
@@ -532,7 +535,7 @@ impl<'a, 'd> Parser<'a, 'd> {
         }
     }
 
-    fn enum_values(&mut self) -> PResult<(Vec<(Ident, Option<Expr>)>, Span)> {
+    fn enum_values(&mut self) -> PResult<(EnumValues, Span)> {
         self.expect(&Tok::LParen, "`(`")?;
         let mut values = Vec::new();
         loop {
@@ -1240,11 +1243,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                         self.text_of(target.span),
                         self.describe(&t)
                     );
-                    let code = if t.tok == Tok::Eq {
-                        diag::SYNTAX
-                    } else {
-                        diag::SYNTAX
-                    };
+                    let code = diag::SYNTAX;
                     let msg = if t.tok == Tok::Eq {
                         format!(
                             "`=` compares; an assignment is written `{} := …;`",

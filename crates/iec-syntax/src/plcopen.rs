@@ -23,7 +23,11 @@ pub const NAMESPACES: &[&str] = &[
 
 /// Whether a text looks like a PLCopen project (a `<project` root in a PLCopen namespace).
 pub fn is_plcopen(text: &str) -> bool {
-    let head = &text[..text.len().min(4096)];
+    let mut end = text.len().min(4096);
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    let head = &text[..end];
     head.contains("<project") && NAMESPACES.iter().any(|ns| head.contains(ns))
 }
 

@@ -631,11 +631,11 @@ impl<'p> Compiler<'p> {
             let a = global_addr[g] as usize;
             self.write_init(&mut init, a, v.ty, v.init.as_ref());
         }
-        for i in 0..self.units.len() {
+        for (i, &fa) in frame_addr.iter().enumerate() {
             if self.units[i].rel {
                 continue;
             }
-            let fa = frame_addr[i] as usize;
+            let fa = fa as usize;
             if let Some(pou) = self.units[i].frame_pou {
                 let t = self.frame_template(pou, i);
                 init[fa..fa + t.len()].copy_from_slice(&t);
@@ -697,6 +697,9 @@ fn merge_ranges(mut v: Vec<(u32, u32)>) -> Vec<(u32, u32)> {
     }
     out
 }
+
+/// A condition literal (slot, negated) and the constant stores it guards.
+type CondStores = ((u32, bool), Vec<(u32, u64)>);
 
 struct LoopCx {
     exits: Vec<usize>,
@@ -868,7 +871,7 @@ impl<'c, 'p> Fx<'c, 'p> {
     /// took (0: none fuse).
     fn fused(&mut self, stmts: &[Stmt]) -> R<usize> {
         // IF c THEN x := k; … END_IF, repeated with the same c: one CondStore.
-        let cond_stores = |me: &mut Self, s: &Stmt| -> R<Option<((u32, bool), Vec<(u32, u64)>)>> {
+        let cond_stores = |me: &mut Self, s: &Stmt| -> R<Option<CondStores>> {
             let StmtKind::If {
                 branches,
                 else_body,
@@ -1023,13 +1026,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                 arms,
                 else_body,
             } => self.case(selector, arms, else_body, span)?,
-            StmtKind::For {
-                var,
-                from,
-                to,
-                by,
-                body,
-            } => self.for_loop(var, from, to, by, body, span)?,
+            StmtKind::For(f) => self.for_loop(&f.var, &f.from, &f.to, &f.by, &f.body, span)?,
             StmtKind::While { cond, body } => {
                 let top = self.pc();
                 let c = self.expr(cond, None)?;
@@ -1278,10 +1275,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             }
         };
         let t_c = self.temp(1);
-        let negative = match by.const_int() {
-            Some(k) => Some(k < 0),
-            None => None,
-        };
+        let negative = by.const_int().map(|k| k < 0);
         match negative {
             Some(false) => {
                 self.emit(cmp(Cmp::Le, t_c, vs, t_to), span);

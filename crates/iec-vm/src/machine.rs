@@ -673,7 +673,7 @@ impl Machine {
 pub fn display(project: &Project, ty: TypeId, v: &Value) -> String {
     match (project.types.get(ty), v) {
         (Type::Elem(Elem::Bool), Value::Int(i)) => {
-            (*i != 0).then_some("1").unwrap_or("0").to_string()
+            if *i != 0 { "1" } else { "0" }.to_string()
         }
         (Type::Elem(e), v) if e.is_real() || e.is_duration() || e.is_date() => {
             String::from_utf8_lossy(&ops::to_text(v, *e)).into_owned()
