@@ -1078,7 +1078,10 @@ mod tests {
             ],
         );
         let mut d = Diagnostics::new();
-        let toks: Vec<Tok> = lex(FileId(0), "a ? b", &mut d).into_iter().map(|t| t.tok).collect();
+        let toks: Vec<Tok> = lex(FileId(0), "a ? b", &mut d)
+            .into_iter()
+            .map(|t| t.tok)
+            .collect();
         assert_eq!(toks, [Tok::Ident, Tok::Error, Tok::Ident, Tok::Eof]);
         assert_eq!(d.items[0].code, diag::BAD_CHAR);
     }

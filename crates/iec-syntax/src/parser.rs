@@ -221,11 +221,11 @@ impl<'a, 'd> Parser<'a, 'd> {
         }
         let t = self.peek().clone();
         let after = self.prev_span();
-        let unterminated = self
-            .diags
-            .items
-            .iter()
-            .any(|d| d.code == diag::UNTERMINATED_STRING && d.span.start == after.start && d.span.file == after.file);
+        let unterminated = self.diags.items.iter().any(|d| {
+            d.code == diag::UNTERMINATED_STRING
+                && d.span.start == after.start
+                && d.span.file == after.file
+        });
         if self.quiet_at(&t) || unterminated {
             return Err(Reported);
         }
@@ -1141,11 +1141,23 @@ impl<'a, 'd> Parser<'a, 'd> {
     /// `x :=`, `x[…] :=`, `x.y :=`, `f(` or a statement keyword: not a declaration.
     fn looks_like_statement(&self) -> bool {
         match self.peek().tok {
-            Tok::Kw(Kw::If | Kw::Case | Kw::For | Kw::While | Kw::Repeat | Kw::Return | Kw::Exit | Kw::Continue) => {
+            Tok::Kw(
+                Kw::If
+                | Kw::Case
+                | Kw::For
+                | Kw::While
+                | Kw::Repeat
+                | Kw::Return
+                | Kw::Exit
+                | Kw::Continue,
+            ) => {
                 // `IF : INT;` is a declaration with a reserved name (reported as such).
                 !matches!(self.peek_at(1).tok, Tok::Colon | Tok::Comma)
             }
-            Tok::Ident => matches!(self.peek_at(1).tok, Tok::Assign | Tok::LBracket | Tok::Dot | Tok::LParen),
+            Tok::Ident => matches!(
+                self.peek_at(1).tok,
+                Tok::Assign | Tok::LBracket | Tok::Dot | Tok::LParen
+            ),
             _ => false,
         }
     }
@@ -1372,7 +1384,10 @@ impl<'a, 'd> Parser<'a, 'd> {
         if self.eat_kw(Kw::To).is_none() {
             // Reported once; the header is skipped up to DO and the body still read.
             self.expected("`TO`");
-            while !matches!(self.peek().tok, Tok::Kw(Kw::Do | Kw::EndFor) | Tok::Semi | Tok::Eof) {
+            while !matches!(
+                self.peek().tok,
+                Tok::Kw(Kw::Do | Kw::EndFor) | Tok::Semi | Tok::Eof
+            ) {
                 self.bump();
             }
             self.eat_kw(Kw::Do);

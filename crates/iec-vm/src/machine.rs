@@ -672,9 +672,7 @@ impl Machine {
 /// durations as IEC literals, strings in quotes.
 pub fn display(project: &Project, ty: TypeId, v: &Value) -> String {
     match (project.types.get(ty), v) {
-        (Type::Elem(Elem::Bool), Value::Int(i)) => {
-            if *i != 0 { "1" } else { "0" }.to_string()
-        }
+        (Type::Elem(Elem::Bool), Value::Int(i)) => if *i != 0 { "1" } else { "0" }.to_string(),
         (Type::Elem(e), v) if e.is_real() || e.is_duration() || e.is_date() => {
             String::from_utf8_lossy(&ops::to_text(v, *e)).into_owned()
         }

@@ -62,9 +62,15 @@ fn mixer_copies(n: usize) -> String {
 
 /// The plain ST `petriplc compile --names sipn --lang st --plain` writes for N copies.
 fn st(n: usize) -> String {
-    let net = petriplc_pnml::read_str(&mixer_copies(n), "mixer.pnml", &ReadOptions { naming: Naming::Sipn })
-        .unwrap()
-        .net;
+    let net = petriplc_pnml::read_str(
+        &mixer_copies(n),
+        "mixer.pnml",
+        &ReadOptions {
+            naming: Naming::Sipn,
+        },
+    )
+    .unwrap()
+    .net;
     let request = Request {
         language: Language::St,
         form: Form::Plain,

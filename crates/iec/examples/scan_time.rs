@@ -50,7 +50,11 @@ fn main() {
     }
     let cpu = (cpu_ticks() - cpu0) as f64 * 1e7 / (scans as f64 * repeats as f64);
     times.sort_by(|a, b| a.total_cmp(b));
-    println!("{:.1} {cpu:.1} {:.3}", times[repeats / 2], compile.as_secs_f64());
+    println!(
+        "{:.1} {cpu:.1} {:.3}",
+        times[repeats / 2],
+        compile.as_secs_f64()
+    );
     if std::env::var_os("SCAN_TIME_OPS").is_some() {
         eprintln!(
             "{} instructions, {} slots",

@@ -17,7 +17,13 @@ use petriplc_sim::{SimOptions, Simulation, Timeline};
 const EXAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
 
 /// (name, net, SIPN naming, timeline, built-in plant), as the examples' READMEs run them.
-type Example = (&'static str, &'static str, bool, Option<&'static str>, Option<&'static str>);
+type Example = (
+    &'static str,
+    &'static str,
+    bool,
+    Option<&'static str>,
+    Option<&'static str>,
+);
 
 const NETS: &[Example] = &[
     (
