@@ -142,7 +142,8 @@ fn main() {
             if want.len() > 1 {
                 multi = got.len();
             }
-            if let (Some(w), Some(g)) = (want.first(), got.first()) {
+            // The first error in the file (a parser may list lexical errors before syntax ones).
+            if let (Some(w), Some(g)) = (want.first(), got.iter().min()) {
                 let (l, col) = line_col(&s, *g);
                 if l == w.0 {
                     right_line += 1;
