@@ -141,7 +141,7 @@ fn bad_configurations_start_nothing() {
     let cases: &[(&str, &str)] = &[
         (
             "[PLC]\nmodule a nosuchkind\n",
-            "`nosuchkind` is neither a built-in module (petrinet, plant, timeline, logger, shutdown, modbus_server, modbus_client, vitrine, hmi)",
+            "`nosuchkind` is neither a built-in module (petrinet, iec, plant, timeline, logger, shutdown, modbus_server, modbus_client, vitrine, hmi)",
         ),
         (
             "[PLC]\nmodule a shutdown\npoint q \"quit\" b\n[a]\npoint = q\n",
