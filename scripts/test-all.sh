@@ -6,6 +6,14 @@ cd "$(dirname "$0")/.."
 
 as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
 
+# The test data comes first: without it nothing below is worth installing.
+if [ ! -d ../shared/data/mcc ] || [ ! -d ../shared/schemas ]; then
+  echo "error: ../shared must sit beside this checkout: the test data (Model Checking Contest" >&2
+  echo "models with their answers, the PNML and PLCopen schemas, the source documents, the" >&2
+  echo "benchmarks' reference programs). The tests need it; petriplc itself does not." >&2
+  exit 2
+fi
+
 # xmllint validates what we write against the PNML and PLCopen grammars; Graphviz's dot lays
 # out the reachability graphs `petriplc analyze --svg` draws; cc builds the generated C that
 # the differential tests run against the simulator.
@@ -53,11 +61,6 @@ if ! grep -qs "\"version\": \"$PLAYWRIGHT_VERSION\"" target/node/node_modules/pl
   echo "== installing playwright-core $PLAYWRIGHT_VERSION into target/node"
   mkdir -p target/node
   npm install --silent --no-audit --no-fund --prefix target/node "playwright-core@$PLAYWRIGHT_VERSION"
-fi
-
-if [ ! -d ../shared/data/mcc ]; then
-  echo "error: ../shared (seeds, schemas, MCC models) must sit beside this checkout" >&2
-  exit 2
 fi
 
 echo "== cargo fmt --check"

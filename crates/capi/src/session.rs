@@ -14,8 +14,9 @@ use std::time::Duration;
 use petriplc_config::{Location, PlcConfig, PointKind};
 use petriplc_runtime::image::module::process_threads;
 use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap};
-use petriplc_runtime::period::Period;
-use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
+use petriplc_runtime::period::{self, Period, ScanStats};
+use petriplc_runtime::report::Sender;
+use petriplc_runtime::synch::{ScanRef, SharedSynch, SynchError, SynchNet, TransitionRef};
 
 use crate::args::{self, Target};
 use crate::*;
@@ -44,13 +45,21 @@ struct Plc {
     global: Option<GlobalMap>,
     /// Shared with callers that wait on it with the lock released.
     synch: Arc<SharedSynch>,
-    beg: TransitionRef,
-    end: TransitionRef,
+    /// The module's scan_beg / scan_end and its scan slot, which tells the PLC whether the
+    /// module is inside a scan should it die (`None`: both are NULL).
+    scan: Option<ScanRef>,
     scan_period: Option<Duration>,
     /// Started by the first `scan_beg`, so that scan 0 runs at once and t0 is its start.
     period: Option<Period>,
     /// By point index.
     handles: Vec<Handle>,
+    /// This process's scans, as the runner's status shows them: each from the period's
+    /// wake-up (or `plc_scan_beg`) to the end of `plc_scan_end`.
+    stats: ScanStats,
+    /// The scan under way: when it began, how late its period woke, periods it missed.
+    under_way: Option<(Duration, Duration, u64)>,
+    /// To the runner that started this process (`None` when started by hand).
+    report: Option<Sender>,
 }
 
 static STATE: Mutex<Option<Plc>> = Mutex::new(None);
@@ -170,6 +179,11 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
     }
     let module = target.module.as_str();
     let context = |e: Error| Error::new(e.code, format!("module `{module}`: {}", e.message));
+    // Tests make a module program die holding the PLC's lock through this variable.
+    if let Ok(spec) = std::env::var(petriplc_runtime::testhook::ENV) {
+        petriplc_runtime::testhook::arm_from(&spec)
+            .map_err(|e| context(Error::new(PLC_ERR_ARGS, e)))?;
+    }
     let config = read_config(&target.config).map_err(context)?;
     let plc_id = match target.plc_id {
         Some(id) => id,
@@ -245,14 +259,16 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
             .fetch_add(1, Ordering::Relaxed)
             .wrapping_add(1)
             .max(1),
-        beg: net.scan_beg(module),
-        end: net.scan_end(module),
+        scan: net.scan_ref(module),
         scan_period: decl.scan_period,
         period: None,
         map,
         global,
         synch: Arc::new(synch),
         handles,
+        stats: ScanStats::new(),
+        under_way: None,
+        report: Sender::from_env(),
     });
     Ok(())
 }
@@ -275,7 +291,11 @@ fn check_single_threaded() -> Result<(), Error> {
 
 /// Detaches; the PLC and the other modules go on.
 pub(crate) fn close() -> Result<(), Error> {
-    state().take().map(drop).ok_or_else(not_init)
+    let mut plc = state().take().ok_or_else(not_init)?;
+    if let Some(r) = &mut plc.report {
+        r.send(&plc.stats, true);
+    }
+    Ok(())
 }
 
 pub(crate) fn pt_by_name(name: &str) -> Result<PlcPt, Error> {
@@ -394,19 +414,29 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
                 }
             },
         };
-        Ok((plc.session, plc.synch.clone(), plc.beg, period))
+        Ok((plc.session, plc.synch.clone(), plc.scan, period))
     })?;
+    let mut scan = (period::now(), Duration::ZERO, 0);
     if let Some(mut period) = period {
         // A stopping PLC should not wait a whole period to tell its modules.
         if !synch.is_stopping() {
-            period.wait();
+            let w = period.wait();
+            scan = (w.woke(), w.late, w.missed);
         }
         with_session(session, |plc| {
             plc.period = Some(period);
             Ok(())
         })?;
     }
-    if synch.synch(beg).is_err() {
+    with_session(session, |plc| {
+        plc.under_way = Some(scan);
+        Ok(())
+    })?;
+    let began = match &beg {
+        Some(scan) => synch.begin_scan(scan).map(drop),
+        None => synch.synch(TransitionRef::Null).map(drop),
+    };
+    if began.is_err() {
         return Ok(PLC_STOPPING);
     }
     with_session(session, |plc| {
@@ -415,15 +445,28 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
     })
 }
 
-/// Updates the map, then synchronises on the module's `scan_end` transition.
+/// Updates the map, then synchronises on the module's `scan_end` transition; counts the scan.
 pub(crate) fn scan_end() -> Result<c_int, Error> {
-    let (synch, end) = with_plc(|plc| {
+    let (session, synch, scan) = with_plc(|plc| {
         plc.update()?;
-        Ok((plc.synch.clone(), plc.end))
+        Ok((plc.session, plc.synch.clone(), plc.scan))
     })?;
-    Ok(match synch.synch(end) {
-        Ok(_) => PLC_OK,
-        Err(_) => PLC_STOPPING,
+    let ended = match &scan {
+        Some(scan) => synch.end_scan(scan).map(drop),
+        None => synch.synch(TransitionRef::Null).map(drop),
+    };
+    if ended.is_err() {
+        return Ok(PLC_STOPPING);
+    }
+    with_session(session, |plc| {
+        if let Some((began, late, missed)) = plc.under_way.take() {
+            plc.stats
+                .record(period::now().saturating_sub(began), late, missed);
+            if let Some(r) = &mut plc.report {
+                r.send(&plc.stats, false);
+            }
+        }
+        Ok(PLC_OK)
     })
 }
 

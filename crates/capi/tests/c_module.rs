@@ -12,12 +12,14 @@
 
 mod common;
 
+use std::os::fd::{AsRawFd, OwnedFd};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use common::TestPlc;
+use petriplc_runtime::report;
 use petriplc_runtime::synch::{SharedSynch, TransitionRef};
 
 /// Long enough never to be reached by a working build; only keeps a broken one from hanging.
@@ -72,9 +74,18 @@ fn built() -> &'static Built {
 /// The blinker as `petriplc run` would start it (configuration and module in the
 /// environment), with `args` on its command line.
 fn spawn_blinker(plc: &TestPlc, args: &[&str]) -> Child {
+    spawn_blinker_reporting(plc, args, None)
+}
+
+/// As [`spawn_blinker`], with the pipe `petriplc run` passes for scan statistics.
+fn spawn_blinker_reporting(plc: &TestPlc, args: &[&str], stats: Option<&OwnedFd>) -> Child {
     let b = built();
     let out = |name: &str| std::fs::File::create(plc.dir.path().join(name)).unwrap();
-    Command::new(&b.blinker)
+    let mut command = Command::new(&b.blinker);
+    if let Some(fd) = stats {
+        command.env(report::STATS_FD, fd.as_raw_fd().to_string());
+    }
+    command
         .args(args)
         .env("PETRIPLC_CONFIG", &plc.config_path)
         .env("PETRIPLC_MODULE", "blinker")
@@ -176,7 +187,13 @@ fn c_module_lock_steps_with_the_plc_and_stops_cleanly() {
     // --PLCplc_id on the command line and the rest from the environment: both ways in, and
     // the blinker would refuse its arguments if plc_init left the option in argv.
     let plc_id = format!("--PLCplc_id={}", plc.id);
-    let mut child = spawn_blinker(&plc, &[plc_id.as_str(), "2", "enable", "lamp", "scans"]);
+    let (mut stats, stats_fd) = report::Receiver::pipe().unwrap();
+    let mut child = spawn_blinker_reporting(
+        &plc,
+        &[plc_id.as_str(), "2", "enable", "lamp", "scans"],
+        Some(&stats_fd),
+    );
+    drop(stats_fd);
 
     let enables: Vec<bool> = (0..30)
         .map(|k| (4..15).contains(&k) || (20..27).contains(&k))
@@ -213,6 +230,13 @@ fn c_module_lock_steps_with_the_plc_and_stops_cleanly() {
     assert!(
         stdout.contains("the PLC is stopping after 30 scans"),
         "{stdout}"
+    );
+    // What `petriplc status` shows of it: every scan, timed.
+    let r = stats.latest().expect("the blinker reported its scans");
+    assert_eq!(r.scans, 30, "{r:?}");
+    assert!(
+        r.cycle_us[0] > 0.0 && r.cycle_us[0] <= r.cycle_us[2],
+        "{r:?}"
     );
 }
 

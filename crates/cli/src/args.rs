@@ -6,11 +6,14 @@ use std::time::Duration;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use petriplc_net::{Evolution, StepRule};
 
+use crate::failure::exit_codes;
+
 #[derive(Debug, Parser)]
 #[command(
     name = "petriplc",
     version,
-    about = "Petri-net soft PLC toolchain: model, simulate, analyse, generate code, run"
+    about = "Petri-net soft PLC toolchain: model, simulate, analyse, generate code, run",
+    after_help = exit_codes!()
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -32,8 +35,20 @@ pub enum Command {
     /// Run the soft PLC a configuration file describes, until stopped.
     Run(RunArgs),
     /// Print the modules of a running PLC: state, process, scans, cycle times, overruns.
+    #[command(after_long_help = concat!("Examples:\n  \
+        petriplc status\n  \
+        petriplc status --plc-id line2\n\n\
+    0 while the PLC runs (or starts), 4 when no PLC has that id, 5 when it exited without\n\
+    stopping: `petriplc stop` or the next `petriplc run` removes what it left.\n\n",
+        exit_codes!()))]
     Status(PlcIdArgs),
-    /// Stop a running PLC cleanly.
+    /// Stop a running PLC cleanly; for one that exited without stopping, remove what it left.
+    #[command(after_long_help = concat!("Examples:\n  \
+        petriplc stop --plc-id line2\n  \
+        petriplc stop\n\n\
+    0 once stopped (or cleaned up after a PLC that had exited), 1 when the PLC did not\n\
+    stop, 4 when no PLC has that id.\n\n",
+        exit_codes!()))]
     Stop(PlcIdArgs),
 }
 
@@ -42,16 +57,19 @@ pub enum Command {
 pub enum Names {
     /// Names are just labels; signals come from petriplc's toolspecific data.
     Plain,
-    /// Seed 002's SIPN convention: a place's name is its output, a transition's name its
-    /// input condition (`!B1` negates), `default…` names are internal; capacity 1 everywhere.
+    /// The SIPN convention of the SIPN-to-PLCopen paper: a place's name is its output, a
+    /// transition's name its input condition (`!B1` negates), `default…` names are
+    /// internal; capacity 1 everywhere.
     Sipn,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum StepArg {
-    /// All transitions judged against the marking at the start of the pass (seed 003).
+    /// All transitions judged against the marking at the start of the pass (as in
+    /// J. Gaspar's "Running a Petri net with I/O").
     MaximalStep,
-    /// Each transition fires at once in priority order (seed 004's C).
+    /// Each transition fires at once in priority order (the C of the rapid control
+    /// prototyping paper).
     Sequential,
 }
 
@@ -66,9 +84,11 @@ impl From<StepArg> for StepRule {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum EvolveArg {
-    /// One pass per scan (seed 002's and 003's generated code).
+    /// One pass per scan (the generated code of the SIPN-to-PLCopen paper and of
+    /// "Running a Petri net with I/O").
     OnePass,
-    /// Passes repeat within the scan until none fires (seed 004, SIPN).
+    /// Passes repeat within the scan until none fires (SIPN, and the rapid control
+    /// prototyping paper).
     UntilStable,
 }
 
@@ -82,16 +102,23 @@ impl From<EvolveArg> for Evolution {
 }
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
-    petriplc sim examples/mixer/mixer.pnml --names sipn --inputs examples/mixer/timeline.csv --out trace.csv --plot trace.svg\n  \
+#[command(after_long_help = concat!("Examples:\n  \
+    petriplc sim examples/mixer/mixer.pnml --names sipn \\\n      \
+        --inputs examples/mixer/timeline.csv \\\n      \
+        --out out/mixer-trace.csv --plot out/mixer-trace.svg\n  \
     petriplc sim examples/busy-beaver/busy-beaver.pnml --plant tape --until 1s\n  \
+    petriplc sim examples/keyboard/keyboard.pnml --plant keyboard \\\n      \
+        --inputs examples/keyboard/timeline.csv --plot out/keys.svg \\\n      \
+        --signals line1,col1,accepted1 --from 1s --to 1.2s\n  \
     petriplc sim examples/mixer/mixer.pnml --names sipn --step-through\n  \
-    petriplc sim examples/chaser/chaser.st --inputs examples/chaser/timeline.csv --until 3s\n\n\
-    An IEC 61131-3 program (.st, or a PLCopen XML project) is simulated the same way: timeline\n\
-    columns and plant outputs drive its VAR_INPUTs by name, the trace has a column per\n\
-    VAR_OUTPUT (--vars: every variable); --pou picks a PROGRAM, else the CONFIGURATION's tasks\n\
-    or the only PROGRAM run.\n\n\
-    Exit codes: 0 success, 1 the simulation failed (an unstable net, a run-time fault), 2 bad input.")]
+    petriplc sim examples/chaser/chaser.st \\\n      \
+        --inputs examples/chaser/timeline.csv --until 3s\n\n\
+    An IEC 61131-3 program (.st, or a PLCopen XML project) is simulated the same\n\
+    way: timeline columns and plant outputs drive its VAR_INPUTs by name (in:NAME\n\
+    columns), the trace has a column per VAR_OUTPUT (--vars: every variable);\n\
+    --pou picks a PROGRAM, else the CONFIGURATION's tasks or the only PROGRAM\n\
+    run. A run-time fault in the program exits 1.\n\n",
+    exit_codes!()))]
 pub struct SimArgs {
     /// The controller: a net (PNML), or an IEC 61131-3 program (.st) or PLCopen XML project.
     pub net: PathBuf,
@@ -126,6 +153,16 @@ pub struct SimArgs {
     /// Write an SVG step plot of inputs, outputs and markings.
     #[arg(long, value_name = "SVG")]
     pub plot: Option<PathBuf>,
+    /// The plot's lanes, in this order: input and output names, `m:PLACE` for a marking
+    /// [default: every input, output and marking, less markings that repeat an output].
+    #[arg(long, value_name = "NAME,…", value_delimiter = ',', requires = "plot")]
+    pub signals: Option<Vec<String>>,
+    /// The plot's time window starts here (`2s`, `1.5`) [default: 0].
+    #[arg(long, value_name = "TIME", value_parser = parse_time, requires = "plot")]
+    pub from: Option<Duration>,
+    /// The plot's time window ends here [default: the end of the run].
+    #[arg(long, value_name = "TIME", value_parser = parse_time, requires = "plot")]
+    pub to: Option<Duration>,
     /// Interactive stepwise simulation: Enter runs a scan, a signal name toggles it.
     #[arg(long, conflicts_with_all = ["out", "plot"])]
     pub step_through: bool,
@@ -139,11 +176,14 @@ pub struct SimArgs {
 }
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
+#[command(after_long_help = concat!("Examples:\n  \
     petriplc check examples/chaser/chaser.st\n  \
-    petriplc check ../shared/schemas/plcopen/samples/plcopen_Standard_Function_Blocks.xml\n\n\
-    Every problem is printed at once as `file:line:col: error[Ennn]: message` (codes in\n\
-    docs/iec.md). Exit codes: 0 no error (warnings may be printed), 2 errors.")]
+    petriplc check \\\n      \
+        ../shared/schemas/plcopen/samples/plcopen_Standard_Function_Blocks.xml\n\n\
+    Every problem is printed at once as `file:line:col: error[Ennn]: message`\n\
+    (codes in docs/iec.md): 0 when there is no error (warnings may be printed),\n\
+    2 otherwise.\n\n",
+    exit_codes!()))]
 pub struct CheckArgs {
     /// Structured Text files and/or PLCopen XML projects, checked together as one project.
     #[arg(required = true)]
@@ -154,12 +194,19 @@ pub struct CheckArgs {
 }
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
-    petriplc analyze ../shared/data/mcc/Kanban-PT-00005/model.pnml --json\n  \
+#[command(after_long_help = concat!("Examples:\n  \
+    petriplc analyze examples/philosophers/philosophers.pnml --json\n  \
     petriplc analyze examples/mixer/mixer.pnml --names sipn --svg out/mixer-rg.svg\n  \
-    petriplc analyze examples/mixer/mixer.pnml --names sipn --plant examples/mixer/tank.pnml --never overfill\n\n\
-    Exit codes: 0 analysed; 1 --never found the place reachable, or the analysis failed; 2 bad input.\n\
-    The JSON format is documented in docs/analysis.md.")]
+    petriplc analyze examples/mixer/mixer.pnml --names sipn \\\n      \
+        --plant examples/mixer/tank-observed.pnml --never both_open\n\n\
+    The last one proves that the mixer never opens its inlet and outlet valves together.\n\
+    --never answers about an abstraction of the closed loop: the controller's scans are\n\
+    exact, but the plant net's delays are ignored (the plant may move any number of times\n\
+    between two scans) and free inputs take any value. So `proved` holds for every scan\n\
+    period and plant timing, while a counterexample may need the plant to be faster than\n\
+    its delays allow (docs/analysis-plc.md, section 5). The JSON format is documented in\n\
+    docs/analysis.md.\n\n",
+    exit_codes!()))]
 pub struct AnalyzeArgs {
     /// The net (PNML).
     pub net: PathBuf,
@@ -198,7 +245,8 @@ pub enum LangArg {
     Il,
     /// Ladder Diagram in PLCopen XML (safe nets).
     Ld,
-    /// Sequential Function Chart in PLCopen XML (safe nets meeting seed 002's constraints).
+    /// Sequential Function Chart in PLCopen XML (safe nets meeting the SIPN-to-PLCopen
+    /// paper's constraints).
     Sfc,
     /// One C99 file with `step()`; build with -DPETRIPLC_MAIN for a timeline-driven main.
     C,
@@ -208,20 +256,25 @@ pub enum LangArg {
 pub enum MarkingsArg {
     /// BOOL when every place is provably safe, else integers.
     Auto,
-    /// BOOL markings (seed 002); refused for a net not provably safe.
+    /// BOOL markings (as the SIPN-to-PLCopen paper); refused for a net not provably safe.
     Bool,
-    /// Integer markings (seed 003, seed 004).
+    /// Integer markings.
     Int,
 }
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
-    petriplc compile examples/mixer/mixer.pnml --names sipn --lang st --out mixer.xml\n  \
-    petriplc compile examples/mixer/mixer.pnml --names sipn --lang sfc --out mixer-sfc.xml\n  \
+#[command(after_long_help = concat!("Examples:\n  \
+    petriplc compile examples/mixer/mixer.pnml --names sipn --lang st \\\n      \
+        --out out/mixer.xml\n  \
+    petriplc compile examples/mixer/mixer.pnml --names sipn --lang sfc \\\n      \
+        --out out/mixer-sfc.xml\n  \
     petriplc compile examples/blink/blink.pnml --lang st --plain\n  \
-    petriplc compile examples/blink/blink.pnml --lang c --out blink.c && cc -DPETRIPLC_MAIN -o blink blink.c && ./blink examples/blink/timeline.csv --until 9s\n\n\
-    Exit codes: 0 written, 2 bad input (including a net the language cannot express).\n\
-    The generated code is described in docs/codegen.md.")]
+    petriplc compile examples/blink/blink.pnml --lang c --out out/blink.c && \\\n      \
+        cc -DPETRIPLC_MAIN -o out/blink out/blink.c && \\\n      \
+        out/blink examples/blink/timeline.csv --until 9s\n\n\
+    The generated code is described in docs/codegen.md. A net the language cannot express\n\
+    is bad input (exit code 2).\n\n",
+    exit_codes!()))]
 pub struct CompileArgs {
     /// The net (PNML).
     pub net: PathBuf,
@@ -261,17 +314,24 @@ pub struct CompileArgs {
 pub const DEFAULT_PLC_ID: &str = "petriplc";
 
 #[derive(Debug, Args)]
-#[command(after_long_help = "Examples:\n  \
+#[command(after_long_help = concat!("Examples:\n  \
     petriplc run examples/mixer/plc.conf\n  \
-    petriplc run examples/mixer/plc.conf --plc-id line2 --for 30s --log out/plc.log\n\n\
-    The configuration syntax is MatPLC's (docs/runtime.md). Stop with Ctrl-C or `petriplc stop`.\n\
-    Exit codes: 0 stopped cleanly, 1 a module failed or the PLC could not start, 2 bad configuration.")]
+    petriplc run examples/mixer/plc.conf --plc-id line2 --for 30s \\\n      \
+        --set modbus:listen=127.0.0.1:5021 --set hmi:listen=127.0.0.1:8081 \\\n      \
+        --log out/line2.log\n\n\
+    The second runs beside the first: its own PLC id, its own ports. The configuration\n\
+    syntax is MatPLC's (docs/runtime.md). Ctrl-C, `q` in the vitrine or `petriplc stop`\n\
+    stop the PLC cleanly (exit code 0). Before starting, every address a module listens on\n\
+    and the PLC id are checked: what is taken is reported at once, each with its fix\n\
+    (exit code 3).\n\n",
+    exit_codes!()))]
 pub struct RunArgs {
     /// The configuration file.
     pub config: PathBuf,
-    /// Names this PLC's shared memory, so several run side by side.
-    #[arg(long, default_value = DEFAULT_PLC_ID, value_name = "ID")]
-    pub plc_id: String,
+    /// Names this PLC's shared memory, so several run side by side [default: `plc_id` in
+    /// the configuration's [PLC], else `petriplc`].
+    #[arg(long, value_name = "ID")]
+    pub plc_id: Option<String>,
     /// Stop after this long (`30s`, `T#1m`).
     #[arg(long = "for", value_name = "DURATION", value_parser = parse_time)]
     pub duration: Option<Duration>,

@@ -5,6 +5,7 @@ mod args;
 mod commands;
 mod failure;
 mod output;
+mod panic;
 
 use std::process::ExitCode;
 
@@ -13,7 +14,11 @@ use petriplc_pnml::PnmlError;
 
 fn main() -> ExitCode {
     let cli = args::Cli::parse();
-    match commands::run(cli) {
+    if !matches!(cli.command, args::Command::Run(_)) {
+        panic::exit_on_panic();
+        panic::test_hook();
+    }
+    match panic::catch(|| commands::run(cli)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
             report(failure.error());

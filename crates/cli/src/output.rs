@@ -18,3 +18,30 @@ pub fn to_stdout(produce: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> Resu
             .run_failure(),
     }
 }
+
+/// Creates the folders `path` needs: every `--out`, `--svg`, `--dot` and `--plot` may name a
+/// folder that does not exist yet.
+pub fn create_parent(path: &std::path::Path) -> Result<(), Failure> {
+    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(dir) => std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the folder {}", dir.display()))
+            .run_failure(),
+        None => Ok(()),
+    }
+}
+
+/// Writes a file the user asked for, creating its folder, and says so on standard error:
+/// `wrote out/mixer-sfc.xml (SFC in a PLCopen XML project, 21 KB)`.
+pub fn write_file(path: &std::path::Path, contents: &[u8], what: &str) -> Result<(), Failure> {
+    create_parent(path)?;
+    std::fs::write(path, contents)
+        .with_context(|| format!("cannot write {}", path.display()))
+        .run_failure()?;
+    wrote(path, what);
+    Ok(())
+}
+
+/// The line every command prints for a file it wrote.
+pub fn wrote(path: &std::path::Path, what: &str) {
+    eprintln!("wrote {} ({what})", path.display());
+}

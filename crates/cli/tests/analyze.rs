@@ -193,7 +193,7 @@ fn never_needs_a_plant() {
         .stderr(predicate::str::contains("--plant"));
 }
 
-const OBSERVED_TANK: &str = "crates/closedloop/tests/data/tank-observed.pnml";
+const OBSERVED_TANK: &str = "examples/mixer/tank-observed.pnml";
 const WRONG_MIXER: &str = "crates/closedloop/tests/data/mixer-wrong.pnml";
 
 #[test]
@@ -254,5 +254,55 @@ fn closed_loop_counterexample_replays_in_the_simulator() {
     assert!(
         last.starts_with("0.02,") && last.ends_with(",N3"),
         "{trace}"
+    );
+}
+
+/// A place marked in the plant's initial marking is not "reached after" anything, and the
+/// verdict says which abstraction it holds for.
+#[test]
+fn never_words_the_start_and_names_its_abstraction() {
+    let never = |place: &str| {
+        petriplc(&[
+            "analyze",
+            "examples/mixer/mixer.pnml",
+            "--names",
+            "sipn",
+            "--plant",
+            OBSERVED_TANK,
+            "--never",
+            place,
+        ])
+        .assert()
+    };
+    let out = never("dry")
+        .code(1)
+        .stderr(predicate::str::contains(
+            "error: `dry` is marked from the start",
+        ))
+        .get_output()
+        .stdout
+        .clone();
+    let out = String::from_utf8(out).unwrap();
+    assert!(
+        out.contains(
+            "never dry (closed loop, plant delays ignored; 1 state explored)\n  VIOLATED: dry is \
+             marked from the start, in the initial marking, before any\n  scan or plant move: \
+             there is nothing to replay\n"
+        ),
+        "{out}"
+    );
+    let out = never("overfill").code(1).get_output().stdout.clone();
+    let out = String::from_utf8(out).unwrap();
+    assert!(
+        out.contains("VIOLATED: overfill is marked after 1 controller scan and 4 plant moves:"),
+        "{out}"
+    );
+    assert!(
+        out.contains("The plant's moves here ignore its delays"),
+        "{out}"
+    );
+    assert!(
+        out.contains("plant:overfill is marked after 1 controller scan and 4 plant moves\n"),
+        "{out}"
     );
 }

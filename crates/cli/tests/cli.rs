@@ -84,7 +84,10 @@ fn trace_goes_to_stdout_without_out_or_plot() {
         &[("toggle.pnml", TOGGLE), ("in.csv", timeline)],
         &["sim", "toggle.pnml", "--inputs", "in.csv", "--until", "0.2"],
         0,
-        "time,Ready,Busy,m:idle,m:busy,fired\n0,1,0,1,0,\n0.05,0,1,0,1,go\n0.1,1,0,1,0,stop\n",
+        "time,in:Start,in:Stop,Ready,Busy,m:idle,m:busy,fired\n\
+         0,0,0,1,0,1,0,\n\
+         0.05,1,0,0,1,0,1,go\n\
+         0.1,0,1,1,0,1,0,stop\n",
         "",
     );
 }
@@ -109,13 +112,102 @@ fn writes_trace_and_plot_files_creating_folders() {
     .stderr(predicate::str::contains("out/t.csv"));
     let csv = fs::read_to_string(fx.dir.path().join("out/t.csv")).unwrap();
     assert!(
-        csv.starts_with("time,Ready,Busy,m:idle,m:busy,fired\n0,0,1,0,1,go\n"),
+        csv.starts_with("time,in:Start,in:Stop,Ready,Busy,m:idle,m:busy,fired\n0,1,0,0,1,0,1,go\n"),
         "{csv}"
     );
     let svg = fs::read_to_string(fx.dir.path().join("out/t.svg")).unwrap();
     assert!(
         svg.contains("<svg") && svg.contains("Ready"),
         "plot lacks the output lane"
+    );
+}
+
+#[test]
+fn the_plot_shows_the_signals_and_window_asked_for() {
+    let fx = Fixture::new(&[
+        ("toggle.pnml", TOGGLE),
+        ("in.csv", "time,Stop,Start\n0,0,1\n0.5,1,0\n"),
+    ]);
+    let svg_of = |args: &[&str]| {
+        let mut all = vec![
+            "sim",
+            "toggle.pnml",
+            "--inputs",
+            "in.csv",
+            "--plot",
+            "p.svg",
+        ];
+        all.extend_from_slice(args);
+        fx.petriplc(&all).success();
+        fs::read_to_string(fx.dir.path().join("p.svg")).unwrap()
+    };
+    // The lanes in the order given, and nothing else; the title names net and period.
+    let svg = svg_of(&[
+        "--signals",
+        "Busy,m:idle,Start",
+        "--from",
+        "0.2s",
+        "--to",
+        "0.8",
+    ]);
+    let at = |label: &str| svg.find(&format!(">\n{label}\n<")).unwrap_or(usize::MAX);
+    assert!(
+        at("Busy") < at("m:idle") && at("m:idle") < at("Start"),
+        "{svg}"
+    );
+    assert_eq!(at("Ready"), usize::MAX, "Ready was not asked for");
+    assert_eq!(at("Stop"), usize::MAX, "Stop was not asked for");
+    assert!(
+        svg.contains("toggle · scan every 10 ms · 0.2 to 0.8 s"),
+        "{svg}"
+    );
+    // By default inputs follow the timeline's columns: Stop before Start.
+    let svg = svg_of(&[]);
+    let at = |label: &str| svg.find(&format!(">\n{label}\n<")).unwrap_or(usize::MAX);
+    assert!(at("Stop") < at("Start"), "{svg}");
+}
+
+#[test]
+fn bad_plot_options_are_bad_input() {
+    let files = [("toggle.pnml", TOGGLE), ("in.csv", "time,Start\n0,1\n")];
+    let base = [
+        "sim",
+        "toggle.pnml",
+        "--inputs",
+        "in.csv",
+        "--plot",
+        "p.svg",
+    ];
+    fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+        [base, extra].concat()
+    }
+    check(
+        &files,
+        &with(&base, &["--signals", "Ready,Lamp"]),
+        2,
+        "",
+        "`Lamp` is neither a signal nor a place of this run",
+    );
+    check(
+        &files,
+        &with(&base, &["--from", "2s", "--to", "1s"]),
+        2,
+        "",
+        "--from 2 s is not before --to 1 s",
+    );
+    check(
+        &files,
+        &with(&base, &["--from", "5s"]),
+        2,
+        "",
+        "--from 5 s is not before the end of the run (1 s)",
+    );
+    check(
+        &files,
+        &["sim", "toggle.pnml", "--signals", "Ready"],
+        2,
+        "",
+        "--plot",
     );
 }
 
@@ -308,4 +400,120 @@ fn step_through_scans_on_enter_and_toggles_inputs() {
         ))
         .stdout(predicate::str::contains("Start := 1"))
         .stdout(predicate::str::contains("fired last scan: go"));
+}
+
+/// One rule for every file a command writes: the folders are created and a line says what
+/// was written.
+#[test]
+fn every_output_option_creates_its_folder_and_says_what_it_wrote() {
+    let fx = Fixture::new(&[
+        ("toggle.pnml", TOGGLE),
+        ("in.csv", "time,Start,Stop\n0,1,0\n"),
+    ]);
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &[
+                "sim",
+                "toggle.pnml",
+                "--inputs",
+                "in.csv",
+                "--out",
+                "a/b/t.csv",
+            ],
+            "wrote a/b/t.csv (trace, 1 row)\n",
+        ),
+        (
+            &[
+                "sim",
+                "toggle.pnml",
+                "--inputs",
+                "in.csv",
+                "--plot",
+                "c/t.svg",
+            ],
+            "wrote c/t.svg (plot)\n",
+        ),
+        (
+            &[
+                "compile",
+                "toggle.pnml",
+                "--lang",
+                "st",
+                "--out",
+                "d/e/t.xml",
+            ],
+            "wrote d/e/t.xml (ST in a PLCopen XML project, 1 POU, ",
+        ),
+        (
+            &[
+                "compile",
+                "toggle.pnml",
+                "--lang",
+                "il",
+                "--plain",
+                "--out",
+                "f/t.il",
+            ],
+            "wrote f/t.il (bare IL, ",
+        ),
+        (
+            &["compile", "toggle.pnml", "--lang", "c", "--out", "g/t.c"],
+            "wrote g/t.c (C99, ",
+        ),
+        (
+            &["analyze", "toggle.pnml", "--dot", "h/rg.dot"],
+            "wrote h/rg.dot (the reachability graph in Graphviz DOT, 2 states)\n",
+        ),
+        (
+            &["analyze", "toggle.pnml", "--svg", "i/rg.svg"],
+            "wrote i/rg.svg (the reachability graph as SVG, 2 states)\n",
+        ),
+    ];
+    for (args, says) in cases {
+        fx.petriplc(args)
+            .success()
+            .stderr(predicate::str::contains(*says));
+        let written = fx.dir.path().join(args.last().unwrap());
+        assert!(
+            fs::metadata(&written).is_ok_and(|m| m.len() > 0),
+            "{args:?}"
+        );
+    }
+}
+
+/// A SIPN net read with plain names has no inputs: the timeline or plant that names them
+/// gets the hint instead of a bare "not an input".
+#[test]
+fn a_sipn_net_without_names_sipn_gets_the_hint() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+    let mut sim = Command::cargo_bin("petriplc").unwrap();
+    sim.current_dir(root).args([
+        "sim",
+        "examples/mixer/mixer.pnml",
+        "--inputs",
+        "examples/mixer/timeline.csv",
+    ]);
+    sim.assert().code(2).stderr(predicate::str::contains(
+        "column `B1` is not an input of the controller; it has no inputs at all\n\
+         did you mean --names sipn? Read with plain names, examples/mixer/mixer.pnml has no \
+         inputs; read with --names sipn",
+    ));
+    let mut analyze = Command::cargo_bin("petriplc").unwrap();
+    analyze.current_dir(root).args([
+        "analyze",
+        "examples/mixer/mixer.pnml",
+        "--plant",
+        "examples/mixer/tank.pnml",
+    ]);
+    analyze.assert().success().stderr(predicate::str::contains(
+        "warning: did you mean --names sipn?",
+    ));
+    // A net without signals that no timeline or plant names: no hint.
+    check(
+        &[("toggle.pnml", PINGPONG)],
+        &["analyze", "toggle.pnml"],
+        0,
+        "",
+        "",
+    );
 }

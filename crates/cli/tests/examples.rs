@@ -19,7 +19,8 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// A parsed trace CSV (`time,<outputs…>,m:<place>…,fired`) and the run's standard error.
+/// A parsed trace CSV (`time,in:<input>…,<outputs…>,m:<place>…,fired`) and the run's
+/// standard error.
 struct Trace {
     header: Vec<String>,
     rows: Vec<Row>,
@@ -103,36 +104,40 @@ impl Trace {
     fn fired<'r>(&self, row: &'r Row) -> Vec<&'r str> {
         row.cells.last().unwrap().split_whitespace().collect()
     }
-    /// Output columns (neither `time`, `m:…` nor `fired`).
+    /// Output columns (neither `time`, `in:…`, `m:…` nor `fired`).
     fn outputs(&self) -> Vec<&str> {
         self.header[1..self.header.len() - 1]
             .iter()
             .map(String::as_str)
-            .filter(|h| !h.starts_with("m:"))
+            .filter(|h| !h.starts_with("m:") && !h.starts_with("in:"))
             .collect()
     }
-    /// Per row: time, the outputs that are on (sorted), the transitions fired — one string each.
+    /// Per row where an output changed or something fired (and the first): time, the outputs
+    /// that are on (sorted), the transitions fired — one string each. Rows for an input
+    /// change alone are left out.
     fn story(&self) -> Vec<String> {
         let mut outputs = self.outputs();
         outputs.sort_unstable();
-        self.rows
-            .iter()
-            .map(|r| {
-                let on: Vec<&str> = outputs
-                    .iter()
-                    .copied()
-                    .filter(|o| self.value(r, o) != 0)
-                    .collect();
-                format!(
-                    "{} [{}] {}",
-                    secs(r.t),
-                    on.join(" "),
-                    self.fired(r).join(" ")
-                )
-                .trim_end()
-                .to_string()
-            })
-            .collect()
+        let mut last_on = None;
+        let mut story = Vec::new();
+        for r in &self.rows {
+            let on: Vec<&str> = outputs
+                .iter()
+                .copied()
+                .filter(|o| self.value(r, o) != 0)
+                .collect();
+            let fired = self.fired(r);
+            if last_on.as_ref() == Some(&on) && fired.is_empty() {
+                continue;
+            }
+            story.push(
+                format!("{} [{}] {}", secs(r.t), on.join(" "), fired.join(" "))
+                    .trim_end()
+                    .to_string(),
+            );
+            last_on = Some(on);
+        }
+        story
     }
     /// Every firing as "time label".
     fn firings(&self) -> Vec<String> {
@@ -196,7 +201,18 @@ fn mixer_runs_one_cycle_from_the_timeline() {
         ]
     );
     assert_eq!(t.header.iter().filter(|h| h.starts_with("m:")).count(), 8);
+    // The CSV alone tells why each transition fired: its input is 1 in the same row, and
+    // the inputs come in the timeline's order.
+    assert_eq!(t.header[1..5], ["in:B1", "in:N1", "in:N2", "in:N3"]);
+    for r in &t.rows {
+        for f in t.fired(r) {
+            assert_eq!(t.value(r, &format!("in:{f}")), 1, "{f} at {}", secs(r.t));
+        }
+    }
     let plot = fs::read_to_string(&svg).unwrap();
+    // Every marking repeats its output: none gets a lane of its own.
+    assert!(plot.contains("L1 = m:L1"), "{plot:.400}");
+    assert!(!plot.contains(">\nm:L1\n<"), "a lane for m:L1");
     assert!(plot.contains("<svg"), "not an SVG: {:.80}", plot);
 }
 
@@ -257,7 +273,11 @@ fn mixer_cycles_against_the_tank_net() {
     );
     assert_eq!(story.len(), 1 + 3 * 4, "{story:#?}");
     // The tank net ends drained to N1 (its summary lists the marked places).
-    assert!(t.stderr.contains("marked bottom"), "{}", t.stderr);
+    assert!(
+        t.stderr.contains("plant at the end: tank, marking bottom"),
+        "{}",
+        t.stderr
+    );
 }
 
 /// The same loop against the built-in continuous `tank` plant, whose sensors switch exactly

@@ -73,19 +73,19 @@ fn sim_traces_a_program_against_a_timeline() {
     let prog = file(
         &dir,
         "count.st",
-        "PROGRAM counter\nVAR_INPUT go : BOOL; END_VAR\nVAR_OUTPUT n : INT; odd : BOOL; END_VAR\nVAR e : R_TRIG; END_VAR\ne(CLK := go);\nIF e.Q THEN n := n + 1; END_IF;\nodd := n MOD 2 = 1;\nEND_PROGRAM\n",
+        "PROGRAM counter\nVAR_INPUT go : BOOL; END_VAR\nVAR_OUTPUT n : INT; odd : BOOL; END_VAR\nVAR e : R_TRIG; last : BOOL; END_VAR\ne(CLK := go);\nIF e.Q THEN n := n + 1; END_IF;\nodd := n MOD 2 = 1;\nlast := go;\nEND_PROGRAM\n",
     );
     let tl = file(&dir, "tl.csv", "time,GO\n0,0\n0.02,1\n0.04,0\n0.06,1\n");
     petriplc()
         .args(["sim", &prog, "--inputs", &tl, "--until", "0.1s"])
         .assert()
         .success()
-        .stdout("time,n,odd\n0,0,0\n0.02,1,1\n0.06,2,0\n");
+        .stdout("time,in:go,n,odd\n0,0,0,0\n0.02,1,1,1\n0.04,0,1,1\n0.06,1,2,0\n");
     petriplc()
         .args(["sim", &prog, "--inputs", &tl, "--until", "0.03s", "--vars"])
         .assert()
         .success()
-        .stdout("time,n,odd,go\n0,0,0,0\n0.02,1,1,1\n");
+        .stdout("time,in:go,n,odd,last\n0,0,0,0,0\n0.02,1,1,1,1\n");
     let bad_tl = file(&dir, "bad.csv", "time,stop\n0,1\n");
     petriplc()
         .args(["sim", &prog, "--inputs", &bad_tl])
@@ -115,7 +115,8 @@ fn sim_runs_the_chaser_configuration_on_its_task() {
         .clone();
     let csv = String::from_utf8_lossy(&out);
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "time,left,right,L1,L2,L3,L4,laps");
+    // Inputs first (in:NAME, in the timeline's column order), as for nets.
+    assert_eq!(lines[0], "time,in:right,in:left,L1,L2,L3,L4,laps");
     // The task runs every 300 ms; right turns the light at 1.5 s.
     assert_eq!(
         &lines[1..8],
@@ -125,7 +126,7 @@ fn sim_runs_the_chaser_configuration_on_its_task() {
             "0.6,0,0,0,0,0,1,0",
             "0.9,0,0,1,0,0,0,1",
             "1.2,0,0,0,1,0,0,1",
-            "1.5,0,1,1,0,0,0,1",
+            "1.5,1,0,1,0,0,0,1",
             "1.8,0,0,0,0,0,1,2",
         ]
     );
@@ -148,6 +149,13 @@ fn a_run_time_fault_fails_the_simulation_with_pou_line_and_values() {
             predicate::str::contains("at t=0.05s: ").and(predicate::str::contains(
                 "div.st:4: in PROGRAM p: division by zero: 100 / 0",
             )),
+        )
+        // What was simulated is written, marked incomplete, as for nets.
+        .stdout(
+            predicate::str::starts_with(
+                "time,in:d,q\n0,4,25\n# incomplete: the simulation failed: at t=0.05s: ",
+            )
+            .and(predicate::str::contains("div.st:4: in PROGRAM p")),
         );
 }
 

@@ -34,7 +34,7 @@ fn mixer(id: &str) -> Process {
     run
 }
 
-/// `petriplc status` of PLC `id` once it answers (20 s at most).
+/// `petriplc status` of PLC `id` once it runs (20 s at most).
 fn wait_for_status(id: &str) -> String {
     let started = Instant::now();
     loop {
@@ -43,8 +43,10 @@ fn wait_for_status(id: &str) -> String {
             .args(["status", "--plc-id", id])
             .output()
             .unwrap();
-        if out.status.success() {
-            return String::from_utf8_lossy(&out.stdout).into_owned();
+        // Exit 0 also while it starts (its lock is held); the table comes once it runs.
+        let text = String::from_utf8_lossy(&out.stdout);
+        if out.status.success() && text.starts_with(&format!("PLC {id} (process ")) {
+            return text.into_owned();
         }
         assert!(
             started.elapsed() < Duration::from_secs(20),
@@ -116,10 +118,8 @@ fn status_and_stop_reach_a_running_plc() {
         .unwrap()
         .args(["status", "--plc-id", &id])
         .assert()
-        .code(1)
-        .stderr(predicate::str::contains(format!(
-            "no PLC with id `{id}` is running"
-        )));
+        .code(4)
+        .stderr(predicate::str::contains(format!("no PLC with id `{id}`")));
 }
 
 fn run_config(dir: &TempDir, text: &str, id: &str, extra: &[&str]) -> std::process::Output {
@@ -179,7 +179,7 @@ fn bad_configurations_start_nothing() {
         ),
         (
             "b:point=q",
-            "--set b:point=q: there is no module of that name",
+            "--set: error[C033]: `point` is set for `b`, but no module b is declared",
         ),
         ("a-point", "is not SECTION:NAME=VALUE"),
     ];
@@ -192,6 +192,85 @@ fn bad_configurations_start_nothing() {
             "--set {set}: expected `{message}` in:\n{err}"
         );
     }
+}
+
+#[test]
+fn a_bad_configuration_is_reported_once_compiler_style() {
+    let dir = TempDir::new().unwrap();
+    let out = run_config(&dir, "x = 1\n\n[PLC\n", &plc_id("badconf"), &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let conf = dir.path().join("plc.conf");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 3, "{err}");
+    assert!(lines[0].starts_with(&format!("{}:1: error[C005]", conf.display())));
+    assert!(lines[1].starts_with(&format!("{}:3: error[", conf.display())));
+    assert_eq!(
+        lines[2],
+        format!(
+            "error: {} is not a valid configuration (2 problems); nothing was started",
+            conf.display()
+        )
+    );
+}
+
+/// Ports another program holds: every one is reported in one attempt, each with a free
+/// address, and the command line printed with them starts the PLC as written.
+#[test]
+fn taken_ports_are_all_reported_with_a_command_that_avoids_them() {
+    let holders = [
+        std::net::TcpListener::bind("127.0.0.1:0").unwrap(),
+        std::net::TcpListener::bind("127.0.0.1:0").unwrap(),
+    ];
+    let [modbus, hmi] = holders.each_ref().map(|l| l.local_addr().unwrap());
+    let id = plc_id("ports");
+    let out = mixer(&id)
+        .args(["--for", "1s"])
+        .args(["--set", &format!("modbus:listen={modbus}")])
+        .args(["--set", &format!("hmi:listen={hmi}")])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.starts_with("error: nothing was started: 2 things this PLC needs are taken:\n"),
+        "{err}"
+    );
+    for (module, addr) in [("modbus", modbus), ("hmi", hmi)] {
+        assert!(
+            err.contains(&format!(
+                "\n  module {module}: listen = {addr}: another program (another PLC?) listens \
+                 there; use --set {module}:listen=127.0.0.1:"
+            )),
+            "{err}"
+        );
+    }
+    let command = err
+        .lines()
+        .skip_while(|l| *l != "a command line that avoids them:")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no command line in:\n{err}"));
+    let words: Vec<&str> = command.split_whitespace().collect();
+    assert_eq!(words[..2], ["petriplc", "run"], "{command}");
+    // Each fix replaced the option it overrides.
+    assert_eq!(
+        words
+            .iter()
+            .filter(|w| w.starts_with("modbus:listen="))
+            .count(),
+        1,
+        "{command}"
+    );
+    let out = Process::cargo_bin("petriplc")
+        .unwrap()
+        .args(&words[1..])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{command}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]
@@ -224,7 +303,8 @@ fn a_failing_process_module_follows_on_failure() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("safe value valve = 0"), "{err}");
-    assert!(err.contains("crasher      crash.sh      failed"), "{err}");
+    assert!(err.contains("crasher      program       failed"), "{err}");
+    assert!(err.contains("             crash.sh"), "{err}");
 }
 
 #[test]
@@ -240,8 +320,101 @@ fn two_plcs_cannot_share_an_id() {
     Command::from_std(mixer(&id))
         .args(FREE_PORTS)
         .assert()
-        .code(1)
-        .stderr(predicate::str::contains("--plc-id"));
+        .code(3)
+        .stderr(predicate::str::contains(format!(
+            "error: nothing was started: something this PLC needs is taken:\n  PLC id `{id}`: a \
+             PLC with this id is running (process "
+        )))
+        .stderr(predicate::str::contains(format!(
+            "`petriplc stop --plc-id {id}` stops it); use --plc-id {id}-2\n"
+        )));
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["stop", "--plc-id", &id])
+        .assert()
+        .success();
+    assert!(first.wait().unwrap().success());
+}
+
+/// The id and the ports clash together: all are reported in one attempt (exit 3). An id is
+/// taken only while a live PLC holds it: one a PLC killed with SIGKILL left is suggested as
+/// free, and the printed command line takes it, removing the remains with one log line.
+#[test]
+fn a_live_id_and_ports_clash_together_and_a_dead_id_is_free() {
+    let ports: Vec<String> = (0..2)
+        .map(|_| {
+            let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+            l.local_addr().unwrap().to_string()
+        })
+        .collect();
+    let listen = [
+        "--set".to_string(),
+        format!("modbus:listen={}", ports[0]),
+        "--set".to_string(),
+        format!("hmi:listen={}", ports[1]),
+    ];
+    let id = plc_id("clash");
+    let dead = format!("{id}-2");
+    let mut first = mixer(&id)
+        .args(["--for", "30s"])
+        .args(&listen)
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut killed = mixer(&dead)
+        .args(["--for", "30s"])
+        .args(FREE_PORTS)
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_for_status(&id);
+    wait_for_status(&dead);
+    killed.kill().unwrap();
+    killed.wait().unwrap();
+    let out = mixer(&id)
+        .args(["--for", "1s"])
+        .args(&listen)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.starts_with(&format!(
+            "error: nothing was started: 3 things this PLC needs are taken:\n  PLC id `{id}`: a \
+             PLC with this id is running (process {}; `petriplc stop --plc-id {id}` stops it); \
+             use --plc-id {dead}\n",
+            first.id()
+        )),
+        "{err}"
+    );
+    for (module, addr) in [("modbus", &ports[0]), ("hmi", &ports[1])] {
+        assert!(
+            err.contains(&format!("\n  module {module}: listen = {addr}: ")),
+            "{err}"
+        );
+    }
+    let command = err
+        .lines()
+        .skip_while(|l| *l != "a command line that avoids them:")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no command line in:\n{err}"));
+    let words: Vec<&str> = command.split_whitespace().collect();
+    let out = Process::cargo_bin("petriplc")
+        .unwrap()
+        .args(&words[1..])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{command}\n{err}");
+    assert_eq!(
+        err.matches(&format!(
+            "PLC {dead}: the PLC (pid {}) exited without stopping",
+            killed.id()
+        ))
+        .count(),
+        1,
+        "{err}"
+    );
     Command::cargo_bin("petriplc")
         .unwrap()
         .args(["stop", "--plc-id", &id])
@@ -339,4 +512,11 @@ fn the_main_job_serves_modbus_and_a_modbus_write_stops_it() {
     std::io::Read::read_to_string(&mut run.stderr.take().unwrap(), &mut log).unwrap();
     assert!(exit.success(), "{log}");
     assert!(log.contains("module remote_stop stops the PLC"), "{log}");
+    // The refused write is logged with its reason, not only counted.
+    assert!(
+        log.contains(
+            "modbus_server modbus: refused write coil 3: exception 02, coil 3 shows point `V1`"
+        ),
+        "{log}"
+    );
 }

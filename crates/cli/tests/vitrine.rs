@@ -276,11 +276,20 @@ fn keys_force_points_on_screen_and_in_the_plc_and_ctrl_c_gives_the_terminal_back
 }
 
 #[test]
-fn an_80x24_terminal_shows_every_panel() {
+fn an_80x24_terminal_shows_every_panel_and_the_whole_hmi_token() {
     let dir = mixer_dir();
+    // With the web HMI, whose forcing token the operator copies from the log pane.
+    let conf = dir.path().join("plc.conf");
+    let text = std::fs::read_to_string(&conf).unwrap();
+    std::fs::write(
+        &conf,
+        format!("{text}[PLC]\nmodule hmi hmi\n[hmi]\nlisten = 127.0.0.1:0\n"),
+    )
+    .unwrap();
     let plc_id = format!("test-vitrine-small-{}", std::process::id());
     let command = format!(
-        "cd {dir} && {bin} run plc.conf --plc-id {plc_id}; echo \"EXIT=$?\"; sleep 600",
+        "cd {dir} && {bin} run plc.conf --plc-id {plc_id} --log plc.log; echo \"EXIT=$?\"; \
+         sleep 600",
         dir = shell_quote(dir.path()),
         bin = shell_quote(&petriplc()),
     );
@@ -299,6 +308,12 @@ fn an_80x24_terminal_shows_every_panel() {
         .all(|p| s.contains(p))
     });
     assert!(row(&screen, "B1").is_some(), "{screen}");
+    let log = std::fs::read_to_string(dir.path().join("plc.log")).unwrap();
+    let token = log
+        .lines()
+        .find_map(|l| l.split("forcing token ").nth(1))
+        .unwrap_or_else(|| panic!("no token in the log:\n{log}"));
+    tmux.wait_for("the whole token in the log pane", |s| s.contains(token));
     tmux.keys(&["q"]);
     let screen = tmux.wait_for("the PLC to stop", |s| s.contains("EXIT="));
     assert!(screen.contains("EXIT=0"), "{screen}");

@@ -531,11 +531,11 @@ pub fn never(cl: &ClosedLoop<'_>, place: &str) -> Result<NeverResult, ClosedLoop
     let label = cl.label(target);
     let about = vec![
         format!(
-            "closed loop `{}` + plant `{}`: {label} is marked after {} controller scans and {} plant moves",
+            "closed loop `{}` + plant `{}`: {label} is marked after {} and {}",
             c.id,
             p.id,
-            scans.len(),
-            moves.len() - scans.len()
+            plural(scans.len(), "controller scan"),
+            plural(moves.len() - scans.len(), "plant move")
         ),
         "one row per controller scan (its inputs: the plant's outputs and free inputs); plant moves are comments".into(),
         format!(
@@ -571,6 +571,11 @@ pub fn never(cl: &ClosedLoop<'_>, place: &str) -> Result<NeverResult, ClosedLoop
         timeline_csv,
         replays,
     })
+}
+
+/// `1 plant move`, `3 plant moves`.
+fn plural(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
 }
 
 #[cfg(test)]
@@ -621,7 +626,7 @@ mod tests {
     #[test]
     fn the_mixer_never_opens_inlet_and_outlet_together() {
         let mixer = read("../../examples/mixer/mixer.pnml", Naming::Sipn);
-        let tank = read("tests/data/tank-observed.pnml", Naming::Plain);
+        let tank = read("../../examples/mixer/tank-observed.pnml", Naming::Plain);
         check(&mixer, &tank, "both_open", "proved 25 states");
     }
 
@@ -630,7 +635,7 @@ mod tests {
     #[test]
     fn the_untimed_plant_can_outrun_the_controller() {
         let mixer = read("../../examples/mixer/mixer.pnml", Naming::Sipn);
-        let tank = read("tests/data/tank-observed.pnml", Naming::Plain);
+        let tank = read("../../examples/mixer/tank-observed.pnml", Naming::Plain);
         check(
             &mixer,
             &tank,
@@ -643,7 +648,7 @@ mod tests {
     #[test]
     fn a_wrong_mixer_does_and_the_counterexample_replays_in_the_simulator() {
         let wrong = read("tests/data/mixer-wrong.pnml", Naming::Sipn);
-        let tank = read("tests/data/tank-observed.pnml", Naming::Plain);
+        let tank = read("../../examples/mixer/tank-observed.pnml", Naming::Plain);
         check(
             &wrong,
             &tank,

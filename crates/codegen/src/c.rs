@@ -66,10 +66,12 @@ pub fn file(p: &Program) -> Result<String, CodegenError> {
         }
     );
     let _ = writeln!(w, "static uint32_t M[N_PLACES + 1];");
-    let _ = writeln!(
-        w,
-        "/* Fire flags of the current pass */\nstatic bool F[N_TRANSITIONS + 1];"
-    );
+    if !p.transitions.is_empty() {
+        let _ = writeln!(
+            w,
+            "/* Fire flags of the current pass */\nstatic bool F[N_TRANSITIONS + 1];"
+        );
+    }
     let _ = writeln!(
         w,
         "/* Timers of delayed arcs (TON): running since when */\nstatic pn_timer_t TM[{}];",
@@ -277,6 +279,9 @@ fn write_step(p: &Program, w: &mut String) {
         "int step(const inputs_t *in, outputs_t *out, uint64_t now_ms)\n{{"
     );
     let _ = writeln!(w, "    if (!initialized) reset();");
+    if p.outputs.is_empty() {
+        let _ = writeln!(w, "    (void)out;");
+    }
     for pl in &p.places {
         let Some((s, clamp)) = pl.input else { continue };
         let sig = &p.inputs[s];

@@ -245,6 +245,19 @@ typedef struct {
 static change_t *changes[N_INPUTS + 1];
 static size_t n_changes[N_INPUTS + 1];
 
+/* The trace's input columns: the timeline's, in its order, then the others as declared
+   (the order `petriplc sim` uses). */
+static int in_order[N_INPUTS + 1];
+static int n_in_order;
+
+static void order_input(int input)
+{
+    for (int k = 0; k < n_in_order; k++)
+        if (in_order[k] == input)
+            return;
+    in_order[n_in_order++] = input;
+}
+
 static void add_change(int input, uint64_t t, int64_t v)
 {
     changes[input] = realloc(changes[input], (n_changes[input] + 1) * sizeof(change_t));
@@ -324,6 +337,8 @@ static uint64_t read_timeline(const char *path)
                     if (strcmp(cells[c], cells[d]) == 0)
                         bad_input("%s:%d: column `%s` appears twice", path, line_no,
                                   cells[c]);
+                if (input_of[c] >= 0)
+                    order_input(input_of[c]);
                 if (input_of[c] < 0) {
                     for (int o = 0; o < N_OUTPUTS; o++)
                         if (strcmp(cells[c], output_names[o]) == 0)
@@ -397,7 +412,16 @@ int main(int argc, char **argv)
     if (!until_given)
         until = timeline ? end + 1000000000ull : 10000000000ull;
 
+    for (int i = 0; i < N_INPUTS; i++)
+        order_input(i);
+
     fputs("time", stdout);
+    for (int k = 0; k < N_INPUTS; k++) {
+        static char col[4096];
+        snprintf(col, sizeof col, "in:%s", input_names[in_order[k]]);
+        putchar(',');
+        print_field(col);
+    }
     for (int o = 0; o < N_OUTPUTS; o++) {
         putchar(',');
         print_field(output_names[o]);
@@ -415,6 +439,7 @@ int main(int argc, char **argv)
     memset(&in, 0, sizeof in);
     memset(&out, 0, sizeof out);
     size_t next[N_INPUTS + 1] = {0};
+    int64_t in_value[N_INPUTS + 1] = {0}, last_in[N_INPUTS + 1] = {0};
     int64_t last_out[N_OUTPUTS + 1] = {0};
     uint32_t last_m[N_PLACES + 1] = {0};
     for (uint64_t k = 0;; k++) {
@@ -424,6 +449,7 @@ int main(int argc, char **argv)
         for (int i = 0; i < N_INPUTS; i++) {
             while (next[i] < n_changes[i] && changes[i][next[i]].t <= t) {
                 set_input(&in, i, changes[i][next[i]].v);
+                in_value[i] = changes[i][next[i]].v;
                 next[i]++;
             }
         }
@@ -441,6 +467,10 @@ int main(int argc, char **argv)
             return 1;
         }
         int changed = k == 0 || fired_len > 0;
+        for (int i = 0; i < N_INPUTS; i++) {
+            changed |= in_value[i] != last_in[i];
+            last_in[i] = in_value[i];
+        }
         for (int o = 0; o < N_OUTPUTS; o++) {
             int64_t v = get_output(&out, o);
             changed |= v != last_out[o];
@@ -453,6 +483,10 @@ int main(int argc, char **argv)
         if (!changed)
             continue;
         print_time(t);
+        for (int k = 0; k < N_INPUTS; k++) {
+            int i = in_order[k];
+            printf(",%lld", (long long)(input_is_bool[i] ? in_value[i] != 0 : in_value[i]));
+        }
         for (int o = 0; o < N_OUTPUTS; o++)
             printf(",%lld", (long long)last_out[o]);
         for (int p = 0; p < N_PLACES; p++)

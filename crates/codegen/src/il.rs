@@ -1,12 +1,18 @@
-//! IEC 61131-3 Instruction List (2nd edition, as Beremiz/matiec parse it): the lowered
-//! [`Program`] rendered block by block, doing what the ST backend does statement for
-//! statement (see the module doc of [`crate::lower`] for what a scan does).
+//! IEC 61131-3 Instruction List: the lowered [`Program`] rendered block by block, doing what
+//! the ST backend does statement for statement (see the module doc of [`crate::lower`] for
+//! what a scan does).
 //!
 //! IL has one accumulator (the *current result*), so conditions are flattened into `LD`,
 //! `AND`/`OR`/`XOR` with the `N` modifier for plain operands and deferred `AND( … )` for
 //! anything computed (comparisons, nested disjunctions). Conditional blocks (the first scan,
-//! integer firing, the until-stable loop) are jumps to labels, which are claimed like any
-//! other identifier so that they never clash with a variable.
+//! token flow, the until-stable loop) are `JMPC`/`JMPCN` jumps to labels, which are claimed
+//! like any other identifier so that they never clash with a variable.
+//!
+//! Only the plainest forms are written, the ones every IEC compiler handles (Beremiz's
+//! matiec, CODESYS, TwinCAT; docs/codegen.md): markings are stored with `LD`/`ST` behind a
+//! jump, never with the `S`/`R` operators; a timer's `IN` and `PT` are stored into the
+//! instance before a plain `CAL`, never passed in a formal call; every label is followed by
+//! an instruction.
 
 use std::fmt::Write as _;
 
@@ -359,11 +365,17 @@ fn add(out: &mut Out, var: &str, delta: u32, take: bool) {
 }
 
 /// The token flow of transition `t`, run when its fire flag (already the current result)
-/// is TRUE. BOOL places use `R`/`S`, which act on the current result without a jump;
-/// counters need one around them. Takes come first, so that a self-loop keeps its token.
-fn flow(p: &Program, labels: &mut Labels, out: &mut Out, t: usize, take: bool, give: bool) {
+/// is TRUE: a conditional jump over plain loads and stores. `S` and `R` are avoided: they
+/// are also the set/reset inputs of function blocks, and matiec crashed on them. Takes come
+/// first, so that a self-loop keeps its token.
+fn flow(p: &Program, labels: &mut Labels, out: &mut Out, t: usize, phase: Phase) {
     let tr = &p.transitions[t];
     let maximal = p.step == StepRule::MaximalStep;
+    let (take, give) = match phase {
+        Phase::Both => (true, true),
+        Phase::Take => (true, false),
+        Phase::Give => (false, true),
+    };
     let mut moves: Vec<(usize, u32, bool)> = Vec::new();
     if take {
         moves.extend(tr.consume.iter().map(|&(pl, w)| (pl, w, true)));
@@ -371,17 +383,35 @@ fn flow(p: &Program, labels: &mut Labels, out: &mut Out, t: usize, take: bool, g
     if give {
         moves.extend(tr.produce.iter().map(|&(pl, w)| (pl, w, false)));
     }
+    if moves.is_empty() {
+        return;
+    }
+    let suffix = match phase {
+        Phase::Both => "Done",
+        Phase::Take => "Taken",
+        Phase::Give => "Given",
+    };
+    let stem = tr.ident.strip_suffix("Fire").unwrap_or(&tr.ident);
+    let done = labels.claim(&format!("{stem}{suffix}"));
+    out.op("JMPCN", &done);
     let (bools, ints): (Vec<_>, Vec<_>) = moves
         .into_iter()
         .partition(|&(pl, _, _)| p.places[pl].boolean);
-    for &(pl, _, take) in &bools {
-        out.op(if take { "R" } else { "S" }, &p.places[pl].ident);
+    // One load serves every store of the same value.
+    for value in [false, true] {
+        let places: Vec<&str> = bools
+            .iter()
+            .filter(|&&(_, _, take)| take != value)
+            .map(|&(pl, _, _)| p.places[pl].ident.as_str())
+            .collect();
+        if places.is_empty() {
+            continue;
+        }
+        out.op("LD", if value { "TRUE" } else { "FALSE" });
+        for place in places {
+            out.op("ST", place);
+        }
     }
-    if ints.is_empty() {
-        return;
-    }
-    let done = labels.claim(&format!("{}Done", tr.ident));
-    out.op("JMPCN", &done);
     for (pl, w, take) in ints {
         let place = &p.places[pl];
         // Int maximal-step moves tokens between the pass's counters; the marking is
@@ -394,6 +424,14 @@ fn flow(p: &Program, labels: &mut Labels, out: &mut Out, t: usize, take: bool, g
         add(out, var, w, take);
     }
     out.label(&done);
+}
+
+/// Which arcs of a transition a [`flow`] block moves tokens on.
+#[derive(Clone, Copy)]
+enum Phase {
+    Both,
+    Take,
+    Give,
 }
 
 fn transition_comment(p: &Program, out: &mut Out, t: usize) {
@@ -419,22 +457,13 @@ fn pass(p: &Program, labels: &mut Labels, out: &mut Out) {
                 tm.weight,
                 crate::iec_time(tm.delay)
             ));
-            let pt = format!("PT := {}", crate::iec_time(tm.delay));
-            match cond_node(p, &tm.input) {
-                Node::Var(v, false) => {
-                    out.op("CAL", format!("{}(", tm.ident));
-                    out.line(2, &format!("IN := {v},"), None);
-                    out.line(2, &pt, None);
-                    out.line(1, ")", None);
-                }
-                n => {
-                    out.ins(&load(&n));
-                    out.op("ST", format!("{}.IN", tm.ident));
-                    out.op("CAL", format!("{}(", tm.ident));
-                    out.line(2, &pt, None);
-                    out.line(1, ")", None);
-                }
-            }
+            // The inputs are stored into the instance, then a plain CAL: the formal call
+            // `CAL TON_x(IN := …, PT := …)` is what made matiec crash.
+            out.ins(&load(&cond_node(p, &tm.input)));
+            out.op("ST", format!("{}.IN", tm.ident));
+            out.op("LD", crate::iec_time(tm.delay));
+            out.op("ST", format!("{}.PT", tm.ident));
+            out.op("CAL", &tm.ident);
         }
     }
     if int_maximal {
@@ -457,7 +486,7 @@ fn pass(p: &Program, labels: &mut Labels, out: &mut Out) {
                 transition_comment(p, out, t);
                 out.ins(&conjunction(p, tr.enabling.all()));
                 out.op("ST", &tr.ident);
-                flow(p, labels, out, t, true, true);
+                flow(p, labels, out, t, Phase::Both);
             }
         }
         StepRule::MaximalStep if int_maximal => {
@@ -466,7 +495,7 @@ fn pass(p: &Program, labels: &mut Labels, out: &mut Out) {
                 transition_comment(p, out, t);
                 out.ins(&conjunction(p, tr.enabling.all()));
                 out.op("ST", &tr.ident);
-                flow(p, labels, out, t, true, true);
+                flow(p, labels, out, t, Phase::Both);
             }
             out.section("pass: the marking becomes available + produced tokens");
             for pl in &p.places {
@@ -497,7 +526,13 @@ fn pass(p: &Program, labels: &mut Labels, out: &mut Out) {
                         continue;
                     }
                     out.op("LD", &tr.ident);
-                    flow(p, labels, out, t, !give, give);
+                    flow(
+                        p,
+                        labels,
+                        out,
+                        t,
+                        if give { Phase::Give } else { Phase::Take },
+                    );
                 }
             }
         }
@@ -505,6 +540,9 @@ fn pass(p: &Program, labels: &mut Labels, out: &mut Out) {
 }
 
 fn outputs(p: &Program, out: &mut Out) {
+    if p.outputs.is_empty() {
+        return;
+    }
     out.section("outputs: a BOOL output is the OR of its places, an integer one the marking");
     for o in &p.outputs {
         match o.ty {
@@ -546,23 +584,24 @@ pub fn body(p: &Program) -> String {
         text: crate::st::header(p, "(*", "*)", "  "),
     };
 
-    out.section("init: the initial marking, on the first scan only");
-    let init_done = labels.claim("InitDone");
-    out.op("LD", &p.helpers.init);
-    out.op("JMPC", &init_done);
     // Variables start at 0 (FALSE), so only marked places need a value.
-    for pl in p.places.iter().filter(|pl| pl.initial > 0) {
-        let value = if pl.boolean {
-            "TRUE".to_string()
-        } else {
-            pl.initial.to_string()
-        };
-        out.op("LD", value);
-        out.op("ST", &pl.ident);
+    let marked: Vec<_> = p.places.iter().filter(|pl| pl.initial > 0).collect();
+    if !marked.is_empty() {
+        out.section("init: the initial marking, on the first scan only");
+        let init_done = labels.claim("InitDone");
+        out.op("LD", &p.helpers.init);
+        out.op("JMPC", &init_done);
+        for pl in marked {
+            let value = if pl.boolean {
+                "TRUE".to_string()
+            } else {
+                pl.initial.to_string()
+            };
+            out.op("LD", value);
+            out.op("ST", &pl.ident);
+        }
+        out.label(&init_done);
     }
-    out.op("LD", "TRUE");
-    out.op("ST", &p.helpers.init);
-    out.label(&init_done);
 
     if p.places.iter().any(|pl| pl.input.is_some()) {
         out.section("inputs: each input place takes its clamped signal");
@@ -625,6 +664,11 @@ pub fn body(p: &Program) -> String {
             out.label(&end);
         }
     }
+    // Set at the end rather than in the init block, so that every label is followed by an
+    // instruction (no label ends the program); nothing reads the flag before the next scan.
+    out.section("end of scan: the initial marking is set");
+    out.op("LD", "TRUE");
+    out.op("ST", &p.helpers.init);
     out.text
 }
 

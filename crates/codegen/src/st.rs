@@ -177,6 +177,11 @@ pub fn body(p: &Program) -> String {
         w.line(&format!("{} := {};", h.unstable, h.fired));
     }
 
+    // Every statement list gets a statement: IEC 61131-3 has no empty one, and matiec
+    // refuses `IF … THEN END_IF;`. A block with nothing to do is left out.
+    if p.outputs.is_empty() {
+        return w.out;
+    }
     w.line("");
     w.line("(* --- Outputs --- *)");
     if until_stable {
@@ -276,7 +281,7 @@ fn pass(p: &Program, w: &mut Writer) {
             }
         ));
         w.line(&format!("{} := {};", t.ident, enabling(p, t)));
-        if bool_maximal {
+        if bool_maximal || (t.consume.is_empty() && t.produce.is_empty()) {
             continue;
         }
         w.line(&format!("IF {} THEN", t.ident));

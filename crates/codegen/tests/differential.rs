@@ -144,6 +144,28 @@ fn every_example_runs_in_c_as_in_sim() {
     }
 }
 
+#[test]
+fn degenerate_nets_run_in_c_as_in_sim() {
+    let dir = scratch("degenerate");
+    let timeline = "time,B\n0,0\n0.05,1\n0.12,0\n";
+    for (name, net) in common::degenerate_nets() {
+        let driven = net.signals().iter().any(|s| s.name == "B");
+        for (step, evolve) in RULES {
+            for markings in [Markings::Auto, Markings::Int] {
+                let run = Run {
+                    step,
+                    evolve,
+                    markings,
+                    period: Duration::from_millis(10),
+                    until: Duration::from_millis(200),
+                };
+                eprintln!("{name}: {run:?}");
+                check(&net, driven.then_some(timeline), run, &dir);
+            }
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 40, failure_persistence: None, ..ProptestConfig::default() })]
 

@@ -133,6 +133,9 @@ fn small_nets() -> Vec<(&'static str, Net)> {
             "),
         ),
     ]
+    .into_iter()
+    .chain(common::degenerate_nets())
+    .collect()
 }
 
 /// Every program of every example and small net.
@@ -243,8 +246,8 @@ fn header_lists_renamed_names_and_conflicts() {
     assert!(text.contains("LD    IF_2"), "{text}");
 }
 
-/// IL with comments removed, as (label, operator, operand) lines; `)` and formal parameter
-/// lines are kept as operators.
+/// IL with comments removed, as (label, operator, operand) lines; `)` is kept as an
+/// operator.
 fn instructions(body: &str) -> Vec<(Option<String>, String, String)> {
     let mut text = String::new();
     let mut rest = body;
@@ -266,13 +269,12 @@ fn instructions(body: &str) -> Vec<(Option<String>, String, String)> {
     out
 }
 
+/// The IL operators the backend may write: the plainest ones, which Beremiz (matiec),
+/// CODESYS and TwinCAT all accept. No `S`/`R` (matiec crashed on them), no `STN`.
 const OPERATORS: &[&str] = &[
     "LD",
     "LDN",
     "ST",
-    "STN",
-    "S",
-    "R",
     "AND",
     "ANDN",
     "OR",
@@ -310,8 +312,6 @@ const OPERATORS: &[&str] = &[
     "BOOL_TO_UDINT",
     "DINT_TO_UDINT",
     "BOOL_TO_DINT",
-    "IN",
-    "PT",
 ];
 
 #[test]
@@ -396,23 +396,53 @@ fn every_identifier_is_declared() {
                 continue;
             }
             let arg = arg.trim_end_matches(',');
-            let arg = match op.as_str() {
-                "CAL" => {
-                    let fb = arg.strip_suffix('(').expect("formal call");
-                    assert_eq!(
-                        declared.get(&fb.to_ascii_uppercase()).map(String::as_str),
-                        Some("TON"),
-                        "{what}: CAL {fb}"
-                    );
-                    open += 1;
-                    continue;
-                }
-                "IN" | "PT" => arg.strip_prefix(":= ").expect("parameter assignment"),
-                _ => arg,
-            };
+            if op == "CAL" {
+                assert_eq!(
+                    declared.get(&arg.to_ascii_uppercase()).map(String::as_str),
+                    Some("TON"),
+                    "{what}: CAL {arg}"
+                );
+                continue;
+            }
             assert!(operand_ok(arg), "{what}: {op} {arg} is not declared");
         }
         assert_eq!(open, 0, "{what}: unbalanced parentheses");
+    }
+}
+
+/// The forms matiec (Beremiz) crashed on or refused must not come back: the `S`/`R`
+/// operators (markings are stored with `LD`/`ST` behind a jump), formal call lists
+/// (`CAL TON_x(IN := …, PT := …)`: the inputs are stored into the instance first), a label
+/// with no instruction after it, and a jump that is not conditional on the current result.
+#[test]
+fn the_il_keeps_to_the_plainest_forms() {
+    for (name, p) in all_programs() {
+        let what = describe(&name, &p);
+        let body = il::body(&p);
+        let code = instructions(&body);
+        assert!(
+            !body.contains(":="),
+            "{what}: a formal parameter list\n{body}"
+        );
+        for (i, (label, op, arg)) in code.iter().enumerate() {
+            assert!(
+                !matches!(op.as_str(), "S" | "R" | "S1" | "R1" | "STN" | "JMP" | "RET"),
+                "{what}: operator {op} {arg}\n{body}"
+            );
+            if op == "CAL" {
+                assert!(
+                    arg.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'),
+                    "{what}: CAL {arg} is not a plain call\n{body}"
+                );
+            }
+            if let Some(l) = label {
+                let next = code.get(i + 1);
+                assert!(
+                    next.is_some_and(|(label, op, _)| label.is_none() && op != "CAL"),
+                    "{what}: label {l} is not followed by a plain instruction\n{body}"
+                );
+            }
+        }
     }
 }
 
@@ -519,8 +549,12 @@ fn disjunctions_and_bool_markings() {
         "{body}"
     );
     // Resets before sets.
-    let reset = body.find("    R     bLocal").expect("b is reset");
-    let set = body.find("    S     cLocal").expect("c is set");
+    let reset = body
+        .find("    LD    FALSE\n    ST    bLocal\n")
+        .expect("b is reset");
+    let set = body
+        .find("    LD    TRUE\n    ST    cLocal\n")
+        .expect("c is set");
     assert!(reset < set, "{body}");
 }
 
@@ -604,7 +638,7 @@ enum Step {
     Op(String, String),
     Open(String, String),
     Close,
-    Call(String, Vec<(String, String)>),
+    Call(String),
 }
 
 struct Machine {
@@ -627,16 +661,7 @@ impl Machine {
                 labels.insert(l.to_ascii_uppercase(), code.len());
                 code.push(Step::Label);
             } else if op == "CAL" {
-                let fb = arg.strip_suffix('(').unwrap().to_ascii_uppercase();
-                let mut params = Vec::new();
-                while lines[i].1 != ")" {
-                    let (_, name, value) = &lines[i];
-                    let value = value.strip_prefix(":= ").unwrap().trim_end_matches(',');
-                    params.push((name.clone(), value.to_string()));
-                    i += 1;
-                }
-                i += 1;
-                code.push(Step::Call(fb, params));
+                code.push(Step::Call(arg.to_ascii_uppercase()));
             } else if let Some(o) = op.strip_suffix('(') {
                 code.push(Step::Open(o.to_string(), arg.clone()));
             } else if op == ")" {
@@ -678,11 +703,17 @@ impl Machine {
         if let Ok(n) = operand.parse::<i64>() {
             return n;
         }
+        // A duration is carried in the current result as nanoseconds.
+        if upper.starts_with("T#") {
+            let d = petriplc_net::time::parse_duration(operand).unwrap();
+            return i64::try_from(d.as_nanos()).unwrap();
+        }
         if let Some((fb, field)) = upper.split_once('.') {
             let t = &self.tons[fb];
             return match field {
                 "Q" => i64::from(t.q),
                 "IN" => i64::from(t.input),
+                "PT" => i64::try_from(t.pt.as_nanos()).unwrap(),
                 other => panic!("TON field {other}"),
             };
         }
@@ -695,8 +726,12 @@ impl Machine {
     fn store(&mut self, var: &str, v: i64) {
         let upper = var.to_ascii_uppercase();
         if let Some((fb, field)) = upper.split_once('.') {
-            assert_eq!(field, "IN");
-            self.tons.get_mut(fb).unwrap().input = v != 0;
+            let t = self.tons.get_mut(fb).unwrap();
+            match field {
+                "IN" => t.input = v != 0,
+                "PT" => t.pt = Duration::from_nanos(u64::try_from(v).unwrap()),
+                other => panic!("cannot store into TON field {other}"),
+            }
             return;
         }
         *self
@@ -755,16 +790,7 @@ impl Machine {
                     let (op, saved) = stack.pop().expect("balanced");
                     cr = Self::apply(&op, saved, cr);
                 }
-                Step::Call(fb, params) => {
-                    for (name, value) in params.clone() {
-                        let v = self.value_or_time(&value);
-                        let t = self.tons.get_mut(fb).unwrap();
-                        match name.as_str() {
-                            "IN" => t.input = v.0 != 0,
-                            "PT" => t.pt = v.1,
-                            other => panic!("TON input {other}"),
-                        }
-                    }
+                Step::Call(fb) => {
                     let t = self.tons.get_mut(fb).unwrap();
                     if t.input {
                         let start = *t.start.get_or_insert(now);
@@ -778,17 +804,6 @@ impl Machine {
                     "LD" => cr = self.value(arg),
                     "LDN" => cr = i64::from(self.value(arg) == 0),
                     "ST" => self.store(arg, cr),
-                    "STN" => self.store(arg, i64::from(cr == 0)),
-                    "S" => {
-                        if cr != 0 {
-                            self.store(arg, 1)
-                        }
-                    }
-                    "R" => {
-                        if cr != 0 {
-                            self.store(arg, 0)
-                        }
-                    }
                     "NOT" => cr = i64::from(cr == 0),
                     "BOOL_TO_UDINT" | "BOOL_TO_DINT" => {}
                     "DINT_TO_UDINT" => assert!(cr >= 0),
@@ -805,14 +820,6 @@ impl Machine {
         }
         self.code = code;
         assert!(stack.is_empty());
-    }
-
-    fn value_or_time(&self, v: &str) -> (i64, Duration) {
-        if v.to_ascii_uppercase().starts_with("T#") {
-            (0, petriplc_net::time::parse_duration(v).unwrap())
-        } else {
-            (self.value(v), Duration::ZERO)
-        }
     }
 }
 

@@ -685,3 +685,17 @@ fn the_diagram_runs_like_the_net() {
         }
     }
 }
+
+#[test]
+fn degenerate_nets_validate_and_run_like_the_net() {
+    for (name, n) in common::degenerate_nets() {
+        match ld_of(&n, &one_pass(&n)) {
+            Ok(_) => {
+                valid(&n, &one_pass(&n));
+                runs_like_the_net(&n, 40);
+            }
+            Err(CodegenError::NeedsSafeNet { .. }) => {}
+            Err(e) => panic!("{name}: {e}"),
+        }
+    }
+}

@@ -90,3 +90,28 @@ proptest! {
         }
     }
 }
+
+/// Nets with no places, transitions, inputs or outputs: every language either writes a
+/// valid project or refuses the net with a reason; none writes an invalid one.
+#[test]
+fn degenerate_nets_validate_in_every_language_or_are_refused() {
+    for (name, net) in common::degenerate_nets() {
+        for language in [Language::St, Language::Il, Language::Ld, Language::Sfc] {
+            for rule in RULES {
+                for markings in [Markings::Auto, Markings::Int] {
+                    let what = format!("{name} {language:?} {rule:?} {markings:?}");
+                    match project(&net, language, rule, markings) {
+                        Ok(doc) => valid(&doc, &what),
+                        Err(e) => {
+                            assert!(
+                                matches!(language, Language::Ld | Language::Sfc),
+                                "{what}: {e}"
+                            );
+                            assert!(!e.to_string().is_empty(), "{what}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,7 +1,7 @@
 //! The ST petriplc writes parses with a third-party IEC 61131-3 parser, blark (a lark grammar
 //! of IEC 61131-3 ST as TwinCAT 3 extends it; pinned in scripts/test-all.sh, installed into
-//! target/py): every example under every step rule, evolution and marking representation, and
-//! 24 random nets.
+//! target/py): every example and every degenerate net (no places, transitions, inputs or
+//! outputs) under every step rule, evolution and marking representation, and 24 random nets.
 
 mod common;
 
@@ -56,13 +56,17 @@ fn parse_all(programs: &[(String, String)]) {
         starts.push((text.lines().count() + 1, what.clone()));
         text.push_str(program);
     }
-    let file = std::env::temp_dir().join(format!("petriplc-st-{}.st", std::process::id()));
+    // Tests run in parallel threads of one process: one file per call.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let file = std::env::temp_dir().join(format!("petriplc-st-{}-{call}.st", std::process::id()));
     std::fs::write(&file, &text).unwrap();
     let out = Command::new(blark())
         .arg("parse")
         .arg(&file)
         .output()
         .unwrap();
+    let _ = std::fs::remove_file(&file);
     let report = format!(
         "{}{}",
         String::from_utf8_lossy(&out.stdout),
@@ -101,6 +105,24 @@ fn st_of_every_example_parses() {
                         st(&net, step, evolve, markings),
                     ));
                 }
+            }
+        }
+    }
+    parse_all(&programs);
+}
+
+/// Nets that leave blocks of the program with nothing to do, under every step rule and
+/// evolution (the marking representation changes no block's shape here).
+#[test]
+fn st_of_degenerate_nets_parses() {
+    let mut programs = Vec::new();
+    for (name, net) in common::degenerate_nets() {
+        for step in [StepRule::MaximalStep, StepRule::Sequential] {
+            for evolve in [Evolution::OnePass, Evolution::UntilStable] {
+                programs.push((
+                    format!("{name} {step:?} {evolve:?}"),
+                    st(&net, step, evolve, Markings::Auto),
+                ));
             }
         }
     }

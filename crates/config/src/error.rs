@@ -78,6 +78,8 @@ pub const BAD_LINE: &str = "C008";
 // Layer 2: the [PLC] tables.
 pub const UNKNOWN_TABLE: &str = "C010";
 pub const UNSUPPORTED_TABLE: &str = "C011";
+pub const UNKNOWN_PLC_SETTING: &str = "C012";
+pub const BAD_PLC_ID: &str = "C013";
 
 // Points.
 pub const POINT_SHAPE: &str = "C020";
@@ -101,6 +103,7 @@ pub const BAD_PRIORITY: &str = "C036";
 pub const BAD_ON_FAILURE: &str = "C037";
 pub const UNKNOWN_SCAN_TRANSITION: &str = "C038";
 pub const SECTION_CASE: &str = "C039";
+pub const BAD_RESTART: &str = "C029";
 
 // The synchronisation net.
 pub const PLACE_SHAPE: &str = "C040";
@@ -136,6 +139,11 @@ pub const CODES: &[(&str, &str)] = &[
     ),
     (UNKNOWN_TABLE, "an unknown table in [PLC]"),
     (
+        UNKNOWN_PLC_SETTING,
+        "a setting in [PLC] other than plc_id (nothing would read it)",
+    ),
+    (BAD_PLC_ID, "an empty plc_id"),
+    (
         UNSUPPORTED_TABLE,
         "a MatPLC [PLC] table petriplc does not support",
     ),
@@ -165,7 +173,7 @@ pub const CODES: &[(&str, &str)] = &[
     ),
     (
         UNDECLARED_MODULE_SETTING,
-        "a PLC-level setting for a module that is not declared",
+        "a setting or row for a module that is not declared",
     ),
     (BAD_SCAN_PERIOD, "a scan_period that is not a duration"),
     (
@@ -182,6 +190,10 @@ pub const CODES: &[(&str, &str)] = &[
         "scan_beg/scan_end naming an undeclared transition",
     ),
     (SECTION_CASE, "a section spelled like [PLC] in another case"),
+    (
+        BAD_RESTART,
+        "a bad restart_delay/restart_delay_max/restart_limit, or one without on_failure = restart",
+    ),
     (PLACE_SHAPE, "a malformed `place` row"),
     (TRANSITION_SHAPE, "a malformed `transition` row"),
     (DUPLICATE_NODE, "two places/transitions with one name"),

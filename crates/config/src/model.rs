@@ -13,8 +13,13 @@ pub struct Origin {
 }
 
 impl std::fmt::Display for Origin {
+    /// `plc.conf:12`; line 0 (a whole file, or `--set` on the command line) shows no line.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}:{}", self.file, self.line)
+        if self.line == 0 {
+            write!(f, "{}", self.file)
+        } else {
+            write!(f, "{}:{}", self.file, self.line)
+        }
     }
 }
 
@@ -77,6 +82,31 @@ pub enum OnFailure {
     Ignore,
 }
 
+/// How `on_failure = restart` restarts a module that keeps failing: after a failure the
+/// module waits `delay` before it starts again, twice as long after each further failure up to
+/// `delay_max`; once it has run `delay_max` without failing the delay is back to `delay` and
+/// the count to 0. `limit` restarts in a row (0: no limit) and the next failure fails the
+/// module for good, as `on_failure = stop` would.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Restart {
+    /// `restart_delay` (default 100 ms).
+    pub delay: Duration,
+    /// `restart_delay_max` (default 10 s).
+    pub delay_max: Duration,
+    /// `restart_limit` (default 10; 0 means no limit).
+    pub limit: u32,
+}
+
+impl Default for Restart {
+    fn default() -> Self {
+        Restart {
+            delay: Duration::from_millis(100),
+            delay_max: Duration::from_secs(10),
+            limit: 10,
+        }
+    }
+}
+
 /// `module NAME KIND-or-PATH [args]` and the module's own section.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModuleDecl {
@@ -90,6 +120,8 @@ pub struct ModuleDecl {
     /// `priority`: a real-time (SCHED_FIFO) priority 1–99, when permitted.
     pub priority: Option<u8>,
     pub on_failure: OnFailure,
+    /// With `on_failure = restart`: how restarts are paced and limited.
+    pub restart: Restart,
     /// `scan_beg` / `scan_end`: transitions of the synchronisation net (`NULL` when absent).
     pub scan_beg: Option<String>,
     pub scan_end: Option<String>,
@@ -111,6 +143,7 @@ impl ModuleDecl {
             location: Location::default(),
             priority: None,
             on_failure: OnFailure::default(),
+            restart: Restart::default(),
             scan_beg: None,
             scan_end: None,
             settings: BTreeMap::new(),

@@ -2,11 +2,11 @@
 //! synchronisation net; each module's section gives its settings; then everything is
 //! cross-checked, collecting every problem.
 //!
-//! A section (or `X: name = value` line) for a module that is not declared is accepted as
-//! long as it only holds the module's own settings: MatPLC demos configure modules started
-//! outside the PLC (a keyboard reader launched by a script) that way. If it sets one of the
-//! PLC-level settings (`scan_period`, `location`, `priority`, `on_failure`, `scan_beg`,
-//! `scan_end`) it is an error, since the PLC would silently ignore it.
+//! A setting nobody reads is an error, wherever it is written: `[PLC]` has one setting,
+//! `plc_id`; a section (or `X: name = value` line) for a module that is not declared is read
+//! by nobody (a module program started by hand must be declared too: the C ABI refuses an
+//! undeclared module), so any setting or row in it is an error; module sections are checked
+//! by their module kinds, and the runner checks the settings it reads itself.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 
@@ -36,8 +36,28 @@ pub const MODULE_SETTINGS: &[&str] = &[
     "location",
     "priority",
     "on_failure",
+    "restart_delay",
+    "restart_delay_max",
+    "restart_limit",
     "scan_beg",
     "scan_end",
+];
+
+/// The settings `[PLC]` may hold.
+pub const PLC_SETTINGS: &[&str] = &["plc_id"];
+
+/// MatPLC's `[PLC]` settings that petriplc has no use for, and why.
+const MATPLC_PLC_SETTINGS: &[(&str, &str)] = &[
+    (
+        "confmap_key",
+        "MatPLC's key of its configuration shared memory; petriplc names its shared memory \
+         after the plc id",
+    ),
+    (
+        "confmap_size",
+        "MatPLC's size of its configuration shared memory; petriplc sizes its shared memory \
+         itself",
+    ),
 ];
 
 /// The null transition's name: always present, never in an arc.
@@ -50,6 +70,7 @@ pub(crate) fn build(raw: RawConfig) -> Result<PlcConfig, ConfigError> {
     for row in &plc.rows {
         b.row(row);
     }
+    b.check_plc_settings(plc);
     b.check_points();
     b.check_modules();
     b.check_net();
@@ -241,6 +262,51 @@ impl Builder {
                     PLC_TABLES.join(", ")
                 ),
             ),
+        }
+    }
+
+    /// `[PLC]` holds `plc_id` and nothing else.
+    fn check_plc_settings(&mut self, plc: &Section) {
+        let mut seen = HashSet::new();
+        for (key, s) in &plc.pairs {
+            if !seen.insert(key) {
+                continue;
+            }
+            if key == "plc_id" {
+                if s.value.is_empty() {
+                    self.err(
+                        &s.origin,
+                        error::BAD_PLC_ID,
+                        "`plc_id` is empty: give the PLC's id (letters, digits, `_`, `-`, `.`) \
+                         or remove the line",
+                    );
+                }
+                continue;
+            }
+            let why = MATPLC_PLC_SETTINGS
+                .iter()
+                .find(|(name, _)| name == key)
+                .map(|(_, why)| format!(" ({why})"))
+                .unwrap_or_default();
+            let module = if MODULE_SETTINGS.contains(&key.as_str()) {
+                format!(
+                    "; `{key}` is a module's setting: write it in the module's section \
+                     ([NAME]) or as `NAME: {key} = {}`",
+                    s.value
+                )
+            } else {
+                String::new()
+            };
+            self.err(
+                &s.origin,
+                error::UNKNOWN_PLC_SETTING,
+                format!(
+                    "`{key} = {}` in [PLC]: nothing reads this setting{why}; [PLC] has only \
+                     {}{module}",
+                    s.value,
+                    PLC_SETTINGS.join(", ")
+                ),
+            );
         }
     }
 
@@ -521,6 +587,28 @@ impl Builder {
                             "write `stop` (the default), `restart` or `ignore`".into(),
                         ),
                     },
+                    "restart_delay" | "restart_delay_max" => {
+                        match petriplc_net::time::parse_duration(v) {
+                            Ok(d) if key == "restart_delay" => decl.restart.delay = d,
+                            Ok(d) if !d.is_zero() => decl.restart.delay_max = d,
+                            Ok(_) => bad(
+                                error::BAD_RESTART,
+                                "the longest delay between restarts must be longer than 0 \
+                                 (e.g. `T#10s`)"
+                                    .into(),
+                            ),
+                            Err(e) => bad(error::BAD_RESTART, e.to_string()),
+                        }
+                    }
+                    "restart_limit" => match v.parse::<u32>() {
+                        Ok(n) => decl.restart.limit = n,
+                        Err(_) => bad(
+                            error::BAD_RESTART,
+                            "write how many restarts in a row are allowed (a whole number; \
+                             0 for no limit)"
+                                .into(),
+                        ),
+                    },
                     "scan_beg" | "scan_end" => {
                         let t = if v == NULL {
                             None
@@ -549,6 +637,39 @@ impl Builder {
                     _ => {}
                 }
             }
+            if decl.on_failure != OnFailure::Restart {
+                for key in ["restart_delay", "restart_delay_max", "restart_limit"] {
+                    if let Some(s) = settings.get(key) {
+                        diags.push(Diagnostic::new(
+                            &s.origin,
+                            error::BAD_RESTART,
+                            format!(
+                                "`{key} = {}` for module {}: nothing reads it, because the \
+                                 module's on_failure is not `restart`; set `on_failure = \
+                                 restart` or remove the line",
+                                s.value, m.name
+                            ),
+                        ));
+                    }
+                }
+            }
+            if decl.restart.delay > decl.restart.delay_max {
+                let s = settings
+                    .get("restart_delay")
+                    .or(settings.get("restart_delay_max"));
+                if let Some(s) = s {
+                    diags.push(Diagnostic::new(
+                        &s.origin,
+                        error::BAD_RESTART,
+                        format!(
+                            "module {}: restart_delay ({:?}) is longer than restart_delay_max \
+                             ({:?}): the delay starts at restart_delay and doubles up to \
+                             restart_delay_max",
+                            m.name, decl.restart.delay, decl.restart.delay_max
+                        ),
+                    ));
+                }
+            }
             decl.settings = settings;
             out.push(decl);
         }
@@ -573,23 +694,32 @@ impl Builder {
                 ));
                 continue;
             }
+            let similar = self
+                .modules
+                .iter()
+                .find(|m| m.name.eq_ignore_ascii_case(name))
+                .map(|m| format!(" (did you mean {}?)", m.name))
+                .unwrap_or_default();
             for (key, s) in &section.pairs {
-                if MODULE_SETTINGS.contains(&key.as_str()) {
-                    let similar = self
-                        .modules
-                        .iter()
-                        .find(|m| m.name.eq_ignore_ascii_case(name))
-                        .map(|m| format!(" (did you mean {}?)", m.name))
-                        .unwrap_or_default();
-                    diags.push(Diagnostic::new(
-                        &s.origin,
-                        error::UNDECLARED_MODULE_SETTING,
-                        format!(
-                            "`{key}` is set for `{name}`, but no module {name} is declared{similar}: \
-                             add `module {name} KIND-or-PATH` to [PLC], or remove the setting"
-                        ),
-                    ));
-                }
+                diags.push(Diagnostic::new(
+                    &s.origin,
+                    error::UNDECLARED_MODULE_SETTING,
+                    format!(
+                        "`{key}` is set for `{name}`, but no module {name} is declared{similar}: \
+                         add `module {name} KIND-or-PATH` to [PLC], or remove the setting"
+                    ),
+                ));
+            }
+            for row in &section.rows {
+                diags.push(Diagnostic::new(
+                    &row.origin,
+                    error::UNDECLARED_MODULE_SETTING,
+                    format!(
+                        "a `{}` row in section [{name}], but no module {name} is declared\
+                         {similar}: add `module {name} KIND-or-PATH` to [PLC], or remove the row",
+                        row.table
+                    ),
+                ));
             }
         }
         self.diags.extend(diags);
@@ -699,8 +829,7 @@ mod tests {
         check(
             "[PLC]\nplc_id = 7\nmodule a petrinet x.pnml -v\nmodule b \"/usr/bin/my prog\"\n\
              a: scan_period = T#10ms\n[a]\nlocation = shared\npriority = 50\non_failure = restart\n\
-             own = thing\n[b]\nscan_period = 0.25\nlocation = isolate\non_failure = ignore\n\
-             [Kbd]\nkey 38 left\nquiet = 1\n",
+             own = thing\n[b]\nscan_period = 0.25\nlocation = isolate\non_failure = ignore\n",
             r#"plc plc_id=7
 module a petrinet ["x.pnml", "-v"] Some(10ms) Shared Some(50) Restart None None ["location", "on_failure", "own", "priority", "scan_period"]
 module b /usr/bin/my prog [] Some(250ms) Isolate None Ignore None None ["location", "on_failure", "scan_period"]"#,
@@ -718,14 +847,49 @@ module b /usr/bin/my prog [] Some(250ms) Isolate None Ignore None None ["locatio
 t.conf:4: error[C031]: module a is declared twice (first at t.conf:2): module names name their sections, so rename or remove one of them
 t.conf:5: error[C032]: `NULL` is reserved: give the module another name
 t.conf:6: error[C032]: `plc` is reserved: give the module another name
-t.conf:8: error[C034]: `scan_period = fast` for module a: `fast` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)
+t.conf:8: error[C034]: `scan_period = fast` for module a: `fast` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)
 t.conf:9: error[C035]: `location = remote` for module a: write `local` (the default), `shared` or `isolate`
 t.conf:10: error[C036]: `priority = 0` for module a: write a real-time priority from 1 to 99, or leave it out for normal scheduling
 t.conf:11: error[C037]: `on_failure = retry` for module a: write `stop` (the default), `restart` or `ignore`
 t.conf:12: error[C038]: `scan_beg = T9` for module a: `T9` is not a declared transition: declare it with `transition T9` in [PLC], or write NULL (no transitions are declared)
 t.conf:18: error[C033]: `priority` is set for `A`, but no module A is declared (did you mean a?): add `module A KIND-or-PATH` to [PLC], or remove the setting
 t.conf:20: error[C039]: section [Plc] would be ignored: section names are case-sensitive, write [PLC]
-t.conf:15: error[C033]: `scan_period` is set for `ghost`, but no module ghost is declared: add `module ghost KIND-or-PATH` to [PLC], or remove the setting",
+t.conf:15: error[C033]: `scan_period` is set for `ghost`, but no module ghost is declared: add `module ghost KIND-or-PATH` to [PLC], or remove the setting
+t.conf:16: error[C033]: `own` is set for `ghost`, but no module ghost is declared: add `module ghost KIND-or-PATH` to [PLC], or remove the setting",
+        );
+    }
+
+    #[test]
+    fn a_setting_nobody_reads_is_an_error() {
+        // A module started by hand must be declared too, so nobody reads [Kbd].
+        check(
+            "[PLC]\nplc_id = line2\nmodule a x\nconfmap_key = 20\nscan_period = 1\nflavour = 3\n\
+             [Kbd]\nkey 38 left\nquiet = 1\n",
+            "t.conf:4: error[C012]: `confmap_key = 20` in [PLC]: nothing reads this setting (MatPLC's key of its configuration shared memory; petriplc names its shared memory after the plc id); [PLC] has only plc_id
+t.conf:5: error[C012]: `scan_period = 1` in [PLC]: nothing reads this setting; [PLC] has only plc_id; `scan_period` is a module's setting: write it in the module's section ([NAME]) or as `NAME: scan_period = 1`
+t.conf:6: error[C012]: `flavour = 3` in [PLC]: nothing reads this setting; [PLC] has only plc_id
+t.conf:9: error[C033]: `quiet` is set for `Kbd`, but no module Kbd is declared: add `module Kbd KIND-or-PATH` to [PLC], or remove the setting
+t.conf:8: error[C033]: a `key` row in section [Kbd], but no module Kbd is declared: add `module Kbd KIND-or-PATH` to [PLC], or remove the row",
+        );
+        check("[PLC]\nplc_id =\n", "t.conf:2: error[C013]: `plc_id` is empty: give the PLC's id (letters, digits, `_`, `-`, `.`) or remove the line");
+    }
+
+    #[test]
+    fn restart_settings() {
+        check(
+            "[PLC]\nmodule a x\n[a]\non_failure = restart\nrestart_delay = T#50ms\n\
+             restart_delay_max = 2\nrestart_limit = 0\n",
+            r#"module a x [] None Local None Restart None None ["on_failure", "restart_delay", "restart_delay_max", "restart_limit"]"#,
+        );
+        check(
+            "[PLC]\nmodule a x\nmodule b y\nmodule c z\n[a]\non_failure = restart\n\
+             restart_delay = soon\nrestart_delay_max = 0\nrestart_limit = -1\n\
+             [b]\nrestart_limit = 3\n[c]\non_failure = restart\nrestart_delay = 20\n",
+            "t.conf:7: error[C029]: `restart_delay = soon` for module a: `soon` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)
+t.conf:8: error[C029]: `restart_delay_max = 0` for module a: the longest delay between restarts must be longer than 0 (e.g. `T#10s`)
+t.conf:9: error[C029]: `restart_limit = -1` for module a: write how many restarts in a row are allowed (a whole number; 0 for no limit)
+t.conf:11: error[C029]: `restart_limit = 3` for module b: nothing reads it, because the module's on_failure is not `restart`; set `on_failure = restart` or remove the line
+t.conf:14: error[C029]: module c: restart_delay (20s) is longer than restart_delay_max (10s): the delay starts at restart_delay and doubles up to restart_delay_max",
         );
     }
 

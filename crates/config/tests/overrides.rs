@@ -18,7 +18,7 @@ fn read(sets: &[&str]) -> Result<petriplc_config::PlcConfig, String> {
 
 #[test]
 fn overrides_replace_or_add_settings_before_they_are_checked() {
-    let cfg = read(&["a:scan_period=T#10ms", "a:extra = two words", "b:x=1"]).unwrap();
+    let cfg = read(&["a:scan_period=T#10ms", "a:extra = two words"]).unwrap();
     let a = &cfg.modules[0];
     assert_eq!(a.scan_period, Some(Duration::from_millis(10)));
     assert_eq!(a.settings.get("extra").unwrap().value, "two words");
@@ -31,6 +31,9 @@ fn overrides_replace_or_add_settings_before_they_are_checked() {
 
     let err = read(&["a:scan_period=soon"]).unwrap_err();
     assert!(err.starts_with("--set: error[C034]"), "{err}");
+    // Nobody would read a setting of a module that is not declared.
+    let err = read(&["b:x=1"]).unwrap_err();
+    assert!(err.starts_with("--set: error[C033]"), "{err}");
 }
 
 #[test]

@@ -138,21 +138,22 @@ fn every_demo_reads_at_layer_one_in_its_own_directory() {
 #[test]
 fn typed_outcome_of_some_reference_files() {
     let file = |n: &str| Path::new(REFERENCE).join(n);
-    let tank = read_file(&file("demo-tank_hmiViewer-matplc.conf")).unwrap();
-    assert_eq!(tank.plc["confmap_key"].value, "20");
-    let modules: Vec<(&str, &str, Vec<String>)> = tank
-        .modules
-        .iter()
-        .map(|m| (m.name.as_str(), m.kind.as_str(), m.args.clone()))
-        .collect();
-    assert_eq!(
-        modules[0],
-        ("sim_tank", "python", vec!["tank.py".to_string()])
-    );
+    // MatPLC's configuration memory key means nothing to petriplc, and nothing would read
+    // it: an error, as every setting nobody reads.
+    let tank = read_file(&file("demo-tank_hmiViewer-matplc.conf")).unwrap_err();
+    assert_eq!(tank.codes(), ["C012", "C012"]);
+    assert_eq!(tank.diagnostics[0].origin.line, 11);
+    assert!(tank.diagnostics[0]
+        .message
+        .starts_with("`confmap_key = 20` in [PLC]: nothing reads this setting"));
 
     // The Tcl demo's keyboard module is commented out, but its points are still owned by it.
+    // Its [Kbd] section then configures a module nobody declares.
     let tcl = read_file(&file("demo-basic_tcl-matplc.conf")).unwrap_err();
-    assert_eq!(tcl.codes(), ["C022", "C022", "C022"]);
+    assert_eq!(
+        tcl.codes(),
+        ["C022", "C022", "C022", "C033", "C033", "C033", "C033"]
+    );
     assert!(tcl.diagnostics[0].message.contains("`Kbd`"));
 
     // gtk2 renamed its module hmi_gtk2 but still sets hmi_gtk's period.

@@ -4,7 +4,8 @@
 //!
 //! ```text
 //! [hmi]
-//! listen = 127.0.0.1:8080   # the default; port 0 picks a free one (the log says which)
+//! listen = 127.0.0.1:8080   # the default; port 0 picks a free one (the log says which);
+//!                           # `off`: no web server
 //! token = SECRET            # default: 128 random bits, printed at start-up
 //! refresh = T#100ms         # how often pages get changes (seconds or an IEC literal)
 //! ```
@@ -49,7 +50,8 @@ fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
 /// The `hmi` module.
 pub struct Hmi {
     name: String,
-    listen: SocketAddr,
+    /// `None`: `listen = off`.
+    listen: Option<SocketAddr>,
     token: Option<String>,
     refresh: Duration,
     run: Option<Run>,
@@ -77,17 +79,19 @@ impl Hmi {
                 .map(|s| format!("{}: ", s.origin))
                 .unwrap_or_default()
         };
-        let listen = common::setting(decl, "listen").unwrap_or(DEFAULT_LISTEN);
-        let listen: SocketAddr = listen.parse().map_err(|_| {
-            error(
-                &decl.name,
-                format!(
-                    "{}`listen = {listen}` is not an address and port; write e.g. `listen = \
-                     {DEFAULT_LISTEN}` (or port 0 for any free port)",
-                    at("listen")
-                ),
-            )
-        })?;
+        let listen = match common::setting(decl, "listen").unwrap_or(DEFAULT_LISTEN) {
+            "off" | "no" | "none" => None,
+            listen => Some(listen.parse::<SocketAddr>().map_err(|_| {
+                error(
+                    &decl.name,
+                    format!(
+                        "{}`listen = {listen}` is not an address and port; write e.g. `listen = \
+                         {DEFAULT_LISTEN}` (port 0 for any free port), or `off`",
+                        at("listen")
+                    ),
+                )
+            })?),
+        };
         let token = match common::setting(decl, "token") {
             None => None,
             Some(t) if t.len() >= 8 && t.chars().all(|c| c.is_ascii_graphic()) => {
@@ -135,21 +139,21 @@ impl Hmi {
         self.run.as_ref().map(|r| r.shared.url.as_str())
     }
 
-    fn bind(&self) -> Result<TcpListener, ModuleError> {
-        TcpListener::bind(self.listen).map_err(|e| {
+    fn bind(&self, listen: SocketAddr) -> Result<TcpListener, ModuleError> {
+        TcpListener::bind(listen).map_err(|e| {
             let why = if e.kind() == std::io::ErrorKind::AddrInUse {
                 "address already in use".to_string()
             } else {
                 common::chain(&e)
             };
-            let mut other = self.listen;
-            other.set_port(self.listen.port().wrapping_add(1).max(1));
+            let mut other = listen;
+            other.set_port(listen.port().wrapping_add(1).max(1));
             error(
                 &self.name,
                 format!(
-                    "cannot listen on {}: {why}; set `listen = HOST:PORT` in [{}] or run \
+                    "cannot listen on {listen}: {why}; set `listen = HOST:PORT` in [{}] or run \
                      with --set {}:listen={other}",
-                    self.listen, self.name, self.name
+                    self.name, self.name
                 ),
             )
         })
@@ -209,6 +213,10 @@ fn random_token() -> Result<String, String> {
 impl Module for Hmi {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         common::rows(ctx, KIND, &[])?;
+        let Some(listen) = self.listen else {
+            log::info!("{}: off (listen = off): no web page", self.name);
+            return Ok(());
+        };
         let mut points = Vec::new();
         for p in &ctx.config.points {
             let handle = ctx
@@ -237,7 +245,7 @@ impl Module for Hmi {
                 )
             })?,
         };
-        let listener = self.bind()?;
+        let listener = self.bind(listen)?;
         let addr = listener
             .local_addr()
             .map_err(|e| error(&self.name, format!("cannot read the bound address: {e}")))?;
@@ -253,7 +261,12 @@ impl Module for Hmi {
         let server = Server::start(listener, Arc::clone(&shared))
             .map_err(|e| error(&self.name, format!("cannot start the web server: {e}")))?;
         // Warn level, so that it shows whatever the log level: the operator needs the token.
-        log::warn!("{}: {url} — forcing token {token}", self.name);
+        // On a line of its own, short enough for the log pane of an 80-column vitrine.
+        log::warn!(
+            "{}: web page {url} (forcing needs the token below)",
+            self.name
+        );
+        log::warn!("{}: forcing token {token}", self.name);
         self.run = Some(Run {
             shared,
             server,
@@ -266,6 +279,9 @@ impl Module for Hmi {
 
     fn scan(&mut self, ctx: &mut ScanContext<'_>) -> Result<Control, ModuleError> {
         let Some(run) = &mut self.run else {
+            if self.listen.is_none() {
+                return Ok(Control::Continue);
+            }
             return Err(error(&self.name, "scanned before init"));
         };
         let shared = &run.shared;
@@ -336,8 +352,17 @@ impl Module for Hmi {
                     if n == 1 { "" } else { "s" }
                 )
             }
+            None if self.listen.is_none() => "off (listen = off)".to_string(),
             None => String::new(),
         }
+    }
+
+    fn listens(&self) -> Vec<(&'static str, SocketAddr)> {
+        self.listen
+            .filter(|a| a.port() != 0)
+            .map(|a| ("listen", a))
+            .into_iter()
+            .collect()
     }
 
     fn default_scan_period(&self) -> Option<Duration> {

@@ -1,13 +1,16 @@
 //! `petriplc sim PROGRAM.st`: an IEC program scanned offline, every `period`, against a
-//! timeline of inputs and an optional plant, with the trace format of nets (`time` then one
-//! column per value, a row for the first scan and for every scan where something changed).
+//! timeline of inputs and an optional plant, with the trace format of nets (`time`, an
+//! `in:NAME` column per input, then one column per output value; a row for the first scan
+//! and for every scan where something changed).
 //!
 //! Timeline columns and plant outputs drive the program's VAR_INPUTs by name
 //! (case-insensitive; `instance.input` when a configuration runs several programs; global
 //! variables too, the configuration's I/O); plant inputs read VAR_OUTPUTs and globals. The
-//! trace has a column per VAR_OUTPUT (then, for a configuration, per global variable), and
-//! with `vars` the programs' other variables. Time is exact: the same program and inputs
-//! give the same trace.
+//! trace's inputs are the VAR_INPUTs and the globals the timeline or plant drives (in the
+//! timeline's column order, then the plant's, then declaration order, as for nets); then a
+//! column per VAR_OUTPUT (and, for a configuration, per other global variable), and with
+//! `vars` the programs' other variables. Time is exact: the same program and inputs give the
+//! same trace.
 //!
 //! Values crossing to the integer world of timelines and plants: BOOL 0/1, integers as they
 //! are, REAL rounded, TIME in milliseconds.
@@ -21,7 +24,7 @@ use petriplc_iec_sema::types::{Elem, Type, TypeId};
 use petriplc_iec_sema::value::Value;
 use petriplc_iec_vm::{display, Engine, Fault, Machine, VarRef};
 use petriplc_net::time::format_seconds;
-use petriplc_sim::{Plant, PlantError, Timeline, TimelineCursor};
+use petriplc_sim::{Plant, PlantError, Timeline};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SimOptions {
@@ -106,6 +109,11 @@ struct PlantWiring<'p> {
 /// The record of a run.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct IecTrace {
+    /// What ran (the plot's title): the program, or the configuration.
+    pub name: String,
+    pub period: Duration,
+    /// The first `inputs` columns are inputs (written `in:NAME`).
+    pub inputs: usize,
     pub columns: Vec<String>,
     /// Whether each column is BOOL (plotted as a step line of 0/1).
     pub boolean: Vec<bool>,
@@ -115,14 +123,20 @@ pub struct IecTrace {
     /// for plots.
     pub numbers: Vec<Vec<i64>>,
     pub scans: u64,
+    /// The time of the last scan made.
+    pub end: Duration,
 }
 
 impl IecTrace {
-    /// `time,<columns>`, one line per row, CSV fields quoted where needed.
+    /// `time,in:<input>…,<column>…`, one line per row, CSV fields quoted where needed.
     pub fn write_csv(&self, mut w: impl Write) -> io::Result<()> {
         let mut line = String::from("time");
-        for c in &self.columns {
-            push_field(&mut line, c);
+        for (i, c) in self.columns.iter().enumerate() {
+            if i < self.inputs {
+                push_field(&mut line, &format!("in:{c}"));
+            } else {
+                push_field(&mut line, c);
+            }
         }
         line.push('\n');
         w.write_all(line.as_bytes())?;
@@ -144,33 +158,42 @@ impl IecTrace {
         String::from_utf8_lossy(&out).into_owned()
     }
 
-    /// The trace in the form the SVG plot draws (columns as outputs, no places).
+    /// How many data lines [`IecTrace::write_csv`] writes.
+    pub fn csv_rows(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// The trace in the form the SVG plot draws (inputs and outputs, no places).
     pub fn to_plot_trace(&self) -> petriplc_sim::Trace {
         use petriplc_net::SignalType;
+        let ty = |b: &bool| {
+            if *b {
+                SignalType::Bool
+            } else {
+                SignalType::Int
+            }
+        };
+        let k = self.inputs.min(self.columns.len());
         petriplc_sim::Trace {
-            outputs: self.columns.clone(),
-            output_types: self
-                .boolean
-                .iter()
-                .map(|b| {
-                    if *b {
-                        SignalType::Bool
-                    } else {
-                        SignalType::Int
-                    }
-                })
-                .collect(),
+            net: self.name.clone(),
+            period: self.period,
+            inputs: self.columns[..k].to_vec(),
+            input_types: self.boolean[..k].iter().map(ty).collect(),
+            outputs: self.columns[k..].to_vec(),
+            output_types: self.boolean[k..].iter().map(ty).collect(),
+            output_places: vec![Vec::new(); self.columns.len() - k],
             rows: self
                 .rows
                 .iter()
                 .zip(&self.numbers)
                 .map(|((t, _), n)| petriplc_sim::TraceRow {
                     time: *t,
-                    outputs: n.clone(),
+                    inputs: n[..k].to_vec(),
+                    outputs: n[k..].to_vec(),
                     ..Default::default()
                 })
                 .collect(),
-            end: self.rows.last().map_or(Duration::ZERO, |r| r.0),
+            end: self.end,
             scans: self.scans,
             ..Default::default()
         }
@@ -199,6 +222,8 @@ pub struct IecSimulation<'p> {
     columns: Vec<Var>,
     warnings: Vec<String>,
     next: u64,
+    now: Duration,
+    finished: bool,
     trace: IecTrace,
     last: Option<Vec<String>>,
 }
@@ -365,16 +390,57 @@ impl<'p> IecSimulation<'p> {
                 ));
             }
         }
-        let mut columns = outputs;
+        // Inputs as nets order them: the timeline's columns, then what the plant drives, then
+        // the other VAR_INPUTs in declaration order.
+        let mut columns: Vec<Var> = Vec::new();
+        let push = |columns: &mut Vec<Var>, v: &Var| {
+            if !columns.iter().any(|c| c.var.addr == v.var.addr) {
+                columns.push(v.clone());
+            }
+        };
+        for (_, v) in &timeline_inputs {
+            push(&mut columns, v);
+        }
+        if let Some(p) = &plant {
+            for (_, var, name) in &p.drives {
+                let v = Var {
+                    name: name.clone(),
+                    var: *var,
+                };
+                push(&mut columns, &v);
+            }
+        }
+        for v in &inputs {
+            push(&mut columns, v);
+        }
+        let n_inputs = columns.len();
+        for v in &outputs {
+            push(&mut columns, v);
+        }
         // A configuration's globals are its I/O (located variables): traced like outputs.
         if configured || engine.project.configuration.is_some() || opts.vars {
-            columns.extend(globals);
+            for v in &globals {
+                push(&mut columns, v);
+            }
         }
         if opts.vars {
-            columns.extend(inputs.iter().cloned());
-            columns.extend(others);
+            for v in &others {
+                push(&mut columns, v);
+            }
         }
+        let name = match engine.project.configuration.as_ref() {
+            Some(c) if configured => format!("CONFIGURATION {}", c.name),
+            _ => engine
+                .instances()
+                .iter()
+                .map(|i| i.name.clone())
+                .collect::<Vec<_>>()
+                .join(", "),
+        };
         let trace = IecTrace {
+            name,
+            period: opts.period,
+            inputs: n_inputs,
             columns: columns.iter().map(|c| c.name.clone()).collect(),
             boolean: columns
                 .iter()
@@ -392,6 +458,8 @@ impl<'p> IecSimulation<'p> {
             columns,
             warnings,
             next: 0,
+            now: Duration::ZERO,
+            finished: false,
             trace,
             last: None,
         })
@@ -415,20 +483,47 @@ impl<'p> IecSimulation<'p> {
 
     /// Runs every scan until `until`; returns the trace (or the first failure).
     pub fn run(mut self) -> Result<IecTrace, SimError> {
-        let mut cursor = None;
-        let timeline = self.timeline.take();
-        if let Some(tl) = &timeline {
-            cursor = Some(tl.cursor());
-        }
-        loop {
-            let t = self.time_of(self.next);
-            if t > self.opts.until {
-                break;
-            }
-            self.scan_at(t, cursor.as_mut())?;
-            self.next += 1;
-        }
+        while self.step()? {}
         Ok(self.trace)
+    }
+
+    /// Makes one scan at the next time k·period; `Ok(false)` once past `until`. After an
+    /// error the run is over and further steps return `Ok(false)`.
+    pub fn step(&mut self) -> Result<bool, SimError> {
+        let t = self.time_of(self.next);
+        if self.finished || t > self.opts.until {
+            self.finished = true;
+            return Ok(false);
+        }
+        if let Err(e) = self.scan_at(t) {
+            self.finished = true;
+            return Err(e);
+        }
+        self.next += 1;
+        self.now = t;
+        Ok(true)
+    }
+
+    /// The time of the last scan made.
+    pub fn now(&self) -> Duration {
+        self.now
+    }
+
+    /// How many scans were made.
+    pub fn scans(&self) -> u64 {
+        self.trace.scans
+    }
+
+    pub fn options(&self) -> &SimOptions {
+        &self.opts
+    }
+
+    pub fn trace(&self) -> &IecTrace {
+        &self.trace
+    }
+
+    pub fn into_trace(self) -> IecTrace {
+        self.trace
     }
 
     fn set_input(&mut self, v: VarRef, name: &str, raw: i64, t: Duration) -> Result<(), SimError> {
@@ -453,13 +548,9 @@ impl<'p> IecSimulation<'p> {
         self.machine.set(v, &value).map_err(bad)
     }
 
-    fn scan_at(
-        &mut self,
-        t: Duration,
-        cursor: Option<&mut TimelineCursor<'_>>,
-    ) -> Result<(), SimError> {
-        let values: Vec<Option<i64>> = match cursor {
-            Some(c) => c.seek(t).to_vec(),
+    fn scan_at(&mut self, t: Duration) -> Result<(), SimError> {
+        let values: Vec<Option<i64>> = match &self.timeline {
+            Some(tl) => (0..tl.columns().len()).map(|c| tl.value_at(c, t)).collect(),
             None => Vec::new(),
         };
         let inputs = self.timeline_inputs.clone();
@@ -504,6 +595,7 @@ impl<'p> IecSimulation<'p> {
             })
             .collect();
         self.trace.scans += 1;
+        self.trace.end = t;
         if self.last.as_ref() != Some(&row) {
             let numbers = self
                 .columns

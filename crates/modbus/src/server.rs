@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! [mb]
-//! listen = 127.0.0.1:5020          # default; `off` for RTU only
+//! listen = 127.0.0.1:5020          # default; `off`: no TCP (RTU only, or the server off)
 //! serial = /dev/ttyUSB0:19200:8E1  # optional RTU endpoint
 //! unit = 1                         # RTU slave address; TCP answers every unit id
 //! idle_timeout = 60s               # 0 = never
@@ -149,15 +149,6 @@ impl Settings {
                 )
             })?,
         };
-        if listen.is_none() && serial.is_none() {
-            return Err(error(
-                name,
-                format!(
-                    "`listen = off` and no `serial`: the server would not be reachable; add \
-                     `serial = /dev/ttyUSB0:19200:8E1` or `listen = {DEFAULT_LISTEN}` to [{name}]"
-                ),
-            ));
-        }
         Ok(Settings {
             listen,
             serial,
@@ -193,6 +184,7 @@ pub(crate) struct Shared {
     clients: AtomicUsize,
     requests: AtomicU64,
     exceptions: AtomicU64,
+    refusals: Mutex<Refusals>,
 }
 
 impl Shared {
@@ -200,6 +192,46 @@ impl Shared {
     fn lock(&self) -> MutexGuard<'_, map::Image> {
         self.image.lock().unwrap_or_else(PoisonError::into_inner)
     }
+
+    /// Logs why a request was refused (exception `code`), so that the user whose client
+    /// fails learns why: the first at once, then at most one line every 10 s, saying how
+    /// many were not logged meanwhile. Every refusal is counted in the status line anyway.
+    fn refused(&self, pdu: &[u8], code: u8) {
+        let now = std::time::Instant::now();
+        let mut log = self.refusals.lock().unwrap_or_else(PoisonError::into_inner);
+        if log
+            .last
+            .is_some_and(|t| now.duration_since(t) < REFUSALS_EVERY)
+        {
+            log.quiet += 1;
+            return;
+        }
+        let quiet = std::mem::take(&mut log.quiet);
+        log.last = Some(now);
+        drop(log);
+        let more = match quiet {
+            0 => String::new(),
+            n => format!(
+                " ({n} more refused in the last {} s)",
+                REFUSALS_EVERY.as_secs()
+            ),
+        };
+        log::warn!(
+            "modbus_server {}: refused {}{more}",
+            self.name,
+            pdu::explain(&self.map, pdu, code)
+        );
+    }
+}
+
+/// At most one log line about refused requests in this time.
+const REFUSALS_EVERY: Duration = Duration::from_secs(10);
+
+/// The refusals logged: when last, and how many since were not.
+#[derive(Default)]
+struct Refusals {
+    last: Option<std::time::Instant>,
+    quiet: u64,
 }
 
 /// The running network side.
@@ -360,6 +392,7 @@ pub fn answer_tcp_bytes(
         clients: AtomicUsize::new(0),
         requests: AtomicU64::new(0),
         exceptions: AtomicU64::new(0),
+        refusals: Mutex::new(Refusals::default()),
     };
     let mut out = Vec::new();
     let mut pos = 0;
@@ -390,8 +423,12 @@ impl Module for ModbusServer {
             clients: AtomicUsize::new(0),
             requests: AtomicU64::new(0),
             exceptions: AtomicU64::new(0),
+            refusals: Mutex::new(Refusals::default()),
         });
         self.shared = Some(shared.clone());
+        if self.settings.listen.is_none() && self.settings.serial.is_none() {
+            log::info!("modbus_server {name}: off (listen = off and no serial)");
+        }
         self.start(shared)
     }
 
@@ -425,6 +462,9 @@ impl Module for ModbusServer {
 
     fn status(&self) -> String {
         let mut s = String::new();
+        if self.settings.listen.is_none() && self.settings.serial.is_none() {
+            s.push_str("off (listen = off, no serial)");
+        }
         if let Some(a) = self.tcp {
             s.push_str(&format!("tcp {a}"));
         }
@@ -435,14 +475,24 @@ impl Module for ModbusServer {
             s.push_str(&format!("rtu {r}"));
         }
         if let Some(sh) = &self.shared {
+            let count = |n: u64, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
             s.push_str(&format!(
-                "; {} clients, {} requests, {} exceptions",
-                sh.clients.load(Ordering::Relaxed),
-                sh.requests.load(Ordering::Relaxed),
-                sh.exceptions.load(Ordering::Relaxed)
+                "; {}, {}, {}",
+                count(sh.clients.load(Ordering::Relaxed) as u64, "client"),
+                count(sh.requests.load(Ordering::Relaxed), "request"),
+                count(sh.exceptions.load(Ordering::Relaxed), "exception")
             ));
         }
         s
+    }
+
+    fn listens(&self) -> Vec<(&'static str, SocketAddr)> {
+        self.settings
+            .listen
+            .filter(|a| a.port() != 0)
+            .map(|a| ("listen", a))
+            .into_iter()
+            .collect()
     }
 
     fn default_scan_period(&self) -> Option<Duration> {

@@ -475,6 +475,26 @@ fn max_clients_refuses_further_connections() {
 }
 
 #[test]
+fn at_max_clients_the_longest_idle_connection_makes_room() {
+    let srv = Server::start(&CONF.replace(
+        "listen = 127.0.0.1:0",
+        "listen = 127.0.0.1:0\nmax_clients = 2\nidle_timeout = 60",
+    ));
+    let mut a = srv.raw();
+    let mut b = srv.raw();
+    assert_eq!(a.request(1, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+    assert_eq!(b.request(1, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+    // Both idle for more than a second (not the 60 s idle timeout): a third client gets in
+    // in place of the one idle the longest, `a`.
+    std::thread::sleep(Duration::from_millis(1300));
+    assert_eq!(b.request(2, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+    let mut c = srv.raw();
+    assert_eq!(c.request(1, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+    assert!(a.closed(), "the idlest connection made room");
+    assert_eq!(b.request(3, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+}
+
+#[test]
 fn idle_connections_time_out() {
     let srv = Server::start(&CONF.replace(
         "listen = 127.0.0.1:0",
@@ -682,8 +702,23 @@ fn bad_settings_are_refused() {
     }
     let e = start_err(&conf("").replace("listen = 127.0.0.1:0", "listen = nowhere"));
     assert!(e.contains("`listen = nowhere`: write HOST:PORT"), "{e}");
-    let e = start_err(&conf("").replace("listen = 127.0.0.1:0", "listen = off"));
-    assert!(e.contains("`listen = off` and no `serial`"), "{e}");
+}
+
+#[test]
+fn listen_off_without_serial_turns_the_server_off() {
+    let srv = Server::start(
+        &conf(
+            "coil 0 B
+",
+        )
+        .replace("listen = 127.0.0.1:0", "listen = off"),
+    );
+    assert!(
+        srv.status()
+            .starts_with("off (listen = off, no serial); 0 clients"),
+        "{}",
+        srv.status()
+    );
 }
 
 #[test]

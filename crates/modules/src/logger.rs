@@ -172,7 +172,12 @@ impl Module for Logger {
 
     fn status(&self) -> String {
         self.run.as_ref().map_or_else(String::new, |r| {
-            format!("{} rows to {}", r.rows, r.path.display())
+            format!(
+                "{} row{} to {}",
+                r.rows,
+                if r.rows == 1 { "" } else { "s" },
+                r.path.display()
+            )
         })
     }
 }

@@ -61,6 +61,11 @@ impl TimelineModule {
     }
 }
 
+/// Seconds to the hundredth, for status lines: `0.23`, `1.4`, `0`.
+fn seconds(d: Duration) -> String {
+    format!("{}", (d.as_secs_f64() * 100.0).round() / 100.0)
+}
+
 impl Module for TimelineModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         common::rows(ctx, KIND, &[])?;
@@ -149,20 +154,13 @@ impl Module for TimelineModule {
 
     fn status(&self) -> String {
         self.run.as_ref().map_or_else(String::new, |r| {
+            let file = &self.file;
+            let (t, end) = (seconds(r.last), seconds(r.timeline.end()));
             match r.period {
                 // The position within the repeated cycle (rows, then the gap before the next).
-                Some(p) => format!(
-                    "{} at {}s of a {}s cycle",
-                    self.file,
-                    format_seconds(r.last),
-                    format_seconds(p)
-                ),
-                None => format!(
-                    "{} at {}s of {}s",
-                    self.file,
-                    format_seconds(r.last),
-                    format_seconds(r.timeline.end())
-                ),
+                Some(p) => format!("{file}: {t} s into a {} s cycle", seconds(p)),
+                None if r.last < r.timeline.end() => format!("{file}: {t} s of {end} s"),
+                None => format!("{file}: ended at {end} s; its last values hold"),
             }
         })
     }

@@ -58,10 +58,8 @@ fn run(plant_setting: &str, sim_plant: Box<dyn Plant + '_>, mixer: &Net) -> (Vec
         .outputs()
         .map(|s| mixer.signal(s).name.clone())
         .collect();
-    let inputs: Vec<String> = mixer
-        .inputs()
-        .map(|s| mixer.signal(s).name.clone())
-        .collect();
+    // The trace's order (the timeline's columns, then what the plant drives, then the rest).
+    let inputs: Vec<String> = sim.trace().inputs.clone();
     let (mut cycles, mut starts) = (Vec::new(), Vec::new());
     let mut last = Vec::new();
     for k in 0..=6000u64 {

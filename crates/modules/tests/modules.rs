@@ -364,7 +364,7 @@ fn timeline_drives_its_points_and_repeats() {
         run(""),
         (
             "1/7 1/7 0/7 0/300 1/-2 1/-2 1/-2 1/-2 1/-2 1/-2".to_string(),
-            "t.csv at 4.5s of 1.5s".to_string()
+            "t.csv: ended at 1.5 s; its last values hold".to_string()
         )
     );
     // The timeline starts again 1 s after its last row: at 2.5 s, 5 s, ...
@@ -372,7 +372,7 @@ fn timeline_drives_its_points_and_repeats() {
         run("repeat = yes"),
         (
             "1/7 1/7 0/7 0/300 1/-2 1/-2 1/7 0/7 0/300 1/-2".to_string(),
-            "t.csv at 2s of a 2.5s cycle".to_string()
+            "t.csv: 2 s into a 2.5 s cycle".to_string()
         )
     );
     assert_eq!(

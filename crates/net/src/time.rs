@@ -9,7 +9,7 @@ use std::time::Duration;
 pub enum TimeError {
     #[error("empty duration")]
     Empty,
-    #[error("`{0}` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)")]
+    #[error("`{0}` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)")]
     Syntax(String),
     #[error("`{0}` has a unit twice or units out of order (d, h, m, s, ms, us, ns)")]
     UnitOrder(String),

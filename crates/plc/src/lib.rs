@@ -1,25 +1,38 @@
-//! The soft PLC runner behind `petriplc run`: reads a configuration, sets up the process
-//! image and the synchronisation net in shared memory, initialises every module (nothing
-//! starts if one fails), then runs built-in modules as threads and other programs as
-//! processes, each scan framed as seed 000 frames it: period wait, `scan_beg` synch,
-//! `update()`, the scan, `update()`, `scan_end` synch. Failures follow each module's
-//! `on_failure`; the state and statistics of every module are published for `petriplc status`.
+//! The soft PLC runner behind `petriplc run`: reads a configuration, checks everything it
+//! can before creating anything (module kinds and programs, safe values, a synchronisation
+//! net that could never let a module scan), takes the PLC id (a lock the kernel releases when
+//! the process dies, so a PLC killed with `kill -9` is replaced at once: see
+//! `petriplc_runtime::owner`), sets up the process image and the synchronisation net in
+//! shared memory, initialises every module (nothing starts if one fails), then runs built-in
+//! modules as threads and other programs as processes, each scan framed as seed 000 frames
+//! it: period wait, `scan_beg` synch, `update()`, the scan, `update()`, `scan_end` synch.
+//! Failures follow each module's `on_failure` (restarts paced and limited); the state and
+//! statistics of every module are published for `petriplc status`. A start that fails
+//! removes everything it made.
 
+use std::os::fd::AsRawFd;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
+use nix::sys::signal::Signal;
 use petriplc_config::{
-    ConfigError, Location, ModuleDecl, OnFailure, Override, PlcConfig, PointValue,
+    ConfigError, Location, ModuleDecl, OnFailure, Origin, Override, PlcConfig, PointKind,
+    PointValue,
 };
-use petriplc_runtime::image::{GlobalMap, ImageError, Layout, ModuleMap};
+use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap};
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
+use petriplc_runtime::owner::{self, Owner, OwnerError, Probe};
 use petriplc_runtime::period::{self, Period, ScanStats};
-use petriplc_runtime::synch::{SharedSynch, SynchError, SynchNet, TransitionRef};
+use petriplc_runtime::process::{self as proc, Pidfd};
+use petriplc_runtime::report::{self, Receiver};
+use petriplc_runtime::synch::{
+    Abandoned, ScanRef, SharedSynch, SynchError, SynchNet, TransitionRef,
+};
 
 pub use petriplc_runtime::status::{self, ModuleState, ModuleStatus, PlcStatus};
 
@@ -67,25 +80,184 @@ pub enum RunError {
         setting: String,
         modules: Vec<String>,
     },
-    #[error("module {module}: cannot start program {program}: {source}")]
+    /// What the PLC needs and others hold: its id, the addresses its modules listen on.
+    /// Every one is listed, each with the command-line option that avoids it.
+    #[error("nothing was started: {}", taken_list(.0))]
+    Taken(Vec<Taken>),
+    /// The OS error's text is part of this message; it is not the error's `source`, which
+    /// would print it a second time.
+    #[error("module {module}: cannot start program {program}: {error}")]
     Spawn {
         module: String,
         program: String,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
+    #[error("module {module}: program {path} is not executable; make it so (`chmod +x {path}`) or fix the `module {module} ...` row")]
+    NotExecutable { module: String, path: String },
+    #[error(transparent)]
+    Owner(#[from] OwnerError),
+    /// `message` starts with the row's file and line.
+    #[error("{message}")]
+    Safe { module: String, message: String },
+    #[error(
+        "the synchronisation net can never let {} scan: no marking reachable from the \
+         initial one enables {}. Give the cycle a first token (`synch_start MODULE` for the \
+         module that scans first, or initial tokens on a `place`)",
+        list("module", .modules),
+        if .modules.len() == 1 { "its scan_beg" } else { "their scan_beg" }
+    )]
+    DeadSynch { modules: Vec<String> },
+    #[error("{origin}: plc_id = {plc_id}: {reason}")]
+    BadConfigPlcId {
+        origin: Origin,
+        plc_id: String,
+        reason: String,
+    },
+}
+
+fn list(what: &str, names: &[String]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("`{n}`")).collect();
+    format!(
+        "{what}{} {}",
+        if names.len() == 1 { "" } else { "s" },
+        quoted.join(", ")
+    )
+}
+
+/// Whose fault it is that the PLC did not start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NotStarted {
+    /// The configuration (or the command line): fix it.
+    BadInput,
+    /// The machine: the id is taken, a resource is missing or refused.
+    CouldNotStart,
 }
 
 impl RunError {
     /// Whether the configuration (rather than the machine) is at fault: exit code 2.
     pub fn is_bad_input(&self) -> bool {
-        !matches!(self, RunError::Spawn { .. })
-            && !matches!(
-                self,
-                RunError::Image(ImageError::AlreadyRunning { .. })
-                    | RunError::Synch(SynchError::Exists { .. })
-            )
+        self.kind() == NotStarted::BadInput
     }
+
+    /// Whose fault it is: the configuration's (exit code 2) or the machine's (3).
+    pub fn kind(&self) -> NotStarted {
+        match self {
+            RunError::Spawn { .. }
+            | RunError::Taken(_)
+            | RunError::Image(ImageError::AlreadyRunning { .. } | ImageError::Os { .. })
+            | RunError::Synch(SynchError::Exists { .. } | SynchError::Os { .. })
+            | RunError::Owner(OwnerError::Running { .. } | OwnerError::Os { .. }) => {
+                NotStarted::CouldNotStart
+            }
+            _ => NotStarted::BadInput,
+        }
+    }
+}
+
+/// The PLC id to run under: the one given on the command line, else `[PLC] plc_id`, else
+/// `default`.
+pub fn plc_id_of(config: &PlcConfig, given: Option<&str>, default: &str) -> String {
+    given
+        .map(str::to_string)
+        .or_else(|| config.plc.get("plc_id").map(|s| s.value.clone()))
+        .unwrap_or_else(|| default.to_string())
+}
+
+/// One thing the PLC needs that is taken, and how to do without it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Taken {
+    /// What is taken and by whom, as far as known.
+    pub what: String,
+    /// The command-line option that avoids it: `--plc-id ID` or `--set MODULE:listen=ADDR`.
+    pub fix: String,
+}
+
+fn taken_list(taken: &[Taken]) -> String {
+    let lines: Vec<String> = taken
+        .iter()
+        .map(|t| format!("\n  {}; use {}", t.what, t.fix))
+        .collect();
+    let n = taken.len();
+    if n == 1 {
+        format!("something this PLC needs is taken:{}", lines.concat())
+    } else {
+        format!("{n} things this PLC needs are taken:{}", lines.concat())
+    }
+}
+
+/// The addresses the modules will listen on that another program (or another module of
+/// this configuration) holds, each with a free address to use instead.
+fn listen_clashes(config: &PlcConfig, modules: &[(usize, &dyn Module)]) -> Vec<Taken> {
+    use std::net::{SocketAddr, TcpListener};
+    // Modules that do not say (kinds added later) are taken at their `listen` setting's word.
+    let mut wanted: Vec<(&str, &'static str, SocketAddr)> = Vec::new();
+    for &(index, module) in modules {
+        let decl = &config.modules[index];
+        let mut listens = module.listens();
+        if listens.is_empty() {
+            if let Some(a) = decl
+                .settings
+                .get("listen")
+                .and_then(|s| s.value.parse().ok())
+            {
+                listens.push(("listen", a));
+            }
+        }
+        wanted.extend(
+            listens
+                .into_iter()
+                .filter(|(_, a): &(_, SocketAddr)| a.port() != 0)
+                .map(|(setting, a)| (decl.name.as_str(), setting, a)),
+        );
+    }
+    let mut used: Vec<SocketAddr> = wanted.iter().map(|w| w.2).collect();
+    // The next free port after `addr`'s, and not below 1024 (which needs privileges).
+    let mut free = |addr: SocketAddr| {
+        let mut a = addr;
+        a.set_port(a.port().max(1023));
+        for _ in 0..200 {
+            a.set_port(a.port().checked_add(1).unwrap_or(1024));
+            if !used.contains(&a) && TcpListener::bind(a).is_ok() {
+                used.push(a);
+                return Some(a);
+            }
+        }
+        None
+    };
+    let mut taken = Vec::new();
+    for (i, &(module, setting, addr)) in wanted.iter().enumerate() {
+        let why = match wanted[..i].iter().find(|w| w.2 == addr) {
+            Some(other) => format!("module {} listens there too", other.0),
+            None => match TcpListener::bind(addr) {
+                Ok(_) => continue,
+                Err(e) if e.kind() == std::io::ErrorKind::AddrInUse => {
+                    "another program (another PLC?) listens there".to_string()
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+                    "ports below 1024 need root or CAP_NET_BIND_SERVICE".to_string()
+                }
+                Err(e) => e.to_string(),
+            },
+        };
+        let fix = match free(addr) {
+            Some(a) => format!("--set {module}:{setting}={a}"),
+            None => format!("--set {module}:{setting}=HOST:PORT"),
+        };
+        taken.push(Taken {
+            what: format!("module {module}: {setting} = {addr}: {why}"),
+            fix,
+        });
+    }
+    taken
+}
+
+/// An id to suggest when `plc_id` is taken: `ID-2`, `ID-3`, … that no live PLC holds (one
+/// a dead PLC left is free: the run that takes it removes the remains).
+fn free_plc_id(plc_id: &str) -> String {
+    (2..100)
+        .map(|n| format!("{plc_id}-{n}"))
+        .find(|id| !matches!(owner::probe(id), Ok(Probe::Running { .. })))
+        .unwrap_or_else(|| format!("{plc_id}-other"))
 }
 
 /// What every module thread shares.
@@ -99,9 +271,19 @@ struct Shared {
     layout: Layout,
     global: GlobalMap,
     synch: SharedSynch,
+    /// Per module: its `safe` values, checked at start.
+    safe: Vec<Vec<SafeValue>>,
     t0: Duration,
     status: Mutex<Vec<ModuleStatus>>,
     failed: AtomicBool,
+}
+
+/// One `safe POINT VALUE` row, checked against the layout.
+#[derive(Clone, Debug)]
+struct SafeValue {
+    handle: Handle,
+    value: PointValue,
+    text: String,
 }
 
 /// A running PLC.
@@ -109,6 +291,8 @@ pub struct Plc {
     shared: Arc<Shared>,
     threads: Vec<JoinHandle<()>>,
     duration: Option<Duration>,
+    /// Released last, once everything else of the PLC is gone.
+    owner: Option<Owner>,
 }
 
 /// A thread module, initialised and ready.
@@ -117,6 +301,41 @@ struct Ready {
     module: Box<dyn Module>,
     map: ModuleMap,
     factory: Factory,
+}
+
+/// What a PLC that is starting has made so far; whatever is left when it is dropped before
+/// the PLC runs is undone: threads stopped and joined, processes ended, shared memory and
+/// lock removed (by their own `Drop`s, in the reverse order of creation).
+struct Starting {
+    shared: Option<Arc<Shared>>,
+    threads: Vec<JoinHandle<()>>,
+    /// Started programs, with their statistics pipes.
+    children: Vec<(String, (Child, Receiver))>,
+}
+
+impl Starting {
+    fn shared(&self) -> &Arc<Shared> {
+        self.shared.as_ref().expect("taken only by `done`")
+    }
+
+    /// Everything started: the PLC runs.
+    fn done(mut self) -> (Arc<Shared>, Vec<JoinHandle<()>>) {
+        let shared = self.shared.take().expect("taken only once");
+        (shared, std::mem::take(&mut self.threads))
+    }
+}
+
+impl Drop for Starting {
+    fn drop(&mut self) {
+        let Some(shared) = &self.shared else { return };
+        shared.synch.stop();
+        for (name, (child, _)) in &mut self.children {
+            end_process(name, child);
+        }
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
 }
 
 impl Plc {
@@ -146,26 +365,40 @@ impl Plc {
     }
 
     /// Starts every module of `config`, read from `config_path` by [`Plc::read_config`]
-    /// (relative paths in settings start at its directory); returns once all run.
+    /// (relative paths in settings start at its directory); returns once all run. Program
+    /// modules are tied to the calling thread: they are killed if it ends (call it from the
+    /// thread that runs the PLC, typically the main thread).
     pub fn start_with(
         config: PlcConfig,
         config_path: &Path,
         registry: Registry,
         opts: &RunOptions,
     ) -> Result<Plc, RunError> {
+        // `plc.conf` has the parent "", which would send a program path `prog` to a search
+        // of PATH: the folder is `.` then.
         let base_dir = config_path
             .parent()
+            .filter(|p| !p.as_os_str().is_empty())
             .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+        if let Err(ImageError::BadPlcId { plc_id, reason }) =
+            petriplc_runtime::image::shm::shm_name(&opts.plc_id)
+        {
+            return Err(match config.plc.get("plc_id") {
+                Some(s) if s.value == plc_id => RunError::BadConfigPlcId {
+                    origin: s.origin.clone(),
+                    plc_id,
+                    reason,
+                },
+                _ => RunError::Image(ImageError::BadPlcId { plc_id, reason }),
+            });
+        }
         let layout = Layout::new(&config)?;
         let net = SynchNet::from_config(&config)?;
-        let global = GlobalMap::create(&opts.plc_id, &layout)?;
-        let synch = SharedSynch::create(&opts.plc_id, &net)?;
 
-        // Every module is created and initialised before any runs: a bad setting stops
-        // everything, with nothing half started.
-        let mut ready = Vec::new();
-        let mut programs = Vec::new();
-        for (index, decl) in config.modules.iter().enumerate() {
+        // Everything the configuration can be blamed for is checked before anything exists:
+        // every built-in module is made (its settings checked), every program found.
+        let mut kinds = Vec::new();
+        for decl in &config.modules {
             match registry(&decl.kind) {
                 Some(factory) => {
                     if decl.location == Location::Isolate {
@@ -173,38 +406,127 @@ impl Plc {
                             module: decl.name.clone(),
                         });
                     }
-                    let mut map = ModuleMap::new(&layout, &decl.name, decl.location)?;
-                    let module = make(factory, decl, &config, &mut map, &base_dir, &opts.plc_id)
-                        .map_err(|error| RunError::Init {
-                            module: decl.name.clone(),
-                            error,
-                        })?;
-                    ready.push(Ready {
-                        index,
-                        module,
-                        map,
-                        factory,
-                    });
+                    let module = factory(decl).map_err(|error| RunError::Init {
+                        module: decl.name.clone(),
+                        error,
+                    })?;
+                    kinds.push(Ok((factory, module)));
                 }
-                None => {
-                    let program = base_dir.join(&decl.kind);
-                    if !program.is_file() {
-                        return Err(RunError::UnknownKind {
-                            module: decl.name.clone(),
-                            kind: decl.kind.clone(),
-                            known: opts.known_kinds.join(", "),
-                            path: program.display().to_string(),
-                        });
-                    }
-                    programs.push((index, program));
-                }
+                None => kinds.push(Err(program_of(decl, &base_dir, opts)?)),
+            }
+        }
+        let safe = config
+            .modules
+            .iter()
+            .map(|decl| safe_values(&config, &layout, decl))
+            .collect::<Result<Vec<_>, _>>()?;
+        let programs_fire = kinds.iter().any(Result::is_err);
+        if let Some(dead) = net.never_scanning(programs_fire) {
+            if !dead.is_empty() {
+                return Err(RunError::DeadSynch { modules: dead });
             }
         }
 
+        // What others may hold — the id and the addresses to listen on — is checked as a
+        // whole, so that one attempt reports every clash. The id is taken only while a live
+        // PLC holds its lock: what a dead one left is removed here, not reported.
+        let listening: Vec<(usize, &dyn Module)> = kinds
+            .iter()
+            .enumerate()
+            .filter_map(|(i, k)| k.as_ref().ok().map(|(_, m)| (i, m.as_ref())))
+            .collect();
+        let mut taken = listen_clashes(&config, &listening);
+        let owner = match Owner::acquire(&opts.plc_id) {
+            Ok((owner, remains)) => {
+                if let Some(r) = remains {
+                    log::warn!(
+                        "PLC {}: {}; removed what it left ({})",
+                        opts.plc_id,
+                        r.describe(),
+                        r.object_names()
+                    );
+                }
+                Some(owner)
+            }
+            Err(OwnerError::Running { plc_id, pid }) => {
+                taken.insert(
+                    0,
+                    Taken {
+                        what: format!(
+                            "PLC id `{plc_id}`: a PLC with this id is running ({}`petriplc \
+                             stop --plc-id {plc_id}` stops it)",
+                            pid.map(|p| format!("process {p}; ")).unwrap_or_default()
+                        ),
+                        fix: format!("--plc-id {}", free_plc_id(&plc_id)),
+                    },
+                );
+                None
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let owner = match owner {
+            Some(o) if taken.is_empty() => o,
+            // The id just taken is given up when dropped here.
+            _ => return Err(RunError::Taken(taken)),
+        };
+        let global = GlobalMap::create(&opts.plc_id, &layout)?;
+        let synch = SharedSynch::create(&opts.plc_id, &net)?;
+
+        if !global.priority_inheritance() {
+            log::warn!(
+                "this system has no priority-inheriting locks: a real-time module waiting for \
+                 the process image may wait for lower-priority ones"
+            );
+        }
+
+        // Every module is initialised before any runs: a bad setting stops everything, with
+        // nothing half started.
+        let mut ready = Vec::new();
+        let mut programs = Vec::new();
+        for (index, (decl, kind)) in config.modules.iter().zip(kinds).enumerate() {
+            let (factory, mut module) = match kind {
+                Ok(made) => made,
+                Err(program) => {
+                    programs.push((index, program));
+                    continue;
+                }
+            };
+            let mut map = ModuleMap::new(&layout, &decl.name, decl.location)?;
+            module
+                .init(&mut InitContext {
+                    decl,
+                    config: &config,
+                    map: &mut map,
+                    base_dir: &base_dir,
+                    plc_id: &opts.plc_id,
+                })
+                .map_err(|error| RunError::Init {
+                    module: decl.name.clone(),
+                    error,
+                })?;
+            ready.push(Ready {
+                index,
+                module,
+                map,
+                factory,
+            });
+        }
+
+        // A program's path would not fit the kind column: it goes to the detail line.
         let status = config
             .modules
             .iter()
-            .map(|m| ModuleStatus::new(&m.name, &m.kind))
+            .map(|m| match registry(&m.kind) {
+                Some(_) => ModuleStatus::new(&m.name, &m.kind),
+                None => {
+                    let mut s = ModuleStatus::new(&m.name, "program");
+                    s.detail = std::iter::once(m.kind.as_str())
+                        .chain(m.args.iter().map(String::as_str))
+                        .collect::<Vec<_>>()
+                        .join(" ");
+                    s
+                }
+            })
             .collect();
         let shared = Arc::new(Shared {
             plc_id: opts.plc_id.clone(),
@@ -221,42 +543,55 @@ impl Plc {
             layout,
             global,
             synch,
+            safe,
             t0: period::now(),
             status: Mutex::new(status),
             failed: AtomicBool::new(false),
         });
+        let count = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
         log::info!(
-            "PLC {} started: {} points in {} words, {} modules",
+            "PLC {} started: {} in {}, {}",
             opts.plc_id,
-            shared.layout.points().len(),
-            shared.layout.words(),
-            shared.config.modules.len()
+            count(shared.layout.points().len(), "point"),
+            count(shared.layout.words(), "word"),
+            count(shared.config.modules.len(), "module")
         );
-        let mut threads = Vec::new();
+        let mut starting = Starting {
+            shared: Some(shared),
+            threads: Vec::new(),
+            children: Vec::new(),
+        };
         for r in ready {
-            let shared = Arc::clone(&shared);
+            let shared = Arc::clone(starting.shared());
             let name = shared.config.modules[r.index].name.clone();
             let handle = std::thread::Builder::new()
                 .name(name.clone())
                 .spawn(move || run_thread(&shared, r))
-                .map_err(|source| RunError::Spawn {
+                .map_err(|error| RunError::Spawn {
                     module: name,
                     program: "thread".into(),
-                    source,
+                    error,
                 })?;
-            threads.push(handle);
+            starting.threads.push(handle);
         }
-        for (index, program) in programs {
-            let child = spawn(&shared, index, &program)?;
-            let shared = Arc::clone(&shared);
-            threads.push(std::thread::spawn(move || {
+        for (index, program) in &programs {
+            let child = spawn(starting.shared(), *index, program)?;
+            let name = starting.shared().decl(*index).name.clone();
+            starting.children.push((name, child));
+        }
+        let children = std::mem::take(&mut starting.children);
+        for ((index, program), (_, child)) in programs.into_iter().zip(children) {
+            let shared = Arc::clone(starting.shared());
+            starting.threads.push(std::thread::spawn(move || {
                 watch_process(&shared, index, program, child)
             }));
         }
+        let (shared, threads) = starting.done();
         Ok(Plc {
             shared,
             threads,
             duration: opts.duration,
+            owner: Some(owner),
         })
     }
 
@@ -271,7 +606,8 @@ impl Plc {
     }
 
     /// Runs until a module stops the PLC, a failure does, `stop_requested` is set, or the
-    /// duration has passed; publishes the status meanwhile; then waits for every module.
+    /// duration has passed; publishes the status meanwhile; then waits for every module and
+    /// removes the PLC's shared memory, status file and lock, in that order.
     pub fn wait(mut self, stop_requested: &AtomicBool) -> PlcStatus {
         let started = period::now();
         let file = status::path(&self.shared.plc_id);
@@ -295,13 +631,146 @@ impl Plc {
         }
         let last = self.shared.snapshot();
         let _ = std::fs::remove_file(&file);
-        log::info!("PLC {} stopped", self.shared.plc_id);
+        let _ = std::fs::remove_file(status::tmp_path(&file));
+        self.finish();
+        log::info!("PLC {} stopped", last.plc_id);
         last
+    }
+
+    /// Removes the shared memory names, then gives the id up.
+    fn finish(&mut self) {
+        let _ = GlobalMap::unlink(&self.shared.plc_id);
+        let _ = SharedSynch::unlink(&self.shared.plc_id);
+        if let Some(owner) = self.owner.take() {
+            owner.release();
+        }
     }
 
     /// Whether a module failed (with `on_failure = stop` or `ignore`).
     pub fn failed(&self) -> bool {
         self.shared.failed.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for Plc {
+    /// A PLC dropped without [`Plc::wait`] (an error in its caller) still stops its modules
+    /// and leaves nothing behind.
+    fn drop(&mut self) {
+        if self.owner.is_none() {
+            return;
+        }
+        self.shared.synch.stop();
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+        let file = status::path(&self.shared.plc_id);
+        let _ = std::fs::remove_file(&file);
+        let _ = std::fs::remove_file(status::tmp_path(&file));
+        self.finish();
+    }
+}
+
+/// The program of a module that is not built in: it must exist and be executable.
+fn program_of(decl: &ModuleDecl, base_dir: &Path, opts: &RunOptions) -> Result<PathBuf, RunError> {
+    let program = base_dir.join(&decl.kind);
+    if !program.is_file() {
+        return Err(RunError::UnknownKind {
+            module: decl.name.clone(),
+            kind: decl.kind.clone(),
+            known: opts.known_kinds.join(", "),
+            path: program.display().to_string(),
+        });
+    }
+    if nix::unistd::access(&program, nix::unistd::AccessFlags::X_OK).is_err() {
+        return Err(RunError::NotExecutable {
+            module: decl.name.clone(),
+            path: program.display().to_string(),
+        });
+    }
+    // Absolute, so that it is this file that runs and never one found on PATH.
+    Ok(std::fs::canonicalize(&program).unwrap_or(program))
+}
+
+/// The module's `safe POINT VALUE` rows, each checked: the point exists, the module owns it,
+/// the value suits it.
+fn safe_values(
+    config: &PlcConfig,
+    layout: &Layout,
+    decl: &ModuleDecl,
+) -> Result<Vec<SafeValue>, RunError> {
+    let Some(section) = config.sections.get(&decl.name) else {
+        return Ok(Vec::new());
+    };
+    let mut map = ModuleMap::new(layout, &decl.name, Location::Local)?;
+    let mut out = Vec::new();
+    for row in section.rows.iter().filter(|r| r.table == "safe") {
+        let bad = |point: &str, value: &str, reason: String| RunError::Safe {
+            module: decl.name.clone(),
+            message: format!(
+                "{}: module {}: `safe {point} {value}`: {reason}",
+                row.origin, decl.name
+            ),
+        };
+        let [point, value] = row.cells.as_slice() else {
+            return Err(bad(
+                &row.cells.join(" "),
+                "",
+                "write `safe POINT VALUE`, one point per row".into(),
+            ));
+        };
+        let handle = map
+            .handle(point)
+            .map_err(|e| bad(point, value, e.to_string()))?;
+        if !map.owns(&handle) {
+            let owner = &layout.slot(handle.id()).owner;
+            return Err(bad(
+                point,
+                value,
+                format!(
+                    "the point belongs to module {owner}: a module's safe values are for its \
+                     own points"
+                ),
+            ));
+        }
+        let v = parse_value(value, handle.kind()).ok_or_else(|| {
+            bad(
+                point,
+                value,
+                format!(
+                    "not a value for a {} point (write {})",
+                    match handle.kind() {
+                        PointKind::Float => "float",
+                        PointKind::Signed => "signed",
+                        PointKind::Unsigned => "unsigned",
+                    },
+                    match handle.kind() {
+                        PointKind::Float => "e.g. 0 or 2.5",
+                        PointKind::Signed => "e.g. 0 or -3",
+                        PointKind::Unsigned => "e.g. 0, 1, true or false",
+                    }
+                ),
+            )
+        })?;
+        map.set(&handle, v)
+            .map_err(|e| bad(point, value, e.to_string()))?;
+        out.push(SafeValue {
+            handle,
+            value: v,
+            text: format!("{point} = {value}"),
+        });
+    }
+    Ok(out)
+}
+
+fn parse_value(text: &str, kind: PointKind) -> Option<PointValue> {
+    match kind {
+        PointKind::Float => text.parse().ok().map(PointValue::Float),
+        PointKind::Signed => text.parse().ok().map(PointValue::Signed),
+        PointKind::Unsigned => match text {
+            "true" | "TRUE" => Some(PointValue::Unsigned(1)),
+            "false" | "FALSE" => Some(PointValue::Unsigned(0)),
+            t => t.parse().ok().map(PointValue::Unsigned),
+        },
     }
 }
 
@@ -335,73 +804,165 @@ impl Shared {
         }
     }
 
-    /// A module failed: by its `on_failure`, say whether to try again.
-    fn failure(&self, index: usize, why: &str) -> bool {
+    /// Module `index` failed: ends the scan it was in (so that the modules lock-stepped
+    /// with it are not left waiting), then acts on its `on_failure`. Returns how long to
+    /// wait before restarting it, or `None` if it is failed for good.
+    fn failure(&self, index: usize, why: &str, restarts: &mut Restarts) -> Option<Duration> {
         let decl = self.decl(index);
-        match decl.on_failure {
-            OnFailure::Restart => {
-                log::warn!("module {} failed ({why}); restarting it", decl.name);
-                self.set_status(index, |s| s.restarts += 1);
-                true
+        if let Some(scan) = self.synch.net().scan_ref(&decl.name) {
+            if self.synch.abandon_scan(&scan) == Abandoned::EndNotEnabled {
+                log::warn!(
+                    "module {}: its scan_end ({}) cannot fire on its behalf: the modules \
+                     waiting for it will go on waiting",
+                    decl.name,
+                    self.synch.net().transition_name(scan.end)
+                );
             }
+        }
+        match decl.on_failure {
+            OnFailure::Restart => match restarts.next(&decl.restart) {
+                Some(delay) => {
+                    log::warn!(
+                        "module {} failed ({why}); restarting it{}",
+                        decl.name,
+                        if delay.is_zero() {
+                            String::new()
+                        } else {
+                            format!(" in {}", show_duration(delay))
+                        }
+                    );
+                    self.set_status(index, |s| {
+                        s.restarts += 1;
+                        s.state = ModuleState::Starting;
+                    });
+                    Some(delay)
+                }
+                None => {
+                    log::error!(
+                        "module {} failed ({why}) after {} restarts in a row \
+                         (restart_limit = {}); it stays failed: writing its safe values and \
+                         stopping the PLC",
+                        decl.name,
+                        restarts.in_a_row,
+                        decl.restart.limit
+                    );
+                    self.fail(index);
+                    self.synch.stop();
+                    None
+                }
+            },
             OnFailure::Ignore => {
-                log::error!("module {} failed ({why}); the others go on", decl.name);
-                self.set_status(index, |s| s.state = ModuleState::Failed);
-                self.failed.store(true, Ordering::Relaxed);
-                false
+                log::error!(
+                    "module {} failed ({why}); writing its safe values, the others go on",
+                    decl.name
+                );
+                self.fail(index);
+                None
             }
             OnFailure::Stop => {
                 log::error!(
                     "module {} failed ({why}); writing its safe values and stopping the PLC",
                     decl.name
                 );
-                self.set_status(index, |s| s.state = ModuleState::Failed);
-                self.failed.store(true, Ordering::Relaxed);
-                if let Err(e) = self.write_safe_values(decl) {
-                    log::error!("module {}: safe values not written: {e}", decl.name);
-                }
+                self.fail(index);
                 self.synch.stop();
-                false
+                None
             }
         }
     }
 
-    /// Writes the module section's `safe POINT VALUE` rows through the module's own map.
-    fn write_safe_values(&self, decl: &ModuleDecl) -> Result<(), String> {
-        let Some(section) = self.config.sections.get(&decl.name) else {
+    /// Marks module `index` failed for good and writes its safe values.
+    fn fail(&self, index: usize) {
+        self.set_status(index, |s| s.state = ModuleState::Failed);
+        self.failed.store(true, Ordering::Relaxed);
+        if let Err(e) = self.write_safe_values(index) {
+            log::error!(
+                "module {}: safe values not written: {e}",
+                self.decl(index).name
+            );
+        }
+    }
+
+    /// Writes the module's `safe` values through a map of its own points.
+    fn write_safe_values(&self, index: usize) -> Result<(), ImageError> {
+        let safe = &self.safe[index];
+        if safe.is_empty() {
             return Ok(());
-        };
-        let mut map =
-            ModuleMap::new(&self.layout, &decl.name, decl.location).map_err(|e| e.to_string())?;
+        }
+        let decl = self.decl(index);
+        // Local whatever the module's location: the runner writes the image itself.
+        let mut map = ModuleMap::new(&self.layout, &decl.name, Location::Local)?;
         map.update(&self.global);
-        for row in section.rows.iter().filter(|r| r.table == "safe") {
-            let [point, value] = row.cells.as_slice() else {
-                return Err(format!("{}: write `safe POINT VALUE`", row.origin));
-            };
-            let h = map
-                .handle(point)
-                .map_err(|e| format!("{}: {e}", row.origin))?;
-            let v = parse_value(value).ok_or_else(|| {
-                format!(
-                    "{}: `{value}` is not a value (write 0, 1, -3 or 2.5)",
-                    row.origin
-                )
-            })?;
-            map.set(&h, v).map_err(|e| format!("{}: {e}", row.origin))?;
-            log::info!("module {}: safe value {point} = {value}", decl.name);
+        for s in safe {
+            map.set(&s.handle, s.value)?;
+            log::info!("module {}: safe value {}", decl.name, s.text);
         }
         map.update(&self.global);
         Ok(())
     }
+
+    /// Sleeps `delay` before a restart, waking early if the PLC stops; says whether to go on.
+    fn pause(&self, delay: Duration) -> bool {
+        let until = Instant::now() + delay;
+        while !self.synch.is_stopping() {
+            let now = Instant::now();
+            if now >= until {
+                return true;
+            }
+            std::thread::sleep((until - now).min(Duration::from_millis(50)));
+        }
+        false
+    }
 }
 
-fn parse_value(text: &str) -> Option<PointValue> {
-    match text {
-        "true" | "TRUE" => Some(PointValue::Unsigned(1)),
-        "false" | "FALSE" => Some(PointValue::Unsigned(0)),
-        t if t.contains(['.', 'e', 'E']) => t.parse().ok().map(PointValue::Float),
-        t if t.starts_with(['-', '+']) => t.parse().ok().map(PointValue::Signed),
-        t => t.parse().ok().map(PointValue::Unsigned),
+/// How a module's restarts go (`on_failure = restart`): the delay doubles with each
+/// failure in a row up to `restart_delay_max`; a run of `restart_delay_max` without failing
+/// starts over; `restart_limit` failures in a row fail the module for good.
+struct Restarts {
+    in_a_row: u32,
+    delay: Option<Duration>,
+    /// When the module last (re)started.
+    since: Instant,
+}
+
+impl Restarts {
+    fn new() -> Self {
+        Restarts {
+            in_a_row: 0,
+            delay: None,
+            since: Instant::now(),
+        }
+    }
+
+    /// The module (re)starts now.
+    fn started(&mut self) {
+        self.since = Instant::now();
+    }
+
+    /// After a failure: the delay before the next restart, or `None` past the limit.
+    fn next(&mut self, policy: &petriplc_config::Restart) -> Option<Duration> {
+        if self.since.elapsed() >= policy.delay_max {
+            self.in_a_row = 0;
+            self.delay = None;
+        }
+        if policy.limit != 0 && self.in_a_row >= policy.limit {
+            return None;
+        }
+        self.in_a_row += 1;
+        let delay = match self.delay {
+            None => policy.delay,
+            Some(d) => d.saturating_mul(2).min(policy.delay_max),
+        };
+        self.delay = Some(delay);
+        Some(delay)
+    }
+}
+
+fn show_duration(d: Duration) -> String {
+    if d < Duration::from_secs(1) {
+        format!("{} ms", d.as_millis())
+    } else {
+        format!("{:.1} s", d.as_secs_f64())
     }
 }
 
@@ -424,12 +985,21 @@ fn make(
     Ok(module)
 }
 
-/// The scan loop of a built-in module.
+/// How a module instance's run ended.
+enum Ended {
+    /// The PLC is stopping (or the module stopped it).
+    Stopped,
+    /// The module failed; the message says how.
+    Failed(String),
+}
+
+/// A built-in module's thread: runs instances of the module until the PLC stops, handling
+/// failures (errors and panics alike) by its `on_failure`.
 fn run_thread(shared: &Shared, r: Ready) {
     let Ready {
         index,
-        mut module,
-        mut map,
+        module,
+        map,
         factory,
     } = r;
     let decl = shared.decl(index);
@@ -437,26 +1007,104 @@ fn run_thread(shared: &Shared, r: Ready) {
     for w in period::realtime(decl.priority) {
         log::warn!("module {name}: {w}");
     }
+    let mut stats = ScanStats::new();
+    let mut restarts = Restarts::new();
+    let mut instance = Some((module, map));
+    loop {
+        let (mut module, map) = match instance.take() {
+            Some(i) => i,
+            None => match fresh(shared, index, factory) {
+                Ok(i) => i,
+                Err(e) => {
+                    let why = format!("it could not start again: {e}");
+                    match shared.failure(index, &why, &mut restarts) {
+                        Some(delay) if shared.pause(delay) => continue,
+                        _ => break,
+                    }
+                }
+            },
+        };
+        shared.set_status(index, |s| {
+            s.state = ModuleState::Running;
+            s.pid = std::process::id();
+        });
+        restarts.started();
+        let ended = catch_unwind(AssertUnwindSafe(|| {
+            scan_loop(shared, index, &mut *module, map, &mut stats)
+        }))
+        .unwrap_or_else(|_| Ended::Failed("the module panicked".into()));
+        let closed = catch_unwind(AssertUnwindSafe(|| module.close()));
+        let (line, marking) =
+            catch_unwind(AssertUnwindSafe(|| (module.status(), module.marking())))
+                .unwrap_or_default();
+        shared.set_status(index, |s| s.record(&stats, line, marking));
+        let why = match (ended, closed) {
+            (Ended::Failed(why), _) => why,
+            (Ended::Stopped, Err(_)) if !shared.synch.is_stopping() => {
+                "the module panicked while closing".to_string()
+            }
+            (Ended::Stopped, _) => break,
+        };
+        match shared.failure(index, &why, &mut restarts) {
+            Some(delay) if shared.pause(delay) => {}
+            _ => break,
+        }
+    }
     shared.set_status(index, |s| {
-        s.state = ModuleState::Running;
-        s.pid = std::process::id();
+        if s.state != ModuleState::Failed {
+            s.state = ModuleState::Stopped;
+        }
     });
+}
+
+/// A fresh instance of a built-in module and a fresh map, as a new process would get.
+fn fresh(
+    shared: &Shared,
+    index: usize,
+    factory: Factory,
+) -> Result<(Box<dyn Module>, ModuleMap), ModuleError> {
+    let decl = shared.decl(index);
+    let mut map = ModuleMap::new(&shared.layout, &decl.name, decl.location)
+        .map_err(|e| ModuleError::new(e.to_string()))?;
+    map.update(&shared.global);
+    let module = catch_unwind(AssertUnwindSafe(|| {
+        make(
+            factory,
+            decl,
+            &shared.config,
+            &mut map,
+            &shared.base_dir,
+            &shared.plc_id,
+        )
+    }))
+    .unwrap_or_else(|_| Err(ModuleError::new("the module panicked while starting")))?;
+    Ok((module, map))
+}
+
+/// The scan loop of one instance of a built-in module.
+fn scan_loop(
+    shared: &Shared,
+    index: usize,
+    module: &mut dyn Module,
+    mut map: ModuleMap,
+    stats: &mut ScanStats,
+) -> Ended {
+    let decl = shared.decl(index);
+    let name = &decl.name;
     let net = shared.synch.net();
-    let (beg, end) = (net.scan_beg(&name), net.scan_end(&name));
+    let scan_ref = net.scan_ref(name);
     // A module's own default period is for running alone: in the synchronisation net, the
     // net paces it.
-    let alone = beg == TransitionRef::Null && end == TransitionRef::Null;
     let mut period = decl
         .scan_period
-        .or_else(|| module.default_scan_period().filter(|_| alone))
+        .or_else(|| module.default_scan_period().filter(|_| scan_ref.is_none()))
         .filter(|p| !p.is_zero())
         .map(|p| Period::starting_at(shared.t0, p));
     // The status file is rewritten every 50 ms: a fresh status line and marking every 25 ms
     // is enough, and a module scanning every 100 µs does not pay for formatting them.
     let mut published = Duration::ZERO;
-    let mut stats = ScanStats::new();
     let mut scan = 0u64;
-    'scans: loop {
+    loop {
         let (late, missed, started) = match &mut period {
             Some(p) => {
                 let w = p.wait();
@@ -464,8 +1112,8 @@ fn run_thread(shared: &Shared, r: Ready) {
             }
             None => (Duration::ZERO, 0, period::now()),
         };
-        if shared.synch.synch(beg).is_err() {
-            break;
+        if begin(shared, scan_ref.as_ref()).is_err() {
+            return Ended::Stopped;
         }
         map.update(&shared.global);
         let mut ctx = ScanContext {
@@ -473,58 +1121,20 @@ fn run_thread(shared: &Shared, r: Ready) {
             scan,
             map: &mut map,
         };
-        let outcome = catch_unwind(AssertUnwindSafe(|| module.scan(&mut ctx)))
-            .unwrap_or_else(|_| Err(ModuleError::new("the module panicked")));
-        match outcome {
+        match module.scan(&mut ctx) {
             Ok(Control::Continue) => {}
             Ok(Control::StopPlc) => {
                 log::info!("module {name} stops the PLC");
                 map.update(&shared.global);
                 shared.synch.stop();
-                break;
+                return Ended::Stopped;
             }
-            Err(e) => {
-                module.close();
-                if !shared.failure(index, &e.0) {
-                    return;
-                }
-                // Restart: a fresh instance and a fresh map, as a new process would get.
-                loop {
-                    let fresh = ModuleMap::new(&shared.layout, &name, decl.location)
-                        .map_err(|e| ModuleError::new(e.to_string()))
-                        .and_then(|mut m| {
-                            m.update(&shared.global);
-                            make(
-                                factory,
-                                decl,
-                                &shared.config,
-                                &mut m,
-                                &shared.base_dir,
-                                &shared.plc_id,
-                            )
-                            .map(|module| (module, m))
-                        });
-                    match fresh {
-                        Ok((m, fresh_map)) => {
-                            module = m;
-                            map = fresh_map;
-                            continue 'scans;
-                        }
-                        Err(e) if shared.synch.is_stopping() => {
-                            log::error!("module {name} could not restart: {e}");
-                            break 'scans;
-                        }
-                        Err(e) => {
-                            log::error!("module {name} could not restart: {e}; retrying in 1 s");
-                            std::thread::sleep(Duration::from_secs(1));
-                        }
-                    }
-                }
-            }
+            // The failed scan's outputs are not written: its map is dropped unexchanged.
+            Err(e) => return Ended::Failed(e.0),
         }
         map.update(&shared.global);
-        if shared.synch.synch(end).is_err() {
-            break;
+        if end(shared, scan_ref.as_ref()).is_err() {
+            return Ended::Stopped;
         }
         stats.record(period::now().saturating_sub(started), late, missed);
         scan += 1;
@@ -532,32 +1142,47 @@ fn run_thread(shared: &Shared, r: Ready) {
         if now.saturating_sub(published) >= Duration::from_millis(25) {
             published = now;
             let (line, marking) = (module.status(), module.marking());
-            shared.set_status(index, |s| s.record(&stats, line, marking));
+            shared.set_status(index, |s| s.record(stats, line, marking));
         }
     }
-    module.close();
-    shared.set_status(index, |s| {
-        s.record(&stats, module.status(), module.marking());
-        if s.state != ModuleState::Failed {
-            s.state = ModuleState::Stopped;
-        }
-    });
 }
 
-fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunError> {
+fn begin(shared: &Shared, scan: Option<&ScanRef>) -> Result<(), petriplc_runtime::synch::Stopped> {
+    match scan {
+        Some(s) => shared.synch.begin_scan(s).map(drop),
+        None => shared.synch.synch(TransitionRef::Null).map(drop),
+    }
+}
+
+fn end(shared: &Shared, scan: Option<&ScanRef>) -> Result<(), petriplc_runtime::synch::Stopped> {
+    match scan {
+        Some(s) => shared.synch.end_scan(s).map(drop),
+        None => shared.synch.synch(TransitionRef::Null).map(drop),
+    }
+}
+
+/// Starts module `index`'s program, with a pipe for its scan statistics, tied to the calling
+/// thread: it gets SIGKILL if that thread (the PLC) dies, so no module outlives a PLC killed
+/// with `kill -9`.
+fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<(Child, Receiver), RunError> {
     let decl = shared.decl(index);
-    let child = Command::new(program)
+    let failed = |error| RunError::Spawn {
+        module: decl.name.clone(),
+        program: program.display().to_string(),
+        error,
+    };
+    let (stats, stats_fd) = Receiver::pipe().map_err(failed)?;
+    let mut command = Command::new(program);
+    command
         .args(&decl.args)
         .env("PETRIPLC_CONFIG", &shared.config_path)
         .env("PETRIPLC_SET", &shared.overrides)
         .env("PETRIPLC_MODULE", &decl.name)
         .env("PETRIPLC_PLC_ID", &shared.plc_id)
-        .spawn()
-        .map_err(|source| RunError::Spawn {
-            module: decl.name.clone(),
-            program: program.display().to_string(),
-            source,
-        })?;
+        .env(report::STATS_FD, stats_fd.as_raw_fd().to_string());
+    let child = proc::spawn_tied(&mut command, Signal::SIGKILL).map_err(failed)?;
+    // The child has its copy; ours would only keep the pipe open.
+    drop(stats_fd);
     let pid = child.id();
     shared.set_status(index, |s| {
         s.state = ModuleState::Running;
@@ -568,15 +1193,29 @@ fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<Child, RunErro
         decl.name,
         program.display()
     );
-    Ok(child)
+    Ok((child, stats))
 }
 
-/// Watches a module process: restarts or stops the PLC when it dies unasked, and ends it
-/// when the PLC stops (it should leave on its own at its next synch; else SIGTERM, SIGKILL).
-fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Child) {
+/// Watches a module process: restarts it or stops the PLC when it dies unasked (through its
+/// `on_failure`), and ends it when the PLC stops (it should leave on its own at its next
+/// synch; else SIGTERM, SIGKILL). Its scan statistics come through `stats`.
+fn watch_process(
+    shared: &Shared,
+    index: usize,
+    program: PathBuf,
+    (mut child, mut stats): (Child, Receiver),
+) {
     let name = shared.decl(index).name.clone();
+    let mut restarts = Restarts::new();
+    // A pidfd wakes the watcher the moment the process exits; polling is the fallback.
+    let mut pidfd = Pidfd::open(child.id()).ok();
     loop {
-        match child.try_wait() {
+        // Read after the exit is seen, so that the process's last report is in.
+        let exited = child.try_wait();
+        if let Some(r) = stats.latest() {
+            shared.set_status(index, |s| r.apply(s));
+        }
+        match exited {
             Ok(Some(exit)) if shared.synch.is_stopping() => {
                 log::info!("module {name} (process) ended: {exit}");
                 shared.set_status(index, |s| {
@@ -587,14 +1226,21 @@ fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Chi
                 return;
             }
             Ok(Some(exit)) => {
-                if !shared.failure(index, &format!("its process ended: {exit}")) {
-                    return;
+                let delay =
+                    shared.failure(index, &format!("its process ended: {exit}"), &mut restarts);
+                match delay {
+                    Some(d) if shared.pause(d) => {}
+                    _ => return,
                 }
                 match spawn(shared, index, &program) {
-                    Ok(c) => child = c,
+                    Ok(c) => {
+                        (child, stats) = c;
+                        pidfd = Pidfd::open(child.id()).ok();
+                        restarts.started();
+                    }
                     Err(e) => {
                         log::error!("{e}");
-                        shared.failed.store(true, Ordering::Relaxed);
+                        shared.fail(index);
                         shared.synch.stop();
                         return;
                     }
@@ -602,14 +1248,23 @@ fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Chi
             }
             Ok(None) if shared.synch.is_stopping() => {
                 end_process(&name, &mut child);
+                let last = stats.latest();
                 shared.set_status(index, |s| {
+                    if let Some(r) = last {
+                        r.apply(s);
+                    }
                     if s.state != ModuleState::Failed {
                         s.state = ModuleState::Stopped;
                     }
                 });
                 return;
             }
-            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+            Ok(None) => match &pidfd {
+                Some(fd) => {
+                    fd.wait_exit(Duration::from_millis(50));
+                }
+                None => std::thread::sleep(Duration::from_millis(20)),
+            },
             Err(e) => {
                 log::error!("module {name}: cannot watch its process: {e}");
                 return;
@@ -619,7 +1274,7 @@ fn watch_process(shared: &Shared, index: usize, program: PathBuf, mut child: Chi
 }
 
 fn end_process(name: &str, child: &mut Child) {
-    use nix::sys::signal::{kill, Signal};
+    use nix::sys::signal::kill;
     use nix::unistd::Pid;
     let pid = Pid::from_raw(child.id() as i32);
     for (signal, grace) in [
@@ -629,6 +1284,7 @@ fn end_process(name: &str, child: &mut Child) {
     ] {
         if let Some(s) = signal {
             log::warn!("module {name} did not stop; sending {s}");
+            // Our own unreaped child: its pid cannot have been reused.
             let _ = kill(pid, s);
         }
         for _ in 0..grace / 20 {

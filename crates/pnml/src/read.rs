@@ -670,11 +670,7 @@ impl<'a> Reader<'a> {
                             match time::parse_duration(&item.text) {
                                 Ok(d) => delay = Some(d),
                                 Err(e) => {
-                                    let msg = format!(
-                                        "arc `{}`: delay `{}` is not a duration: {e}",
-                                        shown(&id),
-                                        shown(item.text.trim())
-                                    );
+                                    let msg = format!("arc `{}`: delay: {e}", shown(&id));
                                     self.error(diag::DELAY, item.start, Some(&id), msg);
                                 }
                             }

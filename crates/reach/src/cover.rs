@@ -258,12 +258,11 @@ impl<'n> Ctx<'n> {
         }
         for &(p, w) in &arcs.produce {
             let v = &mut next[p.index()];
-            // Past the token counter's range counts as unbounded.
+            // Counts are exact past the 32-bit token counter too: a bounded place whose bound
+            // does not fit 32 bits is bounded, not unbounded. Only ω is ω (u64::MAX, which
+            // no sum of u32 weights reaches in practice).
             if *v != OMEGA {
-                *v += u64::from(w);
-                if *v > u64::from(u32::MAX) {
-                    *v = OMEGA;
-                }
+                *v = v.saturating_add(u64::from(w));
             }
         }
     }

@@ -526,13 +526,13 @@ impl<'a> Engine<'a> {
                 fold(&m);
             }
         }
-        for sm in self.ctl.stash.chunks_exact(p) {
+        for sm in self.ctl.stash.chunks_exact(p.max(1)) {
             fold(sm);
         }
         let new = self.layout.widen(&most);
         let kn = Dyn(new.words);
         let total: usize = old.iter().map(|o| o.table.len()).sum();
-        let cap = (total + self.ctl.stash.len() / p) / SHARDS * 4 / 3;
+        let cap = (total + self.ctl.stash.len() / p.max(1)) / SHARDS * 4 / 3;
         // Each thread rebuilds the new shards it owns, reading every old state in numbering
         // order and keeping those that hash to its shards.
         let n = self.threads.min(SHARDS);
@@ -631,7 +631,7 @@ impl<'a> Engine<'a> {
             .collect();
         let mut rec = vec![0u64; kn.0 + e];
         drop(old);
-        for sm in self.ctl.stash.chunks_exact(p) {
+        for sm in self.ctl.stash.chunks_exact(p.max(1)) {
             new.encode(sm, &mut rec[..kn.0]);
             self.rules.enabled_set(sm, &mut rec[kn.0..]);
             let h = hash(&rec[..kn.0]);
@@ -952,7 +952,10 @@ fn leader_loop<S: Stride>(
 }
 
 fn add_stash(ctl: &mut Ctl, p: usize, part: &[u32]) {
-    for m in part.chunks_exact(p) {
+    // A net without places has one marking, which never needs a wider layout: nothing is
+    // stashed then, and `max(1)` only spares `chunks_exact` a zero size (here and in
+    // `widen`).
+    for m in part.chunks_exact(p.max(1)) {
         if ctl.stash_seen.insert(m.to_vec()) {
             ctl.stash.extend_from_slice(m);
         }

@@ -70,7 +70,7 @@ pub struct Progress {
 /// Why an exploration failed.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum ReachError {
-    #[error("place {place}: a reachable marking has more than {} tokens; the net is unbounded there (check it with coverability first)", u32::MAX)]
+    #[error("place {place}: a reachable marking has more than {} tokens, the limit of petriplc's 32-bit token counters (which says nothing about boundedness)", u32::MAX)]
     TokenOverflow { place: String },
     #[error("more than {} reachable states; petriplc numbers states with 32 bits", u32::MAX - 1)]
     TooManyStates,

@@ -88,16 +88,10 @@ pub enum ImageError {
     #[error("invalid plc id `{plc_id}`: {reason}")]
     BadPlcId { plc_id: String, reason: String },
     #[error(
-        "a PLC with id `{plc_id}` is already running (shared memory `{shm}` exists{stale}); \
-         give this PLC another id with --plc-id{}",
-        if .stale.is_empty() { "" } else { ", or remove the stale image first" }
+        "shared memory `{shm}` of PLC `{plc_id}` already exists although this process owns \
+         the id: something other than `petriplc run` made it"
     )]
-    AlreadyRunning {
-        plc_id: String,
-        shm: String,
-        /// Why the existing map looks stale, when it does ("" otherwise).
-        stale: String,
-    },
+    AlreadyRunning { plc_id: String, shm: String },
     #[error(
         "no PLC with id `{plc_id}` is running (no shared memory `{shm}`); start the PLC first, \
          or pass the id it was started with (--plc-id)"

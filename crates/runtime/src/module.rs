@@ -91,6 +91,13 @@ pub trait Module: Send {
     fn marking(&self) -> Vec<(String, u64)> {
         Vec::new()
     }
+    /// The addresses the module will listen on once initialised, each with the setting that
+    /// chooses it (`("listen", 127.0.0.1:8080)`), known from its settings alone: the runner
+    /// checks them all before initialising any module, so that every clash is reported at
+    /// once. Port 0 (any free port) need not be listed.
+    fn listens(&self) -> Vec<(&'static str, std::net::SocketAddr)> {
+        Vec::new()
+    }
     /// The scan period when the section sets none and the module is not in the
     /// synchronisation net (which paces it otherwise), so that displays, network modules and
     /// watchers do not scan as fast as the CPU allows.

@@ -1,6 +1,6 @@
 //! The state and statistics of a running PLC's modules, published as a small JSON file in
-//! /dev/shm (replaced atomically several times a second) that `petriplc status` reads and
-//! `petriplc stop` uses to find the PLC's process.
+//! /dev/shm (replaced atomically several times a second) that `petriplc status` reads.
+//! Whether the PLC runs at all is for its lock (`crate::owner`) to say, not this file.
 
 use std::fmt::{self, Write as _};
 use std::path::{Path, PathBuf};
@@ -126,13 +126,16 @@ pub struct PlcStatus {
 
 /// The status file of PLC `plc_id`.
 pub fn path(plc_id: &str) -> PathBuf {
-    let dir = Path::new("/dev/shm");
-    let dir = if dir.is_dir() {
-        dir.to_path_buf()
-    } else {
-        std::env::temp_dir()
-    };
-    dir.join(format!("petriplc-{plc_id}.status.json"))
+    crate::owner::state_dir().join(format!("petriplc-{plc_id}.status.json"))
+}
+
+/// The temporary file a status file is written to before it replaces the old one. One fixed
+/// name per PLC (only its runner writes it), so that a crash leaves a name its successor
+/// knows to remove.
+pub fn tmp_path(file: &Path) -> PathBuf {
+    let mut name = file.as_os_str().to_owned();
+    name.push(".tmp");
+    PathBuf::from(name)
 }
 
 impl PlcStatus {
@@ -149,7 +152,7 @@ impl PlcStatus {
 
     /// Writes the file atomically (a reader never sees half of it).
     pub fn write(&self, file: &Path) -> std::io::Result<()> {
-        let tmp = file.with_extension(format!("tmp{}", std::process::id()));
+        let tmp = tmp_path(file);
         std::fs::write(&tmp, self.to_json().to_string())?;
         std::fs::rename(&tmp, file)
     }

@@ -42,9 +42,10 @@
 
 #![allow(unsafe_code)]
 
+mod reach;
 mod shared;
 
-pub use shared::{Fired, SharedSynch, Stopped};
+pub use shared::{Abandoned, Fired, SharedSynch, Stopped};
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
@@ -61,6 +62,15 @@ pub enum TransitionRef {
     Null,
     /// An index into [`SynchNet::transitions`].
     Index(usize),
+}
+
+/// A synchronised module's transitions and its scan slot in the shared marking (which says
+/// whether it is inside a scan), from [`SynchNet::scan_ref`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ScanRef {
+    pub slot: usize,
+    pub beg: TransitionRef,
+    pub end: TransitionRef,
 }
 
 /// A place and its initial tokens.
@@ -107,8 +117,8 @@ pub enum SynchError {
     #[error("invalid plc id `{plc_id}`: {reason}")]
     BadPlcId { plc_id: String, reason: String },
     #[error(
-        "shared memory `{shm}` already exists: a PLC with this id is running, or a crashed \
-         one left it behind (remove /dev/shm{shm} if no PLC is running)"
+        "shared memory `{shm}` already exists although this process owns the PLC id: \
+         something other than `petriplc run` made it"
     )]
     Exists { shm: String },
     #[error("shared memory `{shm}` does not exist: start the PLC first")]
@@ -504,6 +514,28 @@ impl SynchNet {
             .map_or(TransitionRef::Null, |s| s.1)
     }
 
+    /// The transitions and scan slot of `module`, if it synchronises on anything but `NULL`.
+    pub fn scan_ref(&self, module: &str) -> Option<ScanRef> {
+        self.scans
+            .iter()
+            .position(|(name, _, _)| name == module)
+            .map(|slot| ScanRef {
+                slot,
+                beg: self.scans[slot].1,
+                end: self.scans[slot].2,
+            })
+    }
+
+    /// How many modules synchronise on something but `NULL` (one scan slot each).
+    pub fn scan_slots(&self) -> usize {
+        self.scans.len()
+    }
+
+    /// The synchronised modules with their `scan_beg` and `scan_end`, in configuration order.
+    pub fn scans(&self) -> impl Iterator<Item = (&str, TransitionRef, TransitionRef)> {
+        self.scans.iter().map(|(m, b, e)| (m.as_str(), *b, *e))
+    }
+
     /// The transition `module` synchronises on after each scan (see [`Self::scan_beg`]).
     pub fn scan_end(&self, module: &str) -> TransitionRef {
         self.scans
@@ -570,6 +602,17 @@ impl SynchNet {
     /// Fires `t` in `marking` if it is enabled (takes its input tokens, adds its output
     /// tokens) and says whether it did.
     pub fn fire_in(&self, t: usize, marking: &mut [u32]) -> bool {
+        self.fire_in_with(t, marking, || {})
+    }
+
+    /// [`Self::fire_in`], calling `between` after the input tokens are taken and before the
+    /// output tokens are added (where the test hook kills a firing half-way).
+    pub(crate) fn fire_in_with(
+        &self,
+        t: usize,
+        marking: &mut [u32],
+        between: impl FnOnce(),
+    ) -> bool {
         if !self.enabled_in(t, marking) {
             return false;
         }
@@ -577,6 +620,7 @@ impl SynchNet {
         for &(p, w) in &transition.inputs {
             marking[p] -= w;
         }
+        between();
         for &(p, w) in &transition.outputs {
             marking[p] += w;
         }

@@ -4,16 +4,13 @@
 //!
 //! There are no timing assertions: timeouts only keep a broken build from hanging.
 
-use std::collections::BTreeMap;
 use std::io::Write as _;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{mpsc, Mutex};
 use std::time::{Duration, Instant};
 
-use petriplc_config::{
-    ArcDecl, Location, ModuleDecl, OnFailure, Origin, PlaceDecl, PlcConfig, SynchRule,
-};
+use petriplc_config::{ArcDecl, ModuleDecl, Origin, PlaceDecl, PlcConfig, SynchRule};
 use petriplc_runtime::synch::{SharedSynch, Stopped, SynchError, SynchNet, TransitionRef};
 
 /// Long enough never to be hit by a working build.
@@ -32,17 +29,10 @@ fn at(line: usize) -> Origin {
 
 fn module(name: &str, beg: Option<&str>, end: Option<&str>) -> ModuleDecl {
     ModuleDecl {
-        name: name.into(),
-        kind: "test".into(),
-        args: Vec::new(),
-        scan_period: None,
-        location: Location::Local,
-        priority: None,
-        on_failure: OnFailure::Stop,
         scan_beg: beg.map(str::to_string),
         scan_end: end.map(str::to_string),
-        settings: BTreeMap::new(),
         origin: at(1),
+        ..ModuleDecl::new(name, "test")
     }
 }
 

@@ -13,7 +13,7 @@ pub mod trace;
 
 pub use plant::{builtin, Plant, PlantError, BUILTINS};
 pub use plants::{Keyboard, NetPlant, Tank, Tape};
-pub use plot::{render_svg, write_svg, PlotError};
+pub use plot::{render_svg, render_svg_with, write_svg, PlotError, PlotOptions};
 pub use sim::{SimError, SimOptions, Simulation};
 pub use timeline::{Timeline, TimelineCursor, TimelineError, TimelineProblem};
 pub use trace::{Trace, TraceRow};

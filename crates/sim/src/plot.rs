@@ -1,14 +1,22 @@
-//! A trace as an SVG timing diagram: one labelled step-plot lane per input, output and place,
-//! stacked from top to bottom, over a shared time axis.
+//! A trace as an SVG timing diagram: a title (the net, its scan period, the time window), a
+//! legend, then one labelled step-plot lane per input, output and place, stacked from top to
+//! bottom over a shared time axis.
+//!
+//! What is drawn is chosen to be read: inputs in the user's order (the trace's), a place's
+//! lane left out when it only repeats an output (every SIPN output is its place), and a signal
+//! that changes faster than the plot can show drawn as a shaded band instead of a moiré of
+//! edges (`--from`/`--to` zoom in). [`PlotOptions`] picks lanes and a window.
 //!
 //! Only plotters' SVG backend is used, with its built-in text size estimate: text becomes SVG
 //! `<text>` elements, so no font files are needed to draw and the viewer picks the font.
 
 use std::path::Path;
+use std::time::Duration;
 
 use plotters::prelude::*;
 
-use crate::trace::Trace;
+use crate::trace::{Trace, TraceRow};
+use petriplc_net::time::format_seconds;
 use petriplc_net::SignalType;
 
 /// Why a plot could not be drawn or saved.
@@ -22,17 +30,170 @@ pub enum PlotError {
         #[source]
         source: std::io::Error,
     },
+    #[error("--signals: `{name}` is neither a signal nor a place of this run; give input and output names or m:PLACE, from: {}", known.join(", "))]
+    UnknownSignal { name: String, known: Vec<String> },
+    #[error(
+        "--signals: no name given; give input and output names or m:PLACE, separated by commas"
+    )]
+    NoSignals,
+    #[error("--from {} s is not before --to {} s: the plot's time window is empty", format_seconds(*from), format_seconds(*to))]
+    EmptyWindow { from: Duration, to: Duration },
+    #[error("--from {} s is not before the end of the run ({} s): nothing to plot; give an earlier --from or a later --until", format_seconds(*from), format_seconds(*end))]
+    AfterEnd { from: Duration, end: Duration },
+}
+
+impl PlotError {
+    /// Whether the error is the user's options (exit code 2) rather than a failure to write.
+    pub fn is_bad_input(&self) -> bool {
+        !matches!(self, PlotError::Draw(_) | PlotError::Io { .. })
+    }
+}
+
+/// What a plot shows.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PlotOptions {
+    /// The lanes, in this order: input names (or `in:NAME`), output names, `m:PLACE`. When
+    /// absent: every input, output and place, less the places that repeat an output.
+    pub signals: Option<Vec<String>>,
+    /// The start of the time window (default 0).
+    pub from: Option<Duration>,
+    /// The end of the time window (default: the last scan; later is clamped to it).
+    pub to: Option<Duration>,
+    /// A line in red under the legend: what a partial trace says about itself (`incomplete:
+    /// the simulation failed at t=…`).
+    pub note: Option<String>,
+}
+
+impl PlotOptions {
+    /// Checks the options against the trace's columns (before the run: names and the
+    /// window's order; [`render_svg`] checks the window against the run's end).
+    pub fn check(&self, trace: &Trace) -> Result<(), PlotError> {
+        if let (Some(from), Some(to)) = (self.from, self.to) {
+            if from >= to {
+                return Err(PlotError::EmptyWindow { from, to });
+            }
+        }
+        self.lanes(trace).map(|_| ())
+    }
+
+    /// The lanes to draw: their sources and, for an output whose place's lane is left out,
+    /// that place's label.
+    fn lanes(&self, trace: &Trace) -> Result<Vec<(Source, Option<String>)>, PlotError> {
+        let Some(names) = &self.signals else {
+            return Ok(default_lanes(trace));
+        };
+        if names.is_empty() {
+            return Err(PlotError::NoSignals);
+        }
+        names
+            .iter()
+            .map(|name| {
+                resolve(trace, name.trim())
+                    .map(|s| (s, None))
+                    .ok_or_else(|| PlotError::UnknownSignal {
+                        name: name.clone(),
+                        known: known_names(trace),
+                    })
+            })
+            .collect()
+    }
+}
+
+/// Where a lane's values come from: an index into the rows' inputs, outputs or marking.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Source {
+    Input(usize),
+    Output(usize),
+    Place(usize),
+}
+
+impl Source {
+    fn value(self, trace: &Trace, row: &TraceRow) -> i64 {
+        let bool_of = |v: i64, ty: SignalType| match ty {
+            SignalType::Bool => i64::from(v != 0),
+            SignalType::Int => v,
+        };
+        match self {
+            Source::Input(j) => bool_of(row.inputs[j], trace.input_types[j]),
+            Source::Output(j) => bool_of(row.outputs[j], trace.output_types[j]),
+            Source::Place(j) => i64::from(row.marking[j]),
+        }
+    }
+}
+
+fn resolve(trace: &Trace, name: &str) -> Option<Source> {
+    if let Some(place) = name.strip_prefix("m:") {
+        return trace
+            .places
+            .iter()
+            .position(|p| p == place)
+            .map(Source::Place);
+    }
+    let input = name.strip_prefix("in:").unwrap_or(name);
+    if let Some(j) = trace.inputs.iter().position(|n| n == input) {
+        return Some(Source::Input(j));
+    }
+    trace
+        .outputs
+        .iter()
+        .position(|n| n == name)
+        .map(Source::Output)
+}
+
+fn known_names(trace: &Trace) -> Vec<String> {
+    trace
+        .inputs
+        .iter()
+        .chain(&trace.outputs)
+        .cloned()
+        .chain(trace.places.iter().map(|p| format!("m:{p}")))
+        .collect()
+}
+
+/// Every input and output, and every place but those that alone drive an output and whose
+/// marking equals it at every recorded scan (the output's lane then names the place).
+fn default_lanes(trace: &Trace) -> Vec<(Source, Option<String>)> {
+    let mut repeated: Vec<Option<usize>> = vec![None; trace.outputs.len()];
+    for (k, places) in trace.output_places.iter().enumerate() {
+        if let [j] = places[..] {
+            let (place, output) = (Source::Place(j), Source::Output(k));
+            if trace
+                .rows
+                .iter()
+                .all(|r| place.value(trace, r) == output.value(trace, r))
+            {
+                repeated[k] = Some(j);
+            }
+        }
+    }
+    let inputs = (0..trace.inputs.len()).map(|j| (Source::Input(j), None));
+    let outputs = repeated
+        .iter()
+        .enumerate()
+        .map(|(k, r)| (Source::Output(k), r.map(|j| trace.places[j].clone())));
+    let places = (0..trace.places.len())
+        .filter(|j| !repeated.contains(&Some(*j)))
+        .map(|j| (Source::Place(j), None));
+    inputs.chain(outputs).chain(places).collect()
 }
 
 const WIDTH: u32 = 1000;
 const LANE_HEIGHT: u32 = 28;
-const TOP: u32 = 12;
+/// Room for the title and, below it, the legend, above the lanes.
+const HEADER: u32 = 60;
+/// Room for a note under the legend.
+const NOTE_HEIGHT: u32 = 22;
 const AXIS_HEIGHT: u32 = 45;
+/// Edges closer than this (in pixels) cannot be told apart: runs of them become a band.
+const MIN_EDGE_GAP: f64 = 3.0;
 
 const INPUT: RGBColor = RGBColor(31, 119, 180);
 const OUTPUT: RGBColor = RGBColor(214, 39, 40);
 const PLACE: RGBColor = RGBColor(44, 140, 44);
 const SHADE: RGBColor = RGBColor(243, 243, 243);
+const TEXT: RGBColor = RGBColor(40, 40, 40);
+const GREY: RGBColor = RGBColor(120, 120, 120);
+const WARNING: RGBColor = RGBColor(192, 0, 0);
 
 /// How a lane scales its values into its height.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,24 +206,19 @@ struct Lane {
     label: String,
     color: RGBColor,
     scale: Scale,
-    /// (time in seconds, value), one point per change.
+    /// (time in seconds, value), one point per change; the first at the window's start.
     steps: Vec<(f64, i64)>,
 }
 
 impl Lane {
     fn new(
-        name: &str,
+        label: String,
         color: RGBColor,
         ty: SignalType,
         values: impl Iterator<Item = (f64, i64)>,
     ) -> Self {
         let mut steps: Vec<(f64, i64)> = Vec::new();
         for (t, v) in values {
-            let v = if ty == SignalType::Bool {
-                i64::from(v != 0)
-            } else {
-                v
-            };
             if steps.last().is_none_or(|&(_, last)| last != v) {
                 steps.push((t, v));
             }
@@ -71,8 +227,8 @@ impl Lane {
             .iter()
             .fold((0, 0), |(lo, hi), &(_, v)| (lo.min(v), hi.max(v)));
         let (scale, label) = match ty {
-            SignalType::Bool => (Scale::Bool, name.to_string()),
-            SignalType::Int => (Scale::Int { min, max }, format!("{name} [{min}..{max}]")),
+            SignalType::Bool => (Scale::Bool, label),
+            SignalType::Int => (Scale::Int { min, max }, format!("{label} [{min}..{max}]")),
         };
         Lane {
             label,
@@ -92,83 +248,237 @@ impl Lane {
     }
 }
 
-fn lanes(trace: &Trace) -> Vec<Lane> {
-    let secs = |r: &crate::trace::TraceRow| r.time.as_secs_f64();
-    let mut lanes = Vec::new();
-    for (j, (name, ty)) in trace.inputs.iter().zip(&trace.input_types).enumerate() {
-        lanes.push(Lane::new(
-            name,
-            INPUT,
-            *ty,
-            trace.rows.iter().map(|r| (secs(r), r.inputs[j])),
-        ));
-    }
-    for (j, (name, ty)) in trace.outputs.iter().zip(&trace.output_types).enumerate() {
-        lanes.push(Lane::new(
-            name,
-            OUTPUT,
-            *ty,
-            trace.rows.iter().map(|r| (secs(r), r.outputs[j])),
-        ));
-    }
-    for (j, name) in trace.places.iter().enumerate() {
-        let max = trace.rows.iter().map(|r| r.marking[j]).max().unwrap_or(0);
-        // A safe place reads best as a boolean lane; others show their token count's range.
-        let ty = if max <= 1 {
-            SignalType::Bool
-        } else {
-            SignalType::Int
-        };
-        let values = trace
-            .rows
-            .iter()
-            .map(|r| (secs(r), i64::from(r.marking[j])));
-        lanes.push(Lane::new(&format!("m:{name}"), PLACE, ty, values));
-    }
-    lanes
+/// The window of the plot in seconds, and the lanes' values within it.
+struct View {
+    from: f64,
+    to: f64,
+    lanes: Vec<Lane>,
+    /// Some output's lane also stands for a place (`Y = m:P`).
+    merged: bool,
 }
 
-/// The trace as an SVG document.
+fn view(trace: &Trace, options: &PlotOptions) -> Result<View, PlotError> {
+    let from = options.from.unwrap_or(Duration::ZERO);
+    let mut to = options.to.map_or(trace.end, |t| t.min(trace.end));
+    if let Some(t) = options.to {
+        if from >= t {
+            return Err(PlotError::EmptyWindow { from, to: t });
+        }
+    }
+    if from > Duration::ZERO && from >= trace.end {
+        return Err(PlotError::AfterEnd {
+            from,
+            end: trace.end,
+        });
+    }
+    if to <= from {
+        // A run of one scan: a window one period (or a second) wide.
+        to = from
+            + if trace.period.is_zero() {
+                Duration::from_secs(1)
+            } else {
+                trace.period
+            };
+    }
+    // The rows that matter: the last one at or before `from` (the state the window opens
+    // with), then every one inside the window.
+    let start = trace
+        .rows
+        .partition_point(|r| r.time <= from)
+        .saturating_sub(1);
+    let rows: Vec<&TraceRow> = trace.rows[start..]
+        .iter()
+        .take_while(|r| r.time <= to)
+        .collect();
+    let (from_s, to_s) = (from.as_secs_f64(), to.as_secs_f64());
+    let points = |src: Source| -> Vec<(f64, i64)> {
+        rows.iter()
+            .map(|r| (r.time.as_secs_f64().max(from_s), src.value(trace, r)))
+            .collect()
+    };
+    let mut lanes = Vec::new();
+    let mut merged = false;
+    for (src, repeats) in options.lanes(trace)? {
+        merged |= repeats.is_some();
+        let values = points(src);
+        let (label, color, ty) = match src {
+            Source::Input(j) => (trace.inputs[j].clone(), INPUT, trace.input_types[j]),
+            Source::Output(j) => {
+                let label = match repeats {
+                    Some(place) => format!("{} = m:{place}", trace.outputs[j]),
+                    None => trace.outputs[j].clone(),
+                };
+                (label, OUTPUT, trace.output_types[j])
+            }
+            Source::Place(j) => {
+                // A safe place reads best as a boolean lane; others show their range.
+                let max = values.iter().map(|&(_, v)| v).max().unwrap_or(0);
+                let ty = if max <= 1 {
+                    SignalType::Bool
+                } else {
+                    SignalType::Int
+                };
+                (format!("m:{}", trace.places[j]), PLACE, ty)
+            }
+        };
+        lanes.push(Lane::new(label, color, ty, values.into_iter()));
+    }
+    Ok(View {
+        from: from_s,
+        to: to_s,
+        lanes,
+        merged,
+    })
+}
+
+/// `10 ms`, `1.5 s`: a period for the title.
+fn human(d: Duration) -> String {
+    let ns = d.as_nanos();
+    if ns % 1_000_000 == 0 && ns < 1_000_000_000 {
+        format!("{} ms", ns / 1_000_000)
+    } else {
+        format!("{} s", format_seconds(d))
+    }
+}
+
+fn title(trace: &Trace, view: &View) -> String {
+    let mut t = if trace.net.is_empty() {
+        "trace".to_string()
+    } else {
+        trace.net.clone()
+    };
+    if !trace.period.is_zero() {
+        t.push_str(&format!(" · scan every {}", human(trace.period)));
+    }
+    t.push_str(&format!(
+        " · {} to {} s",
+        trim_number(view.from),
+        trim_number(view.to)
+    ));
+    t
+}
+
+/// The trace as an SVG document: every lane, over the whole run.
 pub fn render_svg(trace: &Trace) -> Result<String, PlotError> {
-    let lanes = lanes(trace);
-    let n = lanes.len().max(1);
-    let height = TOP + AXIS_HEIGHT + LANE_HEIGHT * n as u32;
-    let end = trace.end.as_secs_f64();
-    let end = if end > 0.0 { end } else { 1.0 };
+    render_svg_with(trace, &PlotOptions::default())
+}
+
+/// The trace as an SVG document, with the lanes and window of `options`.
+pub fn render_svg_with(trace: &Trace, options: &PlotOptions) -> Result<String, PlotError> {
+    let view = view(trace, options)?;
+    let n = view.lanes.len().max(1);
+    let note = options.note.as_deref().map(|n| n.replace('\n', " "));
+    let header = HEADER + if note.is_some() { NOTE_HEIGHT } else { 0 };
+    let height = header + AXIS_HEIGHT + LANE_HEIGHT * n as u32;
+    let title = title(trace, &view);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (WIDTH, height)).into_drawing_area();
-        draw(&root, &lanes, n, end).map_err(|e| PlotError::Draw(e.to_string()))?;
+        let texts = Header {
+            height: header,
+            title: &title,
+            note: note.as_deref(),
+        };
+        draw(&root, &view, n, &texts).map_err(|e| PlotError::Draw(e.to_string()))?;
         root.present().map_err(|e| PlotError::Draw(e.to_string()))?;
     }
     Ok(svg)
 }
 
+/// A lane's drawing: step lines, and bands where edges come too fast to draw one by one.
+#[derive(Debug, Default, PartialEq)]
+struct Strokes {
+    /// Polylines, in data coordinates (seconds, lane fraction 0..1).
+    lines: Vec<Vec<(f64, f64)>>,
+    /// Bands: (from, to) in seconds and (low, high) lane fractions.
+    bands: Vec<((f64, f64), (f64, f64))>,
+}
+
+/// Splits a lane into lines and bands; `px` is the width of one second in pixels.
+fn strokes(lane: &Lane, end: f64, px: f64) -> Strokes {
+    let mut out = Strokes::default();
+    let steps = &lane.steps;
+    let Some(&(t0, v0)) = steps.first() else {
+        return out;
+    };
+    let mut line = vec![(t0, lane.fraction(v0))];
+    let mut k = 1;
+    while k < steps.len() {
+        // A run of edges each closer than MIN_EDGE_GAP to the one before.
+        let mut last = k;
+        while last + 1 < steps.len() && (steps[last + 1].0 - steps[last].0) * px < MIN_EDGE_GAP {
+            last += 1;
+        }
+        // Two close edges (a one-scan pulse) still read as a spike; three or more are a blur.
+        let dense = last >= k + 2;
+        let before = lane.fraction(steps[k - 1].1);
+        if dense {
+            let (t_in, t_out) = (steps[k].0, steps[last].0);
+            let (lo, hi) = steps[k - 1..=last]
+                .iter()
+                .map(|&(_, v)| lane.fraction(v))
+                .fold((f64::MAX, f64::MIN), |(lo, hi), f| (lo.min(f), hi.max(f)));
+            line.push((t_in, before));
+            out.lines.push(std::mem::take(&mut line));
+            out.bands.push(((t_in, t_out), (lo, hi)));
+            line.push((t_out, lane.fraction(steps[last].1)));
+            k = last + 1;
+        } else {
+            let (t, v) = steps[k];
+            line.push((t, before));
+            line.push((t, lane.fraction(v)));
+            k += 1;
+        }
+    }
+    let &(_, v) = steps.last().expect("not empty");
+    line.push((end, lane.fraction(v)));
+    out.lines.push(line);
+    out
+}
+
+/// The lane colour lightened towards white, for bands.
+fn light(c: RGBColor) -> RGBColor {
+    let mix = |x: u8| ((u16::from(x) + 2 * 255) / 3) as u8;
+    RGBColor(mix(c.0), mix(c.1), mix(c.2))
+}
+
 fn draw(
     root: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
-    lanes: &[Lane],
+    view: &View,
     n: usize,
-    end: f64,
+    texts: &Header<'_>,
 ) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
     root.fill(&WHITE)?;
-    // Room for the longest label at about 7.5 px a character (13 px sans-serif), within reason.
-    let longest = lanes
+    let (header, body) = root.split_vertically(texts.height);
+    // Room for the longest label at about 6.5 px a character, within reason.
+    let longest = view
+        .lanes
         .iter()
         .map(|l| l.label.chars().count())
         .max()
         .unwrap_or(0);
-    let label_width = (longest as u32 * 15 / 2 + 24).clamp(100, 400);
-    let (label_area, plot_area) = root.split_horizontally(label_width);
+    let label_width = (longest as u32 * 13 / 2 + 24).clamp(90, 360);
+    let (label_area, plot_area) = body.split_horizontally(label_width);
     let mut chart = ChartBuilder::on(&plot_area)
-        .margin_top(TOP)
         .margin_right(20)
         .x_label_area_size(AXIS_HEIGHT)
-        .build_cartesian_2d(0f64..end, 0f64..n as f64)?;
+        .build_cartesian_2d(view.from..view.to, 0f64..n as f64)?;
+    let (x0, _) = chart.backend_coord(&(view.from, 0.0));
+    let (x1, _) = chart.backend_coord(&(view.to, 0.0));
+    let px = f64::from(x1 - x0) / (view.to - view.from);
+    let strokes: Vec<Strokes> = view
+        .lanes
+        .iter()
+        .map(|lane| strokes(lane, view.to, px))
+        .collect();
+    let any_band = strokes.iter().any(|s| !s.bands.is_empty());
+    draw_header(&header, view, texts, any_band)?;
+
     // Shade every other lane first, so the grid stays visible on top of it.
-    for i in (0..lanes.len()).step_by(2) {
+    for i in (0..view.lanes.len()).step_by(2) {
         let base = (n - 1 - i) as f64;
         chart.draw_series(std::iter::once(Rectangle::new(
-            [(0.0, base), (end, base + 1.0)],
+            [(view.from, base), (view.to, base + 1.0)],
             SHADE.filled(),
         )))?;
     }
@@ -177,6 +487,8 @@ fn draw(
         .disable_y_mesh()
         .disable_y_axis()
         .x_desc("time (s)")
+        .axis_desc_style(("sans-serif", 14))
+        .x_label_style(("sans-serif", 13))
         .x_label_formatter(&|x| trim_number(*x))
         .max_light_lines(1)
         .light_line_style(RGBColor(235, 235, 235))
@@ -184,28 +496,120 @@ fn draw(
         .draw()?;
 
     let label_font = ("sans-serif", 13).into_font();
-    for (i, lane) in lanes.iter().enumerate() {
+    for (i, (lane, s)) in view.lanes.iter().zip(strokes).enumerate() {
         let base = (n - 1 - i) as f64;
-        let y = |v: i64| base + 0.15 + 0.7 * lane.fraction(v);
-        let mut points = Vec::with_capacity(lane.steps.len() * 2 + 1);
-        for (k, &(t, v)) in lane.steps.iter().enumerate() {
-            if k > 0 {
-                points.push((t, y(lane.steps[k - 1].1)));
-            }
-            points.push((t, y(v)));
+        let y = |f: f64| base + 0.15 + 0.7 * f;
+        for &((t0, t1), (lo, hi)) in &s.bands {
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(t0, y(lo)), (t1, y(hi))],
+                light(lane.color).filled(),
+            )))?;
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(t0, y(lo)), (t1, y(hi))],
+                lane.color.stroke_width(1),
+            )))?;
         }
-        if let Some(&(_, v)) = lane.steps.last() {
-            points.push((end, y(v)));
+        for line in s.lines {
+            let points = line.into_iter().map(|(t, f)| (t, y(f)));
+            chart.draw_series(LineSeries::new(points, lane.color.stroke_width(2)))?;
         }
-        chart.draw_series(LineSeries::new(points, lane.color.stroke_width(2)))?;
-        let (_, py) = chart.backend_coord(&(0.0, base + 0.5));
+        // Backend coordinates are the whole image's; the label area starts below the header.
+        let (_, py) = chart.backend_coord(&(view.from, base + 0.5));
         label_area.draw(&Text::new(
             lane.label.clone(),
-            (8, py - 7),
+            (8, py - 7 - HEADER as i32),
             label_font.clone().color(&lane.color),
         ))?;
     }
     Ok(())
+}
+
+/// The title, and below it the legend of colours (and of bands, when any).
+/// The texts above the lanes, and the room they take.
+struct Header<'a> {
+    height: u32,
+    title: &'a str,
+    note: Option<&'a str>,
+}
+
+fn draw_header(
+    header: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    view: &View,
+    texts: &Header<'_>,
+    any_band: bool,
+) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
+    header.draw(&Text::new(
+        texts.title.to_string(),
+        (8, 10),
+        ("sans-serif", 17).into_font().color(&TEXT),
+    ))?;
+    if let Some(note) = texts.note {
+        header.draw(&Text::new(
+            note.to_string(),
+            (8, HEADER as i32 - 4),
+            ("sans-serif", 13).into_font().color(&WARNING),
+        ))?;
+    }
+    let mut legend: Vec<(&str, RGBColor, Swatch)> = Vec::new();
+    for (name, color) in [("input", INPUT), ("output", OUTPUT), ("marking", PLACE)] {
+        if view.lanes.iter().any(|l| l.color == color) {
+            legend.push((name, color, Swatch::Line));
+        }
+    }
+    if view.merged {
+        legend.push(("Y = m:P: output Y is the marking of P", GREY, Swatch::None));
+    }
+    if any_band {
+        legend.push((
+            "changes faster than drawn (zoom with --from/--to)",
+            GREY,
+            Swatch::Band,
+        ));
+    }
+    let legend_font = ("sans-serif", 13).into_font();
+    // About 6 px a character at this size, plus the swatch and a gap.
+    let widths: Vec<i32> = legend
+        .iter()
+        .map(|(name, _, swatch)| {
+            let room = if *swatch == Swatch::None { 0 } else { 30 };
+            room + name.chars().count() as i32 * 6 + 16
+        })
+        .collect();
+    let mut x = 10;
+    let y = 40;
+    for ((name, color, swatch), w) in legend.iter().zip(widths) {
+        let text_x = if *swatch == Swatch::None { x } else { x + 30 };
+        if *swatch == Swatch::Band {
+            header.draw(&Rectangle::new(
+                [(x, y - 5), (x + 22, y + 5)],
+                light(*color).filled(),
+            ))?;
+            header.draw(&Rectangle::new(
+                [(x, y - 5), (x + 22, y + 5)],
+                color.stroke_width(1),
+            ))?;
+        } else if *swatch == Swatch::Line {
+            header.draw(&PathElement::new(
+                vec![(x, y), (x + 22, y)],
+                color.stroke_width(2),
+            ))?;
+        }
+        header.draw(&Text::new(
+            name.to_string(),
+            (text_x, y - 6),
+            legend_font.clone().color(&TEXT),
+        ))?;
+        x += w;
+    }
+    Ok(())
+}
+
+/// What a legend entry shows before its text.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Swatch {
+    Line,
+    Band,
+    None,
 }
 
 /// Axis numbers without float noise: `0.3`, not `0.30000000000000004`.
@@ -219,10 +623,14 @@ fn trim_number(x: f64) -> String {
     }
 }
 
-/// Draws the trace to an SVG file.
-pub fn write_svg(trace: &Trace, path: impl AsRef<Path>) -> Result<(), PlotError> {
+/// Draws the trace to an SVG file, with the lanes and window of `options`.
+pub fn write_svg(
+    trace: &Trace,
+    options: &PlotOptions,
+    path: impl AsRef<Path>,
+) -> Result<(), PlotError> {
     let path = path.as_ref();
-    let svg = render_svg(trace)?;
+    let svg = render_svg_with(trace, options)?;
     std::fs::write(path, svg).map_err(|source| PlotError::Io {
         path: path.display().to_string(),
         source,
@@ -237,11 +645,13 @@ mod tests {
     use quick_xml::Reader;
     use std::time::Duration;
 
-    /// What an SVG holds, read by an XML parser: its root element, the texts and the number of
-    /// lane lines (the only polylines drawn 2 px wide).
+    /// What an SVG holds, read by an XML parser: its root element, the texts, the lane
+    /// labels (the texts in a lane's colour) and the number of lane lines (the only polylines
+    /// drawn 2 px wide).
     struct Svg {
         root: String,
         texts: Vec<String>,
+        labels: Vec<String>,
         polylines: usize,
     }
 
@@ -250,8 +660,10 @@ mod tests {
         let mut out = Svg {
             root: String::new(),
             texts: Vec::new(),
+            labels: Vec::new(),
             polylines: 0,
         };
+        let mut label = false;
         let mut depth = 0usize;
         // Text arrives in pieces around entity references; a piece ends at the next tag.
         let mut text = String::new();
@@ -278,6 +690,9 @@ mod tests {
             }
             if !text.trim().is_empty() {
                 out.texts.push(text.trim().to_string());
+                if label {
+                    out.labels.push(text.trim().to_string());
+                }
             }
             text.clear();
             match event {
@@ -285,6 +700,11 @@ mod tests {
                     if depth == 0 {
                         out.root = e.name().as_ref().to_string();
                     }
+                    label = e.name().as_ref() == "text"
+                        && e.attributes().flatten().any(|a| {
+                            a.key.as_ref() == "fill"
+                                && ["#1F77B4", "#D62728", "#2C8C2C"].contains(&&*a.value)
+                        });
                     depth += 1;
                 }
                 Event::End(_) => depth -= 1,
@@ -303,20 +723,26 @@ mod tests {
         out
     }
 
-    fn trace() -> Trace {
-        let row = |ms: u64, inputs: &[i64], outputs: &[i64], marking: &[u32]| TraceRow {
+    fn row(ms: u64, inputs: &[i64], outputs: &[i64], marking: &[u32]) -> TraceRow {
+        TraceRow {
             time: Duration::from_millis(ms),
             inputs: inputs.to_vec(),
             outputs: outputs.to_vec(),
             marking: marking.to_vec(),
             fired: vec![],
-        };
+        }
+    }
+
+    fn trace() -> Trace {
         Trace {
+            net: "demo".into(),
+            period: Duration::from_millis(100),
             inputs: vec!["START".into(), "SPEED".into()],
             input_types: vec![SignalType::Bool, SignalType::Int],
             outputs: vec!["L1".into()],
             output_types: vec![SignalType::Bool],
             places: vec!["idle".into(), "buffer".into()],
+            output_places: vec![vec![0, 1]],
             rows: vec![
                 row(0, &[0, -2], &[0], &[1, 0]),
                 row(300, &[1, 5], &[1], &[0, 3]),
@@ -327,38 +753,190 @@ mod tests {
         }
     }
 
-    /// Renders `trace` and compares the lane labels (first texts, top to bottom) and the
-    /// number of step lines.
-    fn check(trace: &Trace, expect_labels: &[&str]) {
-        let svg = parse(&render_svg(trace).unwrap());
-        assert_eq!(svg.root, "svg");
-        assert_eq!(svg.polylines, expect_labels.len(), "one step line per lane");
-        for label in expect_labels {
-            assert!(
-                svg.texts.iter().any(|t| t == label),
-                "no label {label:?} in {:?}",
-                svg.texts
-            );
+    fn options(signals: Option<&[&str]>, from: Option<u64>, to: Option<u64>) -> PlotOptions {
+        PlotOptions {
+            signals: signals.map(|s| s.iter().map(|n| n.to_string()).collect()),
+            from: from.map(Duration::from_millis),
+            to: to.map(Duration::from_millis),
+            note: None,
         }
+    }
+
+    /// Renders `trace` with `options` and compares the lane labels, top to bottom (the texts
+    /// drawn in a lane colour, in order), and checks the title and axis.
+    fn check(trace: &Trace, options: &PlotOptions, expect_title: &str, expect_labels: &[&str]) {
+        let svg = parse(&render_svg_with(trace, options).unwrap());
+        assert_eq!(svg.root, "svg");
+        assert_eq!(svg.labels, expect_labels, "lane labels");
+        assert_eq!(svg.texts.first().map(String::as_str), Some(expect_title));
         assert!(svg.texts.iter().any(|t| t == "time (s)"));
+        assert!(svg.polylines >= expect_labels.len(), "a step line per lane");
     }
 
     #[test]
-    fn draws_a_labelled_lane_per_signal_and_place() {
+    fn draws_a_title_a_legend_and_a_labelled_lane_per_signal_and_place() {
         check(
             &trace(),
+            &PlotOptions::default(),
+            "demo · scan every 100 ms · 0 to 1 s",
             &["START", "SPEED [-2..5]", "L1", "m:idle", "m:buffer [0..3]"],
+        );
+        let svg = parse(&render_svg(&trace()).unwrap());
+        for item in ["input", "output", "marking"] {
+            assert!(svg.texts.iter().any(|t| t == item), "legend {item}");
+        }
+        assert!(!svg.texts.iter().any(|t| t.starts_with("changes faster")));
+    }
+
+    #[test]
+    fn a_place_that_repeats_an_output_is_named_on_its_lane() {
+        let mut t = trace();
+        t.places = vec!["L1".into(), "idle".into()];
+        t.output_places = vec![vec![0]];
+        for (r, m) in t.rows.iter_mut().zip([[0, 1], [1, 0], [0, 1]]) {
+            r.marking = m.to_vec();
+        }
+        check(
+            &t,
+            &PlotOptions::default(),
+            "demo · scan every 100 ms · 0 to 1 s",
+            &["START", "SPEED [-2..5]", "L1 = m:L1", "m:idle"],
+        );
+        // Asked for by name, it is drawn.
+        check(
+            &t,
+            &options(Some(&["m:L1", "L1"]), None, None),
+            "demo · scan every 100 ms · 0 to 1 s",
+            &["m:L1", "L1"],
         );
     }
 
     #[test]
+    fn signals_pick_lanes_in_the_order_given() {
+        check(
+            &trace(),
+            &options(Some(&["m:buffer", "L1", "in:START", "SPEED"]), None, None),
+            "demo · scan every 100 ms · 0 to 1 s",
+            &["m:buffer [0..3]", "L1", "START", "SPEED [-2..5]"],
+        );
+        let e = options(Some(&["L1", "lamp"]), None, None)
+            .check(&trace())
+            .unwrap_err();
+        assert!(e.is_bad_input());
+        assert_eq!(
+            e.to_string(),
+            "--signals: `lamp` is neither a signal nor a place of this run; give input and \
+             output names or m:PLACE, from: START, SPEED, L1, m:idle, m:buffer"
+        );
+        assert!(matches!(
+            options(Some(&[]), None, None).check(&trace()),
+            Err(PlotError::NoSignals)
+        ));
+    }
+
+    #[test]
+    fn a_window_shows_the_state_it_opens_with() {
+        // From 0.5 s: START is already 0 again, SPEED 5, buffer 3 then 1 (integer lanes
+        // always show 0 in their range).
+        check(
+            &trace(),
+            &options(None, Some(500), Some(900)),
+            "demo · scan every 100 ms · 0.5 to 0.9 s",
+            &["START", "SPEED [0..5]", "L1", "m:idle", "m:buffer [0..3]"],
+        );
+        // A window past the end is clamped to it.
+        check(
+            &trace(),
+            &options(None, Some(200), Some(5000)),
+            "demo · scan every 100 ms · 0.2 to 1 s",
+            &["START", "SPEED [-2..5]", "L1", "m:idle", "m:buffer [0..3]"],
+        );
+        let e = options(None, Some(800), Some(800))
+            .check(&trace())
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "--from 0.8 s is not before --to 0.8 s: the plot's time window is empty"
+        );
+        let e = render_svg_with(&trace(), &options(None, Some(1000), None)).unwrap_err();
+        assert!(e.is_bad_input());
+        assert!(e
+            .to_string()
+            .starts_with("--from 1 s is not before the end of the run (1 s)"));
+    }
+
+    #[test]
     fn draws_degenerate_traces() {
-        check(&Trace::default(), &[]);
+        check(
+            &Trace::default(),
+            &PlotOptions::default(),
+            "trace · 0 to 1 s",
+            &[],
+        );
         let mut t = trace();
         t.rows.truncate(1);
         t.end = Duration::ZERO;
         t.places = vec!["a<b&c".into(), "buffer".into()];
-        check(&t, &["START", "SPEED [-2..0]", "L1", "m:a<b&c", "m:buffer"]);
+        check(
+            &t,
+            &PlotOptions::default(),
+            "demo · scan every 100 ms · 0 to 0.1 s",
+            &["START", "SPEED [-2..0]", "L1", "m:a<b&c", "m:buffer"],
+        );
+    }
+
+    #[test]
+    fn edges_too_close_to_draw_become_a_band() {
+        let lane = |steps: &[(f64, i64)]| Lane {
+            label: "x".into(),
+            color: INPUT,
+            scale: Scale::Bool,
+            steps: steps.to_vec(),
+        };
+        // 100 px a second: edges 0.01 s apart are 1 px apart.
+        let fast = lane(&[
+            (0.0, 0),
+            (1.0, 1),
+            (1.01, 0),
+            (1.02, 1),
+            (1.03, 0),
+            (2.0, 1),
+        ]);
+        let s = strokes(&fast, 3.0, 100.0);
+        assert_eq!(s.bands, [((1.0, 1.03), (0.0, 1.0))]);
+        assert_eq!(
+            s.lines,
+            [
+                vec![(0.0, 0.0), (1.0, 0.0)],
+                vec![(1.03, 0.0), (2.0, 0.0), (2.0, 1.0), (3.0, 1.0)]
+            ]
+        );
+        // Zoomed in (10 000 px a second) the same edges are drawn one by one.
+        let s = strokes(&fast, 3.0, 10_000.0);
+        assert!(s.bands.is_empty());
+        assert_eq!(s.lines.len(), 1);
+        assert_eq!(s.lines[0].len(), 12);
+        // A lone pair of close edges is still drawn as edges.
+        let blip = lane(&[(0.0, 0), (1.0, 1), (1.01, 0)]);
+        assert!(strokes(&blip, 2.0, 100.0).bands.is_empty());
+    }
+
+    #[test]
+    fn fast_signals_are_banded_and_the_legend_says_so() {
+        let mut t = trace();
+        // START toggles every 10 ms for 10 s: under a pixel apart on the whole run.
+        t.rows = (0..1000)
+            .map(|k| row(k * 10, &[k as i64 % 2, 0], &[0], &[1, 0]))
+            .collect();
+        t.end = Duration::from_secs(10);
+        let svg = parse(&render_svg(&t).unwrap());
+        assert!(svg
+            .texts
+            .iter()
+            .any(|x| x == "changes faster than drawn (zoom with --from/--to)"));
+        // Zoomed in to 0.1 s, 10 edges are 90 px apart: no band.
+        let svg = parse(&render_svg_with(&t, &options(None, Some(0), Some(100))).unwrap());
+        assert!(!svg.texts.iter().any(|x| x.starts_with("changes faster")));
     }
 
     #[test]
@@ -366,11 +944,17 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("petriplc-sim-plot-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("trace.svg");
-        write_svg(&trace(), &path).unwrap();
+        write_svg(&trace(), &PlotOptions::default(), &path).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         assert_eq!(text, render_svg(&trace()).unwrap());
         std::fs::remove_dir_all(&dir).unwrap();
-        let e = write_svg(&trace(), dir.join("missing/trace.svg")).unwrap_err();
+        let e = write_svg(
+            &trace(),
+            &PlotOptions::default(),
+            dir.join("missing/trace.svg"),
+        )
+        .unwrap_err();
+        assert!(!e.is_bad_input());
         assert!(
             e.to_string().starts_with("cannot write the plot to "),
             "{e}"
@@ -378,9 +962,36 @@ mod tests {
     }
 
     #[test]
+    fn a_note_gets_its_own_line_under_the_legend() {
+        let plain = parse(&render_svg(&trace()).unwrap());
+        let noted = PlotOptions {
+            note: Some("incomplete: interrupted (Ctrl-C)\nafter t=0.7 s".into()),
+            ..PlotOptions::default()
+        };
+        let svg = render_svg_with(&trace(), &noted).unwrap();
+        let height = |svg: &str| {
+            let h = svg.split("height=\"").nth(1).unwrap();
+            h[..h.find('"').unwrap()].parse::<u32>().unwrap()
+        };
+        assert_eq!(
+            height(&svg),
+            height(&render_svg(&trace()).unwrap()) + NOTE_HEIGHT
+        );
+        let noted = parse(&svg);
+        assert!(noted
+            .texts
+            .contains(&"incomplete: interrupted (Ctrl-C) after t=0.7 s".to_string()));
+        assert_eq!(noted.labels, plain.labels);
+        assert_eq!(noted.texts.len(), plain.texts.len() + 1);
+    }
+
+    #[test]
     fn axis_numbers_are_trimmed() {
         assert_eq!(trim_number(0.30000000000000004), "0.3");
         assert_eq!(trim_number(2.0), "2");
         assert_eq!(trim_number(-0.0), "0");
+        assert_eq!(human(Duration::from_millis(10)), "10 ms");
+        assert_eq!(human(Duration::from_micros(1500)), "0.0015 s");
+        assert_eq!(human(Duration::from_millis(1500)), "1.5 s");
     }
 }

@@ -37,7 +37,7 @@ impl SimOptions {
 pub enum SimError {
     #[error("the scan period is 0; give a period greater than zero (e.g. 0.01 or T#10ms)")]
     ZeroPeriod,
-    #[error("timeline {timeline}: column `{column}` is not an input of the controller{}; known inputs: {}; check the spelling", plant_part(.plant), list(.known))]
+    #[error("timeline {timeline}: column `{column}` is not an input of the controller{}; {}", plant_part(.plant), known_inputs(.known))]
     UnknownColumn {
         timeline: String,
         column: String,
@@ -92,6 +92,14 @@ fn plant_part(plant: &Option<String>) -> String {
     plant
         .as_ref()
         .map_or(String::new(), |p| format!(" nor of plant `{p}`"))
+}
+
+fn known_inputs(names: &[String]) -> String {
+    if names.is_empty() {
+        "it has no inputs at all".to_string()
+    } else {
+        format!("known inputs: {}; check the spelling", names.join(", "))
+    }
 }
 
 fn list(names: &[String]) -> String {
@@ -303,6 +311,24 @@ impl<'n> Simulation<'n> {
             .collect();
         let warnings = [warnings, unwired_plant_inputs].concat();
 
+        // The trace lists inputs in the user's order: the timeline's columns, then what the
+        // plant drives, then the rest as the net declares them.
+        let mut trace = Trace::new(net);
+        trace.period = opts.period;
+        let mut first: Vec<&str> = timeline_inputs
+            .iter()
+            .map(|&(_, s)| net.signal(s).name.as_str())
+            .collect();
+        if let Some(pw) = &plant {
+            first.extend(pw.drives.iter().map(|&(_, s)| net.signal(s).name.as_str()));
+        }
+        let declared: Vec<SignalId> = net.inputs().collect();
+        let input_ids = trace
+            .order_inputs(&first)
+            .into_iter()
+            .map(|i| declared[i])
+            .collect();
+
         let cursor = timeline.as_ref().map(CursorState::new).unwrap_or_default();
         Ok(Simulation {
             net,
@@ -314,14 +340,14 @@ impl<'n> Simulation<'n> {
             timeline_inputs,
             plant,
             forced: vec![None; net.signals().len()],
-            input_ids: net.inputs().collect(),
+            input_ids,
             output_ids: net.outputs().collect(),
             warnings,
             next: 0,
             now: Duration::ZERO,
             finished: false,
             current: TraceRow::default(),
-            trace: Trace::new(net),
+            trace,
         })
     }
 

@@ -60,6 +60,10 @@ pub enum TimelineProblem {
     #[error("the timeline has no header; its first line must be `time,SIG1,SIG2,...`")]
     NoHeader,
     #[error(
+        "byte {byte:#04x} is not UTF-8 text; save the timeline as UTF-8 (plain ASCII will do)"
+    )]
+    NotUtf8 { byte: u8 },
+    #[error(
         "the first header cell is `{found}`; it must be `time` (header: `time,SIG1,SIG2,...`)"
     )]
     NotTime { found: String },
@@ -87,6 +91,21 @@ pub enum TimelineProblem {
         previous: Duration,
         previous_line: usize,
     },
+}
+
+/// Where in the file the first byte that is not UTF-8 is.
+fn not_utf8(file: &str, e: std::string::FromUtf8Error) -> TimelineError {
+    let at = e.utf8_error().valid_up_to();
+    let bytes = e.as_bytes();
+    // The text before it is valid UTF-8: count lines and characters in it.
+    let before = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    TimelineError::Syntax {
+        file: file.to_string(),
+        line: before.matches('\n').count() + 1,
+        column: before[line_start..].chars().count() + 1,
+        problem: TimelineProblem::NotUtf8 { byte: bytes[at] },
+    }
 }
 
 /// A parsed timeline: column names and, per column, the times its value changes.
@@ -213,10 +232,11 @@ impl Timeline {
     pub fn read_file(path: impl AsRef<Path>) -> Result<Timeline, TimelineError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| TimelineError::Io {
+        let bytes = std::fs::read(path).map_err(|source| TimelineError::Io {
             file: file.clone(),
             source,
         })?;
+        let text = String::from_utf8(bytes).map_err(|e| not_utf8(&file, e))?;
         Timeline::parse(&text, &file)
     }
 
@@ -474,11 +494,11 @@ mod tests {
         );
         check(
             "time,A\nsoon,1\n",
-            "tl.csv:2:1: bad time: `soon` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)",
+            "tl.csv:2:1: bad time: `soon` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)",
         );
         check(
             "time,A\n-1,1\n",
-            "tl.csv:2:1: bad time: `-1` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`)",
+            "tl.csv:2:1: bad time: `-1` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)",
         );
         check(
             "time,A,B\n0,1,  yes\n",
@@ -496,6 +516,19 @@ mod tests {
             "time,A\n0,0\n# gap\n2,1\nT#1s,0\n",
             "tl.csv:5:1: time 1s comes before 2s on line 4; sort the rows by time (equal times are allowed)",
         );
+    }
+
+    #[test]
+    fn a_file_that_is_not_utf8_is_refused_at_its_line() {
+        let path = std::env::temp_dir().join(format!("petriplc-{}-latin1.csv", std::process::id()));
+        std::fs::write(&path, b"time,A\n0,1\n1,caf\xe9\n").unwrap();
+        let e = Timeline::read_file(&path).unwrap_err();
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(e.position(), Some((3, 6)));
+        assert_eq!(e.problem(), Some(&TimelineProblem::NotUtf8 { byte: 0xe9 }));
+        assert!(e.to_string().ends_with(
+            "latin1.csv:3:6: byte 0xe9 is not UTF-8 text; save the timeline as UTF-8 (plain ASCII will do)"
+        ), "{e}");
     }
 
     #[test]

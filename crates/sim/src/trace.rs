@@ -25,7 +25,12 @@ pub struct TraceRow {
 /// A run's recorded rows and the names that give their columns meaning.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Trace {
-    /// Input signal names, in declaration order.
+    /// The controller net's name, else its id (for the plot's title).
+    pub net: String,
+    /// The scan period of the run (for the plot's title; zero when unknown).
+    pub period: Duration,
+    /// Input signal names: those a timeline drives in its column order, then those a plant
+    /// drives, then the rest in declaration order (see [`Trace::order_inputs`]).
     pub inputs: Vec<String>,
     pub input_types: Vec<SignalType>,
     /// Output signal names, in declaration order.
@@ -33,6 +38,10 @@ pub struct Trace {
     pub output_types: Vec<SignalType>,
     /// Place labels ([`Net::place_label`]).
     pub places: Vec<String>,
+    /// Per output, in the order of [`Trace::outputs`]: the places that drive it (indices into
+    /// [`Trace::places`]). The plot leaves out a place's lane when the place alone drives an
+    /// output and its marking equals that output throughout.
+    pub output_places: Vec<Vec<usize>>,
     /// The first scan's row, then one for every scan whose inputs, outputs or marking changed
     /// or in which something fired.
     pub rows: Vec<TraceRow>,
@@ -53,7 +62,23 @@ impl Trace {
             .outputs()
             .map(|s| (net.signal(s).name.clone(), net.signal(s).ty))
             .unzip();
+        let output_places = net
+            .outputs()
+            .map(|o| {
+                net.place_ids()
+                    .enumerate()
+                    .filter(|&(_, p)| net.place(p).output == Some(o))
+                    .map(|(i, _)| i)
+                    .collect()
+            })
+            .collect();
         Trace {
+            net: if net.name.is_empty() {
+                net.id.clone()
+            } else {
+                net.name.clone()
+            },
+            output_places,
             inputs,
             input_types,
             outputs,
@@ -64,6 +89,29 @@ impl Trace {
                 .collect(),
             ..Trace::default()
         }
+    }
+
+    /// Puts the inputs named in `first` first, in that order; the others keep their order.
+    /// Returns the permutation applied (new position → old position), for the rows' values.
+    /// Only for a trace with no rows yet.
+    pub fn order_inputs(&mut self, first: &[&str]) -> Vec<usize> {
+        debug_assert!(self.rows.is_empty(), "reorder the columns before recording");
+        let mut order: Vec<usize> = Vec::with_capacity(self.inputs.len());
+        for name in first {
+            if let Some(i) = self.inputs.iter().position(|n| n == name) {
+                if !order.contains(&i) {
+                    order.push(i);
+                }
+            }
+        }
+        for i in 0..self.inputs.len() {
+            if !order.contains(&i) {
+                order.push(i);
+            }
+        }
+        self.inputs = order.iter().map(|&i| self.inputs[i].clone()).collect();
+        self.input_types = order.iter().map(|&i| self.input_types[i]).collect();
+        order
     }
 
     /// Notes one scan; keeps a copy of `row` when it is the first or differs from the last
@@ -83,32 +131,20 @@ impl Trace {
         keep
     }
 
-    /// The rows the CSV shows: the first, then those where outputs or marking changed or
-    /// something fired (rows kept only for an input change are left out: the CSV has no input
-    /// columns).
-    pub fn csv_row_iter(&self) -> impl Iterator<Item = &TraceRow> + '_ {
-        self.rows.iter().enumerate().filter_map(move |(i, row)| {
-            let shown = match i.checked_sub(1).map(|j| &self.rows[j]) {
-                None => true,
-                Some(prev) => {
-                    !row.fired.is_empty()
-                        || prev.outputs != row.outputs
-                        || prev.marking != row.marking
-                }
-            };
-            shown.then_some(row)
-        })
-    }
-
-    /// How many data lines [`Trace::write_csv`] writes.
+    /// How many data lines [`Trace::write_csv`] writes: one per kept row.
     pub fn csv_rows(&self) -> usize {
-        self.csv_row_iter().count()
+        self.rows.len()
     }
 
-    /// Writes `time,<outputs…>,m:<place>…,fired`, one line per [`Trace::csv_row_iter`] row, with
-    /// `\n` line ends and fields quoted only where CSV needs it.
+    /// Writes `time,in:<input>…,<output>…,m:<place>…,fired`, one line per kept row (the first
+    /// scan, then every scan in which an input, output or marking changed or something fired),
+    /// with `\n` line ends and fields quoted only where CSV needs it. Boolean signals are
+    /// written 0 or 1.
     pub fn write_csv(&self, mut w: impl Write) -> io::Result<()> {
         let mut line = String::from("time");
+        for name in &self.inputs {
+            push_field(&mut line, &format!("in:{name}"));
+        }
         for name in &self.outputs {
             push_field(&mut line, name);
         }
@@ -118,10 +154,15 @@ impl Trace {
         push_field(&mut line, "fired");
         line.push('\n');
         w.write_all(line.as_bytes())?;
-        for row in self.csv_row_iter() {
+        for row in &self.rows {
             line.clear();
             line.push_str(&format_seconds(row.time));
-            for (v, ty) in row.outputs.iter().zip(&self.output_types) {
+            let signals = row
+                .inputs
+                .iter()
+                .zip(&self.input_types)
+                .chain(row.outputs.iter().zip(&self.output_types));
+            for (v, ty) in signals {
                 let v = match ty {
                     SignalType::Bool => i64::from(*v != 0),
                     SignalType::Int => *v,
@@ -217,7 +258,7 @@ mod tests {
             &[
                 row(0, &[0], &[0, 1], &[1, 0, 0], &[]),
                 row(10, &[0], &[0, 1], &[1, 0, 0], &[]),
-                // An input change alone is kept for the plot, but not written to the CSV.
+                // An input change alone is a row: it may tell why nothing fired.
                 row(20, &[1], &[0, 1], &[1, 0, 0], &[]),
                 row(30, &[1], &[1, 0], &[0, 1, 1], &["t_on"]),
                 row(40, &[1], &[1, 0], &[0, 1, 1], &[]),
@@ -227,14 +268,15 @@ mod tests {
                 row(70, &[0], &[1, 0], &[1, 0, 1], &[]),
             ],
             &[0, 20, 30, 50, 60],
-            "time,level,lamp,m:off,m:on,m:count,fired\n\
-             0,0,1,1,0,0,\n\
-             0.03,1,0,0,1,1,t_on\n\
-             0.05,1,0,0,1,1,t_off t_on\n\
-             0.06,1,0,1,0,1,t_off\n",
+            "time,in:button,level,lamp,m:off,m:on,m:count,fired\n\
+             0,0,0,1,1,0,0,\n\
+             0.02,1,0,1,1,0,0,\n\
+             0.03,1,1,0,0,1,1,t_on\n\
+             0.05,1,1,0,0,1,1,t_off t_on\n\
+             0.06,0,1,0,1,0,1,t_off\n",
         );
         assert_eq!(trace.end, Duration::from_millis(70));
-        assert_eq!(trace.csv_rows(), 4);
+        assert_eq!(trace.csv_rows(), 5);
     }
 
     #[test]
@@ -244,7 +286,7 @@ mod tests {
             &mut trace,
             &[row(0, &[1], &[0, 1], &[1, 0, 0], &[])],
             &[0],
-            "time,level,lamp,m:off,m:on,m:count,fired\n0,0,1,1,0,0,\n",
+            "time,in:button,level,lamp,m:off,m:on,m:count,fired\n0,1,0,1,1,0,0,\n",
         );
         check(&mut Trace::default(), &[], &[], "time,fired\n");
     }
@@ -252,6 +294,8 @@ mod tests {
     #[test]
     fn quotes_only_when_needed() {
         let mut trace = Trace {
+            inputs: vec!["x,y".into()],
+            input_types: vec![SignalType::Int],
             outputs: vec!["Y".into()],
             output_types: vec![SignalType::Bool],
             places: vec!["a,b".into(), "say \"hi\"".into()],
@@ -259,9 +303,29 @@ mod tests {
         };
         check(
             &mut trace,
-            &[row(1500, &[], &[5], &[0, 2], &["t,1", "t2"])],
+            &[row(1500, &[-3], &[5], &[0, 2], &["t,1", "t2"])],
             &[1500],
-            "time,Y,\"m:a,b\",\"m:say \"\"hi\"\"\",fired\n1.5,1,0,2,\"t,1 t2\"\n",
+            "time,\"in:x,y\",Y,\"m:a,b\",\"m:say \"\"hi\"\"\",fired\n1.5,-3,1,0,2,\"t,1 t2\"\n",
         );
+    }
+}
+
+#[cfg(test)]
+mod order_tests {
+    use super::*;
+    use petriplc_testnet::net;
+
+    #[test]
+    fn inputs_go_in_the_order_asked_then_the_rest() {
+        let n = net("s a in bool\ns b in int\ns c in bool\np x 0");
+        let mut trace = Trace::new(&n);
+        assert_eq!(trace.inputs, ["a", "b", "c"]);
+        assert_eq!(trace.order_inputs(&["c", "nope", "a", "c"]), [2, 0, 1]);
+        assert_eq!(trace.inputs, ["c", "a", "b"]);
+        assert_eq!(
+            trace.input_types,
+            [SignalType::Bool, SignalType::Bool, SignalType::Int]
+        );
+        assert_eq!(trace.net, "test");
     }
 }

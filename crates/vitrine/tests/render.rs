@@ -113,8 +113,9 @@ fn mixer() -> View {
             ("q/Ctrl-C".into(), "stop the PLC".into()),
         ],
         log: vec![
-            "2026-01-01T10:00:00Z [INFO] PLC mixer started: 12 points in 1 words, 4 modules".into(),
-            "2026-01-01T10:00:12Z [INFO] vitrine: B1 forced".into(),
+            // What `petriplc run` writes to the pane: local time, then the line.
+            "10:00:00 [WARN] hmi: forcing token 6880f0c0d1baf3061e4310dca89630db".into(),
+            "10:00:12 [INFO] vitrine: B1 forced".into(),
         ],
     }
 }

@@ -1,26 +1,16 @@
 //! `petriplc compile`: lower a net once and write it as ST, IL, LD, SFC (PLCopen XML) or C.
 
-use std::fs;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
 use petriplc_codegen::{generate, Form, Language, Markings, Options, Request};
-use petriplc_pnml::{Naming, ReadOptions};
 
-use crate::args::{CompileArgs, LangArg, MarkingsArg, Names};
-use crate::failure::{BadInputExt, Failure, RunExt};
-use crate::output::to_stdout;
+use crate::args::{CompileArgs, LangArg, MarkingsArg};
+use crate::failure::{BadInputExt, Failure};
+use crate::output::{to_stdout, write_file};
 
 pub fn run(args: CompileArgs) -> Result<(), Failure> {
-    let read_options = ReadOptions {
-        naming: match args.names {
-            Names::Plain => Naming::Plain,
-            Names::Sipn => Naming::Sipn,
-        },
-    };
-    let net = petriplc_pnml::read_file(&args.net, &read_options)
-        .bad_input()?
-        .net;
+    let net = super::read_net(&args.net, args.names)?;
     let language = match args.lang {
         LangArg::St => Language::St,
         LangArg::Il => Language::Il,
@@ -62,10 +52,31 @@ pub fn run(args: CompileArgs) -> Result<(), Failure> {
         eprintln!("note: {note}");
     }
     match &args.out {
-        Some(path) => fs::write(path, &generated.text)
-            .with_context(|| format!("cannot write {}", path.display()))
-            .run_failure(),
+        Some(path) => write_file(
+            path,
+            generated.text.as_bytes(),
+            &describe(language, request.form, &generated.text),
+        ),
         None => to_stdout(|w| w.write_all(generated.text.as_bytes())),
+    }
+}
+
+/// What a generated file holds, for the `wrote …` line: `SFC in a PLCopen XML project, 1
+/// POU, 240 lines`.
+fn describe(language: Language, form: Form, text: &str) -> String {
+    let lines = text.lines().count();
+    let lines = format!("{lines} line{}", if lines == 1 { "" } else { "s" });
+    match (language, form) {
+        (Language::C, _) => format!("C99, {lines}"),
+        (_, Form::Plain) => format!("bare {}, {lines}", language.name()),
+        (_, Form::Project) => {
+            let pous = text.matches("<pou ").count();
+            format!(
+                "{} in a PLCopen XML project, {pous} POU{}, {lines}",
+                language.name(),
+                if pous == 1 { "" } else { "s" }
+            )
+        }
     }
 }
 

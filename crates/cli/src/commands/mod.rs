@@ -1,4 +1,5 @@
-//! One module per subcommand; `run` dispatches.
+//! One module per subcommand; `run` dispatches. `read_net` is how every command reads the
+//! net it is given.
 
 mod analyze;
 mod check;
@@ -7,8 +8,13 @@ mod run;
 mod sim;
 mod step_through;
 
-use crate::args::{Cli, Command};
-use crate::failure::Failure;
+use std::path::Path;
+
+use petriplc_net::Net;
+use petriplc_pnml::{Naming, ReadOptions};
+
+use crate::args::{Cli, Command, Names};
+use crate::failure::{BadInputExt, Failure};
 
 pub fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
@@ -20,4 +26,42 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
         Command::Status(args) => run::status(args),
         Command::Stop(args) => run::stop(args),
     }
+}
+
+/// A net read as `names` says.
+fn read_net(path: &Path, names: Names) -> Result<Net, Failure> {
+    let naming = match names {
+        Names::Plain => Naming::Plain,
+        Names::Sipn => Naming::Sipn,
+    };
+    Ok(petriplc_pnml::read_file(path, &ReadOptions { naming })
+        .bad_input()?
+        .net)
+}
+
+/// `did you mean --names sipn?` when `net`, read from `path` with plain names, has no
+/// signals, but read with the SIPN convention it has inputs that `given` (a timeline's
+/// columns, a plant's outputs, described by `by`) provides.
+fn sipn_hint(path: &Path, names: Names, net: &Net, given: &[String], by: &str) -> Option<String> {
+    if names != Names::Plain || !net.signals().is_empty() || given.is_empty() {
+        return None;
+    }
+    let options = ReadOptions {
+        naming: Naming::Sipn,
+    };
+    let sipn = petriplc_pnml::read_file(path, &options).ok()?.net;
+    let matching: Vec<&str> = sipn
+        .inputs()
+        .map(|s| sipn.signal(s).name.as_str())
+        .filter(|name| given.iter().any(|g| g == name))
+        .collect();
+    (!matching.is_empty()).then(|| {
+        format!(
+            "did you mean --names sipn? Read with plain names, {} has no inputs; read with \
+             --names sipn (a place's name is its output, a transition's its input condition), \
+             it has inputs {} that {by} provides",
+            path.display(),
+            matching.join(", ")
+        )
+    })
 }

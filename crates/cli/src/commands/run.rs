@@ -7,14 +7,15 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{anyhow, Context};
-use petriplc_plc::{ModuleState, Plc, PlcStatus, RunError, RunOptions};
+use petriplc_plc::{ModuleState, NotStarted, Plc, PlcStatus, RunError, RunOptions};
 use petriplc_runtime::module::Factory;
+use petriplc_runtime::owner::{self, Owner, OwnerError, Probe};
 use simplelog::{
-    ColorChoice, CombinedLogger, ConfigBuilder, LevelFilter, SharedLogger, TermLogger,
-    TerminalMode, WriteLogger,
+    format_description, ColorChoice, CombinedLogger, ConfigBuilder, LevelFilter, SharedLogger,
+    TermLogger, TerminalMode, WriteLogger,
 };
 
-use crate::args::{PlcIdArgs, RunArgs};
+use crate::args::{PlcIdArgs, RunArgs, DEFAULT_PLC_ID};
 use crate::failure::{BadInputExt, Failure, RunExt};
 
 /// Every built-in module kind of `petriplc run`, for messages.
@@ -40,13 +41,14 @@ fn builtin(kind: &str) -> Option<Factory> {
 }
 
 pub fn run(args: RunArgs) -> Result<(), Failure> {
-    let options = RunOptions {
-        plc_id: args.plc_id.clone(),
+    let mut options = RunOptions {
+        plc_id: String::new(),
         duration: args.duration,
         known_kinds: KINDS,
         overrides: args.overrides.clone(),
     };
     let config = Plc::read_config(&args.config, &options).map_err(|e| not_started(&args, e))?;
+    options.plc_id = petriplc_plc::plc_id_of(&config, args.plc_id.as_deref(), DEFAULT_PLC_ID);
     // While the vitrine holds the terminal, log lines go to its footer (and are printed when
     // it gives the terminal back) instead of over the display.
     init_logging(&args, petriplc_vitrine::takes_terminal(&config))?;
@@ -74,14 +76,78 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     }
 }
 
-/// A PLC that could not start: exit 2 when the configuration is at fault.
+/// A PLC that could not start: exit 2 when the configuration is at fault, 3 when something
+/// it needs is taken (then with the command line that avoids every clash) or the machine
+/// refused it.
 fn not_started(args: &RunArgs, e: RunError) -> Failure {
-    if e.is_bad_input() {
-        Failure::BadInput(
-            anyhow!(e).context(format!("{}: nothing was started", args.config.display())),
-        )
+    match e {
+        // Compiler style, as for a bad net: one diagnostic per line, then one summary.
+        RunError::Config(c) => {
+            for d in &c.diagnostics {
+                eprintln!("{d}");
+            }
+            let n = c.diagnostics.len();
+            Failure::BadInput(anyhow!(
+                "{} is not a valid configuration ({n} problem{}); nothing was started",
+                args.config.display(),
+                if n == 1 { "" } else { "s" }
+            ))
+        }
+        RunError::Taken(taken) => {
+            let fixes: Vec<&str> = taken.iter().map(|t| t.fix.as_str()).collect();
+            let command = command_line_with(&fixes);
+            Failure::CannotStart(anyhow!(
+                "{}\na command line that avoids them:\n  {command}",
+                RunError::Taken(taken)
+            ))
+        }
+        e => match e.kind() {
+            NotStarted::CouldNotStart => Failure::CannotStart(anyhow!("nothing was started: {e}")),
+            NotStarted::BadInput => Failure::BadInput(anyhow!("{e}\nnothing was started")),
+        },
+    }
+}
+
+/// This command line with `fixes` (`--plc-id ID`, `--set M:S=V`) applied: each replaces the
+/// option it overrides, if given, or is added.
+fn command_line_with(fixes: &[&str]) -> String {
+    let mut words: Vec<String> = std::env::args().skip(1).collect();
+    for fix in fixes {
+        let (option, value) = fix.split_once(' ').unwrap_or((fix, ""));
+        // `--set M:S=V` overrides an earlier `--set M:S=…`; `--plc-id` any `--plc-id`.
+        let key = match value.split_once('=') {
+            Some((key, _)) if option == "--set" => format!("{key}="),
+            _ => String::new(),
+        };
+        let mut i = 0;
+        while i < words.len() {
+            let w = &words[i];
+            let joined = w.strip_prefix(&format!("{option}="));
+            let matches = |v: &str| option != "--set" || v.starts_with(&key);
+            if w == option && words.get(i + 1).is_some_and(|v| matches(v)) {
+                words.drain(i..i + 2);
+            } else if joined.is_some_and(matches) {
+                words.remove(i);
+            } else {
+                i += 1;
+            }
+        }
+        words.push(option.to_string());
+        words.push(value.to_string());
+    }
+    let quoted: Vec<String> = words.iter().map(|w| shell_word(w)).collect();
+    format!("petriplc {}", quoted.join(" "))
+}
+
+/// `w` as one shell word.
+fn shell_word(w: &str) -> String {
+    let plain = !w.is_empty()
+        && w.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./:=@,+%#".contains(c));
+    if plain {
+        w.to_string()
     } else {
-        Failure::Run(anyhow!(e).context("the PLC could not start"))
+        format!("'{}'", w.replace('\'', r"'\''"))
     }
 }
 
@@ -93,17 +159,34 @@ fn init_logging(args: &RunArgs, vitrine: bool) -> Result<(), Failure> {
         "trace" => LevelFilter::Trace,
         _ => LevelFilter::Info,
     };
+    // A person reads the terminal: local time, short (the vitrine's log pane is as wide as
+    // the terminal, 80 columns perhaps). The file keeps exact UTC times for machines.
+    // The local offset can only be read while the process has one thread, as it has now.
+    let short = |format| {
+        let mut b = ConfigBuilder::new();
+        b.set_time_format_custom(format)
+            .set_thread_level(LevelFilter::Off)
+            .set_target_level(LevelFilter::Off);
+        let _ = b.set_time_offset_to_local();
+        b.build()
+    };
     let config = ConfigBuilder::new()
         .set_time_format_rfc3339()
         .set_thread_level(LevelFilter::Off)
         .set_target_level(LevelFilter::Off)
         .build();
     let terminal: Box<dyn SharedLogger> = if vitrine {
-        WriteLogger::new(level, config.clone(), petriplc_vitrine::log_writer())
+        WriteLogger::new(
+            level,
+            short(format_description!("[hour]:[minute]:[second]")),
+            petriplc_vitrine::log_writer(),
+        )
     } else {
         TermLogger::new(
             level,
-            config.clone(),
+            short(format_description!(
+                "[hour]:[minute]:[second].[subsecond digits:3]"
+            )),
             TerminalMode::Stderr,
             if std::io::stderr().is_terminal() {
                 ColorChoice::Auto
@@ -114,6 +197,7 @@ fn init_logging(args: &RunArgs, vitrine: bool) -> Result<(), Failure> {
     };
     let mut loggers: Vec<Box<dyn SharedLogger>> = vec![terminal];
     if let Some(path) = &args.log {
+        crate::output::create_parent(path)?;
         let file = File::create(path)
             .with_context(|| format!("cannot create the log file {}", path.display()))
             .bad_input()?;
@@ -124,44 +208,104 @@ fn init_logging(args: &RunArgs, vitrine: bool) -> Result<(), Failure> {
         .run_failure()
 }
 
+/// `petriplc status`: 0 and the modules' table for a running PLC, 5 for one that exited
+/// without stopping, 4 for none.
 pub fn status(args: PlcIdArgs) -> Result<(), Failure> {
-    match PlcStatus::read(&args.plc_id) {
-        Some(s) => {
-            print!("{s}");
-            Ok(())
+    let id = &args.plc_id;
+    match owner::probe(id).bad_input()? {
+        Probe::Running { pid } => {
+            let text = match PlcStatus::read(id) {
+                Some(s) => s.to_string(),
+                // The lock is held but the first status file is not written yet (or the
+                // last one is already removed).
+                None => match pid {
+                    Some(p) => format!("PLC {id} (process {p}) is starting or stopping\n"),
+                    None => format!("PLC {id} is starting\n"),
+                },
+            };
+            crate::output::to_stdout(|out| out.write_all(text.as_bytes()))
         }
-        None => Err(not_running(&args.plc_id)).run_failure(),
+        Probe::Dead(remains) => Err(Failure::Stale(anyhow!(
+            "PLC `{id}` not running: {}; what it left ({}) is removed by `petriplc stop \
+             --plc-id {id}` or by the next `petriplc run` with this id",
+            remains.describe(),
+            remains.object_names()
+        ))),
+        Probe::Absent => Err(Failure::NoSuchPlc(no_such_plc(id))),
     }
 }
 
+/// `petriplc stop`: SIGTERM to the PLC's process, proven to be it (see
+/// `petriplc_runtime::owner::running_plc`), and waits until it has stopped; for a PLC that
+/// exited without stopping, removes what it left. 4 if there is no such PLC.
 pub fn stop(args: PlcIdArgs) -> Result<(), Failure> {
-    use nix::sys::signal::{kill, Signal};
-    use nix::unistd::Pid;
-    let Some(s) = PlcStatus::read(&args.plc_id) else {
-        return Err(not_running(&args.plc_id)).run_failure();
-    };
-    kill(Pid::from_raw(s.pid as i32), Signal::SIGTERM)
-        .with_context(|| format!("cannot signal the PLC's process {}", s.pid))
-        .run_failure()?;
-    for _ in 0..200 {
-        if PlcStatus::read(&args.plc_id).is_none() {
-            eprintln!("PLC {} stopped", args.plc_id);
+    use nix::sys::signal::Signal;
+    let id = &args.plc_id;
+    let started = std::time::Instant::now();
+    loop {
+        if let Some(plc) = owner::running_plc(id).bad_input()? {
+            plc.signal(Signal::SIGTERM)
+                .with_context(|| format!("cannot signal the PLC's process {}", plc.pid()))
+                .run_failure()?;
+            if !plc.wait_exit(Duration::from_secs(10)) {
+                return Err(anyhow!(
+                    "PLC {id} (process {}) did not stop within 10 s; `kill -9 {}` ends it (the \
+                     next `petriplc run` with this id removes what it leaves)",
+                    plc.pid(),
+                    plc.pid()
+                ))
+                .run_failure();
+            }
+            // A PLC that dies while stopping may leave things behind: tidy up after it.
+            let _ = clean_up(id);
+            eprintln!("PLC {id} stopped");
             return Ok(());
         }
-        std::thread::sleep(Duration::from_millis(50));
+        match owner::probe(id).bad_input()? {
+            Probe::Absent => return Err(Failure::NoSuchPlc(no_such_plc(id))),
+            Probe::Dead(_) => match clean_up(id) {
+                Ok(Some(remains)) => {
+                    eprintln!(
+                        "PLC {id} was not running: {}; removed what it left ({})",
+                        remains.describe(),
+                        remains.object_names()
+                    );
+                    return Ok(());
+                }
+                Ok(None) => return Err(Failure::NoSuchPlc(no_such_plc(id))),
+                // A PLC took the id meanwhile: stop that one.
+                Err(OwnerError::Running { .. }) => {}
+                Err(e) => return Err(e).run_failure(),
+            },
+            // The lock is held, but its holder is not proven yet: a PLC starting up.
+            Probe::Running { .. } => {
+                if started.elapsed() > Duration::from_secs(10) {
+                    return Err(anyhow!(
+                        "PLC {id} holds its lock but its process cannot be identified (its \
+                         lock file {} names no live process); nothing was signalled",
+                        owner::lock_path(id).display()
+                    ))
+                    .run_failure();
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        }
     }
-    Err(anyhow!(
-        "PLC {} (process {}) did not stop within 10 s; `kill -9 {}` ends it",
-        args.plc_id,
-        s.pid,
-        s.pid
-    ))
-    .run_failure()
 }
 
-fn not_running(plc_id: &str) -> anyhow::Error {
+/// Takes the id for a moment to remove what a PLC that died left; `Ok(None)`: nothing was
+/// left.
+fn clean_up(plc_id: &str) -> Result<Option<owner::Remains>, OwnerError> {
+    let (me, remains) = Owner::acquire(plc_id)?;
+    me.release();
+    Ok(remains)
+}
+
+fn no_such_plc(plc_id: &str) -> anyhow::Error {
     anyhow!(
-        "no PLC with id `{plc_id}` is running (no {}); start one with `petriplc run CONFIG --plc-id {plc_id}`",
-        petriplc_runtime::status::path(plc_id).display()
+        "no PLC with id `{plc_id}` (nothing of it in {}); start one with `petriplc run CONFIG \
+         --plc-id {plc_id}`, or pass the id it was started with (--plc-id, or `plc_id` in its \
+         configuration's [PLC])",
+        owner::state_dir().display()
     )
 }

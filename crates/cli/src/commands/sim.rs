@@ -4,12 +4,15 @@
 use std::fs;
 use std::io::{self, Write};
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{anyhow, Context};
+use indicatif::{ProgressBar, ProgressStyle};
 use petriplc_net::ScanOptions;
-use petriplc_pnml::{Naming, ReadOptions};
-use petriplc_sim::{NetPlant, Plant, SimOptions, Simulation, Timeline};
+use petriplc_pnml::ReadOptions;
+use petriplc_sim::{NetPlant, Plant, PlotOptions, SimOptions, Simulation, Timeline};
 
 use super::step_through;
 use crate::args::{Names, SimArgs};
@@ -42,15 +45,7 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         ))
         .bad_input();
     }
-    let read_options = ReadOptions {
-        naming: match args.names {
-            Names::Plain => Naming::Plain,
-            Names::Sipn => Naming::Sipn,
-        },
-    };
-    let net = petriplc_pnml::read_file(&args.net, &read_options)
-        .bad_input()?
-        .net;
+    let net = super::read_net(&args.net, args.names)?;
     let timeline = args
         .inputs
         .as_deref()
@@ -80,19 +75,43 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         evolve: args.evolve.map_or(net.evolve, Into::into),
         max_passes: args.max_passes,
     };
-    let until = args.until.unwrap_or_else(|| {
-        timeline.as_ref().map_or(Duration::from_secs(10), |t| {
-            t.end() + Duration::from_secs(1)
-        })
-    });
+    let until = until_of(&args, timeline.as_ref())?;
     let options = SimOptions {
         period: args.period,
         until,
         scan,
     };
-    let mut sim = Simulation::new(&net, options, timeline, plant)
-        .with_context(|| format!("cannot simulate {}", args.net.display()))
-        .bad_input()?;
+    // The likeliest cause of a timeline or plant that drives nothing: a SIPN net read with
+    // plain names.
+    let mut given: Vec<String> = timeline
+        .as_ref()
+        .map(|t| t.columns().to_vec())
+        .unwrap_or_default();
+    if let Some(p) = &plant_net {
+        given.extend(p.outputs().map(|s| p.signal(s).name.clone()));
+    }
+    let hint = super::sipn_hint(&args.net, args.names, &net, &given, "the timeline or plant");
+    let mut sim = match Simulation::new(&net, options, timeline, plant) {
+        Ok(sim) => sim,
+        Err(e) => {
+            let mut message = format!("cannot simulate {}: {:#}", args.net.display(), anyhow!(e));
+            if let Some(hint) = hint {
+                message = format!("{message}\n{hint}");
+            }
+            return Err(anyhow!(message)).bad_input();
+        }
+    };
+    if let Some(hint) = hint {
+        eprintln!("warning: {hint}");
+    }
+    let plot_options = PlotOptions {
+        signals: args.signals.clone(),
+        from: args.from,
+        to: args.to,
+        note: None,
+    };
+    // Checked before the run: a misspelt name should not cost a whole simulation.
+    plot_options.check(sim.trace()).bad_input()?;
     if args.step_through {
         // Inputs nothing drives are the user's to toggle here, so no warnings about them.
         return step_through::run(&mut sim);
@@ -101,40 +120,228 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         eprintln!("warning: {w}");
     }
 
-    while sim.step().run_failure()?.is_some() {}
+    // Ctrl-C ends the run after the current scan; what was simulated is still written.
+    let interrupted = interrupt_flag();
+    let progress = ScanProgress::new(sim.options().until, sim.options().period);
+    let mut stopped: Option<Stopped> = None;
+    loop {
+        if interrupted.load(Ordering::SeqCst) {
+            stopped = Some(Stopped::Interrupted(sim.now()));
+            break;
+        }
+        match sim.step() {
+            Ok(Some(_)) => progress.scan(sim.scans()),
+            Ok(None) => break,
+            Err(e) => {
+                stopped = Some(Stopped::Failed(e));
+                break;
+            }
+        }
+    }
+    progress.finish();
     let plant_summary = sim.plant_summary();
     let trace = sim.into_trace();
+    // What a partial trace says about itself, last in the CSV and on the plot.
+    let note = stopped.as_ref().map(Stopped::note);
 
+    write_outputs(
+        &args,
+        &|w| trace.write_csv(w),
+        trace.csv_rows(),
+        &trace,
+        plot_options,
+        note,
+    )?;
+    if let Some(summary) = plant_summary {
+        eprintln!("plant at the end: {summary}");
+    }
+    match stopped {
+        None => Ok(()),
+        Some(Stopped::Failed(e)) => Err(Failure::Run(anyhow!(e).context(
+            "the simulation failed; what was simulated until then is written, marked incomplete",
+        ))),
+        Some(Stopped::Interrupted(t)) => Err(Failure::Interrupted(anyhow!(
+            "interrupted at t={} s; what was simulated until then is written, marked incomplete",
+            petriplc_net::time::format_seconds(t)
+        ))),
+    }
+}
+
+/// `--until`, else 1 s after the timeline's last row (refused when that is far off), else 10 s.
+fn until_of(args: &SimArgs, timeline: Option<&Timeline>) -> Result<Duration, Failure> {
+    if let Some(u) = args.until {
+        return Ok(u);
+    }
+    let until = timeline.map_or(Duration::from_secs(10), |t| {
+        t.end() + Duration::from_secs(1)
+    });
+    // A far-off last row would otherwise run for hours without a word.
+    let scans = until.as_nanos() / args.period.as_nanos().max(1);
+    if scans > IMPLIED_SCANS_LIMIT {
+        return Err(anyhow!(
+            "the timeline's last row is at {}, so the simulation would run {scans} \
+             scans until {} at a {} period; pass --until to say how far to go (e.g. \
+             --until {})",
+            petriplc_net::time::format_seconds(until - Duration::from_secs(1)) + " s",
+            petriplc_net::time::format_seconds(until) + " s",
+            petriplc_net::time::format_seconds(args.period) + " s",
+            petriplc_net::time::format_seconds(until) + "s",
+        ))
+        .bad_input();
+    }
+    Ok(until)
+}
+
+/// Writes the trace as `--out` and `--plot` ask (standard output without either), a partial
+/// trace marked with `note`.
+fn write_outputs(
+    args: &SimArgs,
+    csv: &dyn Fn(&mut dyn Write) -> io::Result<()>,
+    rows: usize,
+    plot_trace: &petriplc_sim::Trace,
+    plot_options: PlotOptions,
+    note: Option<String>,
+) -> Result<(), Failure> {
     match (&args.out, &args.plot) {
-        (None, None) => crate::output::to_stdout(|out| trace.write_csv(out))?,
+        (None, None) => crate::output::to_stdout(|out| {
+            csv(&mut *out)?;
+            write_note(out, note.as_deref())
+        })?,
         (out, plot) => {
             if let Some(path) = out {
-                create_parent(path)?;
+                crate::output::create_parent(path)?;
                 let mut file = io::BufWriter::new(
                     fs::File::create(path)
                         .with_context(|| format!("cannot create {}", path.display()))
                         .run_failure()?,
                 );
-                trace
-                    .write_csv(&mut file)
+                csv(&mut file)
+                    .and_then(|()| write_note(&mut file, note.as_deref()))
                     .and_then(|()| file.flush())
                     .with_context(|| format!("cannot write {}", path.display()))
                     .run_failure()?;
-                eprintln!("trace: {} ({} rows)", path.display(), trace.csv_rows());
+                let what = format!(
+                    "trace, {rows} row{}{}",
+                    if rows == 1 { "" } else { "s" },
+                    if note.is_some() { ", incomplete" } else { "" }
+                );
+                crate::output::wrote(path, &what);
             }
             if let Some(path) = plot {
-                create_parent(path)?;
-                petriplc_sim::write_svg(&trace, path)
-                    .with_context(|| format!("cannot write the plot {}", path.display()))
-                    .run_failure()?;
-                eprintln!("plot: {}", path.display());
+                crate::output::create_parent(path)?;
+                let options = PlotOptions {
+                    note: note.clone(),
+                    ..plot_options
+                };
+                match petriplc_sim::write_svg(plot_trace, &options, path) {
+                    Ok(()) => {}
+                    Err(e) if e.is_bad_input() => return Err(e).bad_input(),
+                    Err(e) => {
+                        return Err(e)
+                            .with_context(|| format!("cannot write the plot {}", path.display()))
+                            .run_failure()
+                    }
+                }
+                let what = if note.is_some() {
+                    "plot, incomplete"
+                } else {
+                    "plot"
+                };
+                crate::output::wrote(path, what);
             }
         }
     }
-    if let Some(summary) = plant_summary {
-        eprintln!("plant: {summary}");
-    }
     Ok(())
+}
+
+/// Sets a Ctrl-C handler: the first ends the run after the current scan (what was simulated
+/// is still written), a second exits at once.
+fn interrupt_flag() -> Arc<AtomicBool> {
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let interrupted = interrupted.clone();
+        let _ = ctrlc::set_handler(move || {
+            if interrupted.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
+    }
+    interrupted
+}
+
+/// A simulation longer than this many scans needs --until when the timeline's last row sets
+/// its end (a row in the far future would otherwise run for hours without a word).
+const IMPLIED_SCANS_LIMIT: u128 = 1_000_000;
+/// Runs longer than this many scans show their progress on a terminal.
+const PROGRESS_SCANS: u128 = 100_000;
+
+/// Why a run ended before `until`.
+enum Stopped {
+    Failed(petriplc_sim::SimError),
+    Interrupted(Duration),
+}
+
+impl Stopped {
+    fn note(&self) -> String {
+        match self {
+            Stopped::Failed(e) => format!(
+                "incomplete: the simulation failed{}: {:#}",
+                e.time()
+                    .map(|t| format!(" at t={} s", petriplc_net::time::format_seconds(t)))
+                    .unwrap_or_default(),
+                anyhow!(e.clone())
+            ),
+            Stopped::Interrupted(t) => format!(
+                "incomplete: interrupted (Ctrl-C) after t={} s",
+                petriplc_net::time::format_seconds(*t)
+            ),
+        }
+    }
+}
+
+/// The note of a partial trace as the CSV's last line, a `#` comment.
+fn write_note(w: &mut dyn Write, note: Option<&str>) -> io::Result<()> {
+    match note {
+        Some(n) => writeln!(w, "# {}", n.replace('\n', " ")),
+        None => Ok(()),
+    }
+}
+
+/// A progress bar on a terminal for long runs (nothing otherwise).
+struct ScanProgress {
+    bar: Option<ProgressBar>,
+}
+
+impl ScanProgress {
+    fn new(until: Duration, period: Duration) -> Self {
+        let total = until.as_nanos() / period.as_nanos().max(1) + 1;
+        let bar = (total > PROGRESS_SCANS && std::io::IsTerminal::is_terminal(&io::stderr()))
+            .then(|| {
+                let b = ProgressBar::new(u64::try_from(total).unwrap_or(u64::MAX));
+                b.set_style(
+                    ProgressStyle::with_template(
+                        "{bar:30} {pos}/{len} scans, {elapsed} (eta {eta}; Ctrl-C stops and writes what was simulated)",
+                    )
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                );
+                b
+            });
+        ScanProgress { bar }
+    }
+
+    fn scan(&self, done: u64) {
+        if let Some(b) = &self.bar {
+            if done % 4096 == 0 {
+                b.set_position(done);
+            }
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
 }
 
 /// `petriplc sim PROGRAM.st|PROJECT.xml`.
@@ -182,50 +389,78 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
                 .bad_input()?,
         ),
     };
-    let until = args.until.unwrap_or_else(|| {
-        timeline.as_ref().map_or(Duration::from_secs(10), |t| {
-            t.end() + Duration::from_secs(1)
-        })
-    });
+    let until = until_of(&args, timeline.as_ref())?;
     let options = petriplc_iec::sim::SimOptions {
         period: args.period,
         until,
         vars: args.vars,
     };
-    let sim = petriplc_iec::sim::IecSimulation::new(build.engine, options, timeline, plant)
+    let mut sim = petriplc_iec::sim::IecSimulation::new(build.engine, options, timeline, plant)
         .with_context(|| format!("cannot simulate {}", args.net.display()))
+        .bad_input()?;
+    let plot_options = PlotOptions {
+        signals: args.signals.clone(),
+        from: args.from,
+        to: args.to,
+        note: None,
+    };
+    plot_options
+        .check(&sim.trace().to_plot_trace())
         .bad_input()?;
     for w in sim.warnings() {
         eprintln!("warning: {w}");
     }
-    let trace = sim.run().run_failure()?;
-    match (&args.out, &args.plot) {
-        (None, None) => crate::output::to_stdout(|out| trace.write_csv(out))?,
-        (out, plot) => {
-            if let Some(path) = out {
-                create_parent(path)?;
-                let mut file = io::BufWriter::new(
-                    fs::File::create(path)
-                        .with_context(|| format!("cannot create {}", path.display()))
-                        .run_failure()?,
-                );
-                trace
-                    .write_csv(&mut file)
-                    .and_then(|()| file.flush())
-                    .with_context(|| format!("cannot write {}", path.display()))
-                    .run_failure()?;
-                eprintln!("trace: {} ({} rows)", path.display(), trace.rows.len());
-            }
-            if let Some(path) = plot {
-                create_parent(path)?;
-                petriplc_sim::write_svg(&trace.to_plot_trace(), path)
-                    .with_context(|| format!("cannot write the plot {}", path.display()))
-                    .run_failure()?;
-                eprintln!("plot: {}", path.display());
+
+    let interrupted = interrupt_flag();
+    let progress = ScanProgress::new(until, args.period);
+    let mut failed = None;
+    let mut stopped_at = None;
+    loop {
+        if interrupted.load(Ordering::SeqCst) {
+            stopped_at = Some(sim.now());
+            break;
+        }
+        match sim.step() {
+            Ok(true) => progress.scan(sim.scans()),
+            Ok(false) => break,
+            Err(e) => {
+                failed = Some(e);
+                break;
             }
         }
     }
-    Ok(())
+    progress.finish();
+    let plant_summary = sim.plant_summary();
+    let trace = sim.into_trace();
+    let note = match (&failed, stopped_at) {
+        (Some(e), _) => Some(format!("incomplete: the simulation failed: {e}")),
+        (None, Some(t)) => Some(format!(
+            "incomplete: interrupted (Ctrl-C) after t={} s",
+            petriplc_net::time::format_seconds(t)
+        )),
+        (None, None) => None,
+    };
+    write_outputs(
+        &args,
+        &|w| trace.write_csv(w),
+        trace.csv_rows(),
+        &trace.to_plot_trace(),
+        plot_options,
+        note,
+    )?;
+    if let Some(summary) = plant_summary {
+        eprintln!("plant at the end: {summary}");
+    }
+    match (failed, stopped_at) {
+        (Some(e), _) => Err(Failure::Run(anyhow!(e).context(
+            "the simulation failed; what was simulated until then is written, marked incomplete",
+        ))),
+        (None, Some(t)) => Err(Failure::Interrupted(anyhow!(
+            "interrupted at t={} s; what was simulated until then is written, marked incomplete",
+            petriplc_net::time::format_seconds(t)
+        ))),
+        (None, None) => Ok(()),
+    }
 }
 
 fn is_net_path(spec: &str) -> bool {
@@ -242,13 +477,4 @@ fn unknown_plant(name: &str) -> anyhow::Error {
         "unknown plant `{name}`; give a plant net (a .pnml file) or one of the built-in plants:\n{}",
         known.join("\n")
     )
-}
-
-fn create_parent(path: &Path) -> Result<(), Failure> {
-    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        Some(dir) => fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create the folder {}", dir.display()))
-            .run_failure(),
-        None => Ok(()),
-    }
 }

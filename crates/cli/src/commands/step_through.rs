@@ -14,6 +14,19 @@ const HELP: &str =
     "Enter: run one scan | NAME: toggle a boolean input | NAME=VALUE: set an input | q: quit";
 
 pub fn run(sim: &mut Simulation<'_>) -> Result<(), Failure> {
+    match session(sim) {
+        // The reader went away (`| head`): end quietly, as at the end of input.
+        Err(Failure::Run(e))
+            if e.downcast_ref::<io::Error>()
+                .is_some_and(|e| e.kind() == io::ErrorKind::BrokenPipe) =>
+        {
+            Ok(())
+        }
+        other => other,
+    }
+}
+
+fn session(sim: &mut Simulation<'_>) -> Result<(), Failure> {
     let stdin = io::stdin();
     let mut out = io::stdout();
     writeln!(out, "{HELP}").run_failure()?;

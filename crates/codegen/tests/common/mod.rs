@@ -77,3 +77,29 @@ pub fn xmllint(doc: &str) -> Result<(), String> {
         ))
     }
 }
+
+/// Nets that leave a block of the generated code with nothing to do: no places, no
+/// transitions, no outputs, no inputs, a transition that moves no token. Generated code must
+/// still be valid (no empty statement lists, no label without an instruction) and mean
+/// what the simulator does.
+pub fn degenerate_nets() -> Vec<(&'static str, Net)> {
+    use petriplc_testnet::net;
+    vec![
+        ("empty", net("")),
+        ("signals only", net("s B in bool\ns Y out bool")),
+        ("places only", net("p a 1 >A\np b 0")),
+        (
+            "no outputs",
+            net("s B in bool\np a 1\np b 0\nt go a -> b if B\nt back b -> a"),
+        ),
+        ("no inputs, one place", net("p a 0 >A\nt fill -> a")),
+        (
+            "moves no token",
+            net("s B in bool\np a 1 >A\nt look ?a -> if B"),
+        ),
+        (
+            "timer, no outputs",
+            net("p a 1\np b 0 cap=1\nt t1 a@20ms -> b\nt t2 b -> a"),
+        ),
+    ]
+}

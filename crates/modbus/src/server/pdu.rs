@@ -191,6 +191,83 @@ fn handle(
     }
 }
 
+/// Why a request got exception `code`, in words for the log: which address of which table,
+/// and what to do about it. Only called for refused requests, off the served path.
+pub fn explain(map: &AddressMap, pdu: &[u8], code: u8) -> String {
+    let (fc, body) = match pdu.split_first() {
+        Some((&fc, body)) => (fc, body),
+        None => return "an empty request".to_string(),
+    };
+    if code == ILLEGAL_FUNCTION {
+        return format!("function code {fc} is not served (1-6, 15, 16 and 23 are): exception 01");
+    }
+    let field = |i: usize| (body.len() >= i + 2).then(|| be(body, i));
+    // (what the request does, table, first address, quantity)
+    let (what, table, address, q) = match fc {
+        0x01..=0x04 => {
+            let table = match fc {
+                0x01 => Table::Coil,
+                0x02 => Table::DiscreteInput,
+                0x03 => Table::Holding,
+                _ => Table::Input,
+            };
+            ("read", table, field(0), field(2))
+        }
+        0x05 => ("write", Table::Coil, field(0), Some(1)),
+        0x06 => ("write", Table::Holding, field(0), Some(1)),
+        0x0F => ("write", Table::Coil, field(0), field(2)),
+        0x10 => ("write", Table::Holding, field(0), field(2)),
+        _ => ("write", Table::Holding, field(4), field(6)),
+    };
+    let (Some(address), Some(q)) = (address, q) else {
+        return format!(
+            "a malformed request (function {fc}, {} bytes): exception 03",
+            pdu.len()
+        );
+    };
+    let table_name = table.name();
+    let range = if q == 1 {
+        format!("{table_name} {address}")
+    } else {
+        format!(
+            "{table_name} {address}-{}",
+            u32::from(address) + u32::from(q) - 1
+        )
+    };
+    if code == ILLEGAL_DATA_VALUE {
+        return format!(
+            "{what} {range}: exception 03, a quantity out of the protocol's limits, a byte \
+             count that does not match, or a value its point cannot hold"
+        );
+    }
+    let t = map.table(table);
+    for a in u32::from(address)..u32::from(address) + u32::from(q) {
+        let entry = u16::try_from(a)
+            .ok()
+            .and_then(|a| t.position(a))
+            .and_then(|pos| t.entry_at(pos))
+            .map(|e| &map.entries[e as usize]);
+        match entry {
+            None => {
+                return format!(
+                    "{what} {range}: exception 02, no point is mapped at {table_name} {a}; \
+                     the server's section maps the addresses it serves"
+                )
+            }
+            Some(e) if what == "write" && !e.writable => {
+                let point = &map.points[e.point as usize].name;
+                return format!(
+                    "{what} {range}: exception 02, {table_name} {a} shows point `{point}`, \
+                     which another module owns: clients may read it, only points the server \
+                     owns can be written"
+                );
+            }
+            Some(_) => {}
+        }
+    }
+    format!("{what} {range}: exception 02, the range cuts a 32-bit value in two")
+}
+
 fn read_registers(values: &[u16], pos: usize, q: u16, out: &mut Vec<u8>) {
     let words = &values[pos..pos + usize::from(q)];
     out.push((2 * words.len()) as u8);
@@ -308,5 +385,62 @@ mod tests {
             assert!(respond(&map, &mut image, pdu, &mut out));
             assert_eq!(out, [pdu[0] | 0x80, code], "{pdu:?}");
         }
+    }
+
+    /// `explain` of the exception `pdu` gets from a server mapping coil 0 to its own point
+    /// `stop`, coil 1 to `lamp` (owned by another module) and holding 0 to `level`.
+    fn check_explain(pdu: &[u8], expect: &str) {
+        let text = "[PLC]\nmodule mb modbus_server\nmodule other timeline\n\
+                    point stop \"\" mb\npoint lamp \"\" other\npoint level \"\" mb u8\n\
+                    [mb]\ncoil 0 stop\ncoil 1 lamp\nholding 0 level\n";
+        let config = petriplc_config::parse_str(text, "t.conf", std::path::Path::new(".")).unwrap();
+        let layout = petriplc_runtime::image::Layout::new(&config).unwrap();
+        let points = petriplc_runtime::image::ModuleMap::new(
+            &layout,
+            "mb",
+            petriplc_config::Location::Local,
+        )
+        .unwrap();
+        let rows = petriplc_modules::common::module_rows(&config, "mb");
+        let map = AddressMap::build(&rows, &points, crate::value::WordOrder::HighFirst).unwrap();
+        let mut image = Image::new(&map);
+        let mut out = Vec::new();
+        assert!(
+            respond(&map, &mut image, pdu, &mut out),
+            "{pdu:?} was served"
+        );
+        assert_eq!(explain(&map, pdu, out[1]), expect, "{pdu:?}");
+    }
+
+    #[test]
+    fn refusals_are_explained() {
+        check_explain(
+            &[0x05, 0, 1, 0xFF, 0],
+            "write coil 1: exception 02, coil 1 shows point `lamp`, which another module owns: \
+             clients may read it, only points the server owns can be written",
+        );
+        check_explain(
+            &[0x0F, 0, 0, 0, 3, 1, 7],
+            "write coil 0-2: exception 02, coil 1 shows point `lamp`, which another module \
+             owns: clients may read it, only points the server owns can be written",
+        );
+        check_explain(
+            &[0x03, 0, 5, 0, 1],
+            "read holding 5: exception 02, no point is mapped at holding 5; the server's \
+             section maps the addresses it serves",
+        );
+        check_explain(
+            &[0x06, 0, 0, 1, 0],
+            "write holding 0: exception 03, a quantity out of the protocol's limits, a byte \
+             count that does not match, or a value its point cannot hold",
+        );
+        check_explain(
+            &[0x2B, 0x0E],
+            "function code 43 is not served (1-6, 15, 16 and 23 are): exception 01",
+        );
+        check_explain(
+            &[0x03, 0],
+            "a malformed request (function 3, 2 bytes): exception 03",
+        );
     }
 }

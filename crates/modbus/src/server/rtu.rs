@@ -202,6 +202,7 @@ fn answer(frame: &[u8], unit: u8, shared: &Shared, out: &mut Vec<u8>) {
     shared.requests.fetch_add(1, Ordering::Relaxed);
     if exception {
         shared.exceptions.fetch_add(1, Ordering::Relaxed);
+        shared.refused(pdu, out[out.len() - 1]);
     }
     if address == 0 {
         out.truncate(start);

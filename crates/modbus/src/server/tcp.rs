@@ -2,14 +2,21 @@
 //! than tokio-modbus's because its codec turns a malformed PDU into a connection error (so a
 //! short request could not get exception 03) and has no idle timeout; here every complete ADU
 //! in what one read returned is answered, in order, in one write, with one lock of the image.
+//!
+//! At `max_clients`, a new connection takes the place of the connection idle the longest, if
+//! it has been idle [`EVICT_IDLE`] or more: idle connections must not lock active clients out
+//! until their idle timeout. Only when every connection is busy is the newcomer refused; the
+//! first refusal is logged with the limit, later ones are counted and logged every
+//! [`REFUSALS_EVERY`].
 
 use std::net::SocketAddr;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::Notify;
 use tokio::time::Instant;
 
 use super::pdu;
@@ -23,7 +30,26 @@ const MAX_ADU: usize = 260;
 /// the unfinished one is moved to the front.
 const BUFFER: usize = 4096;
 
+/// At `max_clients`, a connection idle this long (or its idle timeout, if shorter) gives way
+/// to a new one.
+pub(super) const EVICT_IDLE: Duration = Duration::from_secs(1);
+/// Refusals after the first are logged at most this often, as a count.
+pub(super) const REFUSALS_EVERY: Duration = Duration::from_secs(10);
+
+/// What the listener knows of one open connection.
+struct Conn {
+    /// When it last served a request, in ms since the listener started.
+    last_ms: AtomicU64,
+    closed: AtomicBool,
+    evict: Notify,
+}
+
 pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>) {
+    let start = Instant::now();
+    let now_ms = move || start.elapsed().as_millis() as u64;
+    let evict_after = shared.idle.map_or(EVICT_IDLE, |i| i.min(EVICT_IDLE));
+    let mut conns: Vec<Arc<Conn>> = Vec::new();
+    let mut refusals = Refusals::default();
     loop {
         let (stream, peer) = match listener.accept().await {
             Ok(c) => c,
@@ -34,37 +60,114 @@ pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>) {
                 continue;
             }
         };
-        let clients = shared.clients.load(Ordering::Relaxed);
-        if clients >= shared.max_clients {
-            log::warn!(
-                "modbus_server {}: refused {peer}: {clients} clients already connected \
-                 (max_clients = {})",
-                shared.name,
-                shared.max_clients
-            );
-            drop(stream);
-            continue;
+        conns.retain(|c| !c.closed.load(Ordering::Relaxed));
+        if conns.len() >= shared.max_clients {
+            let now = now_ms();
+            let idlest = conns
+                .iter()
+                .enumerate()
+                .map(|(i, c)| (now.saturating_sub(c.last_ms.load(Ordering::Relaxed)), i))
+                .max();
+            match idlest {
+                Some((idle, i)) if idle >= evict_after.as_millis() as u64 => {
+                    let c = conns.swap_remove(i);
+                    c.closed.store(true, Ordering::Relaxed);
+                    c.evict.notify_one();
+                }
+                _ => {
+                    if let Some(line) = refusals.refused(Instant::now(), shared.max_clients) {
+                        log::warn!("modbus_server {}: refused {peer}: {line}", shared.name);
+                    }
+                    drop(stream);
+                    continue;
+                }
+            }
+        }
+        if let Some(line) = refusals.accepted() {
+            log::warn!("modbus_server {}: {line}", shared.name);
         }
         shared.clients.fetch_add(1, Ordering::Relaxed);
         log::debug!("modbus_server {}: client {peer} connected", shared.name);
+        let conn = Arc::new(Conn {
+            last_ms: AtomicU64::new(now_ms()),
+            closed: AtomicBool::new(false),
+            evict: Notify::new(),
+        });
+        conns.push(conn.clone());
         let shared = shared.clone();
         tokio::spawn(async move {
-            let guard = ClientGuard(&shared);
-            connection(stream, peer, guard.0).await;
+            let guard = ClientGuard(&shared, &conn);
+            connection(stream, peer, guard.0, guard.1, now_ms).await;
         });
     }
 }
 
+/// The log of refused connections: the first of a run of refusals says the limit, the next
+/// ones are counted and told every [`REFUSALS_EVERY`], and the run's last count when a
+/// connection is accepted again.
+#[derive(Debug, Default)]
+pub(super) struct Refusals {
+    /// When the current run of refusals was last logged; `None`: not refusing.
+    logged: Option<Instant>,
+    /// Refusals since then.
+    count: u64,
+}
+
+impl Refusals {
+    /// A connection was refused at `now`: the line to log, if any.
+    pub(super) fn refused(&mut self, now: Instant, max_clients: usize) -> Option<String> {
+        match self.logged {
+            None => {
+                self.logged = Some(now);
+                self.count = 0;
+                Some(format!(
+                    "max_clients = {max_clients} connections are open and none has been idle \
+                     for {} s; new connections are refused until one closes (further \
+                     refusals are counted, logged every {} s)",
+                    EVICT_IDLE.as_secs(),
+                    REFUSALS_EVERY.as_secs()
+                ))
+            }
+            Some(at) => {
+                self.count += 1;
+                if now.duration_since(at) < REFUSALS_EVERY {
+                    return None;
+                }
+                self.logged = Some(now);
+                Some(format!(
+                    "{} more connections refused in the last {} s (max_clients)",
+                    std::mem::take(&mut self.count),
+                    now.duration_since(at).as_secs()
+                ))
+            }
+        }
+    }
+
+    /// A connection was accepted: the count of the run of refusals it ends, if not logged.
+    pub(super) fn accepted(&mut self) -> Option<String> {
+        self.logged.take()?;
+        let n = std::mem::take(&mut self.count);
+        (n > 0).then(|| format!("{n} more connections were refused (max_clients)"))
+    }
+}
+
 /// Counts the connection down however its task ends.
-struct ClientGuard<'a>(&'a Shared);
+struct ClientGuard<'a>(&'a Shared, &'a Conn);
 
 impl Drop for ClientGuard<'_> {
     fn drop(&mut self) {
+        self.1.closed.store(true, Ordering::Relaxed);
         self.0.clients.fetch_sub(1, Ordering::Relaxed);
     }
 }
 
-async fn connection(mut stream: TcpStream, peer: SocketAddr, shared: &Shared) {
+async fn connection(
+    mut stream: TcpStream,
+    peer: SocketAddr,
+    shared: &Shared,
+    conn: &Conn,
+    now_ms: impl Fn() -> u64,
+) {
     let name = &shared.name;
     if let Err(e) = stream.set_nodelay(true) {
         log::debug!("modbus_server {name}: {peer}: TCP_NODELAY not set: {e}");
@@ -82,6 +185,14 @@ async fn connection(mut stream: TcpStream, peer: SocketAddr, shared: &Shared) {
     loop {
         let n = tokio::select! {
             biased;
+            () = conn.evict.notified() => {
+                log::info!(
+                    "modbus_server {name}: closing {peer}, the connection idle the longest, \
+                     to make room for a new one (max_clients = {})",
+                    shared.max_clients
+                );
+                return;
+            }
             r = stream.read(&mut buf[filled..]) => r,
             () = &mut timer => {
                 let Some(idle) = idle else {
@@ -115,6 +226,7 @@ async fn connection(mut stream: TcpStream, peer: SocketAddr, shared: &Shared) {
         let batch = answer(&buf[..filled], shared, &mut out);
         if batch.served > 0 {
             last_request = Instant::now();
+            conn.last_ms.store(now_ms(), Ordering::Relaxed);
         }
         buf.copy_within(batch.used..filled, 0);
         filled -= batch.used;
@@ -182,6 +294,7 @@ pub(super) fn answer(buf: &[u8], shared: &Shared, out: &mut Vec<u8>) -> Batch {
         out.extend_from_slice(&rest[..HEADER]);
         if pdu::respond(&shared.map, image, &rest[HEADER..total], out) {
             exceptions += 1;
+            shared.refused(&rest[HEADER..total], out[out.len() - 1]);
         }
         let length = (out.len() - start - 6) as u16;
         out[start + 4..start + 6].copy_from_slice(&length.to_be_bytes());
@@ -199,5 +312,49 @@ pub(super) fn answer(buf: &[u8], shared: &Shared, out: &mut Vec<u8>) -> Batch {
         used: pos,
         served,
         close,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Refusals at the given seconds (after the first), then an accept: the lines logged.
+    fn check(refused_at: &[f64], expect: &[&str]) {
+        let t0 = Instant::now();
+        let mut r = Refusals::default();
+        let mut got: Vec<String> = refused_at
+            .iter()
+            .filter_map(|&s| r.refused(t0 + Duration::from_secs_f64(s), 4))
+            .collect();
+        got.extend(r.accepted());
+        let got: Vec<&str> = got.iter().map(|l| l.split(';').next().unwrap()).collect();
+        assert_eq!(got, expect);
+    }
+
+    #[test]
+    fn refusals_are_logged_once_with_the_limit_then_counted() {
+        check(&[], &[]);
+        check(
+            &[0.0],
+            &["max_clients = 4 connections are open and none has been idle for 1 s"],
+        );
+        // Hundreds in a second: one line, and the count when a client gets in again.
+        let burst: Vec<f64> = (0..300).map(|i| f64::from(i) / 300.0).collect();
+        check(
+            &burst,
+            &[
+                "max_clients = 4 connections are open and none has been idle for 1 s",
+                "299 more connections were refused (max_clients)",
+            ],
+        );
+        check(
+            &[0.0, 1.0, 5.0, 10.5, 11.0],
+            &[
+                "max_clients = 4 connections are open and none has been idle for 1 s",
+                "3 more connections refused in the last 10 s (max_clients)",
+                "1 more connections were refused (max_clients)",
+            ],
+        );
     }
 }

@@ -118,7 +118,7 @@ impl Server {
                 .parse()
                 .unwrap()
         };
-        (n(" clients"), n(" requests"), n(" exceptions"))
+        (n(" client"), n(" request"), n(" exception"))
     }
 
     pub fn raw(&self) -> Raw {

@@ -246,7 +246,7 @@ arc a2 t1->p2 normal"#,
             ),
             "t.pnml:2:63: error[P013]: transition `t1`: guard `B1 AND` is not valid: column 7: the guard ends where a signal name, TRUE, FALSE, NOT or `(` is expected [t1]\n\
              t.pnml:3:1: error[P019]: place `p1` starts with 2 tokens but its capacity is 1 [p1]\n\
-             t.pnml:4:80: error[P014]: arc `a1`: delay `soon` is not a duration: `soon` is not a duration: write seconds (`1.5`) or an IEC literal (`T#1.5s`, `T#500ms`, `T#1m30s`) [a1]\n\
+             t.pnml:4:80: error[P014]: arc `a1`: delay: `soon` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`) [a1]\n\
              t.pnml:5:1: error[P012]: arc `a2`: its target `p9` is not a place or transition of this net [a2]",
         );
     }

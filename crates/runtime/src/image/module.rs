@@ -4,8 +4,9 @@
 use petriplc_config::{Location, PointKind, PointValue};
 
 use super::layout::{decode, encode, show_value, sign_extend, width_mask, Layout, PointId};
-use super::shm::{GlobalMap, ImageGuard, WORDS_PAGE_OFFSET};
+use super::shm::{GlobalMap, ImageGuard, Journal, WORDS_PAGE_OFFSET};
 use super::{kind_name, ImageError};
+use crate::testhook;
 
 mod isolate;
 
@@ -74,6 +75,8 @@ pub struct ModuleMap {
     location: Location,
     mask: Vec<u32>,
     plan: Plan,
+    /// The word ranges `update()` writes, for its journal.
+    ranges: Vec<(u32, u32)>,
     words: Words,
     /// Force requests waiting for the next `update()`: word, bits, value (`None` releases).
     forces: Vec<(u32, u32, Option<u32>)>,
@@ -129,13 +132,13 @@ impl ModuleMap {
     /// module takes its proxy along.
     pub fn isolated(layout: &Layout, module: &str, plc_id: &str) -> Result<ModuleMap, ImageError> {
         Self::build(layout, module, Location::Isolate, |map| {
-            let (mask, plan) = (&map.mask, &map.plan);
+            let (mask, plan, ranges) = (&map.mask, &map.plan, &map.ranges);
             let proxy = isolate::Proxy::spawn(
                 layout,
                 plc_id,
                 layout.init_words(),
                 private_page_word(),
-                |g, p| exchange(plan, mask, g, p),
+                |g, p| exchange(plan, ranges, mask, g, p),
             )?;
             Ok(Words::Isolated(proxy))
         })
@@ -158,7 +161,14 @@ impl ModuleMap {
             mask[s.word as usize] |= s.field_mask();
         }
         let plan = plan(&mask);
-        let shape = Shape { mask, plan };
+        let ranges = match &plan {
+            Plan::Span { start, end } => vec![(*start as u32, *end as u32)],
+            Plan::Runs(runs) => runs
+                .iter()
+                .map(|r| (r.start as u32, r.end as u32))
+                .collect(),
+        };
+        let shape = Shape { mask, plan, ranges };
         let words = words(&shape)?;
         Ok(ModuleMap {
             layout: layout.clone(),
@@ -166,6 +176,7 @@ impl ModuleMap {
             location,
             mask: shape.mask,
             plan: shape.plan,
+            ranges: shape.ranges,
             words,
             forces: Vec::new(),
             forced: Vec::new(),
@@ -225,7 +236,7 @@ impl ModuleMap {
                 guard.force_changed();
             }
         }
-        exchange(&self.plan, &self.mask, &mut guard, private);
+        exchange(&self.plan, &self.ranges, &self.mask, &mut guard, private);
         let generation = guard.force_generation();
         if generation != self.forced_generation || self.forced.len() != self.mask.len() {
             self.forced_generation = generation;
@@ -510,15 +521,28 @@ fn private_page_word() -> usize {
 struct Shape {
     mask: Vec<u32>,
     plan: Plan,
+    ranges: Vec<(u32, u32)>,
 }
 
-/// The update under the lock: [`merge`], then the forced bits laid over the private copy's
-/// bits the module does not own. The global words keep what the owners wrote (an owner reads
-/// its own value), so releasing a force brings the owner's value back at once.
-fn exchange(plan: &Plan, m: &[u32], guard: &mut ImageGuard<'_>, p: &mut [u32]) {
+/// The update under the lock: [`merge`] inside the journal (so that a death half-way is
+/// undone by the next locker), then the forced bits laid over the private copy's bits the
+/// module does not own. The global words keep what the owners wrote (an owner reads its own
+/// value), so releasing a force brings the owner's value back at once.
+fn exchange(
+    plan: &Plan,
+    ranges: &[(u32, u32)],
+    m: &[u32],
+    guard: &mut ImageGuard<'_>,
+    p: &mut [u32],
+) {
     let forced = guard.any_forced();
-    let parts = guard.parts_mut();
-    merge(plan, m, parts.words, p);
+    let mut parts = guard.parts_mut();
+    parts.journal.open(ranges);
+    if testhook::fires(testhook::Point::Update) {
+        die_half_way(ranges, m, parts.words, p, &mut parts.journal);
+    }
+    merge(plan, m, parts.words, p, &mut parts.journal);
+    parts.journal.close();
     if forced {
         for (w, &fm) in parts.force_mask.iter().enumerate() {
             let others = fm & !m[w];
@@ -529,29 +553,83 @@ fn exchange(plan: &Plan, m: &[u32], guard: &mut ImageGuard<'_>, p: &mut [u32]) {
     }
 }
 
-/// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in. `g` must
-/// be locked.
-fn merge(plan: &Plan, m: &[u32], g: &mut [u32], p: &mut [u32]) {
+/// The test hook's death in the middle of an update: the owned words written out chunk by
+/// chunk as [`merge`] writes them, journal saves included, until half of them are out; then
+/// SIGKILL with the lock held.
+#[cold]
+fn die_half_way(
+    ranges: &[(u32, u32)],
+    m: &[u32],
+    g: &mut [u32],
+    p: &[u32],
+    journal: &mut Journal<'_>,
+) -> ! {
+    let owned: usize = ranges
+        .iter()
+        .flat_map(|&(s, e)| s as usize..e as usize)
+        .filter(|&w| m[w] != 0)
+        .count();
+    let mut left = owned.div_ceil(2);
+    for &(s, e) in ranges {
+        let mut c = s as usize;
+        while c < e as usize {
+            let d = (c + CHUNK).min(e as usize);
+            journal.save(g, c, d);
+            for w in c..d {
+                if left == 0 {
+                    testhook::die();
+                }
+                if m[w] != 0 {
+                    g[w] = (g[w] & !m[w]) | (p[w] & m[w]);
+                    left -= 1;
+                }
+            }
+            c = d;
+        }
+    }
+    testhook::die()
+}
+
+/// Words written out between two journal saves: small enough that the chunk is still in
+/// the cache when it is written, large enough that the save's bookkeeping does not count.
+const CHUNK: usize = 256;
+
+/// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in, each
+/// chunk of `g` saved in the journal (opened with the plan's ranges) before it is written.
+/// `g` must be locked.
+fn merge(plan: &Plan, m: &[u32], g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
     match plan {
         Plan::Span { start, end } => {
             let (s, e) = (*start, *end);
-            for ((g, p), m) in g[s..e].iter_mut().zip(&mut p[s..e]).zip(&m[s..e]) {
-                let v = (*g & !*m) | (*p & *m);
-                *g = v;
-                *p = v;
+            let mut c = s;
+            while c < e {
+                let d = (c + CHUNK).min(e);
+                journal.save(g, c, d);
+                for ((g, p), m) in g[c..d].iter_mut().zip(&mut p[c..d]).zip(&m[c..d]) {
+                    let v = (*g & !*m) | (*p & *m);
+                    *g = v;
+                    *p = v;
+                }
+                c = d;
             }
             p[..s].copy_from_slice(&g[..s]);
             p[e..].copy_from_slice(&g[e..]);
         }
         Plan::Runs(runs) => {
             for r in runs {
-                let (g, p) = (&mut g[r.start..r.end], &p[r.start..r.end]);
-                if r.full {
-                    g.copy_from_slice(p);
-                } else {
-                    for ((g, p), m) in g.iter_mut().zip(p).zip(&m[r.start..r.end]) {
-                        *g = (*g & !*m) | (*p & *m);
+                let mut c = r.start;
+                while c < r.end {
+                    let d = (c + CHUNK).min(r.end);
+                    journal.save(g, c, d);
+                    let (g, p) = (&mut g[c..d], &p[c..d]);
+                    if r.full {
+                        g.copy_from_slice(p);
+                    } else {
+                        for ((g, p), m) in g.iter_mut().zip(p).zip(&m[c..d]) {
+                            *g = (*g & !*m) | (*p & *m);
+                        }
                     }
+                    c = d;
                 }
             }
             p.copy_from_slice(g);

@@ -1,14 +1,24 @@
-//! The global map: a header, the image's words and the force table in POSIX shared memory
-//! named after the plc id, guarded by a futex mutex in the header that works across processes
-//! and threads.
+//! The global map: a header, the image's words, the force table and the update journal in
+//! POSIX shared memory named after the plc id, guarded by a robust mutex in the header that
+//! works across processes and threads (`crate::futex`).
 //!
 //! The force table is two more arrays of as many words: a mask of the forced bits and their
 //! forced values. The words keep what the owners write; every read but the owner's (a
 //! module's `update()`, [`GlobalMap::read_point`]) lays the forced bits over them.
+//!
+//! The journal makes a module's `update()` all or nothing even if the module dies half-way
+//! (`kill -9` in the middle of the copy): the updater opens it with the ranges of words it
+//! will write, then writes them chunk by chunk, saving each chunk's words and counting them
+//! as saved just before overwriting them (the chunk is still in the cache when it is copied
+//! out, so the journal costs one more pass over cache lines, not over memory). The next
+//! process to take the lock after the holder's death finds the journal open and puts the
+//! saved words back, so the image holds that module's previous values, never a mix of two
+//! scans. Each force request is a single word's mask and value, written value first, so it is
+//! applied or not.
 
 use std::fs::File;
 use std::os::unix::fs::MetadataExt;
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{compiler_fence, AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
 
 use memmap2::{MmapOptions, MmapRaw};
@@ -19,40 +29,51 @@ use nix::sys::stat::Mode;
 
 use super::layout::{Layout, PointId};
 use super::{ImageError, PointValue};
-use crate::futex;
+use crate::futex::{self, RobustMutex};
 
 const MAGIC: u64 = u64::from_le_bytes(*b"PPLCIMG\0");
 /// Bumped whenever the header or the word encoding changes, so that an old module is refused
 /// rather than misreading a newer PLC's image.
-const VERSION: u32 = 2;
-/// The words start one cache line in, away from the contended lock word.
-const HEADER: usize = 64;
+const VERSION: u32 = 3;
+/// The header: its fields, then the lock on a cache line of its own. The words start right
+/// after it, away from the contended lock.
+const HEADER: usize = 128;
 /// Where the words start within a page, for module maps that align their private copy alike.
 pub(crate) const WORDS_PAGE_OFFSET: usize = HEADER % 4096;
 
-// Everything is atomic: other processes read the header while we write it, and the lock word
-// is the synchronisation itself.
+// Everything but the lock is atomic: other processes read the header while we write it.
 #[repr(C)]
 struct Header {
     magic: AtomicU64,
     version: AtomicU32,
     words: AtomicU32,
     fingerprint: AtomicU64,
-    /// 0 free, 1 held, 2 held with (possibly) sleepers.
-    lock: AtomicU32,
-    /// The creating process, to tell a stale image from a running PLC.
+    /// The creating process, for messages.
     creator: AtomicU32,
     /// How many words have forced bits: 0 lets `update()` skip the force table.
     forced_words: AtomicU32,
     /// Bumped by every change of the force table, so maps refresh their copy of the mask.
     force_generation: AtomicU32,
-    _reserved: [AtomicU32; 6],
+    /// How many word ranges the journal holds: non-zero while an update writes words out
+    /// (see [`ImageGuard::journal`]).
+    journal: AtomicU32,
+    /// 1 when the lock has priority inheritance.
+    inherit: AtomicU32,
+    /// How often a lock held by a process that died was recovered.
+    recoveries: AtomicU32,
+    /// How many words of the open journal's ranges, in order, are saved (and may have been
+    /// overwritten since).
+    journal_saved: AtomicU32,
+    _reserved: [AtomicU32; 3],
+    lock: RobustMutex,
 }
 
 const _: () = assert!(std::mem::size_of::<Header>() == HEADER);
 
-/// The words, the force mask and the forced values.
-const ARRAYS: usize = 3;
+/// The arrays after the header, in units of the image's word count: the words, the force
+/// mask, the forced values, the journal's saved words, and its ranges (two u32 per range,
+/// at most one range per word).
+const ARRAYS: usize = 6;
 
 /// The shared process image of one PLC. Cheap to clone (threads of one process share the
 /// mapping); the creator's last clone removes the shared memory name when dropped.
@@ -121,7 +142,6 @@ impl GlobalMap {
             Err(Errno::EEXIST) => {
                 return Err(ImageError::AlreadyRunning {
                     plc_id: plc_id.to_string(),
-                    stale: stale_reason(&shm),
                     shm,
                 })
             }
@@ -169,6 +189,13 @@ impl GlobalMap {
             std::ptr::copy_nonoverlapping(init.as_ptr(), words, init.len());
         }
         let h = header(&map);
+        // SAFETY: the image is not published yet (no magic), so nobody else uses the lock.
+        let protocol = unsafe { h.lock.init() }
+            .map_err(|e| os("cannot create the lock of shared memory", shm, e))?;
+        h.inherit.store(
+            u32::from(protocol == futex::Protocol::Inherit),
+            Ordering::Relaxed,
+        );
         h.version.store(VERSION, Ordering::Relaxed);
         h.words.store(layout.words() as u32, Ordering::Relaxed);
         h.fingerprint.store(layout.fingerprint(), Ordering::Relaxed);
@@ -274,12 +301,63 @@ impl GlobalMap {
     }
 
     /// Takes the image's lock: the words can be accessed through the guard until it drops.
-    /// Holders must not die or block while holding it (every other module would wait).
+    /// Holders must not block while holding it (every other module would wait). If the
+    /// previous holder died holding it, its half-done update is undone first.
     pub fn lock(&self) -> ImageGuard<'_> {
+        let h = header(&self.inner.map);
+        let lock = h.lock.lock(|| self.repair());
         ImageGuard {
-            _lock: futex::lock(&header(&self.inner.map).lock),
+            _lock: lock,
             map: self,
         }
+    }
+
+    /// Puts the image back as it was before the update of a process that died holding the
+    /// lock (the lock is held).
+    fn repair(&self) {
+        let h = header(&self.inner.map);
+        let n = self.inner.words;
+        // SAFETY: we hold the lock (handed over by EOWNERDEAD), so nobody else touches the
+        // arrays; the mapping holds ARRAYS * n u32s at HEADER.
+        let all = unsafe {
+            std::slice::from_raw_parts_mut(
+                self.inner.map.as_mut_ptr().add(HEADER).cast::<u32>(),
+                ARRAYS * n,
+            )
+        };
+        let (words, rest) = all.split_at_mut(n);
+        let (force_mask, rest) = rest.split_at_mut(n);
+        let (_, rest) = rest.split_at_mut(n);
+        let (saved, ranges) = rest.split_at_mut(n);
+        let open = (h.journal.load(Ordering::Acquire) as usize).min(n);
+        let mut left = h.journal_saved.load(Ordering::Acquire) as usize;
+        for r in ranges.chunks_exact(2).take(open) {
+            let (start, end) = (r[0] as usize, r[1] as usize);
+            if start >= end || end > n || left == 0 {
+                break;
+            }
+            let end = end.min(start + left);
+            words[start..end].copy_from_slice(&saved[start..end]);
+            left -= end - start;
+        }
+        h.journal.store(0, Ordering::Release);
+        // A force request is applied whole or not at all, but the count of forced words
+        // may lag behind the mask: count again, and make every map refresh its copy.
+        let forced = force_mask.iter().filter(|&&m| m != 0).count();
+        h.forced_words.store(forced as u32, Ordering::Relaxed);
+        h.force_generation.fetch_add(1, Ordering::Relaxed);
+        h.recoveries.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// How often the lock was recovered from a process that died holding it.
+    pub fn recoveries(&self) -> u32 {
+        header(&self.inner.map).recoveries.load(Ordering::Relaxed)
+    }
+
+    /// Whether the lock has priority inheritance (bounded priority inversion for
+    /// SCHED_FIFO modules); `false` where the kernel has no PI futexes.
+    pub fn priority_inheritance(&self) -> bool {
+        header(&self.inner.map).inherit.load(Ordering::Relaxed) != 0
     }
 
     /// The value of one point, read under the lock (for displays and loggers that own
@@ -316,41 +394,6 @@ fn header(map: &MmapRaw) -> &Header {
     unsafe { &*map.as_mut_ptr().cast::<Header>() }
 }
 
-/// Why an existing image looks abandoned, for the "already running" message ("" if it does
-/// not).
-fn stale_reason(shm: &str) -> String {
-    let Ok(fd) = shm_open(shm, OFlag::O_RDONLY, Mode::empty()) else {
-        return String::new();
-    };
-    let file = File::from(fd);
-    if file
-        .metadata()
-        .map_or(true, |m| (m.len() as usize) < HEADER)
-    {
-        return String::new();
-    }
-    let Ok(map) = MmapOptions::new().len(HEADER).map_raw_read_only(&file) else {
-        return String::new();
-    };
-    let h = header(&map);
-    if h.magic.load(Ordering::Acquire) != MAGIC {
-        return String::new();
-    }
-    let pid = h.creator.load(Ordering::Relaxed);
-    let dead = pid > 0
-        && i32::try_from(pid).is_ok_and(|p| {
-            nix::sys::signal::kill(nix::unistd::Pid::from_raw(p), None) == Err(Errno::ESRCH)
-        });
-    if dead {
-        format!(
-            ", but the PLC that created it (pid {pid}) has exited: remove it with \
-             `rm /dev/shm{shm}` or GlobalMap::unlink"
-        )
-    } else {
-        String::new()
-    }
-}
-
 /// Exclusive access to the image's words; dropping it releases the lock.
 pub struct ImageGuard<'a> {
     map: &'a GlobalMap,
@@ -358,13 +401,61 @@ pub struct ImageGuard<'a> {
     _lock: futex::Guard<'a>,
 }
 
-/// The words and the force table, borrowed together from a held lock.
+/// The journal of an update in progress (see the module documentation).
+pub struct Journal<'g> {
+    saved: &'g mut [u32],
+    ranges: &'g mut [u32],
+    open: &'g AtomicU32,
+    saved_count: &'g AtomicU32,
+    /// Words saved so far (what `saved_count` holds).
+    count: u32,
+}
+
+impl Journal<'_> {
+    /// Opens the journal for an update that will write the words of `ranges` (at most one
+    /// range per word), in this order, each chunk saved by [`Journal::save`] just before it
+    /// is written. From here until [`Journal::close`], a death of this process makes the next
+    /// locker put the saved words back.
+    pub fn open(&mut self, ranges: &[(u32, u32)]) {
+        for (i, &(start, end)) in ranges.iter().enumerate() {
+            self.ranges[2 * i] = start;
+            self.ranges[2 * i + 1] = end;
+        }
+        self.count = 0;
+        self.saved_count.store(0, Ordering::Relaxed);
+        self.open.store(ranges.len() as u32, Ordering::Release);
+        // A death is precise (every instruction before the kill ran, none after), so program
+        // order is enough: keep the compiler from moving stores across these points.
+        compiler_fence(Ordering::SeqCst);
+    }
+
+    /// Saves `words[start..end]`, the next words of the ranges in order, before they are
+    /// written.
+    #[inline]
+    pub fn save(&mut self, words: &[u32], start: usize, end: usize) {
+        self.saved[start..end].copy_from_slice(&words[start..end]);
+        compiler_fence(Ordering::SeqCst);
+        self.count += (end - start) as u32;
+        self.saved_count.store(self.count, Ordering::Relaxed);
+        compiler_fence(Ordering::SeqCst);
+    }
+
+    /// Closes the journal: the update is complete.
+    pub fn close(&mut self) {
+        compiler_fence(Ordering::SeqCst);
+        self.open.store(0, Ordering::Release);
+    }
+}
+
+/// The words, the force table and the journal, borrowed together from a held lock.
 pub struct Parts<'g> {
     pub words: &'g mut [u32],
     /// The forced bits of each word.
     pub force_mask: &'g mut [u32],
     /// Their values (only the bits in `force_mask` mean anything).
     pub force_value: &'g mut [u32],
+    /// Makes a copy-out of several words all or nothing.
+    pub journal: Journal<'g>,
 }
 
 impl Parts<'_> {
@@ -372,10 +463,13 @@ impl Parts<'_> {
     /// Returns whether the table changed.
     pub fn set_force(&mut self, w: usize, mask: u32, value: Option<u32>) -> bool {
         let (old_mask, old_value) = (self.force_mask[w], self.force_value[w]);
+        // Value before mask: a process dying in between leaves the force not yet applied,
+        // never applied with a stale value.
         match value {
             Some(v) => {
-                self.force_mask[w] |= mask;
                 self.force_value[w] = (old_value & !mask) | (v & mask);
+                compiler_fence(Ordering::SeqCst);
+                self.force_mask[w] |= mask;
             }
             None => self.force_mask[w] &= !mask,
         }
@@ -405,22 +499,34 @@ impl ImageGuard<'_> {
             .load(Ordering::Relaxed)
     }
 
-    /// The words and the force table at once.
+    /// The words, the force table and the journal at once.
     pub fn parts_mut(&mut self) -> Parts<'_> {
         let inner = &self.map.inner;
         let n = inner.words;
         // SAFETY: the mapping holds ARRAYS * `words` u32s at HEADER (4-aligned, checked at
-        // open and create); the three slices are disjoint; holding the lock makes this the
-        // only access among well-behaved users, and the slices borrow the guard mutably.
+        // open and create); the slices are disjoint; holding the lock makes this the only
+        // access among well-behaved users, and the slices borrow the guard mutably.
         let all = unsafe {
-            std::slice::from_raw_parts_mut(inner.map.as_mut_ptr().add(HEADER).cast::<u32>(), 3 * n)
+            std::slice::from_raw_parts_mut(
+                inner.map.as_mut_ptr().add(HEADER).cast::<u32>(),
+                ARRAYS * n,
+            )
         };
         let (words, rest) = all.split_at_mut(n);
-        let (force_mask, force_value) = rest.split_at_mut(n);
+        let (force_mask, rest) = rest.split_at_mut(n);
+        let (force_value, rest) = rest.split_at_mut(n);
+        let (saved, ranges) = rest.split_at_mut(n);
         Parts {
             words,
             force_mask,
             force_value,
+            journal: Journal {
+                saved,
+                ranges,
+                open: &header(&inner.map).journal,
+                saved_count: &header(&inner.map).journal_saved,
+                count: 0,
+            },
         }
     }
 

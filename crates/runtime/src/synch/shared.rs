@@ -2,16 +2,23 @@
 //! (`/petriplc-<plc_id>-synch`), on which the modules of every process fire transitions
 //! atomically, blocking on a futex until the transition they wait on is enabled.
 //!
-//! Layout: a [`Header`] (magic, version, sizes, a fingerprint of the net, the lock word,
-//! the generation counter and the `stopping` flag), then one `u32` per place. The marking
-//! is only read or written with the lock held; the generation counter is bumped, under the
-//! lock, by every change a waiter could care about (a firing, `stop`), and waiters sleep on
-//! it with the value they read under the lock, so a change between their check and their
-//! sleep makes the sleep return at once: no lost wake-ups.
+//! Layout: a [`Header`] (magic, version, sizes, a fingerprint of the net, the generation
+//! counter, the `stopping` flag, the journal's state, then the robust lock on a cache line of
+//! its own), then one `u32` per place (the marking), one per synchronised module (whether it
+//! is inside a scan: its `scan_beg` fired, its `scan_end` not yet), and the journal's copy of
+//! the marking. The marking and the scan slots are only read or written with the lock held;
+//! the generation counter is bumped, under the lock, by every change a waiter could care
+//! about (a firing, `stop`), and waiters sleep on it with the value they read under the lock,
+//! so a change between their check and their sleep makes the sleep return at once: no lost
+//! wake-ups.
+//!
+//! A firing is all or nothing even if the firing process dies half-way: the marking (and
+//! the scan slot the firing changes) is copied to the journal before the firing, and the
+//! next process to take the lock after the holder's death puts it back (`crate::futex`).
 
 use std::fs::File;
 use std::mem::size_of;
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{compiler_fence, AtomicU32, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use memmap2::{MmapMut, MmapOptions};
@@ -20,11 +27,12 @@ use nix::fcntl::OFlag;
 use nix::sys::mman::{shm_open, shm_unlink};
 use nix::sys::stat::Mode;
 
-use super::{SynchError, SynchNet, TransitionRef};
-use crate::futex;
+use super::{ScanRef, SynchError, SynchNet, TransitionRef};
+use crate::futex::{self, RobustMutex};
+use crate::testhook;
 
 const MAGIC: u32 = u32::from_be_bytes(*b"PPSY");
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 /// How long `open` waits for a creator that has made the object but not yet filled it in.
 const OPEN_WAIT: Duration = Duration::from_secs(2);
 
@@ -37,13 +45,26 @@ struct Header {
     places: AtomicU32,
     transitions: AtomicU32,
     fingerprint: AtomicU64,
-    lock: AtomicU32,
     generation: AtomicU32,
     stopping: AtomicU32,
-    _reserved: AtomicU32,
+    /// Non-zero while a firing changes the marking (the journal holds the marking before it).
+    journal: AtomicU32,
+    /// The scan slot the journalled firing changes (`NO_SLOT`: none) and its value before.
+    journal_slot: AtomicU32,
+    journal_slot_value: AtomicU32,
+    /// How many scan slots follow the marking.
+    slots: AtomicU32,
+    /// 1 when the lock has priority inheritance.
+    inherit: AtomicU32,
+    /// How often a lock held by a process that died was recovered.
+    recoveries: AtomicU32,
+    _reserved: [AtomicU32; 2],
+    lock: RobustMutex,
 }
 
 const HEADER_SIZE: usize = size_of::<Header>();
+const _: () = assert!(HEADER_SIZE == 128);
+const NO_SLOT: u32 = u32::MAX;
 
 /// A transition fired for this wait.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -63,9 +84,11 @@ pub struct SharedSynch {
     net: SynchNet,
     shm: String,
     creator: bool,
-    /// Keeps the mapping alive; all access goes through the two pointers below.
+    /// Keeps the mapping alive; all access goes through the pointers below.
     _map: MmapMut,
     header: *const Header,
+    /// The marking (one u32 per place), then the scan slots (one per synchronised module),
+    /// then the journal's marking.
     marking: *mut u32,
 }
 
@@ -91,7 +114,7 @@ impl Drop for UnlinkOnError<'_> {
 }
 
 fn size_for(net: &SynchNet) -> usize {
-    HEADER_SIZE + net.places().len() * size_of::<u32>()
+    HEADER_SIZE + (2 * net.places().len() + net.scan_slots()) * size_of::<u32>()
 }
 
 fn os_error(what: &'static str, shm: &str, errno: Errno) -> SynchError {
@@ -150,9 +173,25 @@ impl SharedSynch {
         let header = this.header();
         let initial = net.initial_marking();
         // SAFETY: the object is not yet published (magic is 0), so no one else touches the
-        // marking; `from_map` made the pointer cover exactly one u32 per place.
+        // marking; the mapping holds the marking, the slots and the journal (`size_for`),
+        // and a fresh object is all zeros (no module is inside a scan).
         let marking = unsafe { std::slice::from_raw_parts_mut(this.marking, net.places().len()) };
         marking.copy_from_slice(initial.tokens());
+        // SAFETY: as above, nobody else can use the lock before the magic is published.
+        let protocol = unsafe { header.lock.init() }.map_err(|source| SynchError::Os {
+            what: "cannot create the lock of shared memory",
+            shm: shm.clone(),
+            source,
+        })?;
+        header.inherit.store(
+            u32::from(protocol == futex::Protocol::Inherit),
+            Ordering::Relaxed,
+        );
+        header
+            .slots
+            .store(net.scan_slots() as u32, Ordering::Relaxed);
+        header.journal.store(0, Ordering::Relaxed);
+        header.journal_slot.store(NO_SLOT, Ordering::Relaxed);
         header.version.store(VERSION, Ordering::Relaxed);
         header
             .places
@@ -163,7 +202,6 @@ impl SharedSynch {
         header
             .fingerprint
             .store(net.fingerprint(), Ordering::Relaxed);
-        header.lock.store(0, Ordering::Relaxed);
         header.generation.store(0, Ordering::Relaxed);
         header.stopping.store(0, Ordering::Relaxed);
         header.magic.store(MAGIC, Ordering::Release);
@@ -203,7 +241,8 @@ impl SharedSynch {
         };
         if len != size as u64 {
             return Err(mismatch(format!(
-                "it is {len} bytes, this net needs {size}"
+                "it is {len} bytes, this net and its {} synchronised modules need {size}",
+                net.scan_slots()
             )));
         }
         // SAFETY: the object has exactly `size` bytes; as in `create`, the mapping is only
@@ -284,15 +323,56 @@ impl SharedSynch {
         &self.shm
     }
 
-    /// Runs `f` on the marking with the lock held.
-    fn with_marking<R>(&self, f: impl FnOnce(&mut [u32]) -> R) -> R {
-        let _guard = futex::lock(&self.header().lock);
-        // SAFETY: the lock serialises every access to the marking across threads and
-        // processes, so this is the only reference to it until the guard drops (after `f`,
-        // which cannot leak the borrow).
-        let marking =
-            unsafe { std::slice::from_raw_parts_mut(self.marking, self.net.places().len()) };
-        f(marking)
+    /// Runs `f` on the marking, the scan slots and the journal's marking with the lock held.
+    fn with_marking<R>(&self, f: impl FnOnce(Arrays<'_>) -> R) -> R {
+        let _guard = self.header().lock.lock(|| self.repair());
+        f(self.arrays())
+    }
+
+    /// The arrays after the header. Only to be called with the lock held.
+    fn arrays(&self) -> Arrays<'_> {
+        let places = self.net.places().len();
+        let slots = self.net.scan_slots();
+        // SAFETY: the caller holds the lock, which serialises every access to the arrays
+        // across threads and processes, so this is the only reference to them until the
+        // lock is released (the borrow cannot outlive the closure of `with_marking`); the
+        // mapping holds 2 × places + slots u32s after the header (`size_for`).
+        let all = unsafe { std::slice::from_raw_parts_mut(self.marking, 2 * places + slots) };
+        let (marking, rest) = all.split_at_mut(places);
+        let (slots, journal) = rest.split_at_mut(slots);
+        Arrays {
+            marking,
+            slots,
+            journal,
+        }
+    }
+
+    /// Undoes the firing of a process that died holding the lock (the lock is held).
+    fn repair(&self) {
+        let header = self.header();
+        let a = self.arrays();
+        if header.journal.load(Ordering::Acquire) != 0 {
+            a.marking.copy_from_slice(a.journal);
+            let slot = header.journal_slot.load(Ordering::Relaxed);
+            if let Some(s) = a.slots.get_mut(slot as usize) {
+                *s = header.journal_slot_value.load(Ordering::Relaxed);
+            }
+            header.journal.store(0, Ordering::Release);
+        }
+        header.recoveries.fetch_add(1, Ordering::Relaxed);
+        // Waiters may have seen a generation the undone firing bumped: make them look again.
+        header.generation.fetch_add(1, Ordering::SeqCst);
+        futex::wake(&header.generation, i32::MAX);
+    }
+
+    /// How often the lock was recovered from a process that died holding it.
+    pub fn recoveries(&self) -> u32 {
+        self.header().recoveries.load(Ordering::Relaxed)
+    }
+
+    /// Whether the lock has priority inheritance (see [`crate::image::GlobalMap::priority_inheritance`]).
+    pub fn priority_inheritance(&self) -> bool {
+        self.header().inherit.load(Ordering::Relaxed) != 0
     }
 
     /// Waits until `t` is enabled, then fires it atomically: the seed's modified
@@ -326,16 +406,112 @@ impl SharedSynch {
     }
 
     fn synch_until(&self, t: TransitionRef, wait: Wait) -> Result<Option<Fired>, Stopped> {
+        self.fire_when_enabled(t, None, wait)
+    }
+
+    /// Waits until module `scan`'s `scan_beg` is enabled and fires it, marking the module
+    /// inside its scan in the same atomic step (see [`Self::abandon_scan`]).
+    pub fn begin_scan(&self, scan: &ScanRef) -> Result<Fired, Stopped> {
+        self.fire_when_enabled(scan.beg, Some((scan.slot, 1)), Wait::Forever)
+            .map(|fired| fired.expect("an unbounded wait ends in a firing"))
+    }
+
+    /// Waits until module `scan`'s `scan_end` is enabled and fires it, marking the module
+    /// outside its scan in the same atomic step.
+    pub fn end_scan(&self, scan: &ScanRef) -> Result<Fired, Stopped> {
+        self.fire_when_enabled(scan.end, Some((scan.slot, 0)), Wait::Forever)
+            .map(|fired| fired.expect("an unbounded wait ends in a firing"))
+    }
+
+    /// Whether module `scan` is inside a scan: its `scan_beg` fired and its `scan_end` not yet.
+    pub fn in_scan(&self, scan: &ScanRef) -> bool {
+        self.with_marking(|a| a.slots.get(scan.slot).is_some_and(|&v| v != 0))
+    }
+
+    /// Ends the scan of a module that failed inside it (its process died, its scan failed),
+    /// so that the modules lock-stepped with it are not left waiting for a `scan_end` that
+    /// would never come: if the module is inside a scan, its `scan_end` is fired now on its
+    /// behalf when enabled, and the module is marked outside its scan either way.
+    pub fn abandon_scan(&self, scan: &ScanRef) -> Abandoned {
+        let header = self.header();
+        let result = self.with_marking(|a| {
+            if a.slots.get(scan.slot).is_none_or(|&v| v == 0) {
+                return Abandoned::NotInScan;
+            }
+            let fired = match scan.end {
+                TransitionRef::Null => true,
+                TransitionRef::Index(i) => {
+                    if self.net.enabled_in(i, a.marking) {
+                        self.fire_journalled(i, Some((scan.slot, 0)), a);
+                        return Abandoned::Ended;
+                    }
+                    false
+                }
+            };
+            a.slots[scan.slot] = 0;
+            if fired {
+                Abandoned::Ended
+            } else {
+                Abandoned::EndNotEnabled
+            }
+        });
+        if result == Abandoned::Ended {
+            futex::wake(&header.generation, i32::MAX);
+        }
+        result
+    }
+
+    /// Fires transition `index` (enabled in `a.marking`) and sets `slot`, inside the
+    /// journal. The lock is held.
+    fn fire_journalled(&self, index: usize, slot: Option<(usize, u32)>, a: Arrays<'_>) -> u32 {
+        let header = self.header();
+        a.journal.copy_from_slice(a.marking);
+        match slot {
+            Some((s, _)) => {
+                header.journal_slot.store(s as u32, Ordering::Relaxed);
+                header
+                    .journal_slot_value
+                    .store(a.slots[s], Ordering::Relaxed);
+            }
+            None => header.journal_slot.store(NO_SLOT, Ordering::Relaxed),
+        }
+        header.journal.store(1, Ordering::Release);
+        // A death is precise (everything before the kill ran, nothing after): program order
+        // is enough, so keep the compiler from moving the firing above the journal.
+        compiler_fence(Ordering::SeqCst);
+        let fired = self.net.fire_in_with(index, a.marking, || {
+            if testhook::fires(testhook::Point::Firing) {
+                testhook::die();
+            }
+        });
+        debug_assert!(fired, "fire_journalled on a disabled transition");
+        if let Some((s, v)) = slot {
+            a.slots[s] = v;
+        }
+        let generation = header.generation.fetch_add(1, Ordering::SeqCst);
+        compiler_fence(Ordering::SeqCst);
+        header.journal.store(0, Ordering::Release);
+        generation.wrapping_add(1)
+    }
+
+    fn fire_when_enabled(
+        &self,
+        t: TransitionRef,
+        slot: Option<(usize, u32)>,
+        wait: Wait,
+    ) -> Result<Option<Fired>, Stopped> {
         let header = self.header();
         let index = match t {
             TransitionRef::Null => {
-                return if header.stopping.load(Ordering::SeqCst) != 0 {
-                    Err(Stopped)
-                } else {
-                    Ok(Some(Fired {
-                        generation: header.generation.load(Ordering::SeqCst),
-                    }))
-                };
+                if header.stopping.load(Ordering::SeqCst) != 0 {
+                    return Err(Stopped);
+                }
+                if let Some((s, v)) = slot {
+                    self.with_marking(|a| a.slots[s] = v);
+                }
+                return Ok(Some(Fired {
+                    generation: header.generation.load(Ordering::SeqCst),
+                }));
             }
             TransitionRef::Index(i) => i,
         };
@@ -344,16 +520,15 @@ impl SharedSynch {
             "transition {index} is not in this synchronisation net"
         );
         loop {
-            let attempt = self.with_marking(|marking| {
+            let attempt = self.with_marking(|a| {
                 // Generation before `stopping`: `stop` sets `stopping` before bumping the
                 // generation, so either we see the flag or our futex wait sees the bump.
                 let seen = header.generation.load(Ordering::SeqCst);
                 if header.stopping.load(Ordering::SeqCst) != 0 {
                     return Err(Stopped);
                 }
-                if self.net.fire_in(index, marking) {
-                    let generation = header.generation.fetch_add(1, Ordering::SeqCst);
-                    Ok(Ok(generation.wrapping_add(1)))
+                if self.net.enabled_in(index, a.marking) {
+                    Ok(Ok(self.fire_journalled(index, slot, a)))
                 } else {
                     Ok(Err(seen))
                 }
@@ -398,13 +573,32 @@ impl SharedSynch {
 
     /// The current marking, one entry per place of [`Self::net`] (a consistent snapshot).
     pub fn marking(&self) -> Vec<u32> {
-        self.with_marking(|m| m.to_vec())
+        self.with_marking(|a| a.marking.to_vec())
     }
 
     /// How many firings (and stops) there have been; wraps.
     pub fn generation(&self) -> u32 {
         self.header().generation.load(Ordering::SeqCst)
     }
+}
+
+/// What [`SharedSynch::abandon_scan`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Abandoned {
+    /// The module was not inside a scan: nothing to do.
+    NotInScan,
+    /// Its `scan_end` fired on its behalf.
+    Ended,
+    /// Its `scan_end` is not enabled: the module is marked outside its scan, but the
+    /// modules waiting for that transition go on waiting.
+    EndNotEnabled,
+}
+
+/// The arrays after the header, borrowed with the lock held.
+struct Arrays<'a> {
+    marking: &'a mut [u32],
+    slots: &'a mut [u32],
+    journal: &'a mut [u32],
 }
 
 #[derive(Clone, Copy)]

@@ -435,3 +435,70 @@ proptest! {
         }
     }
 }
+
+mod never_scanning {
+    use super::*;
+
+    /// The modules `net` can never let scan (`None`: undecided).
+    fn check(cfg: &PlcConfig, others_fire: bool, expect: Option<&[&str]>) {
+        let net = SynchNet::from_config(cfg).unwrap();
+        let got = net.never_scanning(others_fire);
+        assert_eq!(
+            got,
+            expect.map(|e| e.iter().map(|s| s.to_string()).collect::<Vec<_>>()),
+            "{}",
+            net.describe()
+        );
+    }
+
+    #[test]
+    fn a_ring_without_synch_start_never_scans() {
+        let mut cfg = config(&["a", "b", "c", "free"]);
+        rule(&mut cfg, "a", 1, "b", 2);
+        rule(&mut cfg, "b", 1, "c", 3);
+        rule(&mut cfg, "c", 1, "a", 4);
+        check(&cfg, false, Some(&["a", "b", "c"]));
+        start(&mut cfg, "b", 5);
+        check(&cfg, false, Some(&[]));
+    }
+
+    #[test]
+    fn a_chain_starved_of_its_source_never_scans_downstream() {
+        // b waits for a and for d; d waits for b: b and d never scan, a runs free.
+        let mut cfg = config(&["a", "b", "d"]);
+        rule(&mut cfg, "a", 1, "b", 2);
+        rule(&mut cfg, "d", 1, "b", 3);
+        rule(&mut cfg, "b", 1, "d", 4);
+        check(&cfg, false, Some(&["b", "d"]));
+    }
+
+    #[test]
+    fn unbounded_producers_are_followed_to_the_cap() {
+        // a runs free and feeds b 3 tokens a scan; b needs 2 per scan through the advanced
+        // form (weight 2 on the arc into its scan_beg).
+        let mut cfg = config(&[]);
+        cfg.modules.push(with_scans("a", None, Some("Ta")));
+        cfg.modules.push(with_scans("b", Some("Tb"), None));
+        place(&mut cfg, "P", 0, 10);
+        transition(&mut cfg, "Ta", 11);
+        transition(&mut cfg, "Tb", 12);
+        arc(&mut cfg, "Ta", 3, "P", 13);
+        arc(&mut cfg, "P", 200, "Tb", 14);
+        check(&cfg, false, Some(&[]));
+    }
+
+    #[test]
+    fn an_empty_test_arc_and_transitions_fired_by_programs() {
+        // b may start only while Q is empty; Q is filled at start and only a transition no
+        // module scans on (`drain`) empties it: dead, unless programs may fire `drain`.
+        let mut cfg = config(&[]);
+        cfg.modules.push(with_scans("b", Some("Tb"), None));
+        place(&mut cfg, "Q", 1, 10);
+        transition(&mut cfg, "Tb", 11);
+        transition(&mut cfg, "drain", 12);
+        arc(&mut cfg, "Q", 0, "Tb", 13);
+        arc(&mut cfg, "Q", 1, "drain", 14);
+        check(&cfg, false, Some(&["b"]));
+        check(&cfg, true, Some(&[]));
+    }
+}

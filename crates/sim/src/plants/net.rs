@@ -95,9 +95,9 @@ impl Plant for NetPlant<'_> {
             })
             .collect();
         if marked.is_empty() {
-            format!("{}: no place marked", self.name)
+            format!("{}, no place marked", self.name)
         } else {
-            format!("{}: marked {}", self.name, marked.join(" "))
+            format!("{}, marking {}", self.name, marked.join(" "))
         }
     }
 }
@@ -140,9 +140,9 @@ mod tests {
         check(
             &model,
             &[&[0], &[1], &[1], &[0]],
-            "[1, 0] [0, 1] [0, 1] [1, 0] test: marked retracted",
+            "[1, 0] [0, 1] [0, 1] [1, 0] test, marking retracted",
         );
-        check(&model, &[&[1]], "[0, 1] test: marked extended");
+        check(&model, &[&[1]], "[0, 1] test, marking extended");
     }
 
     #[test]
@@ -156,7 +156,7 @@ mod tests {
         check(
             &model,
             &[&[], &[], &[], &[]],
-            "[0] [0] [1] [1] test: marked parts(2)",
+            "[0] [0] [1] [1] test, marking parts(2)",
         );
     }
 

@@ -79,12 +79,13 @@ fn applies_the_timeline_scan_by_scan() {
         None,
         "0.01",
         "0.08",
-        "time,L1,m:off,m:on,fired\n\
-         0,0,1,0,\n\
-         0.02,1,0,1,t_on\n\
-         0.05,0,1,0,t_off\n",
+        "time,in:B1,in:B2,L1,m:off,m:on,fired\n\
+         0,0,0,0,1,0,\n\
+         0.02,1,0,1,0,1,t_on\n\
+         0.04,0,0,1,0,1,\n\
+         0.05,0,1,0,1,0,t_off\n",
     );
-    // Rows kept for an input change alone are in the trace, for plots.
+    // A row kept for an input change alone (0.04) tells why nothing fired.
     let n = lamp();
     let trace = sim(
         &n,
@@ -129,8 +130,8 @@ fn warns_about_inputs_nothing_drives() {
         "1",
         "warning: input SPEED is driven by neither the timeline nor the plant; it stays 0\n\
          warning: input B1 is driven by neither the timeline nor the plant; it stays FALSE\n\
-         time,Y,m:a,fired\n\
-         0,1,1,\n",
+         time,in:SPEED,in:B1,Y,m:a,fired\n\
+         0,0,0,1,1,\n",
     );
     check(
         &n,
@@ -138,7 +139,7 @@ fn warns_about_inputs_nothing_drives() {
         None,
         "1",
         "1",
-        "time,Y,m:a,fired\n0,1,1,t1\n1,1,1,t1\n",
+        "time,in:SPEED,in:B1,Y,m:a,fired\n0,3,1,1,1,t1\n1,3,1,1,1,t1\n",
     );
 }
 
@@ -168,7 +169,7 @@ fn rejects_bad_wiring() {
         None,
         "1",
         "1",
-        "error: timeline tl.csv: column `X` is not an input of the controller; known inputs: (none); check the spelling",
+        "error: timeline tl.csv: column `X` is not an input of the controller; it has no inputs at all",
     );
     check(
         &n,
@@ -459,9 +460,10 @@ fn keyboard_lines_follow_powered_columns_and_timeline_keys() {
         builtin("keyboard"),
         "0.01",
         "0.08",
-        "time,col1,col2,col3,got1,got4,m:power,m:c2,m:c3,m:k1,m:k4,fired\n\
-         0,1,0,0,0,0,1,0,0,0,0,\n\
-         0.04,1,0,0,0,1,1,0,0,0,1,d4\n\
+        "time,in:line1,in:line2,col1,col2,col3,got1,got4,m:power,m:c2,m:c3,m:k1,m:k4,fired\n\
+         0,0,0,1,0,0,0,0,1,0,0,0,0,\n\
+         0.04,0,1,1,0,0,0,1,1,0,0,0,1,d4\n\
+         0.06,0,0,1,0,0,0,1,1,0,0,0,1,\n\
          plant: no key pressed\n",
     );
     // Keys the timeline leaves out stay released, with one warning naming them.
@@ -472,9 +474,9 @@ fn keyboard_lines_follow_powered_columns_and_timeline_keys() {
         "1",
         "1",
         "warning: plant `keyboard` reads key2, key3, key4, key5, key6, key7, key8, key9, key10, key11, key12, which neither the controller nor the timeline drives; they stay 0 (add timeline columns to drive them)\n\
-         time,col1,col2,col3,got1,got4,m:power,m:c2,m:c3,m:k1,m:k4,fired\n\
-         0,1,0,0,0,0,1,0,0,0,0,\n\
-         1,1,0,0,1,0,1,0,0,1,0,d1\n\
+         time,in:line1,in:line2,col1,col2,col3,got1,got4,m:power,m:c2,m:c3,m:k1,m:k4,fired\n\
+         0,0,0,1,0,0,0,0,1,0,0,0,0,\n\
+         1,1,0,1,0,0,1,0,1,0,0,1,0,d1\n\
          plant: keys pressed: 1\n",
     );
     // Keys fed by the timeline can be forced by hand too.
@@ -520,19 +522,27 @@ fn mixer_controls_the_tank_in_a_closed_loop() {
     ));
     // 2 %/step to 50 % (t=2.5), to 90 % (4.5), then -2.5 %/step to 5 % (7.9). Later cycles
     // start from what the drain left (5 %, then 3.5 %), so they run a little shorter.
+    // Inputs: the timeline's START first, then the tank's sensors in the plant's order.
     assert_eq!(
         out,
-        "time,V1,V2,V3,m:idle,m:fill1,m:fill2,m:drain,fired\n\
-         0,1,0,0,0,1,0,0,go\n\
-         2.5,0,1,0,0,0,1,0,half\n\
-         4.5,0,0,1,0,0,0,1,full\n\
-         7.9,0,0,0,1,0,0,0,empty\n\
-         8,1,0,0,0,1,0,0,go\n\
-         10.3,0,1,0,0,0,1,0,half\n\
-         12.3,0,0,1,0,0,0,1,full\n\
-         15.8,0,0,0,1,0,0,0,empty\n\
-         15.9,1,0,0,0,1,0,0,go\n\
-         18.3,0,1,0,0,0,1,0,half\n\
+        "time,in:START,in:N1,in:N2,in:N3,V1,V2,V3,m:idle,m:fill1,m:fill2,m:drain,fired\n\
+         0,1,1,0,0,1,0,0,0,1,0,0,go\n\
+         0.3,1,0,0,0,1,0,0,0,1,0,0,\n\
+         2.5,1,0,1,0,0,1,0,0,0,1,0,half\n\
+         4.5,1,0,1,1,0,0,1,0,0,0,1,full\n\
+         4.6,1,0,1,0,0,0,1,0,0,0,1,\n\
+         6.2,1,0,0,0,0,0,1,0,0,0,1,\n\
+         7.9,1,1,0,0,0,0,0,1,0,0,0,empty\n\
+         8,1,1,0,0,1,0,0,0,1,0,0,go\n\
+         8.1,1,0,0,0,1,0,0,0,1,0,0,\n\
+         10.3,1,0,1,0,0,1,0,0,0,1,0,half\n\
+         12.3,1,0,1,1,0,0,1,0,0,0,1,full\n\
+         12.4,1,0,1,0,0,0,1,0,0,0,1,\n\
+         14,1,0,0,0,0,0,1,0,0,0,1,\n\
+         15.8,1,1,0,0,0,0,0,1,0,0,0,empty\n\
+         15.9,1,1,0,0,1,0,0,0,1,0,0,go\n\
+         16,1,0,0,0,1,0,0,0,1,0,0,\n\
+         18.3,1,0,1,0,0,1,0,0,0,1,0,half\n\
          plant: tank level 85.5 %, 2 fill/drain cycles completed\n"
     );
 }
@@ -560,13 +570,13 @@ fn a_second_net_models_the_process() {
         Some(Box::new(plant)),
         "1",
         "4",
-        "time,push,m:pushing,m:pulling,fired\n\
-         0,1,1,0,\n\
-         1,0,0,1,a\n\
-         2,1,1,0,b\n\
-         3,0,0,1,a\n\
-         4,1,1,0,b\n\
-         plant: test: marked retracted\n",
+        "time,in:home,in:extended,push,m:pushing,m:pulling,fired\n\
+         0,1,0,1,1,0,\n\
+         1,0,1,0,0,1,a\n\
+         2,1,0,1,1,0,b\n\
+         3,0,1,0,0,1,a\n\
+         4,1,0,1,1,0,b\n\
+         plant: test, marking retracted\n",
     );
 }
 

@@ -4,8 +4,6 @@
 mod graph;
 mod report;
 
-use std::fs;
-use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -14,7 +12,7 @@ use anyhow::{anyhow, Context};
 use indicatif::{ProgressBar, ProgressStyle};
 use petriplc_closedloop::{self as closedloop, NeverResult, PlcOptions};
 use petriplc_net::{Marking, Net, PlaceId, SignalId, TransitionId};
-use petriplc_pnml::{Naming, ReadOptions};
+use petriplc_pnml::ReadOptions;
 use petriplc_reach::{self as reach, ExploreOptions, StateId};
 use petriplc_structure::{self as structure, Limits};
 
@@ -22,17 +20,12 @@ use self::report::{
     ConflictFacts, EffectiveConflict, InvariantFacts, Never, NeverFacts, Report, SipnFacts,
     SpaceFacts, StructuralConflict, Unstable,
 };
-use crate::args::{AnalyzeArgs, Names};
+use crate::args::AnalyzeArgs;
 use crate::failure::{BadInputExt, Failure, RunExt};
+use crate::output::write_file;
 
 pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
-    let naming = match args.names {
-        Names::Plain => Naming::Plain,
-        Names::Sipn => Naming::Sipn,
-    };
-    let net = petriplc_pnml::read_file(&args.net, &ReadOptions { naming })
-        .bad_input()?
-        .net;
+    let net = super::read_net(&args.net, args.names)?;
     let plant = match &args.plant {
         Some(path) => Some(
             petriplc_pnml::read_file(path, &ReadOptions::default())
@@ -41,6 +34,15 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
         ),
         None => None,
     };
+    if let Some(plant) = &plant {
+        let outputs: Vec<String> = plant
+            .outputs()
+            .map(|s| plant.signal(s).name.clone())
+            .collect();
+        if let Some(hint) = super::sipn_hint(&args.net, args.names, &net, &outputs, "the plant") {
+            eprintln!("warning: {hint}");
+        }
+    }
     let cancel = Arc::new(AtomicBool::new(false));
     {
         let cancel = cancel.clone();
@@ -145,44 +147,57 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             cancel: Some(cancel.clone()),
             progress: Some(progress.callback()),
         };
-        let explored = reach::explore(&net, &opts).run_failure();
+        let explored = reach::explore(&net, &opts);
         progress.finish();
-        let explored = explored?;
-        let props = reach::properties(&net, &explored);
-        if !explored.complete() {
-            report.complete = false;
-            report.incomplete.push(if cancel.load(Ordering::SeqCst) {
-                format!("interrupted after {} states", explored.states())
-            } else {
-                format!(
-                    "stopped at --max-states ({} states explored)",
-                    explored.states()
-                )
+        let explored = match explored {
+            // A count past the 32-bit token counter: no graph, but the rest still stands
+            // (and boundedness is what coverability said, not a consequence of this).
+            Err(e @ reach::ReachError::TokenOverflow { .. }) => {
+                report.complete = false;
+                report
+                    .incomplete
+                    .push(format!("reachability graph not built: {e}"));
+                None
+            }
+            explored => Some(explored.run_failure()?),
+        };
+        if let Some(explored) = explored {
+            let props = reach::properties(&net, &explored);
+            if !explored.complete() {
+                report.complete = false;
+                report.incomplete.push(if cancel.load(Ordering::SeqCst) {
+                    format!("interrupted after {} states", explored.states())
+                } else {
+                    format!(
+                        "stopped at --max-states ({} states explored)",
+                        explored.states()
+                    )
+                });
+            }
+            if report.place_bounds.is_empty() {
+                report.place_bounds = net
+                    .place_ids()
+                    .map(|p| (label(p), Some(props.place_bounds[p.index()])))
+                    .collect();
+            }
+            report.space = Some(SpaceFacts {
+                states: props.states,
+                edges: props.edges,
+                max_tokens_place: props.max_tokens_place,
+                max_tokens_marking: props.max_tokens_marking,
+                safe: props.safe,
+                deadlock: props.deadlock,
+                deadlock_trace: props
+                    .deadlock_trace
+                    .map(|ts| ts.into_iter().map(tlabel).collect()),
+                quasi_live: props.quasi_live,
+                dead_transitions: props.dead_transitions.into_iter().map(tlabel).collect(),
+                live: props.live,
+                reversible: props.reversible,
+                home_marking: props.home_marking,
             });
+            space = Some(explored);
         }
-        if report.place_bounds.is_empty() {
-            report.place_bounds = net
-                .place_ids()
-                .map(|p| (label(p), Some(props.place_bounds[p.index()])))
-                .collect();
-        }
-        report.space = Some(SpaceFacts {
-            states: props.states,
-            edges: props.edges,
-            max_tokens_place: props.max_tokens_place,
-            max_tokens_marking: props.max_tokens_marking,
-            safe: props.safe,
-            deadlock: props.deadlock,
-            deadlock_trace: props
-                .deadlock_trace
-                .map(|ts| ts.into_iter().map(tlabel).collect()),
-            quasi_live: props.quasi_live,
-            dead_transitions: props.dead_transitions.into_iter().map(tlabel).collect(),
-            live: props.live,
-            reversible: props.reversible,
-            home_marking: props.home_marking,
-        });
-        space = Some(explored);
     }
 
     // 4. Conflicts.
@@ -242,11 +257,16 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             },
         );
         if let Some(path) = &args.dot {
-            write_file(path, &dot)?;
+            let what = format!(
+                "the reachability graph in Graphviz DOT, {} states",
+                s.states()
+            );
+            write_file(path, dot.as_bytes(), &what)?;
         }
         if let Some(path) = &args.svg {
             let svg = graph::to_svg(&dot).run_failure()?;
-            write_file(path, &svg)?;
+            let what = format!("the reachability graph as SVG, {} states", s.states());
+            write_file(path, svg.as_bytes(), &what)?;
         }
     }
     drop(space);
@@ -309,7 +329,7 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
                     states,
                     moves,
                     timeline_csv,
-                    ..
+                    replays,
                 } => {
                     let mut scans = 0;
                     let steps = moves
@@ -322,12 +342,19 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
                             line
                         })
                         .collect();
-                    violated = Some(place.clone());
+                    violated = Some(if moves.is_empty() {
+                        format!("`{place}` is marked from the start")
+                    } else {
+                        format!("`{place}` can be marked: see the run above")
+                    });
                     (
                         states,
                         Never::Reached {
+                            plant_moves: moves.len() - scans,
+                            scans,
                             steps,
                             timeline: timeline_csv,
+                            replays,
                         },
                     )
                 }
@@ -350,8 +377,9 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
     };
     crate::output::to_stdout(|out| out.write_all(text.as_bytes()))?;
     match violated {
-        Some(place) => Err(Failure::Run(anyhow!(
-            "`{place}` can be marked: see the counterexample above"
+        Some(why) => Err(Failure::Run(anyhow!(why))),
+        None if cancel.load(Ordering::SeqCst) => Err(Failure::Interrupted(anyhow!(
+            "interrupted by Ctrl-C: the report above is partial"
         ))),
         None => Ok(()),
     }
@@ -374,17 +402,6 @@ fn signal_values(net: &Net, values: &[(SignalId, i64)]) -> Vec<(String, i64)> {
         .iter()
         .map(|&(s, v)| (net.signal(s).name.clone(), v))
         .collect()
-}
-
-fn write_file(path: &Path, text: &str) -> Result<(), Failure> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create {}", dir.display()))
-            .run_failure()?;
-    }
-    fs::write(path, text)
-        .with_context(|| format!("cannot write {}", path.display()))
-        .run_failure()
 }
 
 /// A progress bar on standard error, shown only once an exploration has run for a second

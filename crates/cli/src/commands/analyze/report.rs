@@ -110,10 +110,16 @@ pub struct NeverFacts {
 pub enum Never {
     /// No reachable state marks the place (within the documented abstraction).
     Proved,
-    /// A run reaching it, as steps and as a timeline `petriplc sim` replays.
+    /// A run reaching it, as steps and as a timeline `petriplc sim` replays; no steps when
+    /// the place is marked from the start.
     Reached {
         steps: Vec<String>,
         timeline: String,
+        /// Controller scans and plant moves in `steps`.
+        scans: usize,
+        plant_moves: usize,
+        /// Whether the controller side replays with real timers.
+        replays: bool,
     },
     /// A limit stopped the search first.
     Unknown,
@@ -235,7 +241,9 @@ impl Report {
         if let Some(n) = &self.never {
             let (verdict, steps, timeline) = match &n.verdict {
                 Never::Proved => ("never", Value::Null, Value::Null),
-                Never::Reached { steps, timeline } => ("reached", json!(steps), json!(timeline)),
+                Never::Reached {
+                    steps, timeline, ..
+                } => ("reached", json!(steps), json!(timeline)),
                 Never::Unknown => ("unknown", Value::Null, Value::Null),
             };
             put(
@@ -392,8 +400,8 @@ impl Report {
         if let Some(s) = &self.sipn {
             let _ = writeln!(
                 o,
-                "\nPLC semantics (SIPN checks, {} states{})",
-                s.states,
+                "\nPLC semantics (SIPN checks, {}{})",
+                plural(s.states, "state"),
                 if s.complete { "" } else { ", incomplete" }
             );
             let _ = writeln!(
@@ -425,19 +433,75 @@ impl Report {
             );
         }
         if let Some(n) = &self.never {
-            let _ = writeln!(o, "\nnever {} ({} states explored)", n.place, n.states);
-            let _ = match &n.verdict {
-                Never::Proved => writeln!(o, "  proved: {} is never marked", n.place),
-                Never::Unknown => writeln!(o, "  unknown: a limit stopped the search"),
-                Never::Reached { steps, timeline } => writeln!(
-                    o,
-                    "  VIOLATED: {} is marked after\n    {}\n  replay with this timeline (petriplc sim --inputs):\n{}",
-                    n.place,
-                    steps.join("\n    "),
-                    timeline
-                ),
-            };
+            let _ = writeln!(
+                o,
+                "\nnever {} (closed loop, plant delays ignored; {} explored)",
+                n.place,
+                plural(n.states, "state")
+            );
+            never_text(&mut o, n);
         }
         o
     }
+}
+
+/// The `--never` verdict for people, saying which abstraction it is about
+/// (docs/analysis-plc.md, section 5).
+fn never_text(o: &mut String, n: &NeverFacts) {
+    let place = &n.place;
+    let count = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    let _ = match &n.verdict {
+        Never::Proved => writeln!(
+            o,
+            "  proved: {place} is never marked, for every scan period, every timing of the plant\n  \
+             and every value of the free inputs"
+        ),
+        Never::Unknown => writeln!(
+            o,
+            "  unknown: a limit stopped the search (raise --max-states); nothing is proved"
+        ),
+        Never::Reached { steps, .. } if steps.is_empty() => writeln!(
+            o,
+            "  VIOLATED: {place} is marked from the start, in the initial marking, before any\n  \
+             scan or plant move: there is nothing to replay"
+        ),
+        Never::Reached {
+            steps,
+            timeline,
+            scans,
+            plant_moves,
+            replays,
+        } => {
+            let _ = writeln!(
+                o,
+                "  VIOLATED: {place} is marked after {} and {}:\n    {}",
+                count(*scans, "controller scan"),
+                count(*plant_moves, "plant move"),
+                steps.join("\n    ")
+            );
+            if *plant_moves > 0 {
+                let _ = writeln!(
+                    o,
+                    "  The plant's moves here ignore its delays: if this run needs the plant to be\n  \
+                     faster than its delays allow, the real loop never takes it."
+                );
+            }
+            if !replays {
+                let _ = writeln!(
+                    o,
+                    "  The controller's own delays do not allow this run at the scan period either:\n  \
+                     a replay in `petriplc sim` takes longer."
+                );
+            }
+            writeln!(
+                o,
+                "  Replay the controller's side with this timeline (petriplc sim --inputs):\n{timeline}"
+            )
+        }
+    };
+}
+
+/// `1 state`, `25 states`.
+fn plural(n: u64, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
 }

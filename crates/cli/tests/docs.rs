@@ -1,0 +1,446 @@
+//! Every documented command, run as written: each ```sh block of README.md, docs/*.md and
+//! examples/*/README.md, and every example of every subcommand's `--help`, from the
+//! repository root with `petriplc` on the PATH meaning the binary under test. Documents added
+//! later are picked up by these globs; the convention (docs/ARCHITECTURE.md, Testing):
+//!
+//! - a ```sh block is run, line by line (`\` continues a line); any other language (```text
+//!   for synopses and output samples) is not run, and every fence must name its language;
+//! - `cargo run --release -p petriplc --` stands for `petriplc`;
+//! - every command must exit 0; a command containing `petriplc run` may instead still be
+//!   running once its PLC is up: it then goes on while the rest of its document runs (as if
+//!   in another terminal), and is stopped with SIGINT at the end of the document, after
+//!   which it must exit 0;
+//! - a document may write only under `out/` (git-ignored): new untracked files elsewhere fail.
+//!
+//! The `--help` examples of all subcommands form one document, in the order `petriplc --help`
+//! lists the subcommands, so `status` and `stop` examples find the PLC the `run` examples
+//! started.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use nix::sys::signal::{killpg, Signal};
+use nix::unistd::Pid;
+
+/// How long a finite command may take (a hung one fails instead of hanging the suite).
+const FINITE: Duration = Duration::from_secs(180);
+/// How long a `petriplc run` may take to come up.
+const START: Duration = Duration::from_secs(30);
+/// How long a PLC may take to stop after SIGINT.
+const STOP: Duration = Duration::from_secs(20);
+
+/// The tests of this file share ports 5020 and 8080 and the default PLC id: one at a time.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+/// One logical command of a document and where it is.
+#[derive(Clone, Debug)]
+struct Cmd {
+    at: String,
+    text: String,
+}
+
+/// A document's fenced blocks: the commands of its ```sh blocks, and problems with fences.
+fn sh_commands(file: &str, text: &str) -> (Vec<Cmd>, Vec<String>) {
+    let mut commands = Vec::new();
+    let mut problems = Vec::new();
+    let mut lines = text.lines().enumerate();
+    while let Some((i, line)) = lines.next() {
+        let trimmed = line.trim_start();
+        let Some(info) = trimmed.strip_prefix("```") else {
+            continue;
+        };
+        let indent = line.len() - trimmed.len();
+        let lang = info.split_whitespace().next().unwrap_or("");
+        if lang.is_empty() {
+            problems.push(format!(
+                "{file}:{}: a fenced block without a language: write ```sh for commands the \
+                 docs test runs, ```text (or the format's name) for anything else",
+                i + 1
+            ));
+        }
+        let mut body = Vec::new();
+        for (j, l) in lines.by_ref() {
+            if l.trim_start().starts_with("```") {
+                break;
+            }
+            body.push((j, l.get(indent..).unwrap_or(l.trim_start())));
+        }
+        if lang == "sh" {
+            commands.extend(logical_lines(file, &body));
+        }
+    }
+    (commands, problems)
+}
+
+/// Joins `\`-continued lines; drops blank and comment lines.
+fn logical_lines(file: &str, body: &[(usize, &str)]) -> Vec<Cmd> {
+    let mut out = Vec::new();
+    let mut current: Option<Cmd> = None;
+    for &(i, l) in body {
+        let (part, continued) = match l.trim_end().strip_suffix('\\') {
+            Some(p) => (p, true),
+            None => (l.trim_end(), false),
+        };
+        let cmd = current.get_or_insert_with(|| Cmd {
+            at: format!("{file}:{}", i + 1),
+            text: String::new(),
+        });
+        cmd.text.push_str(part.trim());
+        if continued {
+            cmd.text.push(' ');
+            continue;
+        }
+        let done = current.take().unwrap();
+        let t = done.text.trim();
+        if !t.is_empty() && !t.starts_with('#') {
+            out.push(Cmd {
+                at: done.at,
+                text: t.replace("cargo run --release -p petriplc --", "petriplc"),
+            });
+        }
+    }
+    out.extend(current.filter(|c| !c.text.trim().is_empty()));
+    out
+}
+
+/// A directory with `petriplc` in it: the binary under test.
+fn bin_dir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_petriplc"), dir.path().join("petriplc"))
+        .unwrap();
+    dir
+}
+
+/// A command that would run the test suite or the benchmarks inside this test.
+fn recursive(text: &str) -> bool {
+    ["scripts/test-all.sh", "cargo test", "cargo bench", "bench/"]
+        .iter()
+        .any(|p| text.contains(p))
+}
+
+/// A command running, its output going to files.
+struct Job {
+    cmd: Cmd,
+    child: Child,
+    out: tempfile::NamedTempFile,
+    err: tempfile::NamedTempFile,
+}
+
+impl Job {
+    fn start(cmd: &Cmd, bin: &Path) -> Job {
+        use std::os::unix::process::CommandExt;
+        let text = &cmd.text;
+        let out = tempfile::NamedTempFile::new().unwrap();
+        let err = tempfile::NamedTempFile::new().unwrap();
+        let path = format!(
+            "{}:{}",
+            bin.display(),
+            std::env::var("PATH").unwrap_or_default()
+        );
+        let child = Command::new("bash")
+            .args(["-c", text])
+            .current_dir(root())
+            .env("PATH", path)
+            .stdin(Stdio::null())
+            .stdout(out.reopen().unwrap())
+            .stderr(err.reopen().unwrap())
+            .process_group(0)
+            .spawn()
+            .unwrap();
+        Job {
+            cmd: cmd.clone(),
+            child,
+            out,
+            err,
+        }
+    }
+
+    /// Waits until the job exits or `limit` has passed (`None`: still running).
+    fn wait(&mut self, limit: Duration, ready: impl Fn() -> bool) -> Option<ExitStatus> {
+        let started = Instant::now();
+        loop {
+            if let Some(s) = self.child.try_wait().unwrap() {
+                return Some(s);
+            }
+            if started.elapsed() >= limit || ready() {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn signal(&self, s: Signal) {
+        let _ = killpg(Pid::from_raw(self.child.id() as i32), s);
+    }
+
+    fn report(&self, what: &str) -> String {
+        format!(
+            "{}: `{}` {what}\n--- stdout\n{}--- stderr\n{}",
+            self.cmd.at,
+            self.cmd.text,
+            tail(self.out.path()),
+            tail(self.err.path())
+        )
+    }
+}
+
+/// The last lines of a file, enough to see why a command failed.
+fn tail(path: &Path) -> String {
+    let text = fs::read_to_string(path).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().collect();
+    let from = lines.len().saturating_sub(40);
+    lines[from..].iter().map(|l| format!("{l}\n")).collect()
+}
+
+/// The PLC id a `petriplc run` command uses.
+fn plc_id(text: &str) -> String {
+    let words: Vec<&str> = text.split_whitespace().collect();
+    words
+        .iter()
+        .position(|w| *w == "--plc-id")
+        .and_then(|i| words.get(i + 1))
+        .map_or_else(|| "petriplc".to_string(), |s| s.to_string())
+}
+
+/// Untracked files outside git-ignored folders (`None` without git).
+fn untracked() -> Option<Vec<String>> {
+    let out = Command::new("git")
+        .args(["status", "--porcelain=v1", "--untracked-files=all"])
+        .current_dir(root())
+        .output()
+        .ok()?;
+    out.status.success().then(|| {
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter(|l| l.starts_with("??"))
+            .map(str::to_string)
+            .collect()
+    })
+}
+
+/// Runs a document's commands; returns what went wrong.
+fn run_document(name: &str, commands: &[Cmd]) -> Vec<String> {
+    let bin = bin_dir();
+    let before = untracked();
+    let mut failures = Vec::new();
+    let mut servers: Vec<Job> = Vec::new();
+    for cmd in commands {
+        if recursive(&cmd.text) {
+            failures.push(format!(
+                "{}: `{}` would run the test suite or the benchmarks inside the docs test: \
+                 put it in a ```text block",
+                cmd.at, cmd.text
+            ));
+            continue;
+        }
+        let mut job = Job::start(cmd, bin.path());
+        if cmd.text.contains("petriplc run") {
+            let status = petriplc_runtime::status::path(&plc_id(&cmd.text));
+            match job.wait(START, || status.exists()) {
+                Some(s) if s.success() => {}
+                Some(s) => failures.push(job.report(&format!("failed ({s})"))),
+                None if status.exists() => {
+                    // Give the PLC's servers the moment between publishing its status and
+                    // accepting connections.
+                    std::thread::sleep(Duration::from_millis(300));
+                    servers.push(job);
+                }
+                None => {
+                    job.signal(Signal::SIGKILL);
+                    let _ = job.child.wait();
+                    failures.push(job.report(&format!(
+                        "did not bring PLC `{}` up within {START:?}",
+                        plc_id(&cmd.text)
+                    )));
+                }
+            }
+        } else {
+            match job.wait(FINITE, || false) {
+                Some(s) if s.success() => {}
+                Some(s) => failures.push(job.report(&format!("failed ({s})"))),
+                None => {
+                    job.signal(Signal::SIGKILL);
+                    let _ = job.child.wait();
+                    failures.push(job.report(&format!("did not finish within {FINITE:?}")));
+                }
+            }
+        }
+    }
+    for mut job in servers {
+        job.signal(Signal::SIGINT);
+        match job.wait(STOP, || false) {
+            Some(s) if s.success() => {}
+            Some(s) => failures.push(job.report(&format!("exited with {s} after SIGINT"))),
+            None => {
+                job.signal(Signal::SIGKILL);
+                let _ = job.child.wait();
+                failures.push(job.report(&format!("did not stop within {STOP:?} of SIGINT")));
+            }
+        }
+    }
+    if let (Some(before), Some(after)) = (before, untracked()) {
+        for f in after.iter().filter(|f| !before.contains(f)) {
+            failures.push(format!(
+                "{name}: its commands wrote `{}` outside out/: write files under out/",
+                &f[3..]
+            ));
+        }
+    }
+    failures
+}
+
+/// README.md, docs/*.md and examples/*/README.md, relative to the root, sorted.
+fn documents() -> Vec<String> {
+    let root = root();
+    let mut docs = vec!["README.md".to_string()];
+    let mut more = Vec::new();
+    for entry in fs::read_dir(root.join("docs")).unwrap() {
+        let p = entry.unwrap().path();
+        if p.extension().is_some_and(|e| e == "md") {
+            more.push(format!("docs/{}", p.file_name().unwrap().to_string_lossy()));
+        }
+    }
+    for entry in fs::read_dir(root.join("examples")).unwrap() {
+        let p = entry.unwrap().path().join("README.md");
+        if p.is_file() {
+            let dir = p.parent().unwrap().file_name().unwrap().to_string_lossy();
+            more.push(format!("examples/{dir}/README.md"));
+        }
+    }
+    more.sort();
+    docs.extend(more);
+    docs
+}
+
+#[test]
+fn every_documented_command_runs_as_written() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let mut failures = Vec::new();
+    let mut ran = 0;
+    for doc in documents() {
+        let text = fs::read_to_string(root().join(&doc)).unwrap();
+        let (commands, problems) = sh_commands(&doc, &text);
+        failures.extend(problems);
+        ran += commands.len();
+        failures.extend(run_document(&doc, &commands));
+    }
+    assert!(ran >= 10, "only {ran} documented commands found");
+    assert!(failures.is_empty(), "\n{}", failures.join("\n\n"));
+}
+
+/// `petriplc --help`'s subcommands, in its order.
+fn subcommands() -> Vec<String> {
+    let help = petriplc(&["--help"]);
+    help.lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .filter(|l| l.starts_with("  ") && !l.starts_with("   "))
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|c| *c != "help")
+        .map(str::to_string)
+        .collect()
+}
+
+fn petriplc(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_petriplc"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "petriplc {args:?}: {out:?}");
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// The commands under `Examples:` in a help text: lines starting with `  petriplc ` or other
+/// commands, `\` continuing them, up to the first blank line.
+fn help_examples(sub: &str, help: &str) -> Vec<Cmd> {
+    let body: Vec<(usize, &str)> = help
+        .lines()
+        .enumerate()
+        .skip_while(|(_, l)| l.trim() != "Examples:")
+        .skip(1)
+        .take_while(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| (i, l.trim()))
+        .collect();
+    logical_lines(&format!("petriplc {sub} --help, line"), &body)
+}
+
+#[test]
+fn every_help_example_runs_as_written_and_every_help_ends_with_the_exit_codes() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let mut failures = Vec::new();
+    let mut commands = Vec::new();
+    let subs = subcommands();
+    assert!(subs.len() >= 6, "subcommands: {subs:?}");
+    for sub in &subs {
+        let help = petriplc(&[sub, "--help"]);
+        let examples = help_examples(sub, &help);
+        if examples.is_empty() {
+            failures.push(format!("petriplc {sub} --help has no `Examples:`"));
+        }
+        for e in &examples {
+            if !e.text.starts_with("petriplc ") {
+                failures.push(format!(
+                    "{}: `{}`: an example starts with `petriplc` (a line wrapped by the \
+                     terminal's width? keep example lines under 80 columns, `\\` continuing)",
+                    e.at, e.text
+                ));
+            }
+        }
+        commands.extend(examples);
+        let tail: String = help
+            .lines()
+            .skip_while(|l| !l.starts_with("Exit codes"))
+            .collect::<Vec<_>>()
+            .join("\n");
+        for code in ["0 ", "1 ", "2 ", "3 ", "4 ", "5 ", "130 "] {
+            if !tail.lines().any(|l| l.trim_start().starts_with(code)) {
+                failures.push(format!(
+                    "petriplc {sub} --help: the exit code table at its end lacks code {code}"
+                ));
+            }
+        }
+    }
+    failures.extend(run_document("the --help examples", &commands));
+    assert!(failures.is_empty(), "\n{}", failures.join("\n\n"));
+}
+
+#[cfg(test)]
+mod parsing {
+    use super::*;
+
+    fn check(doc: &str, expect: &[&str], expect_problems: usize) {
+        let (cmds, problems) = sh_commands("d.md", doc);
+        let got: Vec<String> = cmds
+            .iter()
+            .map(|c| format!("{} {}", c.at, c.text))
+            .collect();
+        assert_eq!(got, expect);
+        assert_eq!(problems.len(), expect_problems, "{problems:?}");
+    }
+
+    #[test]
+    fn sh_blocks_give_their_logical_lines_and_other_blocks_nothing() {
+        check(
+            "text\n```sh\n# comment\npetriplc a \\\n  --b c\n\nls   # note\n```\n```text\nno\n```\n",
+            &["d.md:4 petriplc a --b c", "d.md:7 ls   # note"],
+            0,
+        );
+        check(
+            "- item\n  ```sh\n  echo hi\n  ```\n",
+            &["d.md:3 echo hi"],
+            0,
+        );
+        check("```\nanything\n```\n", &[], 1);
+    }
+}
