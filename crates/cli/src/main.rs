@@ -45,6 +45,16 @@ fn report(error: &anyhow::Error) {
                 if n == 1 { "" } else { "s" }
             );
         }
-        _ => eprintln!("error: {error:#}"),
+        _ => match error.downcast_ref::<petriplc_iec::IecError>() {
+            Some(petriplc_iec::IecError::Invalid(lines)) => {
+                eprintln!("{lines}");
+                let n = lines.lines().filter(|l| l.contains(": error[")).count();
+                eprintln!(
+                    "error: {n} problem{} found; nothing was run",
+                    if n == 1 { "" } else { "s" }
+                );
+            }
+            _ => eprintln!("error: {error:#}"),
+        },
     }
 }

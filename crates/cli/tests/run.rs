@@ -193,7 +193,7 @@ fn bad_configurations_start_nothing() {
     let cases: &[(&str, &str)] = &[
         (
             "[PLC]\nmodule a nosuchkind\n",
-            "`nosuchkind` is neither a built-in module (petrinet, plant, timeline, logger, shutdown, dsp, modbus_server, modbus_client, vitrine, hmi, mqtt, opcua_server)",
+            "`nosuchkind` is neither a built-in module (petrinet, iec, plant, timeline, logger, shutdown, dsp, modbus_server, modbus_client, vitrine, hmi, mqtt, opcua_server)",
         ),
         (
             "[PLC]\nmodule a shutdown\npoint q \"quit\" b\n[a]\npoint = q\n",

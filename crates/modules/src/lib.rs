@@ -1,4 +1,5 @@
-//! The built-in modules of `petriplc run`: `petrinet` scans a PNML net every PLC scan,
+//! The built-in modules of `petriplc run`: `petrinet` scans a PNML net every PLC scan, `iec`
+//! runs an IEC 61131-3 program (Structured Text, PLCopen XML) on the engine,
 //! `plant` simulates the process for software-in-the-loop, `timeline` drives points from a
 //! CSV timeline, `logger` writes point changes to CSV, `shutdown` stops the PLC when a
 //! point goes true and `dsp` runs MatPLC's function blocks (petriplc-dsp) on points.
@@ -9,6 +10,7 @@
 
 pub mod common;
 mod dsp;
+mod iec;
 mod logger;
 mod petrinet;
 mod plant;
@@ -18,6 +20,7 @@ mod timeline;
 use petriplc_runtime::module::Factory;
 
 pub use dsp::DspModule;
+pub use iec::IecModule;
 pub use logger::Logger;
 pub use petrinet::Petrinet;
 pub use plant::PlantModule;
@@ -25,12 +28,15 @@ pub use shutdown::Shutdown;
 pub use timeline::TimelineModule;
 
 /// Every built-in module kind, for messages that list the known kinds.
-pub const KINDS: &[&str] = &["petrinet", "plant", "timeline", "logger", "shutdown", "dsp"];
+pub const KINDS: &[&str] = &[
+    "petrinet", "iec", "plant", "timeline", "logger", "shutdown", "dsp",
+];
 
 /// The factory of a built-in module kind (see [`KINDS`]).
 pub fn builtin(kind: &str) -> Option<Factory> {
     let factory: Factory = match kind {
         "petrinet" => petrinet::factory,
+        "iec" => iec::factory,
         "plant" => plant::factory,
         "timeline" => timeline::factory,
         "logger" => logger::factory,

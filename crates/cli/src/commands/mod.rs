@@ -2,6 +2,7 @@
 //! net it is given.
 
 mod analyze;
+mod check;
 mod compile;
 mod run;
 mod sim;
@@ -18,6 +19,7 @@ use crate::failure::{BadInputExt, Failure};
 pub fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
         Command::Sim(args) => sim::run(args),
+        Command::Check(args) => check::run(args),
         Command::Analyze(args) => analyze::run(args),
         Command::Compile(args) => compile::run(args),
         Command::Run(args) => run::run(args),

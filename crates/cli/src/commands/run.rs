@@ -21,6 +21,7 @@ use crate::failure::{BadInputExt, Failure, RunExt};
 /// Every built-in module kind of `petriplc run`, for messages.
 const KINDS: &[&str] = &[
     "petrinet",
+    "iec",
     "plant",
     "timeline",
     "logger",

@@ -15,10 +15,36 @@ use petriplc_pnml::ReadOptions;
 use petriplc_sim::{NetPlant, Plant, PlotOptions, SimOptions, Simulation, Timeline};
 
 use super::step_through;
-use crate::args::SimArgs;
+use crate::args::{Names, SimArgs};
 use crate::failure::{BadInputExt, Failure, RunExt};
 
+/// Whether the controller is an IEC 61131-3 source rather than a net.
+fn is_iec(path: &Path) -> bool {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if ext == "st" {
+        return true;
+    }
+    if ext == "xml" {
+        let head = fs::read(path).unwrap_or_default();
+        let head = String::from_utf8_lossy(&head[..head.len().min(4096)]).into_owned();
+        return petriplc_iec::syntax::plcopen::is_plcopen(&head);
+    }
+    false
+}
+
 pub fn run(args: SimArgs) -> Result<(), Failure> {
+    if is_iec(&args.net) {
+        return run_iec(args);
+    }
+    if args.pou.is_some() || args.vars {
+        return Err(anyhow!(
+            "--pou and --vars apply to IEC 61131-3 programs (.st or a PLCopen XML project), not to nets"
+        ))
+        .bad_input();
+    }
     let net = super::read_net(&args.net, args.names)?;
     let timeline = args
         .inputs
@@ -62,29 +88,7 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         evolve: args.evolve.map_or(net.evolve, Into::into),
         max_passes: args.max_passes,
     };
-    let until = match args.until {
-        Some(u) => u,
-        None => {
-            let until = timeline.as_ref().map_or(Duration::from_secs(10), |t| {
-                t.end() + Duration::from_secs(1)
-            });
-            // A far-off last row would otherwise run for hours without a word.
-            let scans = until.as_nanos() / args.period.as_nanos().max(1);
-            if scans > IMPLIED_SCANS_LIMIT {
-                return Err(anyhow!(
-                    "the timeline's last row is at {}, so the simulation would run {scans} \
-                     scans until {} at a {} period; pass --until to say how far to go (e.g. \
-                     --until {})",
-                    petriplc_net::time::format_seconds(until - Duration::from_secs(1)) + " s",
-                    petriplc_net::time::format_seconds(until) + " s",
-                    petriplc_net::time::format_seconds(args.period) + " s",
-                    petriplc_net::time::format_seconds(until) + "s",
-                ))
-                .bad_input();
-            }
-            until
-        }
-    };
+    let until = until_of(&args, timeline.as_ref())?;
     let options = SimOptions {
         period: args.period,
         until,
@@ -130,15 +134,7 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     }
 
     // Ctrl-C ends the run after the current scan; what was simulated is still written.
-    let interrupted = Arc::new(AtomicBool::new(false));
-    {
-        let interrupted = interrupted.clone();
-        let _ = ctrlc::set_handler(move || {
-            if interrupted.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
-            }
-        });
-    }
+    let interrupted = interrupt_flag();
     let progress = ScanProgress::new(sim.options().until, sim.options().period);
     let mut stopped: Option<Stopped> = None;
     loop {
@@ -180,9 +176,67 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         };
         crate::output::wrote(path, what);
     }
+    write_outputs(
+        &args,
+        &|w| trace.write_csv(w),
+        trace.csv_rows(),
+        &trace,
+        plot_options,
+        note,
+    )?;
+    if let Some(summary) = plant_summary {
+        eprintln!("plant at the end: {summary}");
+    }
+    match stopped {
+        None => Ok(()),
+        Some(Stopped::Failed(e)) => Err(Failure::Run(anyhow!(e).context(
+            "the simulation failed; what was simulated until then is written, marked incomplete",
+        ))),
+        Some(Stopped::Interrupted(t)) => Err(Failure::Interrupted(anyhow!(
+            "interrupted at t={} s; what was simulated until then is written, marked incomplete",
+            petriplc_net::time::format_seconds(t)
+        ))),
+    }
+}
+
+/// `--until`, else 1 s after the timeline's last row (refused when that is far off), else 10 s.
+fn until_of(args: &SimArgs, timeline: Option<&Timeline>) -> Result<Duration, Failure> {
+    if let Some(u) = args.until {
+        return Ok(u);
+    }
+    let until = timeline.map_or(Duration::from_secs(10), |t| {
+        t.end() + Duration::from_secs(1)
+    });
+    // A far-off last row would otherwise run for hours without a word.
+    let scans = until.as_nanos() / args.period.as_nanos().max(1);
+    if scans > IMPLIED_SCANS_LIMIT {
+        return Err(anyhow!(
+            "the timeline's last row is at {}, so the simulation would run {scans} \
+             scans until {} at a {} period; pass --until to say how far to go (e.g. \
+             --until {})",
+            petriplc_net::time::format_seconds(until - Duration::from_secs(1)) + " s",
+            petriplc_net::time::format_seconds(until) + " s",
+            petriplc_net::time::format_seconds(args.period) + " s",
+            petriplc_net::time::format_seconds(until) + "s",
+        ))
+        .bad_input();
+    }
+    Ok(until)
+}
+
+/// Writes the trace as `--out` and `--plot` ask (standard output without either), a partial
+/// trace marked with `note`.
+fn write_outputs(
+    args: &SimArgs,
+    csv: &dyn Fn(&mut dyn Write) -> io::Result<()>,
+    rows: usize,
+    plot_trace: &petriplc_sim::Trace,
+    plot_options: PlotOptions,
+    note: Option<String>,
+) -> Result<(), Failure> {
     match (&args.out, &args.plot) {
         (None, None) => crate::output::to_stdout(|out| {
-            trace.write_csv(&mut *out)?;
+            csv(&mut *out)?;
             write_note(out, note.as_deref())
         })?,
         (out, plot) => {
@@ -193,13 +247,11 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
                         .with_context(|| format!("cannot create {}", path.display()))
                         .run_failure()?,
                 );
-                trace
-                    .write_csv(&mut file)
+                csv(&mut file)
                     .and_then(|()| write_note(&mut file, note.as_deref()))
                     .and_then(|()| file.flush())
                     .with_context(|| format!("cannot write {}", path.display()))
                     .run_failure()?;
-                let rows = trace.csv_rows();
                 let what = format!(
                     "trace, {rows} row{}{}",
                     if rows == 1 { "" } else { "s" },
@@ -213,7 +265,7 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
                     note: note.clone(),
                     ..plot_options
                 };
-                match petriplc_sim::write_svg(&trace, &options, path) {
+                match petriplc_sim::write_svg(plot_trace, &options, path) {
                     Ok(()) => {}
                     Err(e) if e.is_bad_input() => return Err(e).bad_input(),
                     Err(e) => {
@@ -231,19 +283,22 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
             }
         }
     }
-    if let Some(summary) = plant_summary {
-        eprintln!("plant at the end: {summary}");
+    Ok(())
+}
+
+/// Sets a Ctrl-C handler: the first ends the run after the current scan (what was simulated
+/// is still written), a second exits at once.
+fn interrupt_flag() -> Arc<AtomicBool> {
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let interrupted = interrupted.clone();
+        let _ = ctrlc::set_handler(move || {
+            if interrupted.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
     }
-    match stopped {
-        None => Ok(()),
-        Some(Stopped::Failed(e)) => Err(Failure::Run(anyhow!(e).context(
-            "the simulation failed; what was simulated until then is written, marked incomplete",
-        ))),
-        Some(Stopped::Interrupted(t)) => Err(Failure::Interrupted(anyhow!(
-            "interrupted at t={} s; what was simulated until then is written, marked incomplete",
-            petriplc_net::time::format_seconds(t)
-        ))),
-    }
+    interrupted
 }
 
 /// A simulation longer than this many scans needs --until when the timeline's last row sets
@@ -318,6 +373,125 @@ impl ScanProgress {
         if let Some(b) = &self.bar {
             b.finish_and_clear();
         }
+    }
+}
+
+/// `petriplc sim PROGRAM.st|PROJECT.xml`.
+fn run_iec(args: SimArgs) -> Result<(), Failure> {
+    if args.step_through {
+        return Err(anyhow!(
+            "--step-through is for nets; trace an IEC program with --vars"
+        ))
+        .bad_input();
+    }
+    if args.step.is_some() || args.evolve.is_some() || args.names != Names::Plain {
+        return Err(anyhow!(
+            "--step, --evolve and --names apply to nets; an IEC program's scan is its code"
+        ))
+        .bad_input();
+    }
+    let select = match &args.pou {
+        Some(p) => petriplc_iec::Select::Pou(p.clone()),
+        None => petriplc_iec::Select::Auto,
+    };
+    let build = petriplc_iec::build_file(&args.net, &select).bad_input()?;
+    for w in &build.warnings {
+        eprintln!("{w}");
+    }
+    let timeline = args
+        .inputs
+        .as_deref()
+        .map(Timeline::read_file)
+        .transpose()
+        .bad_input()?;
+    let plant_net = match &args.plant {
+        Some(spec) if is_net_path(spec) => Some(
+            petriplc_pnml::read_file(Path::new(spec), &ReadOptions::default())
+                .bad_input()?
+                .net,
+        ),
+        _ => None,
+    };
+    let plant: Option<Box<dyn Plant + '_>> = match (&args.plant, &plant_net) {
+        (None, _) => None,
+        (Some(_), Some(net)) => Some(Box::new(NetPlant::new(net, ScanOptions::of(net)))),
+        (Some(name), None) => Some(
+            petriplc_sim::builtin(name)
+                .ok_or_else(|| unknown_plant(name))
+                .bad_input()?,
+        ),
+    };
+    let until = until_of(&args, timeline.as_ref())?;
+    let options = petriplc_iec::sim::SimOptions {
+        period: args.period,
+        until,
+        vars: args.vars,
+    };
+    let mut sim = petriplc_iec::sim::IecSimulation::new(build.engine, options, timeline, plant)
+        .with_context(|| format!("cannot simulate {}", args.net.display()))
+        .bad_input()?;
+    let plot_options = PlotOptions {
+        signals: args.signals.clone(),
+        from: args.from,
+        to: args.to,
+        note: None,
+    };
+    plot_options
+        .check(&sim.trace().to_plot_trace())
+        .bad_input()?;
+    for w in sim.warnings() {
+        eprintln!("warning: {w}");
+    }
+
+    let interrupted = interrupt_flag();
+    let progress = ScanProgress::new(until, args.period);
+    let mut failed = None;
+    let mut stopped_at = None;
+    loop {
+        if interrupted.load(Ordering::SeqCst) {
+            stopped_at = Some(sim.now());
+            break;
+        }
+        match sim.step() {
+            Ok(true) => progress.scan(sim.scans()),
+            Ok(false) => break,
+            Err(e) => {
+                failed = Some(e);
+                break;
+            }
+        }
+    }
+    progress.finish();
+    let plant_summary = sim.plant_summary();
+    let trace = sim.into_trace();
+    let note = match (&failed, stopped_at) {
+        (Some(e), _) => Some(format!("incomplete: the simulation failed: {e}")),
+        (None, Some(t)) => Some(format!(
+            "incomplete: interrupted (Ctrl-C) after t={} s",
+            petriplc_net::time::format_seconds(t)
+        )),
+        (None, None) => None,
+    };
+    write_outputs(
+        &args,
+        &|w| trace.write_csv(w),
+        trace.csv_rows(),
+        &trace.to_plot_trace(),
+        plot_options,
+        note,
+    )?;
+    if let Some(summary) = plant_summary {
+        eprintln!("plant at the end: {summary}");
+    }
+    match (failed, stopped_at) {
+        (Some(e), _) => Err(Failure::Run(anyhow!(e).context(
+            "the simulation failed; what was simulated until then is written, marked incomplete",
+        ))),
+        (None, Some(t)) => Err(Failure::Interrupted(anyhow!(
+            "interrupted at t={} s; what was simulated until then is written, marked incomplete",
+            petriplc_net::time::format_seconds(t)
+        ))),
+        (None, None) => Ok(()),
     }
 }
 

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# One scan of the ST that `petriplc compile` writes for N = 1, 100, 1000 copies of seed 002's
+# mixer net, on the IEC engine (release), against the C that `petriplc compile --lang c` writes
+# for the same nets built with cc -O2 (its own translation unit, linked with bench/iec/c_scan.c),
+# in the same run, every input TRUE (each copy fires a transition every scan). Runs are
+# interleaved (C, engine, C, …); the table shows the median over RUNS runs of each side's
+# median wall-clock ns per scan, the CPU ns per scan (process CPU time / scans: what a scan
+# costs even when the machine is shared), and the ratios engine/C against the goal of 3. Then the compile time of
+# the 1000-copy program: `petriplc check --pou mixer` (read, parse, check, compile).
+#
+#   bash bench/iec_scan.sh            # 3 runs
+#   RUNS=5 bash bench/iec_scan.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+RUNS=${RUNS:-3}
+target=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import json,sys; print(json.load(sys.stdin)["target_directory"])')
+work="$target/iec-bench"
+mkdir -p "$work"
+
+echo "== building petriplc and the engine's timer (release)" >&2
+cargo build --release --quiet -p petriplc
+cargo build --release --quiet -p petriplc-iec --example scan_time
+petriplc="$target/release/petriplc"
+engine="$target/release/examples/scan_time"
+
+for n in 1 100 1000; do
+  python3 bench/iec/mixer_copies.py "$n" "$work/mixer-$n.pnml"
+  "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang st --plain --out "$work/mixer-$n.st" 2>/dev/null
+  "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang c --out "$work/mixer-$n.c" 2>/dev/null
+  cc -std=c99 -O2 -c -o "$work/mixer-$n.o" "$work/mixer-$n.c"
+  cc -O2 -o "$work/c_scan-$n" bench/iec/c_scan.c "$work/mixer-$n.o"
+done
+
+median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
+
+printf "%-6s %14s %14s %14s %14s %8s %8s\n" N "C ns/scan" "engine ns" "C cpu ns" "engine cpu ns" "ratio" "cpu ratio"
+for n in 1 100 1000; do
+  scans=$((2000000 / n))
+  c_wall=(); e_wall=(); c_cpu=(); e_cpu=()
+  for ((r = 0; r < RUNS; r++)); do
+    read -r w c < <("$work/c_scan-$n" $((n * 4)) "$scans" 11)
+    c_wall+=("$w"); c_cpu+=("$c")
+    read -r w c _ < <("$engine" "$work/mixer-$n.st" "$scans" 11)
+    e_wall+=("$w"); e_cpu+=("$c")
+  done
+  cw=$(printf "%s\n" "${c_wall[@]}" | median); ew=$(printf "%s\n" "${e_wall[@]}" | median)
+  cc_=$(printf "%s\n" "${c_cpu[@]}" | median); ec=$(printf "%s\n" "${e_cpu[@]}" | median)
+  printf "%-6s %14.1f %14.1f %14.1f %14.1f %8.2f %8.2f\n" "$n" "$cw" "$ew" "$cc_" "$ec" \
+    "$(python3 -c "print($ew / $cw)")" "$(python3 -c "print($ec / $cc_)")"
+done
+
+echo
+lines=$(wc -l < "$work/mixer-1000.st")
+ms=()
+for ((r = 0; r < RUNS; r++)); do
+  start=$(date +%s%N)
+  "$petriplc" check "$work/mixer-1000.st" --pou mixer 2>/dev/null
+  ms+=("$(( ($(date +%s%N) - start) / 1000000 ))")
+done
+echo "compile of the 1000-copy program ($lines lines): median $(printf "%s\n" "${ms[@]}" | median) ms (petriplc check --pou mixer, goal < 1000 ms)"

@@ -1,0 +1,40 @@
+//! `petriplc check`: the IEC 61131-3 compiler's checks alone, for editors and CI.
+
+use petriplc_iec::{Natives, Select, Sources};
+
+use crate::args::CheckArgs;
+use crate::failure::{BadInputExt, Failure};
+
+pub fn run(args: CheckArgs) -> Result<(), Failure> {
+    let mut sources = Sources::new();
+    for f in &args.files {
+        sources.add_file(f).bad_input()?;
+    }
+    let checked = petriplc_iec::check(&sources, &Natives::default()).bad_input()?;
+    for w in &checked.warnings {
+        eprintln!("{w}");
+    }
+    let pous = checked.project.pous.len();
+    let programs = checked.project.programs().count();
+    if let Some(pou) = &args.pou {
+        petriplc_iec::build(&sources, &Select::Pou(pou.clone()), Natives::default()).bad_input()?;
+    }
+    let names: Vec<String> = args.files.iter().map(|f| f.display().to_string()).collect();
+    eprintln!(
+        "ok: {} ({pous} POU{}, {programs} PROGRAM{}{}){}",
+        names.join(", "),
+        if pous == 1 { "" } else { "s" },
+        if programs == 1 { "" } else { "s" },
+        checked
+            .project
+            .configuration
+            .as_ref()
+            .map_or(String::new(), |c| format!(", CONFIGURATION {}", c.name)),
+        if checked.warnings.is_empty() {
+            String::new()
+        } else {
+            format!(", {} warning(s)", checked.warnings.len())
+        }
+    );
+    Ok(())
+}

@@ -1,0 +1,182 @@
+//! IEC 61131-3 programs through the real binary: `petriplc check`, `petriplc sim` on a
+//! program and on the chaser's configuration, run-time faults, and the chaser on the soft
+//! PLC.
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+
+const EXAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
+
+fn petriplc() -> Command {
+    Command::cargo_bin("petriplc").unwrap()
+}
+
+fn file(dir: &tempfile::TempDir, name: &str, text: &str) -> String {
+    let p = dir.path().join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn check_accepts_a_good_program_and_reports_every_error_of_a_bad_one() {
+    petriplc()
+        .args(["check", &format!("{EXAMPLES}/chaser/chaser.st")])
+        .assert()
+        .success()
+        .stderr(
+            predicate::str::contains("ok: ").and(predicate::str::contains("CONFIGURATION chaser")),
+        );
+    let dir = tempfile::tempdir().unwrap();
+    let bad = file(
+        &dir,
+        "bad.st",
+        "PROGRAM p\nVAR x : INT; r : REAL; k : INT; END_VAR\nVAR CONSTANT c : INT := 1; END_VAR\nx := r;\nc := 2;\nCASE k OF 1: x := 1; 1: x := 2; END_CASE;\nx := f(1);\nEND_PROGRAM\n",
+    );
+    let out = petriplc()
+        .args(["check", &bad])
+        .assert()
+        .code(2)
+        .get_output()
+        .stderr
+        .clone();
+    let err = String::from_utf8_lossy(&out);
+    for expect in [
+        "bad.st:4:6: error[E110]: the value assigned to `x` is REAL but INT is needed; convert explicitly: REAL_TO_INT(…) rounds, TRUNC(…) truncates",
+        "bad.st:5:1: error[E121]: `c` is a CONSTANT",
+        "bad.st:6:22: error[E140]: this label is unreachable",
+        "bad.st:7:6: error[E102]: unknown function `f`",
+        "error: 4 problems found; nothing was run",
+    ] {
+        assert!(err.contains(expect), "missing `{expect}` in:\n{err}");
+    }
+    let syntax = file(&dir, "syntax.st", "PROGRAM p\nx := ;\nEND_PROGRAM\n");
+    petriplc()
+        .args(["check", &syntax])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "syntax.st:2:6: error[E010]: expected an expression, found `;`",
+        ));
+    petriplc()
+        .args([
+            "check",
+            &dir.path().join("missing.st").display().to_string(),
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("cannot read"));
+}
+
+#[test]
+fn sim_traces_a_program_against_a_timeline() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = file(
+        &dir,
+        "count.st",
+        "PROGRAM counter\nVAR_INPUT go : BOOL; END_VAR\nVAR_OUTPUT n : INT; odd : BOOL; END_VAR\nVAR e : R_TRIG; last : BOOL; END_VAR\ne(CLK := go);\nIF e.Q THEN n := n + 1; END_IF;\nodd := n MOD 2 = 1;\nlast := go;\nEND_PROGRAM\n",
+    );
+    let tl = file(&dir, "tl.csv", "time,GO\n0,0\n0.02,1\n0.04,0\n0.06,1\n");
+    petriplc()
+        .args(["sim", &prog, "--inputs", &tl, "--until", "0.1s"])
+        .assert()
+        .success()
+        .stdout("time,in:go,n,odd\n0,0,0,0\n0.02,1,1,1\n0.04,0,1,1\n0.06,1,2,0\n");
+    petriplc()
+        .args(["sim", &prog, "--inputs", &tl, "--until", "0.03s", "--vars"])
+        .assert()
+        .success()
+        .stdout("time,in:go,n,odd,last\n0,0,0,0,0\n0.02,1,1,1,1\n");
+    let bad_tl = file(&dir, "bad.csv", "time,stop\n0,1\n");
+    petriplc()
+        .args(["sim", &prog, "--inputs", &bad_tl])
+        .assert()
+        .code(2)
+        .stderr(
+            predicate::str::contains("column `stop` is not an input of the program")
+                .and(predicate::str::contains("known inputs: go")),
+        );
+}
+
+#[test]
+fn sim_runs_the_chaser_configuration_on_its_task() {
+    let out = petriplc()
+        .args([
+            "sim",
+            &format!("{EXAMPLES}/chaser/chaser.st"),
+            "--inputs",
+            &format!("{EXAMPLES}/chaser/timeline.csv"),
+            "--until",
+            "2.1s",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let csv = String::from_utf8_lossy(&out);
+    let lines: Vec<&str> = csv.lines().collect();
+    // Inputs first (in:NAME, in the timeline's column order), as for nets.
+    assert_eq!(lines[0], "time,in:right,in:left,L1,L2,L3,L4,laps");
+    // The task runs every 300 ms; right turns the light at 1.5 s.
+    assert_eq!(
+        &lines[1..8],
+        &[
+            "0,0,0,0,1,0,0,0",
+            "0.3,0,0,0,0,1,0,0",
+            "0.6,0,0,0,0,0,1,0",
+            "0.9,0,0,1,0,0,0,1",
+            "1.2,0,0,0,1,0,0,1",
+            "1.5,1,0,1,0,0,0,1",
+            "1.8,0,0,0,0,0,1,2",
+        ]
+    );
+}
+
+#[test]
+fn a_run_time_fault_fails_the_simulation_with_pou_line_and_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = file(
+        &dir,
+        "div.st",
+        "PROGRAM p\nVAR_INPUT d : INT; END_VAR\nVAR_OUTPUT q : INT; END_VAR\nq := 100 / d;\nEND_PROGRAM\n",
+    );
+    let tl = file(&dir, "d.csv", "time,d\n0,4\n0.05,0\n");
+    petriplc()
+        .args(["sim", &prog, "--inputs", &tl])
+        .assert()
+        .code(1)
+        .stderr(
+            predicate::str::contains("at t=0.05s: ").and(predicate::str::contains(
+                "div.st:4: in PROGRAM p: division by zero: 100 / 0",
+            )),
+        )
+        // What was simulated is written, marked incomplete, as for nets.
+        .stdout(
+            predicate::str::starts_with(
+                "time,in:d,q\n0,4,25\n# incomplete: the simulation failed: at t=0.05s: ",
+            )
+            .and(predicate::str::contains("div.st:4: in PROGRAM p")),
+        );
+}
+
+#[test]
+fn the_chaser_runs_on_the_soft_plc() {
+    let id = format!("test-chaser-{}", std::process::id());
+    let out = petriplc()
+        .args([
+            "run",
+            &format!("{EXAMPLES}/chaser/plc.conf"),
+            "--plc-id",
+            &id,
+            "--for",
+            "1s",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stderr
+        .clone();
+    let report = String::from_utf8_lossy(&out);
+    assert!(report.contains("chaser_iec   iec"), "{report}");
+    assert!(report.contains("chaser.st (chaser):"), "{report}");
+}

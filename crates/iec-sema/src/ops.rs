@@ -1,0 +1,676 @@
+//! The meaning of operators, conversions and standard functions on values, shared by the
+//! checker's constant folding and the VM, so a folded constant and a computed value can
+//! never differ.
+//!
+//! Rules (docs/iec.md): integer arithmetic whose result leaves the type's range is an
+//! overflow (the standard: "it shall be an error"), integer division by zero is an error and
+//! `MOD` by zero gives 0 (the standard's definition); conversions between integer types keep
+//! the low bits (wrap-around), REAL/LREAL to integers round half to even (IEC 60559) and fail
+//! outside the target's range; TIME ⇄ integers count milliseconds, LTIME nanoseconds, DATE
+//! and DT seconds since 1970-01-01, TOD milliseconds since midnight.
+
+use std::fmt;
+
+use petriplc_iec_syntax::ast::BinaryOp;
+use petriplc_iec_syntax::lexer::{self, NANOS_PER_DAY};
+
+use crate::types::Elem;
+use crate::value::{fits, to_real, wrap, Value};
+
+/// Why an operation has no value.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum OpError {
+    DivisionByZero,
+    /// The result does not fit the type.
+    Overflow,
+    /// A conversion whose value does not fit the target, or a string that does not spell one.
+    Conversion,
+    /// An argument outside the function's domain (SQRT(-1), a string position).
+    Domain(&'static str),
+}
+
+impl fmt::Display for OpError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            OpError::DivisionByZero => f.write_str("division by zero"),
+            OpError::Overflow => f.write_str("overflow"),
+            OpError::Conversion => f.write_str("conversion error"),
+            OpError::Domain(w) => f.write_str(w),
+        }
+    }
+}
+
+pub type OpResult<T> = Result<T, OpError>;
+
+/// An integer operator on values of an integral type (integers, bit strings, BOOL,
+/// durations, dates). Comparisons give 0/1.
+pub fn int_binary(op: BinaryOp, a: i128, b: i128, e: Elem) -> OpResult<i128> {
+    use BinaryOp::*;
+    let r = match op {
+        Add => a.checked_add(b).ok_or(OpError::Overflow)?,
+        Sub => a.checked_sub(b).ok_or(OpError::Overflow)?,
+        Mul => a.checked_mul(b).ok_or(OpError::Overflow)?,
+        Div => {
+            if b == 0 {
+                return Err(OpError::DivisionByZero);
+            }
+            a / b
+        }
+        Mod => {
+            if b == 0 {
+                0
+            } else {
+                a % b
+            }
+        }
+        And => return Ok(a & b),
+        Or => return Ok(a | b),
+        Xor => return Ok(a ^ b),
+        Eq => return Ok((a == b) as i128),
+        Ne => return Ok((a != b) as i128),
+        Lt => return Ok((a < b) as i128),
+        Le => return Ok((a <= b) as i128),
+        Gt => return Ok((a > b) as i128),
+        Ge => return Ok((a >= b) as i128),
+        Power => return Err(OpError::Domain("`**` needs a REAL base")),
+    };
+    if fits(r, e) {
+        Ok(r)
+    } else {
+        Err(OpError::Overflow)
+    }
+}
+
+/// Rounds to the type's precision and checks the result is finite.
+pub fn real_result(v: f64, e: Elem) -> OpResult<f64> {
+    let v = if e == Elem::Real { to_real(v) } else { v };
+    if v.is_finite() {
+        Ok(v)
+    } else if v.is_nan() {
+        Err(OpError::Domain("the result is not a number"))
+    } else {
+        Err(OpError::Overflow)
+    }
+}
+
+/// A real operator. Comparisons give 0.0/1.0.
+pub fn real_binary(op: BinaryOp, a: f64, b: f64, e: Elem) -> OpResult<f64> {
+    use BinaryOp::*;
+    let r = match op {
+        Add => a + b,
+        Sub => a - b,
+        Mul => a * b,
+        Div => {
+            if b == 0.0 {
+                return Err(OpError::DivisionByZero);
+            }
+            a / b
+        }
+        Power => a.powf(b),
+        Eq => return Ok((a == b) as i32 as f64),
+        Ne => return Ok((a != b) as i32 as f64),
+        Lt => return Ok((a < b) as i32 as f64),
+        Le => return Ok((a <= b) as i32 as f64),
+        Gt => return Ok((a > b) as i32 as f64),
+        Ge => return Ok((a >= b) as i32 as f64),
+        Mod | And | Or | Xor => return Err(OpError::Domain("not an operator of reals")),
+    };
+    real_result(r, e)
+}
+
+/// `**` with an integer exponent (powi is exact for small exponents).
+pub fn real_power_int(a: f64, n: i128, e: Elem) -> OpResult<f64> {
+    let r = if let Ok(n) = i32::try_from(n) {
+        a.powi(n)
+    } else {
+        a.powf(n as f64)
+    };
+    real_result(r, e)
+}
+
+/// Round half to even, as IEC 60559 and the standard's REAL_TO_INT.
+pub fn round_even(v: f64) -> f64 {
+    let r = v.round();
+    if (v - v.trunc()).abs() == 0.5 {
+        2.0 * (v / 2.0).round()
+    } else {
+        r
+    }
+}
+
+/// A real converted to an integral type, rounded half to even.
+pub fn real_to_int(v: f64, e: Elem) -> OpResult<i128> {
+    if e == Elem::Bool {
+        return Ok((v != 0.0) as i128);
+    }
+    let r = round_even(v);
+    if !r.is_finite() || r.abs() > 1.8e19 {
+        return Err(OpError::Conversion);
+    }
+    let i = r as i128;
+    if e.is_bitstring() {
+        return Ok(wrap(i, e));
+    }
+    if fits(i, e) {
+        Ok(i)
+    } else {
+        Err(OpError::Conversion)
+    }
+}
+
+/// TRUNC: toward zero.
+pub fn trunc_to_int(v: f64, e: Elem) -> OpResult<i128> {
+    let r = v.trunc();
+    if !r.is_finite() || r.abs() > 1.8e19 {
+        return Err(OpError::Conversion);
+    }
+    let i = r as i128;
+    if fits(i, e) {
+        Ok(i)
+    } else {
+        Err(OpError::Conversion)
+    }
+}
+
+const NS_PER_MS: i128 = 1_000_000;
+const NS_PER_S: i128 = 1_000_000_000;
+
+/// The integer a duration or date stands for in conversions: TIME and TOD in milliseconds,
+/// LTIME in nanoseconds, DATE and DT in seconds.
+fn time_units(e: Elem) -> i128 {
+    match e {
+        Elem::Time | Elem::Tod => NS_PER_MS,
+        Elem::Date | Elem::Dt => NS_PER_S,
+        _ => 1,
+    }
+}
+
+fn is_time_like(e: Elem) -> bool {
+    e.is_duration() || e.is_date()
+}
+
+/// Converts a scalar between elementary types.
+pub fn convert_elem(v: &Value, from: Elem, to: Elem) -> OpResult<Value> {
+    if from == to {
+        return Ok(v.clone());
+    }
+    match v {
+        Value::Int(i) => {
+            let i = *i;
+            if is_time_like(from) && is_time_like(to) {
+                let ns = match (from, to) {
+                    (Elem::Dt, Elem::Date) => i.div_euclid(NANOS_PER_DAY) * NANOS_PER_DAY,
+                    (Elem::Dt, Elem::Tod) => i.rem_euclid(NANOS_PER_DAY),
+                    _ => i,
+                };
+                return Ok(Value::Int(ns));
+            }
+            if is_time_like(from) {
+                let units = i / time_units(from);
+                if to.is_real() {
+                    let f = i as f64 / time_units(from) as f64;
+                    return Ok(Value::Real(real_result(f, to)?));
+                }
+                return Ok(Value::Int(wrap(units, to)));
+            }
+            if is_time_like(to) {
+                let ns = i.checked_mul(time_units(to)).ok_or(OpError::Conversion)?;
+                if !fits(ns, Elem::Lint) {
+                    return Err(OpError::Conversion);
+                }
+                return Ok(Value::Int(ns));
+            }
+            if to.is_real() {
+                return Ok(Value::Real(real_result(i as f64, to)?));
+            }
+            Ok(Value::Int(wrap(i, to)))
+        }
+        Value::Real(f) => {
+            let f = *f;
+            if to.is_real() {
+                return Ok(Value::Real(
+                    real_result(f, to).map_err(|_| OpError::Conversion)?,
+                ));
+            }
+            if is_time_like(to) {
+                let ns = round_even(f * time_units(to) as f64);
+                if !ns.is_finite() || ns.abs() > 9.2e18 {
+                    return Err(OpError::Conversion);
+                }
+                return Ok(Value::Int(ns as i128));
+            }
+            Ok(Value::Int(real_to_int(f, to)?))
+        }
+        _ => Err(OpError::Conversion),
+    }
+}
+
+/// The text a value converts to (`*_TO_STRING`): the standard's literal forms.
+pub fn to_text(v: &Value, from: Elem) -> Vec<u8> {
+    let s = match (v, from) {
+        (Value::Int(i), Elem::Bool) => if *i != 0 { "TRUE" } else { "FALSE" }.to_string(),
+        (Value::Int(i), Elem::Time) => format!("T#{}", format_duration(*i)),
+        (Value::Int(i), Elem::Ltime) => format!("LTIME#{}", format_duration(*i)),
+        (Value::Int(i), Elem::Date) => format!("D#{}", format_date(*i)),
+        (Value::Int(i), Elem::Tod) => format!("TOD#{}", format_tod(*i)),
+        (Value::Int(i), Elem::Dt) => format!(
+            "DT#{}-{}",
+            format_date(*i),
+            format_tod(i.rem_euclid(NANOS_PER_DAY))
+        ),
+        (Value::Int(i), _) => i.to_string(),
+        (Value::Real(f), e) => format_real(*f, e),
+        (Value::Str(s), _) => return s.clone(),
+        _ => String::new(),
+    };
+    s.into_bytes()
+}
+
+/// A real as an IEC literal: `1.5`, `100.0`, `1.5E-07`.
+pub fn format_real(f: f64, e: Elem) -> String {
+    if !f.is_finite() {
+        return f.to_string();
+    }
+    let s = if e == Elem::Real {
+        format!("{:?}", f as f32)
+    } else {
+        format!("{f:?}")
+    };
+    // Rust writes 1e20 / 1.5e-7; IEC wants a digit after the point and an upper-case E.
+    match s.split_once('e') {
+        Some((m, x)) => {
+            let m = if m.contains('.') {
+                m.to_string()
+            } else {
+                format!("{m}.0")
+            };
+            format!("{m}E{x}")
+        }
+        None => s,
+    }
+}
+
+/// `1h2m3s4ms`, `-250ms`, `0s`.
+pub fn format_duration(ns: i128) -> String {
+    if ns == 0 {
+        return "0s".into();
+    }
+    let mut out = String::new();
+    if ns < 0 {
+        out.push('-');
+    }
+    let mut r = ns.unsigned_abs();
+    for (unit, size) in [
+        ("d", NANOS_PER_DAY as u128),
+        ("h", 3_600_000_000_000),
+        ("m", 60_000_000_000),
+        ("s", 1_000_000_000),
+        ("ms", 1_000_000),
+        ("us", 1_000),
+        ("ns", 1),
+    ] {
+        let q = r / size;
+        if q > 0 {
+            out.push_str(&format!("{q}{unit}"));
+            r %= size;
+        }
+    }
+    out
+}
+
+pub fn format_date(ns: i128) -> String {
+    let days = ns.div_euclid(NANOS_PER_DAY) as i64;
+    let (y, m, d) = lexer::civil_from_days(days);
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
+pub fn format_tod(ns: i128) -> String {
+    let ns = ns.rem_euclid(NANOS_PER_DAY);
+    let (s, frac) = (ns / NS_PER_S, ns % NS_PER_S);
+    let (h, m, s) = (s / 3600, s / 60 % 60, s % 60);
+    if frac == 0 {
+        format!("{h:02}:{m:02}:{s:02}")
+    } else {
+        let f = format!("{frac:09}");
+        format!("{h:02}:{m:02}:{s:02}.{}", f.trim_end_matches('0'))
+    }
+}
+
+/// Reads a value of `to` from text (`STRING_TO_*`): the literal forms, with or without
+/// their type prefix; surrounding spaces are ignored.
+pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
+    let text = std::str::from_utf8(s)
+        .map_err(|_| OpError::Conversion)?
+        .trim();
+    let upper = text.to_ascii_uppercase();
+    let body = match upper.split_once('#') {
+        Some((prefix, rest))
+            if Elem::from_name(prefix).is_some()
+                || ["T", "LT", "D", "TOD", "DT"].contains(&prefix) =>
+        {
+            rest.to_string()
+        }
+        _ => upper.clone(),
+    };
+    match to {
+        Elem::Bool => match body.as_str() {
+            "TRUE" | "1" => Ok(Value::Int(1)),
+            "FALSE" | "0" => Ok(Value::Int(0)),
+            _ => Err(OpError::Conversion),
+        },
+        Elem::Real | Elem::Lreal => {
+            let f: f64 = body
+                .replace('_', "")
+                .parse()
+                .map_err(|_| OpError::Conversion)?;
+            Ok(Value::Real(
+                real_result(f, to).map_err(|_| OpError::Conversion)?,
+            ))
+        }
+        Elem::Time | Elem::Ltime => lexer::parse_duration(&body)
+            .map(Value::Int)
+            .map_err(|_| OpError::Conversion),
+        Elem::Date => lexer::parse_date(&body)
+            .map(|d| Value::Int(d as i128 * NANOS_PER_DAY))
+            .map_err(|_| OpError::Conversion),
+        Elem::Tod => lexer::parse_tod(&body)
+            .map(Value::Int)
+            .map_err(|_| OpError::Conversion),
+        Elem::Dt => lexer::parse_dt(&body)
+            .map(Value::Int)
+            .map_err(|_| OpError::Conversion),
+        _ => {
+            let (neg, digits) = match body.strip_prefix('-') {
+                Some(d) => (true, d),
+                None => (false, body.strip_prefix('+').unwrap_or(&body)),
+            };
+            let digits = digits.replace('_', "");
+            let v = match digits.split_once('#') {
+                Some((base, d)) => {
+                    let radix: u32 = base.parse().map_err(|_| OpError::Conversion)?;
+                    if ![2, 8, 16].contains(&radix) {
+                        return Err(OpError::Conversion);
+                    }
+                    i128::from_str_radix(d, radix).map_err(|_| OpError::Conversion)?
+                }
+                None => digits.parse::<i128>().map_err(|_| OpError::Conversion)?,
+            };
+            let v = if neg { -v } else { v };
+            if fits(v, to) {
+                Ok(Value::Int(v))
+            } else {
+                Err(OpError::Conversion)
+            }
+        }
+    }
+}
+
+/// Width mask of a bit string or integer type.
+pub fn mask(e: Elem) -> u64 {
+    match e.bits() {
+        64 => u64::MAX,
+        b => (1u64 << b) - 1,
+    }
+}
+
+/// SHL, SHR, ROL, ROR on the bit pattern of `v` (its type's width).
+pub fn shift(kind: crate::ir::Builtin, v: i128, n: i128, e: Elem) -> OpResult<i128> {
+    use crate::ir::Builtin::*;
+    if n < 0 {
+        return Err(OpError::Domain("a negative shift count"));
+    }
+    let bits = e.bits() as i128;
+    let m = mask(e);
+    let x = (v as u64) & m;
+    let r = match kind {
+        Shl => {
+            if n >= bits {
+                0
+            } else {
+                (x << n) & m
+            }
+        }
+        Shr => {
+            if n >= bits {
+                0
+            } else {
+                x >> n
+            }
+        }
+        Rol | Ror => {
+            let k = (n % bits) as u32;
+            if k == 0 {
+                x
+            } else {
+                let b = bits as u32;
+                let (l, r) = if kind == Rol { (k, b - k) } else { (b - k, k) };
+                ((x << l) | (x >> r)) & m
+            }
+        }
+        _ => x,
+    };
+    Ok(wrap(r as i128, e))
+}
+
+/// Positions of the string functions are 1-based; returns an error for one outside.
+fn check_len(l: i128) -> OpResult<usize> {
+    if l < 0 {
+        return Err(OpError::Domain("a negative length"));
+    }
+    Ok(l.min(u32::MAX as i128) as usize)
+}
+
+pub fn left(s: &[u8], l: i128) -> OpResult<Vec<u8>> {
+    let l = check_len(l)?;
+    Ok(s[..l.min(s.len())].to_vec())
+}
+
+pub fn right(s: &[u8], l: i128) -> OpResult<Vec<u8>> {
+    let l = check_len(l)?.min(s.len());
+    Ok(s[s.len() - l..].to_vec())
+}
+
+pub fn mid(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+    let l = check_len(l)?;
+    if p < 1 || p > s.len() as i128 + 1 {
+        return Err(OpError::Domain("a character position outside the string"));
+    }
+    let start = (p - 1) as usize;
+    let end = (start + l).min(s.len());
+    Ok(s[start..end].to_vec())
+}
+
+pub fn insert(a: &[u8], b: &[u8], p: i128) -> OpResult<Vec<u8>> {
+    if p < 0 || p > a.len() as i128 {
+        return Err(OpError::Domain("a character position outside the string"));
+    }
+    let p = p as usize;
+    let mut out = a[..p].to_vec();
+    out.extend_from_slice(b);
+    out.extend_from_slice(&a[p..]);
+    Ok(out)
+}
+
+pub fn delete(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+    let l = check_len(l)?;
+    if p < 1 || p > s.len() as i128 + 1 {
+        return Err(OpError::Domain("a character position outside the string"));
+    }
+    let start = (p - 1) as usize;
+    let end = (start + l).min(s.len());
+    let mut out = s[..start].to_vec();
+    out.extend_from_slice(&s[end..]);
+    Ok(out)
+}
+
+pub fn replace(a: &[u8], b: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+    let l = check_len(l)?;
+    if p < 1 || p > a.len() as i128 + 1 {
+        return Err(OpError::Domain("a character position outside the string"));
+    }
+    let start = (p - 1) as usize;
+    let end = (start + l).min(a.len());
+    let mut out = a[..start].to_vec();
+    out.extend_from_slice(b);
+    out.extend_from_slice(&a[end..]);
+    Ok(out)
+}
+
+pub fn find(a: &[u8], b: &[u8]) -> i128 {
+    if b.is_empty() || b.len() > a.len() {
+        return 0;
+    }
+    a.windows(b.len())
+        .position(|w| w == b)
+        .map_or(0, |i| i as i128 + 1)
+}
+
+/// The real functions of one argument.
+pub fn real_fn(b: crate::ir::Builtin, x: f64, e: Elem) -> OpResult<f64> {
+    use crate::ir::Builtin::*;
+    let domain = |ok: bool, what: &'static str| {
+        if ok {
+            Ok(())
+        } else {
+            Err(OpError::Domain(what))
+        }
+    };
+    let r = match b {
+        Sqrt => {
+            domain(x >= 0.0, "SQRT of a negative number")?;
+            x.sqrt()
+        }
+        Ln => {
+            domain(x > 0.0, "LN of a number not above 0")?;
+            x.ln()
+        }
+        Log => {
+            domain(x > 0.0, "LOG of a number not above 0")?;
+            x.log10()
+        }
+        Exp => x.exp(),
+        Sin => x.sin(),
+        Cos => x.cos(),
+        Tan => x.tan(),
+        Asin => {
+            domain((-1.0..=1.0).contains(&x), "ASIN outside -1..1")?;
+            x.asin()
+        }
+        Acos => {
+            domain((-1.0..=1.0).contains(&x), "ACOS outside -1..1")?;
+            x.acos()
+        }
+        Atan => x.atan(),
+        Abs => x.abs(),
+        _ => x,
+    };
+    real_result(r, e)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::Builtin;
+
+    #[test]
+    fn integer_rules() {
+        assert_eq!(
+            int_binary(BinaryOp::Add, 127, 1, Elem::Sint),
+            Err(OpError::Overflow)
+        );
+        assert_eq!(
+            int_binary(BinaryOp::Sub, 0, 1, Elem::Usint),
+            Err(OpError::Overflow)
+        );
+        assert_eq!(
+            int_binary(BinaryOp::Div, -128, -1, Elem::Sint),
+            Err(OpError::Overflow)
+        );
+        assert_eq!(
+            int_binary(BinaryOp::Div, 7, 0, Elem::Int),
+            Err(OpError::DivisionByZero)
+        );
+        assert_eq!(int_binary(BinaryOp::Mod, 7, 0, Elem::Int), Ok(0));
+        assert_eq!(int_binary(BinaryOp::Mod, -7, 2, Elem::Int), Ok(-1));
+        assert_eq!(int_binary(BinaryOp::Div, -7, 2, Elem::Int), Ok(-3));
+        assert_eq!(
+            int_binary(BinaryOp::Mul, u64::MAX as i128, 2, Elem::Ulint),
+            Err(OpError::Overflow)
+        );
+    }
+
+    #[test]
+    fn rounding_is_half_to_even() {
+        let r = |v| real_to_int(v, Elem::Int).unwrap();
+        assert_eq!(
+            [
+                r(1.6),
+                r(-1.6),
+                r(1.5),
+                r(-1.5),
+                r(1.4),
+                r(-1.4),
+                r(2.5),
+                r(-2.5)
+            ],
+            [2, -2, 2, -2, 1, -1, 2, -2]
+        );
+        assert_eq!(real_to_int(40000.0, Elem::Int), Err(OpError::Conversion));
+        assert_eq!(trunc_to_int(-1.6, Elem::Int), Ok(-1));
+    }
+
+    #[test]
+    fn conversions() {
+        let c = |v: Value, f, t| convert_elem(&v, f, t).unwrap();
+        assert_eq!(c(Value::Int(300), Elem::Int, Elem::Sint), Value::Int(44));
+        assert_eq!(c(Value::Int(-1), Elem::Dint, Elem::Word), Value::Int(65535));
+        assert_eq!(
+            c(Value::Int(1_500_000_000), Elem::Time, Elem::Dint),
+            Value::Int(1500)
+        );
+        assert_eq!(
+            c(Value::Int(1500), Elem::Dint, Elem::Time),
+            Value::Int(1_500_000_000)
+        );
+        assert_eq!(c(Value::Int(2), Elem::Int, Elem::Bool), Value::Int(1));
+        assert_eq!(c(Value::Real(2.5), Elem::Real, Elem::Int), Value::Int(2));
+        assert_eq!(
+            c(Value::Int(NANOS_PER_DAY + 5), Elem::Dt, Elem::Tod),
+            Value::Int(5)
+        );
+    }
+
+    #[test]
+    fn text() {
+        assert_eq!(to_text(&Value::Int(90_000_000_000), Elem::Time), b"T#1m30s");
+        assert_eq!(to_text(&Value::Real(1.5), Elem::Real), b"1.5");
+        assert_eq!(to_text(&Value::Real(100.0), Elem::Lreal), b"100.0");
+        assert_eq!(to_text(&Value::Real(1e20), Elem::Lreal), b"1.0E20");
+        assert_eq!(to_text(&Value::Int(1), Elem::Bool), b"TRUE");
+        assert_eq!(from_text(b" 42 ", Elem::Int), Ok(Value::Int(42)));
+        assert_eq!(from_text(b"16#FF", Elem::Word), Ok(Value::Int(255)));
+        assert_eq!(from_text(b"INT#-5", Elem::Int), Ok(Value::Int(-5)));
+        assert_eq!(from_text(b"x", Elem::Int), Err(OpError::Conversion));
+        assert_eq!(
+            from_text(b"T#1s", Elem::Time),
+            Ok(Value::Int(1_000_000_000))
+        );
+        assert_eq!(from_text(b"300", Elem::Sint), Err(OpError::Conversion));
+    }
+
+    #[test]
+    fn strings_and_bits() {
+        assert_eq!(insert(b"ABC", b"XY", 2).unwrap(), b"ABXYC");
+        assert_eq!(delete(b"ABXYC", 2, 3).unwrap(), b"ABC");
+        assert_eq!(replace(b"ABCDE", b"X", 2, 3).unwrap(), b"ABXE");
+        assert_eq!(find(b"ABCBC", b"BC"), 2);
+        assert_eq!(mid(b"ABCDE", 2, 2).unwrap(), b"BC");
+        assert!(mid(b"ABC", 1, 0).is_err());
+        assert_eq!(left(b"ABC", 5).unwrap(), b"ABC");
+        assert_eq!(right(b"ABC", 2).unwrap(), b"BC");
+        assert_eq!(shift(Builtin::Rol, 0x81, 1, Elem::Byte), Ok(0x03));
+        assert_eq!(shift(Builtin::Ror, 0x81, 1, Elem::Byte), Ok(0xC0));
+        assert_eq!(shift(Builtin::Shl, 0x81, 1, Elem::Byte), Ok(0x02));
+        assert_eq!(shift(Builtin::Shr, 0x81, 9, Elem::Byte), Ok(0));
+    }
+}

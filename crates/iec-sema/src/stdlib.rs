@@ -1,0 +1,244 @@
+//! The standard library's names and the interfaces of the standard function blocks.
+//!
+//! Standard functions are typed in `expr.rs` (their rules are generic: ANY_NUM, ANY_BIT…);
+//! the standard function blocks are native: the checker sees their interface here, the VM
+//! runs them.
+
+use crate::ir::{NativeSig, NativeVar, NativeVarKind};
+use crate::types::Elem;
+use crate::value::Value;
+
+/// The standard functions by name (conversions `*_TO_*`, `TO_*` and `TRUNC_*` are recognised
+/// by their pattern).
+pub const STANDARD_FUNCTIONS: &[&str] = &[
+    "ABS",
+    "SQRT",
+    "LN",
+    "LOG",
+    "EXP",
+    "SIN",
+    "COS",
+    "TAN",
+    "ASIN",
+    "ACOS",
+    "ATAN",
+    "ATAN2",
+    "EXPT",
+    "ADD",
+    "SUB",
+    "MUL",
+    "DIV",
+    "MOD",
+    "MOVE",
+    "SEL",
+    "MAX",
+    "MIN",
+    "LIMIT",
+    "MUX",
+    "GT",
+    "GE",
+    "EQ",
+    "LE",
+    "LT",
+    "NE",
+    "SHL",
+    "SHR",
+    "ROL",
+    "ROR",
+    "AND",
+    "OR",
+    "XOR",
+    "NOT",
+    "LEN",
+    "LEFT",
+    "RIGHT",
+    "MID",
+    "CONCAT",
+    "INSERT",
+    "DELETE",
+    "REPLACE",
+    "FIND",
+    "TRUNC",
+    "ADD_TIME",
+    "SUB_TIME",
+    "MUL_TIME",
+    "DIV_TIME",
+    "ADD_TOD_TIME",
+    "ADD_DT_TIME",
+    "SUB_TOD_TIME",
+    "SUB_DT_TIME",
+    "SUB_DATE_DATE",
+    "SUB_TOD_TOD",
+    "SUB_DT_DT",
+    "CONCAT_DATE_TOD",
+    "DT_TO_TOD",
+    "DT_TO_DATE",
+    "ADD_LTIME",
+    "SUB_LTIME",
+    "MUL_LTIME",
+    "DIV_LTIME",
+];
+
+/// Whether `name` is a standard function (case-insensitive), conversions included.
+pub fn is_standard_function(name: &str) -> bool {
+    let n = name.to_ascii_uppercase();
+    STANDARD_FUNCTIONS.contains(&n.as_str()) || conversion_of(&n).is_some()
+}
+
+/// The target of a conversion function name: `INT_TO_REAL` → (Some(INT), "REAL"),
+/// `TO_REAL` → (None, "REAL"), `TRUNC_INT`/`REAL_TRUNC_INT` → truncations.
+pub(crate) fn conversion_of(name: &str) -> Option<(Option<String>, String, bool)> {
+    let n = name.to_ascii_uppercase();
+    if let Some(rest) = n.strip_prefix("TO_") {
+        return Some((None, rest.to_string(), false));
+    }
+    if let Some(rest) = n.strip_prefix("TRUNC_") {
+        return Some((None, rest.to_string(), true));
+    }
+    if let Some((from, to)) = n.split_once("_TRUNC_") {
+        return Some((Some(from.to_string()), to.to_string(), true));
+    }
+    // DATE_AND_TIME and TIME_OF_DAY contain `_`; split at every `_TO_` and accept the one
+    // that names two types (the checker validates them).
+    let mut start = 0;
+    while let Some(i) = n[start..].find("_TO_") {
+        let at = start + i;
+        let (from, to) = (&n[..at], &n[at + 4..]);
+        if !from.is_empty() && !to.is_empty() && !from.ends_with("_BCD") {
+            return Some((Some(from.to_string()), to.to_string(), false));
+        }
+        start = at + 1;
+    }
+    None
+}
+
+fn var(name: &str, ty: Elem, kind: NativeVarKind) -> NativeVar {
+    let init = Value::Int(0);
+    NativeVar {
+        name: name.to_string(),
+        ty,
+        kind,
+        init,
+    }
+}
+
+/// The standard function blocks: timers, edge detectors, counters (with the typed counters
+/// of the third edition) and bistables.
+pub fn standard_fbs() -> Vec<NativeSig> {
+    use NativeVarKind::{Input as I, Output as O, State as S};
+    let mut fbs = Vec::new();
+    for name in ["TON", "TOF", "TP"] {
+        fbs.push(NativeSig {
+            name: name.into(),
+            vars: vec![
+                var("IN", Elem::Bool, I),
+                var("PT", Elem::Time, I),
+                var("Q", Elem::Bool, O),
+                var("ET", Elem::Time, O),
+                var("running", Elem::Bool, S),
+                var("start", Elem::Time, S),
+                var("prev", Elem::Bool, S),
+            ],
+        });
+    }
+    for name in ["R_TRIG", "F_TRIG"] {
+        fbs.push(NativeSig {
+            name: name.into(),
+            vars: vec![
+                var("CLK", Elem::Bool, I),
+                var("Q", Elem::Bool, O),
+                var("M", Elem::Bool, S),
+            ],
+        });
+    }
+    for (suffix, ty) in [
+        ("", Elem::Int),
+        ("_DINT", Elem::Dint),
+        ("_LINT", Elem::Lint),
+        ("_UDINT", Elem::Udint),
+        ("_ULINT", Elem::Ulint),
+    ] {
+        fbs.push(NativeSig {
+            name: format!("CTU{suffix}"),
+            vars: vec![
+                var("CU", Elem::Bool, I),
+                var("R", Elem::Bool, I),
+                var("PV", ty, I),
+                var("Q", Elem::Bool, O),
+                var("CV", ty, O),
+                var("prev_cu", Elem::Bool, S),
+            ],
+        });
+        fbs.push(NativeSig {
+            name: format!("CTD{suffix}"),
+            vars: vec![
+                var("CD", Elem::Bool, I),
+                var("LD", Elem::Bool, I),
+                var("PV", ty, I),
+                var("Q", Elem::Bool, O),
+                var("CV", ty, O),
+                var("prev_cd", Elem::Bool, S),
+            ],
+        });
+        fbs.push(NativeSig {
+            name: format!("CTUD{suffix}"),
+            vars: vec![
+                var("CU", Elem::Bool, I),
+                var("CD", Elem::Bool, I),
+                var("R", Elem::Bool, I),
+                var("LD", Elem::Bool, I),
+                var("PV", ty, I),
+                var("QU", Elem::Bool, O),
+                var("QD", Elem::Bool, O),
+                var("CV", ty, O),
+                var("prev_cu", Elem::Bool, S),
+                var("prev_cd", Elem::Bool, S),
+            ],
+        });
+    }
+    fbs.push(NativeSig {
+        name: "SR".into(),
+        vars: vec![
+            var("S1", Elem::Bool, I),
+            var("R", Elem::Bool, I),
+            var("Q1", Elem::Bool, O),
+        ],
+    });
+    fbs.push(NativeSig {
+        name: "RS".into(),
+        vars: vec![
+            var("S", Elem::Bool, I),
+            var("R1", Elem::Bool, I),
+            var("Q1", Elem::Bool, O),
+        ],
+    });
+    fbs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn conversion_names() {
+        assert_eq!(
+            conversion_of("INT_TO_REAL"),
+            Some((Some("INT".into()), "REAL".into(), false))
+        );
+        assert_eq!(
+            conversion_of("DATE_AND_TIME_TO_TIME_OF_DAY"),
+            Some((Some("DATE_AND_TIME".into()), "TIME_OF_DAY".into(), false))
+        );
+        assert_eq!(
+            conversion_of("to_lreal"),
+            Some((None, "LREAL".into(), false))
+        );
+        assert_eq!(
+            conversion_of("REAL_TRUNC_INT"),
+            Some((Some("REAL".into()), "INT".into(), true))
+        );
+        assert_eq!(conversion_of("MAX"), None);
+        assert!(is_standard_function("limit"));
+        assert!(is_standard_function("WORD_TO_BOOL"));
+    }
+}

@@ -1,0 +1,252 @@
+//! The checker's diagnostics on small sources.
+
+use petriplc_iec_syntax::{parser, SourceMap};
+
+use crate::{check, ir, Options};
+
+/// Checks `src`; returns the project and the rendered diagnostics.
+fn run(src: &str) -> (Option<ir::Project>, String) {
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", src);
+    let mut d = petriplc_iec_syntax::Diagnostics::new();
+    let lib = parser::parse(f, src, &mut d);
+    assert!(!d.has_errors(), "syntax: {}", d.render(&map));
+    let (p, diags) = check(&lib, &Options::default());
+    (p, diags.render(&map))
+}
+
+fn check_ok(src: &str) -> ir::Project {
+    let (p, d) = run(src);
+    assert!(p.is_some(), "{d}");
+    assert!(!d.contains("error"), "{d}");
+    p.unwrap()
+}
+
+/// `expect` lists fragments, one per expected diagnostic line, in order.
+fn check_errors(src: &str, expect: &[&str]) {
+    let (_, d) = run(src);
+    let lines: Vec<&str> = d.lines().collect();
+    assert_eq!(lines.len(), expect.len(), "got:\n{d}");
+    for (l, e) in lines.iter().zip(expect) {
+        assert!(l.contains(e), "expected `{e}` in\n{l}\n(all:\n{d})");
+    }
+}
+
+fn prog(decls: &str, body: &str) -> String {
+    format!("PROGRAM p\nVAR\n{decls}\nEND_VAR\n{body}\nEND_PROGRAM\n")
+}
+
+#[test]
+fn a_valid_program() {
+    let p = check_ok(&prog(
+        "i : INT; r : REAL; b : BOOL; t : TON; s : STRING[10]; a : ARRAY[1..3] OF DINT := [1, 2, 3];",
+        "i := i + 1; r := INT_TO_REAL(i) * 2.5; b := i > 3 AND NOT b;
+         t(IN := b, PT := T#1s); b := t.Q; s := CONCAT(s, 'x'); a[i MOD 3 + 1] := a[1] + i;
+         IF b THEN i := 0; END_IF; CASE i OF 1, 2: i := 3; 4..6: i := 7; ELSE i := 0; END_CASE;
+         FOR i := 1 TO 10 BY 2 DO r := r + 1.0; END_FOR;",
+    ));
+    assert_eq!(p.pous.len(), 1);
+}
+
+#[test]
+fn undeclared_and_types() {
+    check_errors(
+        &prog("i : INT; r : REAL;", "x := 1; i := r; i := 70000; r := i;"),
+        &[
+            "t.st:5:1: error[E100]: `x` is not declared",
+            "t.st:5:14: error[E110]: the value assigned to `i` is REAL but INT is needed; convert explicitly: REAL_TO_INT(…) rounds, TRUNC(…) truncates",
+            "t.st:5:22: error[E113]: 70000 does not fit INT",
+        ],
+    );
+}
+
+#[test]
+fn constants_inputs_and_loop_variables() {
+    check_errors(
+        "PROGRAM p
+VAR_INPUT go : BOOL; END_VAR
+VAR CONSTANT k : INT := 3; END_VAR
+VAR i : INT; END_VAR
+k := 4;
+go := TRUE;
+FOR i := 1 TO k DO i := 2; END_FOR;
+END_PROGRAM",
+        &[
+            "t.st:5:1: error[E121]: `k` is a CONSTANT",
+            "t.st:6:1: error[E122]: `go` is an input of this POU",
+            "t.st:7:20: error[E123]: `i` controls the FOR loop",
+        ],
+    );
+}
+
+#[test]
+fn case_labels() {
+    check_errors(
+        &prog(
+            "i : SINT;",
+            "CASE i OF 1..5: i := 0; 3: i := 1; 200: i := 2; 6, 6: i := 3; 9..7: ; END_CASE;",
+        ),
+        &[
+            "E140]: this label is unreachable",
+            "E140]: this label can never match: a SINT selector is -128..127",
+            "E140]: this label is unreachable",
+            "E140]: the range 9..7 is empty",
+        ],
+    );
+}
+
+#[test]
+fn calls() {
+    check_errors(
+        "FUNCTION f : INT
+VAR_INPUT a : INT; END_VAR
+VAR_IN_OUT b : INT; END_VAR
+f := a + b;
+END_FUNCTION
+PROGRAM p
+VAR i : INT; t : TON; r : REAL; END_VAR
+i := f(a := 1);
+i := f(1, i, 3);
+i := f(a := 1, c := 2, b := i);
+t(IN := TRUE, Q := i);
+i := g(1);
+i := f(a := 1, i);
+t(IN := r);
+END_PROGRAM",
+        &[
+            "t.st:8:6: error[E130]: in-out `b` of f must be given in every call",
+            "t.st:9:14: error[E130]: f takes 2 argument(s) (a, b), this is argument 3",
+            "t.st:10:16: error[E130]: f has no parameter `c`",
+            "t.st:11:15: error[E130]: `Q` is an output of TON: connect it with `=>`",
+            "t.st:12:6: error[E102]: unknown function `g`",
+            "t.st:13:6: error[E130]: the call of f mixes named",
+            "t.st:14:9: error[E110]: argument `IN` is REAL but BOOL is needed",
+        ],
+    );
+}
+
+#[test]
+fn externals_and_configuration() {
+    let p = check_ok(
+        "PROGRAM chase
+VAR_EXTERNAL L : BYTE; END_VAR
+L := ROL(L, 1);
+END_PROGRAM
+CONFIGURATION c
+VAR_GLOBAL L AT %L : BYTE := 1; END_VAR
+RESOURCE r ON PLC
+TASK t (INTERVAL := T#300ms, PRIORITY := 1);
+PROGRAM main WITH t : chase;
+END_RESOURCE
+END_CONFIGURATION",
+    );
+    let c = p.configuration.unwrap();
+    assert_eq!(c.tasks[0].interval, Some(300_000_000));
+    assert_eq!(p.globals[0].location.as_deref(), Some("L"));
+    check_errors(
+        "PROGRAM q VAR_EXTERNAL g : INT; END_VAR g := 1; END_PROGRAM
+PROGRAM r VAR x : INT; END_VAR x := h; END_PROGRAM
+CONFIGURATION c VAR_GLOBAL g : DINT; h : INT; END_VAR END_CONFIGURATION",
+        &[
+            "error[E106]: VAR_EXTERNAL g is INT but the global variable is DINT",
+            "error[E100]: `h` is not declared; it is a global variable: declare it in the POU's VAR_EXTERNAL",
+        ],
+    );
+}
+
+#[test]
+fn recursion_and_self_containment() {
+    check_errors(
+        "FUNCTION a : INT VAR_INPUT x : INT; END_VAR a := b(x); END_FUNCTION
+FUNCTION b : INT VAR_INPUT x : INT; END_VAR b := a(x); END_FUNCTION
+FUNCTION_BLOCK fb VAR inner : fb; END_VAR END_FUNCTION_BLOCK",
+        &[
+            "error[E107]: this call makes",
+            "error[E107]: function block fb contains an instance of itself",
+        ],
+    );
+}
+
+#[test]
+fn literals_adapt_and_fold() {
+    let p = check_ok(&prog(
+        "s : SINT := -128; w : WORD := 16#FFFF; u : USINT; l : LREAL := 1.5; t : TIME := T#1m30s + T#500ms;",
+        "u := 255; s := -5 * 2; l := 2 ** 3;",
+    ));
+    let v = &p.pous[0].vars;
+    assert_eq!(v[0].init, Some(crate::value::Value::Int(-128)));
+    assert_eq!(v[4].init, Some(crate::value::Value::Int(90_500_000_000)));
+    check_errors(
+        &prog(
+            "s : SINT; x : INT;",
+            "s := 1 + 200; x := 10 / 0; x := INT#32767 + 1;",
+        ),
+        &[
+            "E113]: 201 does not fit SINT",
+            "E113]: this constant expression divides by zero",
+            "E113]: this constant expression overflows INT",
+        ],
+    );
+}
+
+#[test]
+fn enumerations_and_structures() {
+    check_ok(
+        "TYPE Color : (Red, Green, Blue); Light : (Off, Red2, Green2); Pt : STRUCT x : INT; y : INT := 5; END_STRUCT; END_TYPE
+PROGRAM p
+VAR c : Color := Green; q : Pt := (x := 2); a : ARRAY[0..1] OF Pt; END_VAR
+IF c = Red THEN c := Color#Blue; END_IF;
+CASE c OF Red: q.x := 1; Green, Blue: q.y := a[1].x; END_CASE;
+a[0] := q;
+END_PROGRAM",
+    );
+    check_errors(
+        "TYPE Color : (Red, Green); Pt : STRUCT x : INT; END_STRUCT; END_TYPE
+PROGRAM p VAR c : Color; q : Pt; i : INT; END_VAR
+c := 1; q.z := 1; i := c; i := q;
+END_PROGRAM",
+        &[
+            "E110]: the value assigned to `c` is an integer literal but Color is needed",
+            "E105]: structure Pt has no field `z`",
+            "E110]: the value assigned to `i` is Color but INT is needed",
+            "E110]: the value assigned to `i` is Pt but the target is INT",
+        ],
+    );
+}
+
+#[test]
+fn statements_out_of_place() {
+    check_errors(
+        &prog(
+            "i : INT;",
+            "EXIT; IF i THEN CONTINUE; END_IF; WHILE i > 0 DO EXIT; END_WHILE;",
+        ),
+        &[
+            "E142]: EXIT is only allowed inside FOR, WHILE or REPEAT",
+            "E112]: a condition must be BOOL, not INT",
+            "E142]: CONTINUE is only allowed",
+        ],
+    );
+}
+
+proptest::proptest! {
+    /// No source the parser accepts makes the checker panic.
+    #[test]
+    fn never_panics(body in proptest::collection::vec(proptest::sample::select(vec![
+        "x", "y", "a", "t", "s", ":=", ";", "+", "-", "*", "/", "MOD", "AND", "NOT", "(", ")",
+        "[", "]", ",", "1", "0", "2.5", "T#1s", "'s'", "TRUE", "IF", "THEN", "END_IF", "CASE",
+        "OF", ":", "END_CASE", "FOR", "TO", "DO", "END_FOR", ".", "Q", "IN", "=>", "MAX", "f",
+        "INT_TO_REAL", "..", "EXIT", "RETURN", "WHILE", "END_WHILE", "ELSE",
+    ]), 0..40)) {
+        let src = format!(
+            "FUNCTION f : INT VAR_INPUT i : INT; END_VAR f := i; END_FUNCTION
+PROGRAM p VAR x : INT; y : REAL; a : ARRAY[1..3] OF INT; t : TON; s : STRING; END_VAR
+{}
+END_PROGRAM", body.join(" "));
+        let mut map = SourceMap::new();
+        let f = map.add("t.st", src.as_str());
+        let mut d = petriplc_iec_syntax::Diagnostics::new();
+        let lib = parser::parse(f, &src, &mut d);
+        let _ = check(&lib, &Options::default());
+    }
+}

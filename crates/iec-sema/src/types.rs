@@ -1,0 +1,484 @@
+//! The data types of IEC 61131-3 as the checker and the engine see them: elementary types
+//! ([`Elem`]), bounded strings, arrays, structures, enumerations, subranges and function
+//! block instances, interned in a [`TypeTable`] so that equal types have equal ids.
+
+use std::collections::HashMap;
+
+use crate::value::Value;
+
+/// The elementary types. `LDATE`, `LTOD` and `LDT` are read as `DATE`, `TOD` and `DT`: all
+/// of them are 64-bit nanosecond counts here.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Elem {
+    Bool,
+    Sint,
+    Int,
+    Dint,
+    Lint,
+    Usint,
+    Uint,
+    Udint,
+    Ulint,
+    Byte,
+    Word,
+    Dword,
+    Lword,
+    Real,
+    Lreal,
+    Time,
+    Ltime,
+    Date,
+    Tod,
+    Dt,
+}
+
+pub const ELEMS: [Elem; 20] = [
+    Elem::Bool,
+    Elem::Sint,
+    Elem::Int,
+    Elem::Dint,
+    Elem::Lint,
+    Elem::Usint,
+    Elem::Uint,
+    Elem::Udint,
+    Elem::Ulint,
+    Elem::Byte,
+    Elem::Word,
+    Elem::Dword,
+    Elem::Lword,
+    Elem::Real,
+    Elem::Lreal,
+    Elem::Time,
+    Elem::Ltime,
+    Elem::Date,
+    Elem::Tod,
+    Elem::Dt,
+];
+
+impl Elem {
+    pub fn name(self) -> &'static str {
+        match self {
+            Elem::Bool => "BOOL",
+            Elem::Sint => "SINT",
+            Elem::Int => "INT",
+            Elem::Dint => "DINT",
+            Elem::Lint => "LINT",
+            Elem::Usint => "USINT",
+            Elem::Uint => "UINT",
+            Elem::Udint => "UDINT",
+            Elem::Ulint => "ULINT",
+            Elem::Byte => "BYTE",
+            Elem::Word => "WORD",
+            Elem::Dword => "DWORD",
+            Elem::Lword => "LWORD",
+            Elem::Real => "REAL",
+            Elem::Lreal => "LREAL",
+            Elem::Time => "TIME",
+            Elem::Ltime => "LTIME",
+            Elem::Date => "DATE",
+            Elem::Tod => "TOD",
+            Elem::Dt => "DT",
+        }
+    }
+
+    /// The elementary type a name spells (case-insensitive), with the standard's long forms.
+    pub fn from_name(name: &str) -> Option<Elem> {
+        let n = name.to_ascii_uppercase();
+        Some(match n.as_str() {
+            "TIME_OF_DAY" | "LTOD" | "LTIME_OF_DAY" => Elem::Tod,
+            "DATE_AND_TIME" | "LDT" | "LDATE_AND_TIME" => Elem::Dt,
+            "LDATE" => Elem::Date,
+            _ => return ELEMS.iter().copied().find(|e| e.name() == n),
+        })
+    }
+
+    pub fn index(self) -> u32 {
+        ELEMS.iter().position(|&e| e == self).unwrap_or(0) as u32
+    }
+
+    pub fn is_signed(self) -> bool {
+        matches!(self, Elem::Sint | Elem::Int | Elem::Dint | Elem::Lint)
+    }
+
+    pub fn is_unsigned(self) -> bool {
+        matches!(self, Elem::Usint | Elem::Uint | Elem::Udint | Elem::Ulint)
+    }
+
+    /// ANY_INT.
+    pub fn is_int(self) -> bool {
+        self.is_signed() || self.is_unsigned()
+    }
+
+    /// BYTE, WORD, DWORD, LWORD (ANY_BIT without BOOL).
+    pub fn is_bitstring(self) -> bool {
+        matches!(self, Elem::Byte | Elem::Word | Elem::Dword | Elem::Lword)
+    }
+
+    /// ANY_BIT.
+    pub fn is_bit(self) -> bool {
+        self == Elem::Bool || self.is_bitstring()
+    }
+
+    /// ANY_REAL.
+    pub fn is_real(self) -> bool {
+        matches!(self, Elem::Real | Elem::Lreal)
+    }
+
+    /// ANY_NUM.
+    pub fn is_num(self) -> bool {
+        self.is_int() || self.is_real()
+    }
+
+    /// ANY_DURATION.
+    pub fn is_duration(self) -> bool {
+        matches!(self, Elem::Time | Elem::Ltime)
+    }
+
+    /// ANY_DATE.
+    pub fn is_date(self) -> bool {
+        matches!(self, Elem::Date | Elem::Tod | Elem::Dt)
+    }
+
+    /// Whether values are whole numbers kept in an i64 slot (everything but the reals).
+    pub fn is_integral(self) -> bool {
+        !self.is_real()
+    }
+
+    /// Width in bits.
+    pub fn bits(self) -> u32 {
+        match self {
+            Elem::Bool => 1,
+            Elem::Sint | Elem::Usint | Elem::Byte => 8,
+            Elem::Int | Elem::Uint | Elem::Word => 16,
+            Elem::Dint | Elem::Udint | Elem::Dword | Elem::Real => 32,
+            _ => 64,
+        }
+    }
+
+    /// The range of an integral type's values.
+    pub fn range(self) -> (i128, i128) {
+        match self {
+            Elem::Bool => (0, 1),
+            Elem::Sint => (i8::MIN as i128, i8::MAX as i128),
+            Elem::Int => (i16::MIN as i128, i16::MAX as i128),
+            Elem::Dint => (i32::MIN as i128, i32::MAX as i128),
+            Elem::Lint | Elem::Time | Elem::Ltime | Elem::Date | Elem::Tod | Elem::Dt => {
+                (i64::MIN as i128, i64::MAX as i128)
+            }
+            Elem::Usint | Elem::Byte => (0, u8::MAX as i128),
+            Elem::Uint | Elem::Word => (0, u16::MAX as i128),
+            Elem::Udint | Elem::Dword => (0, u32::MAX as i128),
+            Elem::Ulint | Elem::Lword => (0, u64::MAX as i128),
+            Elem::Real | Elem::Lreal => (i128::MIN, i128::MAX),
+        }
+    }
+
+    /// Whether a value of `self` converts implicitly to `to` (widening without loss, as the
+    /// standard's implicit conversions: SINT→INT→DINT→LINT, USINT→UINT→UDINT→ULINT,
+    /// unsigned to a wider signed type, up-to-16-bit integers to REAL, up-to-32-bit integers
+    /// and REAL to LREAL, BYTE→WORD→DWORD→LWORD, TIME→LTIME).
+    pub fn widens_to(self, to: Elem) -> bool {
+        use Elem::*;
+        if self == to {
+            return true;
+        }
+        matches!(
+            (self, to),
+            (Sint, Int | Dint | Lint)
+                | (Int, Dint | Lint)
+                | (Dint, Lint)
+                | (Usint, Uint | Udint | Ulint)
+                | (Uint, Udint | Ulint)
+                | (Udint, Ulint)
+                | (Usint, Int | Dint | Lint)
+                | (Uint, Dint | Lint)
+                | (Udint, Lint)
+                | (Sint | Int | Usint | Uint, Real | Lreal)
+                | (Dint | Udint | Real, Lreal)
+                | (Byte, Word | Dword | Lword)
+                | (Word, Dword | Lword)
+                | (Dword, Lword)
+                | (Time, Ltime)
+        )
+    }
+}
+
+/// A function block type: one written in a source, or one built into the engine (the
+/// standard FBs, and FBs implemented in Rust).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FbRef {
+    User(u32),
+    Native(u32),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Field {
+    pub name: String,
+    pub ty: TypeId,
+    pub init: Option<Value>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Type {
+    Elem(Elem),
+    /// `STRING[len]`, `len` bytes at most.
+    Str {
+        len: u32,
+    },
+    /// Dimensions as inclusive bounds, outermost first.
+    Array {
+        dims: Vec<(i64, i64)>,
+        elem: TypeId,
+    },
+    Struct {
+        name: String,
+        fields: Vec<Field>,
+    },
+    Enum {
+        name: String,
+        values: Vec<(String, i64)>,
+    },
+    /// A subrange of an integer type: assignments are checked against it.
+    Subrange {
+        base: Elem,
+        lo: i128,
+        hi: i128,
+    },
+    Fb(FbRef),
+    /// An integer literal whose type the context decides.
+    IntLit,
+    /// A real literal whose type the context decides.
+    RealLit,
+    /// What a call without a result gives.
+    Void,
+    /// The type of an expression that had an error (no further messages about it).
+    Error,
+}
+
+pub type TypeId = u32;
+
+/// Ids fixed for every table.
+pub mod ids {
+    use super::TypeId;
+    pub const BOOL: TypeId = 0;
+    pub const SINT: TypeId = 1;
+    pub const INT: TypeId = 2;
+    pub const DINT: TypeId = 3;
+    pub const LINT: TypeId = 4;
+    pub const USINT: TypeId = 5;
+    pub const UINT: TypeId = 6;
+    pub const UDINT: TypeId = 7;
+    pub const ULINT: TypeId = 8;
+    pub const BYTE: TypeId = 9;
+    pub const WORD: TypeId = 10;
+    pub const DWORD: TypeId = 11;
+    pub const LWORD: TypeId = 12;
+    pub const REAL: TypeId = 13;
+    pub const LREAL: TypeId = 14;
+    pub const TIME: TypeId = 15;
+    pub const LTIME: TypeId = 16;
+    pub const DATE: TypeId = 17;
+    pub const TOD: TypeId = 18;
+    pub const DT: TypeId = 19;
+    pub const INT_LIT: TypeId = 20;
+    pub const REAL_LIT: TypeId = 21;
+    pub const VOID: TypeId = 22;
+    pub const ERROR: TypeId = 23;
+    /// `STRING` without a length: 254 characters.
+    pub const STRING: TypeId = 24;
+}
+
+/// The default length of `STRING`.
+pub const DEFAULT_STRING_LEN: u32 = 254;
+/// The longest string accepted.
+pub const MAX_STRING_LEN: u32 = 65_535;
+
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+enum Key {
+    Str(u32),
+    Array(Vec<(i64, i64)>, TypeId),
+    Subrange(Elem, i128, i128),
+    Fb(FbRef),
+}
+
+/// Every type of a compilation.
+#[derive(Clone, Debug)]
+pub struct TypeTable {
+    types: Vec<Type>,
+    interned: HashMap<Key, TypeId>,
+}
+
+impl Default for TypeTable {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl TypeTable {
+    pub fn new() -> Self {
+        let mut t = TypeTable {
+            types: ELEMS.iter().map(|&e| Type::Elem(e)).collect(),
+            interned: HashMap::new(),
+        };
+        t.types.push(Type::IntLit);
+        t.types.push(Type::RealLit);
+        t.types.push(Type::Void);
+        t.types.push(Type::Error);
+        let s = t.string(DEFAULT_STRING_LEN);
+        debug_assert_eq!(s, ids::STRING);
+        t
+    }
+
+    pub fn get(&self, id: TypeId) -> &Type {
+        &self.types[id as usize]
+    }
+
+    pub fn len(&self) -> usize {
+        self.types.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.types.is_empty()
+    }
+
+    pub fn elem_id(e: Elem) -> TypeId {
+        e.index()
+    }
+
+    fn intern(&mut self, key: Key, ty: Type) -> TypeId {
+        if let Some(&id) = self.interned.get(&key) {
+            return id;
+        }
+        let id = self.types.len() as TypeId;
+        self.types.push(ty);
+        self.interned.insert(key, id);
+        id
+    }
+
+    pub fn string(&mut self, len: u32) -> TypeId {
+        self.intern(Key::Str(len), Type::Str { len })
+    }
+
+    pub fn array(&mut self, dims: Vec<(i64, i64)>, elem: TypeId) -> TypeId {
+        self.intern(Key::Array(dims.clone(), elem), Type::Array { dims, elem })
+    }
+
+    pub fn subrange(&mut self, base: Elem, lo: i128, hi: i128) -> TypeId {
+        self.intern(Key::Subrange(base, lo, hi), Type::Subrange { base, lo, hi })
+    }
+
+    pub fn fb(&mut self, r: FbRef) -> TypeId {
+        self.intern(Key::Fb(r), Type::Fb(r))
+    }
+
+    /// A named (nominal) type: a new id every time.
+    pub fn add(&mut self, ty: Type) -> TypeId {
+        let id = self.types.len() as TypeId;
+        self.types.push(ty);
+        id
+    }
+
+    /// Replaces a type added earlier (a structure filled in after its fields resolve).
+    pub fn set(&mut self, id: TypeId, ty: Type) {
+        self.types[id as usize] = ty;
+    }
+
+    /// The elementary type of a scalar (a subrange's base, an enumeration's DINT-like values
+    /// are not elementary: `None`).
+    pub fn elem(&self, id: TypeId) -> Option<Elem> {
+        match self.get(id) {
+            Type::Elem(e) => Some(*e),
+            Type::Subrange { base, .. } => Some(*base),
+            _ => None,
+        }
+    }
+
+    /// Whether values of the type fit one 64-bit slot (elementary, enumerations, subranges).
+    pub fn is_scalar(&self, id: TypeId) -> bool {
+        matches!(
+            self.get(id),
+            Type::Elem(_) | Type::Enum { .. } | Type::Subrange { .. }
+        )
+    }
+
+    pub fn is_string(&self, id: TypeId) -> bool {
+        matches!(self.get(id), Type::Str { .. })
+    }
+
+    /// The type as the standard writes it, for messages.
+    pub fn name(&self, id: TypeId) -> String {
+        match self.get(id) {
+            Type::Elem(e) => e.name().to_string(),
+            Type::Str { len } if *len == DEFAULT_STRING_LEN => "STRING".into(),
+            Type::Str { len } => format!("STRING[{len}]"),
+            Type::Array { dims, elem } => format!(
+                "ARRAY[{}] OF {}",
+                dims.iter()
+                    .map(|(l, h)| format!("{l}..{h}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                self.name(*elem)
+            ),
+            Type::Struct { name, .. } | Type::Enum { name, .. } => name.clone(),
+            Type::Subrange { base, lo, hi } => format!("{} ({lo}..{hi})", base.name()),
+            Type::Fb(_) => "function block".into(),
+            Type::IntLit => "an integer literal".into(),
+            Type::RealLit => "a real literal".into(),
+            Type::Void => "no value".into(),
+            Type::Error => "?".into(),
+        }
+    }
+
+    /// Number of array elements (1 for a non-array).
+    pub fn element_count(&self, id: TypeId) -> u64 {
+        match self.get(id) {
+            Type::Array { dims, .. } => dims
+                .iter()
+                .map(|(l, h)| (h - l + 1).max(0) as u64)
+                .product(),
+            _ => 1,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_ids_match_the_elementary_order() {
+        let t = TypeTable::new();
+        assert_eq!(t.get(ids::LREAL), &Type::Elem(Elem::Lreal));
+        assert_eq!(t.get(ids::DT), &Type::Elem(Elem::Dt));
+        assert_eq!(t.get(ids::STRING), &Type::Str { len: 254 });
+        assert_eq!(TypeTable::elem_id(Elem::Word), ids::WORD);
+    }
+
+    #[test]
+    fn interning() {
+        let mut t = TypeTable::new();
+        let a = t.array(vec![(1, 3)], ids::INT);
+        let b = t.array(vec![(1, 3)], ids::INT);
+        let c = t.array(vec![(0, 2)], ids::INT);
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+        assert_eq!(t.string(254), ids::STRING);
+        assert_eq!(t.name(a), "ARRAY[1..3] OF INT");
+    }
+
+    #[test]
+    fn widening() {
+        assert!(Elem::Sint.widens_to(Elem::Lint));
+        assert!(Elem::Usint.widens_to(Elem::Int));
+        assert!(!Elem::Int.widens_to(Elem::Uint));
+        assert!(!Elem::Dint.widens_to(Elem::Real));
+        assert!(Elem::Dint.widens_to(Elem::Lreal));
+        assert!(!Elem::Real.widens_to(Elem::Int));
+        assert!(Elem::Byte.widens_to(Elem::Lword));
+        assert!(!Elem::Bool.widens_to(Elem::Byte));
+        assert!(Elem::Time.widens_to(Elem::Ltime));
+        assert_eq!(Elem::from_name("time_of_day"), Some(Elem::Tod));
+        assert_eq!(Elem::from_name("udint"), Some(Elem::Udint));
+        assert_eq!(Elem::from_name("STRING"), None);
+    }
+}

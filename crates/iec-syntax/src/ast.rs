@@ -1,0 +1,527 @@
+//! The syntax tree of IEC 61131-3 library elements as written: data types, POUs,
+//! configurations. Names keep their spelling; the checker compares them case-insensitively.
+//!
+//! A POU's [`Body`] is Structured Text today; Instruction List text and graphical bodies (LD,
+//! FBD, SFC from PLCopen XML) are kept as read, for their front ends to lower into the same
+//! checked form (issue 17).
+
+use crate::source::Span;
+
+/// A name as written, with its place.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Ident {
+    pub name: String,
+    pub span: Span,
+}
+
+impl Ident {
+    pub fn new(name: impl Into<String>, span: Span) -> Self {
+        Ident {
+            name: name.into(),
+            span,
+        }
+    }
+
+    /// The name in upper case, the form names are compared in.
+    pub fn key(&self) -> String {
+        self.name.to_ascii_uppercase()
+    }
+
+    pub fn is(&self, other: &str) -> bool {
+        self.name.eq_ignore_ascii_case(other)
+    }
+}
+
+/// Everything read from one or more sources.
+#[derive(Clone, Debug, Default)]
+pub struct Library {
+    pub elements: Vec<Element>,
+}
+
+#[derive(Clone, Debug)]
+pub enum Element {
+    Types(Vec<TypeDecl>),
+    Pou(Pou),
+    Configuration(Configuration),
+    /// A `VAR_GLOBAL` block outside any configuration (a global variable list, as CODESYS and
+    /// TwinCAT write them).
+    Globals(VarBlock),
+}
+
+/// `NAME : spec [:= init];` inside `TYPE … END_TYPE`.
+#[derive(Clone, Debug)]
+pub struct TypeDecl {
+    pub name: Ident,
+    pub spec: TypeSpec,
+    pub init: Option<Init>,
+    pub span: Span,
+}
+
+/// A type as written in a declaration.
+#[derive(Clone, Debug)]
+pub enum TypeSpec {
+    /// An elementary, derived or function block type by name (`INT`, `Color`, `TON`).
+    Named(Ident),
+    /// `STRING`, `STRING[20]`, `WSTRING(10)`.
+    String {
+        wide: bool,
+        len: Option<Box<Expr>>,
+        span: Span,
+    },
+    /// `ARRAY [lo..hi, …] OF elem`.
+    Array {
+        ranges: Vec<(Expr, Expr)>,
+        elem: Box<TypeSpec>,
+        span: Span,
+    },
+    Struct {
+        fields: Vec<VarDecl>,
+        span: Span,
+    },
+    /// `(A, B := 5, C)`, optionally typed `INT (A := 1, B := 2)`.
+    Enum {
+        base: Option<Ident>,
+        values: Vec<(Ident, Option<Expr>)>,
+        span: Span,
+    },
+    /// `INT (0..100)`.
+    Subrange {
+        base: Ident,
+        lo: Box<Expr>,
+        hi: Box<Expr>,
+        span: Span,
+    },
+    /// `REF_TO`, `POINTER TO` and other forms the engine does not support (reported).
+    Unsupported {
+        what: String,
+        span: Span,
+    },
+}
+
+impl TypeSpec {
+    pub fn span(&self) -> Span {
+        match self {
+            TypeSpec::Named(i) => i.span,
+            TypeSpec::String { span, .. }
+            | TypeSpec::Array { span, .. }
+            | TypeSpec::Struct { span, .. }
+            | TypeSpec::Enum { span, .. }
+            | TypeSpec::Subrange { span, .. }
+            | TypeSpec::Unsupported { span, .. } => *span,
+        }
+    }
+}
+
+/// An initial value: an expression, an array list `[1, 2, 3(0)]` or a structure
+/// `(x := 1, y := 2)`.
+#[derive(Clone, Debug)]
+pub enum Init {
+    Expr(Expr),
+    Array {
+        items: Vec<ArrayInitItem>,
+        span: Span,
+    },
+    Struct {
+        fields: Vec<(Ident, Init)>,
+        span: Span,
+    },
+}
+
+impl Init {
+    pub fn span(&self) -> Span {
+        match self {
+            Init::Expr(e) => e.span,
+            Init::Array { span, .. } | Init::Struct { span, .. } => *span,
+        }
+    }
+}
+
+/// `value`, `n(value)` or `n()` in an array initialiser.
+#[derive(Clone, Debug)]
+pub struct ArrayInitItem {
+    pub repeat: Option<Expr>,
+    pub value: Option<Init>,
+    pub span: Span,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PouKind {
+    Program,
+    FunctionBlock,
+    Function,
+}
+
+impl PouKind {
+    pub fn keyword(self) -> &'static str {
+        match self {
+            PouKind::Program => "PROGRAM",
+            PouKind::FunctionBlock => "FUNCTION_BLOCK",
+            PouKind::Function => "FUNCTION",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Pou {
+    pub kind: PouKind,
+    pub name: Ident,
+    /// A FUNCTION's result type.
+    pub return_type: Option<TypeSpec>,
+    pub var_blocks: Vec<VarBlock>,
+    pub body: Body,
+    pub span: Span,
+}
+
+/// A POU body in the language it was written in.
+#[derive(Clone, Debug)]
+pub enum Body {
+    St(Vec<Stmt>),
+    /// Instruction List text (from a PLCopen `<IL>` body), kept for its front end.
+    Il {
+        text: String,
+        span: Span,
+    },
+    /// A graphical body (`LD`, `FBD`, `SFC`) from a PLCopen file, kept as its XML for the
+    /// graphical front ends.
+    Graphical {
+        language: GraphicalLanguage,
+        xml: crate::xml::Element,
+        span: Span,
+    },
+    /// No body (a PLCopen POU without one).
+    Missing(Span),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GraphicalLanguage {
+    Ld,
+    Fbd,
+    Sfc,
+}
+
+impl GraphicalLanguage {
+    pub fn name(self) -> &'static str {
+        match self {
+            GraphicalLanguage::Ld => "LD",
+            GraphicalLanguage::Fbd => "FBD",
+            GraphicalLanguage::Sfc => "SFC",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VarKind {
+    Input,
+    Output,
+    InOut,
+    /// `VAR`
+    Local,
+    Temp,
+    External,
+    Global,
+    /// `VAR_ACCESS`, `VAR_CONFIG` (reported as not supported).
+    Other,
+}
+
+impl VarKind {
+    pub fn keyword(self) -> &'static str {
+        match self {
+            VarKind::Input => "VAR_INPUT",
+            VarKind::Output => "VAR_OUTPUT",
+            VarKind::InOut => "VAR_IN_OUT",
+            VarKind::Local => "VAR",
+            VarKind::Temp => "VAR_TEMP",
+            VarKind::External => "VAR_EXTERNAL",
+            VarKind::Global => "VAR_GLOBAL",
+            VarKind::Other => "VAR_ACCESS",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Retain {
+    #[default]
+    Unspecified,
+    Retain,
+    NonRetain,
+}
+
+#[derive(Clone, Debug)]
+pub struct VarBlock {
+    pub kind: VarKind,
+    pub constant: bool,
+    pub retain: Retain,
+    pub vars: Vec<VarDecl>,
+    pub span: Span,
+}
+
+/// `a, b AT %IX0.0 : INT := 5;`
+#[derive(Clone, Debug)]
+pub struct VarDecl {
+    pub names: Vec<Ident>,
+    pub location: Option<Location>,
+    pub ty: TypeSpec,
+    pub init: Option<Init>,
+    /// `R_EDGE`/`F_EDGE` on a BOOL input.
+    pub edge: Option<Edge>,
+    pub span: Span,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Edge {
+    Rising,
+    Falling,
+}
+
+/// `AT %…`: the text after the percent sign.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Location {
+    pub text: String,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Stmt {
+    pub kind: StmtKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub enum StmtKind {
+    Assign {
+        target: Expr,
+        value: Expr,
+    },
+    /// A function or function block call as a statement.
+    Call(Call),
+    If {
+        branches: Vec<(Expr, Vec<Stmt>)>,
+        else_body: Option<Vec<Stmt>>,
+    },
+    Case {
+        selector: Expr,
+        arms: Vec<CaseArm>,
+        else_body: Option<Vec<Stmt>>,
+    },
+    For {
+        var: Ident,
+        from: Expr,
+        to: Expr,
+        by: Option<Expr>,
+        body: Vec<Stmt>,
+    },
+    While {
+        cond: Expr,
+        body: Vec<Stmt>,
+    },
+    Repeat {
+        body: Vec<Stmt>,
+        until: Expr,
+    },
+    Exit,
+    Continue,
+    Return,
+    /// A lone `;`.
+    Empty,
+}
+
+#[derive(Clone, Debug)]
+pub struct CaseArm {
+    pub labels: Vec<CaseLabel>,
+    pub body: Vec<Stmt>,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub enum CaseLabel {
+    Value(Expr),
+    Range(Expr, Expr),
+}
+
+impl CaseLabel {
+    pub fn span(&self) -> Span {
+        match self {
+            CaseLabel::Value(e) => e.span,
+            CaseLabel::Range(a, b) => a.span.to(b.span),
+        }
+    }
+}
+
+/// `callee(args)`.
+#[derive(Clone, Debug)]
+pub struct Call {
+    /// A name (`MAX`, `timer1`) or a path to an instance (`a.b.timer`, `fbs[i]`).
+    pub callee: Box<Expr>,
+    pub args: Vec<Arg>,
+    pub span: Span,
+}
+
+/// `value`, `name := value`, `name => variable`, `NOT name => variable`.
+#[derive(Clone, Debug)]
+pub struct Arg {
+    pub name: Option<Ident>,
+    /// `=>`: an output connected to a variable.
+    pub output: bool,
+    /// `NOT name => v`.
+    pub negated: bool,
+    /// `None` for an output left unconnected (`Q =>`).
+    pub value: Option<Expr>,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Expr {
+    pub kind: ExprKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub enum ExprKind {
+    Literal(Literal),
+    /// A variable, constant, enumeration value or POU name.
+    Name(Ident),
+    /// `a.b`
+    Field(Box<Expr>, Ident),
+    /// `x.3`: one bit of a bit string (or integer).
+    Bit(Box<Expr>, u32),
+    /// `a[i, j]`
+    Index(Box<Expr>, Vec<Expr>),
+    Call(Call),
+    Unary(UnaryOp, Box<Expr>),
+    Binary(BinaryOp, Box<Expr>, Box<Expr>),
+    /// `(e)`: kept so a negated literal in parentheses stays distinguishable.
+    Paren(Box<Expr>),
+    /// A direct variable `%IX0.1` used in code.
+    Direct(String),
+    /// A parse error; the checker skips it silently.
+    Error,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UnaryOp {
+    Neg,
+    Plus,
+    Not,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinaryOp {
+    Or,
+    Xor,
+    And,
+    Eq,
+    Ne,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Mod,
+    Power,
+}
+
+impl BinaryOp {
+    pub fn text(self) -> &'static str {
+        match self {
+            BinaryOp::Or => "OR",
+            BinaryOp::Xor => "XOR",
+            BinaryOp::And => "AND",
+            BinaryOp::Eq => "=",
+            BinaryOp::Ne => "<>",
+            BinaryOp::Lt => "<",
+            BinaryOp::Le => "<=",
+            BinaryOp::Gt => ">",
+            BinaryOp::Ge => ">=",
+            BinaryOp::Add => "+",
+            BinaryOp::Sub => "-",
+            BinaryOp::Mul => "*",
+            BinaryOp::Div => "/",
+            BinaryOp::Mod => "MOD",
+            BinaryOp::Power => "**",
+        }
+    }
+
+    pub fn is_comparison(self) -> bool {
+        matches!(
+            self,
+            BinaryOp::Eq | BinaryOp::Ne | BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge
+        )
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Literal {
+    /// An integer (`5`, `16#FF`), typed when written `INT#5` (negative only when typed:
+    /// `INT#-5`; an untyped `-5` is a negation of `5`).
+    Int {
+        value: i128,
+        ty: Option<Ident>,
+    },
+    Real {
+        value: f64,
+        ty: Option<Ident>,
+    },
+    Bool {
+        value: bool,
+        ty: Option<Ident>,
+    },
+    String {
+        bytes: Vec<u8>,
+        wide: bool,
+    },
+    /// Durations, dates and times of day in nanoseconds.
+    Time {
+        kind: crate::lexer::TimeKind,
+        nanos: i128,
+    },
+    /// `Color#Red`.
+    Enum {
+        ty: Ident,
+        value: Ident,
+    },
+}
+
+/// `CONFIGURATION name … END_CONFIGURATION`.
+#[derive(Clone, Debug)]
+pub struct Configuration {
+    pub name: Ident,
+    pub globals: Vec<VarBlock>,
+    pub resources: Vec<Resource>,
+    pub span: Span,
+}
+
+/// A `RESOURCE` (or the configuration's own tasks and programs when it has no RESOURCE).
+#[derive(Clone, Debug)]
+pub struct Resource {
+    pub name: Ident,
+    /// `ON processor`.
+    pub on: Option<Ident>,
+    pub globals: Vec<VarBlock>,
+    pub tasks: Vec<Task>,
+    pub programs: Vec<ProgramConfig>,
+    pub span: Span,
+}
+
+/// `TASK name (INTERVAL := T#10ms, PRIORITY := 1);`
+#[derive(Clone, Debug)]
+pub struct Task {
+    pub name: Ident,
+    pub interval: Option<Expr>,
+    pub single: Option<Expr>,
+    pub priority: Option<Expr>,
+    pub span: Span,
+}
+
+/// `PROGRAM [RETAIN] name [WITH task] : type [(connections)];`
+#[derive(Clone, Debug)]
+pub struct ProgramConfig {
+    pub name: Ident,
+    pub retain: Retain,
+    pub task: Option<Ident>,
+    pub type_name: Ident,
+    pub args: Vec<Arg>,
+    pub span: Span,
+}

@@ -1,0 +1,1097 @@
+//! The Structured Text lexer: case-insensitive keywords, identifiers, numbers in any base,
+//! typed-literal prefixes (`INT#`), duration and date literals (`T#1m30s`,
+//! `DT#2024-01-02-12:00:00`), strings with `$` escapes, direct variables (`%IX0.1`, and
+//! MatPLC's `%point`), nested `(* *)` and `/* */` comments, `//` lines and `{pragmas}`.
+//!
+//! Every problem becomes a diagnostic and lexing goes on, so one run reports them all.
+
+use crate::diag::{self, Diagnostics};
+use crate::source::{FileId, Span};
+
+/// Reserved words (compared case-insensitively). Type names such as `INT` are identifiers:
+/// the checker resolves them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kw {
+    And,
+    Or,
+    Xor,
+    Not,
+    Mod,
+    If,
+    Then,
+    Elsif,
+    Else,
+    EndIf,
+    Case,
+    Of,
+    EndCase,
+    For,
+    To,
+    By,
+    Do,
+    EndFor,
+    While,
+    EndWhile,
+    Repeat,
+    Until,
+    EndRepeat,
+    Exit,
+    Continue,
+    Return,
+    Program,
+    EndProgram,
+    Function,
+    EndFunction,
+    FunctionBlock,
+    EndFunctionBlock,
+    Var,
+    VarInput,
+    VarOutput,
+    VarInOut,
+    VarTemp,
+    VarExternal,
+    VarGlobal,
+    VarAccess,
+    VarConfig,
+    EndVar,
+    Constant,
+    Retain,
+    NonRetain,
+    At,
+    Type,
+    EndType,
+    Struct,
+    EndStruct,
+    Array,
+    Configuration,
+    EndConfiguration,
+    Resource,
+    EndResource,
+    On,
+    Task,
+    With,
+    True,
+    False,
+    REdge,
+    FEdge,
+}
+
+const KEYWORDS: &[(&str, Kw)] = &[
+    ("AND", Kw::And),
+    ("OR", Kw::Or),
+    ("XOR", Kw::Xor),
+    ("NOT", Kw::Not),
+    ("MOD", Kw::Mod),
+    ("IF", Kw::If),
+    ("THEN", Kw::Then),
+    ("ELSIF", Kw::Elsif),
+    ("ELSE", Kw::Else),
+    ("END_IF", Kw::EndIf),
+    ("CASE", Kw::Case),
+    ("OF", Kw::Of),
+    ("END_CASE", Kw::EndCase),
+    ("FOR", Kw::For),
+    ("TO", Kw::To),
+    ("BY", Kw::By),
+    ("DO", Kw::Do),
+    ("END_FOR", Kw::EndFor),
+    ("WHILE", Kw::While),
+    ("END_WHILE", Kw::EndWhile),
+    ("REPEAT", Kw::Repeat),
+    ("UNTIL", Kw::Until),
+    ("END_REPEAT", Kw::EndRepeat),
+    ("EXIT", Kw::Exit),
+    ("CONTINUE", Kw::Continue),
+    ("RETURN", Kw::Return),
+    ("PROGRAM", Kw::Program),
+    ("END_PROGRAM", Kw::EndProgram),
+    ("FUNCTION", Kw::Function),
+    ("END_FUNCTION", Kw::EndFunction),
+    ("FUNCTION_BLOCK", Kw::FunctionBlock),
+    ("END_FUNCTION_BLOCK", Kw::EndFunctionBlock),
+    ("VAR", Kw::Var),
+    ("VAR_INPUT", Kw::VarInput),
+    ("VAR_OUTPUT", Kw::VarOutput),
+    ("VAR_IN_OUT", Kw::VarInOut),
+    ("VAR_TEMP", Kw::VarTemp),
+    ("VAR_EXTERNAL", Kw::VarExternal),
+    ("VAR_GLOBAL", Kw::VarGlobal),
+    ("VAR_ACCESS", Kw::VarAccess),
+    ("VAR_CONFIG", Kw::VarConfig),
+    ("END_VAR", Kw::EndVar),
+    ("CONSTANT", Kw::Constant),
+    ("RETAIN", Kw::Retain),
+    ("NON_RETAIN", Kw::NonRetain),
+    ("AT", Kw::At),
+    ("TYPE", Kw::Type),
+    ("END_TYPE", Kw::EndType),
+    ("STRUCT", Kw::Struct),
+    ("END_STRUCT", Kw::EndStruct),
+    ("ARRAY", Kw::Array),
+    ("CONFIGURATION", Kw::Configuration),
+    ("END_CONFIGURATION", Kw::EndConfiguration),
+    ("RESOURCE", Kw::Resource),
+    ("END_RESOURCE", Kw::EndResource),
+    ("ON", Kw::On),
+    ("TASK", Kw::Task),
+    ("WITH", Kw::With),
+    ("TRUE", Kw::True),
+    ("FALSE", Kw::False),
+    ("R_EDGE", Kw::REdge),
+    ("F_EDGE", Kw::FEdge),
+];
+
+impl Kw {
+    /// The keyword a word spells, if any.
+    pub fn of(word: &str) -> Option<Kw> {
+        KEYWORDS
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case(word))
+            .map(|&(_, kw)| kw)
+    }
+
+    /// The keyword as the standard spells it.
+    pub fn text(self) -> &'static str {
+        KEYWORDS
+            .iter()
+            .find(|&&(_, k)| k == self)
+            .map_or("?", |&(s, _)| s)
+    }
+}
+
+/// Whether a word is reserved (a keyword).
+pub fn is_keyword(word: &str) -> bool {
+    Kw::of(word).is_some()
+}
+
+/// What a duration, date or time literal denotes, in nanoseconds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeKind {
+    /// `T#`/`TIME#`.
+    Time,
+    /// `LT#`/`LTIME#`.
+    LTime,
+    /// `D#`/`DATE#` (and `LD#`/`LDATE#`): nanoseconds since 1970-01-01.
+    Date,
+    /// `TOD#`/`TIME_OF_DAY#` (and `LTOD#`): nanoseconds since midnight.
+    Tod,
+    /// `DT#`/`DATE_AND_TIME#` (and `LDT#`): nanoseconds since 1970-01-01T00:00.
+    Dt,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Tok {
+    Ident,
+    Kw(Kw),
+    /// An unsigned integer literal in any base.
+    Int(u128),
+    Real(f64),
+    /// A string literal's bytes (`wide`: double-quoted WSTRING).
+    Str {
+        bytes: Vec<u8>,
+        wide: bool,
+    },
+    /// `NAME#` before a literal (`INT#5`, `Color#Red`); the span covers `NAME#`.
+    TypedPrefix,
+    Time {
+        kind: TimeKind,
+        nanos: i128,
+    },
+    /// `%…` after the percent sign.
+    Direct(String),
+    LParen,
+    RParen,
+    LBracket,
+    RBracket,
+    Comma,
+    Semi,
+    Colon,
+    Assign,
+    Arrow,
+    Dot,
+    DotDot,
+    Plus,
+    Minus,
+    Star,
+    Slash,
+    Power,
+    Eq,
+    Ne,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Amp,
+    Caret,
+    /// A character that starts no token (already reported): the parser stays quiet on it.
+    Error,
+    Eof,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Token {
+    pub tok: Tok,
+    pub span: Span,
+}
+
+/// Splits a source text into tokens; problems go to `diags`.
+pub fn lex(file: FileId, text: &str, diags: &mut Diagnostics) -> Vec<Token> {
+    let mut lx = Lexer {
+        file,
+        src: text.as_bytes(),
+        text,
+        pos: 0,
+        out: Vec::new(),
+        diags,
+    };
+    lx.run();
+    lx.out
+}
+
+struct Lexer<'a, 'd> {
+    file: FileId,
+    src: &'a [u8],
+    text: &'a str,
+    pos: usize,
+    out: Vec<Token>,
+    diags: &'d mut Diagnostics,
+}
+
+fn is_ident_start(b: u8) -> bool {
+    b.is_ascii_alphabetic() || b == b'_'
+}
+
+fn is_ident_char(b: u8) -> bool {
+    b.is_ascii_alphanumeric() || b == b'_'
+}
+
+impl Lexer<'_, '_> {
+    fn peek(&self, k: usize) -> u8 {
+        self.src.get(self.pos + k).copied().unwrap_or(0)
+    }
+
+    fn span(&self, start: usize) -> Span {
+        Span::new(self.file, start, self.pos)
+    }
+
+    fn push(&mut self, tok: Tok, start: usize) {
+        let span = self.span(start);
+        self.out.push(Token { tok, span });
+    }
+
+    fn error(&mut self, code: diag::Code, start: usize, end: usize, msg: impl Into<String>) {
+        self.diags
+            .error(code, Span::new(self.file, start, end), msg);
+    }
+
+    fn run(&mut self) {
+        while self.pos < self.src.len() {
+            let start = self.pos;
+            let b = self.src[self.pos];
+            match b {
+                b' ' | b'\t' | b'\r' | b'\n' | 0x0c | 0x0b => self.pos += 1,
+                b'(' if self.peek(1) == b'*' => self.block_comment(b'(', b')'),
+                b'/' if self.peek(1) == b'*' => self.block_comment(b'/', b'/'),
+                b'/' if self.peek(1) == b'/' => {
+                    while self.pos < self.src.len() && self.src[self.pos] != b'\n' {
+                        self.pos += 1;
+                    }
+                }
+                b'{' => self.pragma(),
+                b'\'' | b'"' => self.string(b),
+                b'%' => self.direct(),
+                b'0'..=b'9' => self.number(),
+                _ if is_ident_start(b) => self.word(),
+                _ => self.punct(),
+            }
+            debug_assert!(self.pos > start || self.pos >= self.src.len());
+        }
+        let end = self.src.len();
+        self.out.push(Token {
+            tok: Tok::Eof,
+            span: Span::new(self.file, end, end),
+        });
+    }
+
+    /// `(* … *)` or `/* … */`, nested.
+    fn block_comment(&mut self, open: u8, close: u8) {
+        let start = self.pos;
+        self.pos += 2;
+        let mut depth = 1;
+        while self.pos < self.src.len() {
+            let (a, b) = (self.src[self.pos], self.peek(1));
+            if a == open && b == b'*' {
+                depth += 1;
+                self.pos += 2;
+            } else if a == b'*' && b == close {
+                depth -= 1;
+                self.pos += 2;
+                if depth == 0 {
+                    return;
+                }
+            } else {
+                self.pos += 1;
+            }
+        }
+        let end = if open == b'(' { "*)" } else { "*/" };
+        self.error(
+            diag::UNTERMINATED_COMMENT,
+            start,
+            start + 2,
+            format!("this comment has no end; close it with `{end}`"),
+        );
+    }
+
+    /// `{…}`, nested (Beremiz's `{{ C code }}` holds braces of its own).
+    fn pragma(&mut self) {
+        let start = self.pos;
+        let mut depth = 0usize;
+        while self.pos < self.src.len() {
+            match self.src[self.pos] {
+                b'{' => depth += 1,
+                b'}' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        break;
+                    }
+                }
+                _ => {}
+            }
+            self.pos += 1;
+        }
+        if self.pos < self.src.len() {
+            self.pos += 1;
+        } else {
+            self.error(
+                diag::UNTERMINATED_COMMENT,
+                start,
+                start + 1,
+                "this pragma has no end; close it with `}`",
+            );
+        }
+    }
+
+    fn string(&mut self, quote: u8) {
+        let start = self.pos;
+        self.pos += 1;
+        let wide = quote == b'"';
+        let mut bytes = Vec::new();
+        loop {
+            if self.pos >= self.src.len() {
+                let q = quote as char;
+                self.error(
+                    diag::UNTERMINATED_STRING,
+                    start,
+                    start + 1,
+                    format!("this string has no closing {q}; end it with {q} (write $$ for a dollar sign and ${q} for the quote)"),
+                );
+                break;
+            }
+            let b = self.src[self.pos];
+            if b == quote {
+                self.pos += 1;
+                break;
+            }
+            if b == b'\n' {
+                // A string does not go past its line (a line break is written $N): the
+                // rest of the file is read as code, not swallowed.
+                let q = quote as char;
+                self.error(
+                    diag::UNTERMINATED_STRING,
+                    start,
+                    start + 1,
+                    format!("this string has no closing {q} on its line; end it with {q} (write $N for a line break, $$ for a dollar sign, ${q} for the quote)"),
+                );
+                break;
+            }
+            if b == b'$' {
+                let esc = self.peek(1);
+                let simple = match esc.to_ascii_uppercase() {
+                    b'$' => Some(b'$'),
+                    b'\'' => Some(b'\''),
+                    b'"' => Some(b'"'),
+                    b'L' | b'N' => Some(b'\n'),
+                    b'P' => Some(0x0c),
+                    b'R' => Some(b'\r'),
+                    b'T' => Some(b'\t'),
+                    _ => None,
+                };
+                if let Some(v) = simple {
+                    bytes.push(v);
+                    self.pos += 2;
+                    continue;
+                }
+                let digits = if wide { 4 } else { 2 };
+                let hex = self.src.get(self.pos + 1..self.pos + 1 + digits);
+                if let Some(h) = hex.filter(|h| h.iter().all(u8::is_ascii_hexdigit)) {
+                    let v =
+                        u32::from_str_radix(std::str::from_utf8(h).unwrap_or("0"), 16).unwrap_or(0);
+                    if wide {
+                        let mut buf = [0u8; 4];
+                        let c = char::from_u32(v).unwrap_or('\u{fffd}');
+                        bytes.extend_from_slice(c.encode_utf8(&mut buf).as_bytes());
+                    } else {
+                        bytes.push(v as u8);
+                    }
+                    self.pos += 1 + digits;
+                    continue;
+                }
+                let end = (self.pos + 2).min(self.src.len());
+                self.error(
+                    diag::BAD_ESCAPE,
+                    self.pos,
+                    end,
+                    format!("unknown escape in a string; write $$ for a dollar sign, ${} for the quote, $L $N $P $R $T, or ${} hex digits", quote as char, digits),
+                );
+                self.pos += 1;
+                continue;
+            }
+            bytes.push(b);
+            self.pos += 1;
+        }
+        self.push(Tok::Str { bytes, wide }, start);
+    }
+
+    fn direct(&mut self) {
+        let start = self.pos;
+        self.pos += 1;
+        while self.pos < self.src.len()
+            && (is_ident_char(self.src[self.pos])
+                || (self.src[self.pos] == b'.' && is_ident_char(self.peek(1)))
+                || self.src[self.pos] == b'*')
+        {
+            self.pos += 1;
+        }
+        if self.pos == start + 1 {
+            self.error(
+                diag::BAD_CHAR,
+                start,
+                start + 1,
+                "`%` must start a direct variable such as %IX0.1, %QW2 or %point",
+            );
+            return;
+        }
+        let text = self.text[start + 1..self.pos].to_string();
+        self.push(Tok::Direct(text), start);
+    }
+
+    /// Digits with single `_` separators; returns the digits without them.
+    fn digits(&mut self, radix: u32) -> String {
+        let mut s = String::new();
+        while self.pos < self.src.len() {
+            let b = self.src[self.pos];
+            if (b as char).is_digit(radix) || (b == b'_' && !s.is_empty()) {
+                if b != b'_' {
+                    s.push(b as char);
+                }
+                self.pos += 1;
+            } else if radix == 10 && b.is_ascii_alphanumeric() {
+                // 12ab: take the rest so the message shows the whole word.
+                s.push(b as char);
+                self.pos += 1;
+            } else if radix != 10 && b.is_ascii_alphanumeric() {
+                s.push(b as char);
+                self.pos += 1;
+            } else {
+                break;
+            }
+        }
+        s
+    }
+
+    fn number(&mut self) {
+        let start = self.pos;
+        let mut int = String::new();
+        while self.pos < self.src.len()
+            && (self.src[self.pos].is_ascii_digit() || self.src[self.pos] == b'_')
+        {
+            if self.src[self.pos] != b'_' {
+                int.push(self.src[self.pos] as char);
+            }
+            self.pos += 1;
+        }
+        // Based integer: 2#, 8#, 16#.
+        if self.peek(0) == b'#' {
+            self.pos += 1;
+            let radix = match int.parse::<u32>() {
+                Ok(r @ (2 | 8 | 16)) => r,
+                _ => {
+                    let body = self.digits(16);
+                    self.error(
+                        diag::BAD_NUMBER,
+                        start,
+                        self.pos,
+                        format!(
+                            "`{int}#{body}`: the base of a number must be 2, 8 or 16 (e.g. 16#FF)"
+                        ),
+                    );
+                    self.push(Tok::Int(0), start);
+                    return;
+                }
+            };
+            let body = self.digits(radix);
+            let value = if body.is_empty() || !body.chars().all(|c| c.is_digit(radix)) {
+                self.error(
+                    diag::BAD_NUMBER,
+                    start,
+                    self.pos,
+                    format!(
+                        "`{}` is not a base-{radix} number; digits are {}",
+                        &self.text[start..self.pos],
+                        match radix {
+                            2 => "0 and 1",
+                            8 => "0 to 7",
+                            _ => "0 to 9 and A to F",
+                        }
+                    ),
+                );
+                0
+            } else {
+                match u128::from_str_radix(&body, radix) {
+                    Ok(v) if v <= u64::MAX as u128 => v,
+                    _ => {
+                        self.error(
+                            diag::BAD_NUMBER,
+                            start,
+                            self.pos,
+                            "this number does not fit 64 bits (the largest type, LWORD/ULINT)",
+                        );
+                        0
+                    }
+                }
+            };
+            self.push(Tok::Int(value), start);
+            return;
+        }
+        // Real: digits . digits [E [+-] digits], or digits E digits.
+        let dot = self.peek(0) == b'.' && self.peek(1).is_ascii_digit();
+        let exp_follows = |lx: &Self, at: usize| {
+            let e = lx.peek(at);
+            (e == b'e' || e == b'E')
+                && (lx.peek(at + 1).is_ascii_digit()
+                    || (matches!(lx.peek(at + 1), b'+' | b'-') && lx.peek(at + 2).is_ascii_digit()))
+        };
+        if dot || exp_follows(self, 0) {
+            let mut text = int.clone();
+            if dot {
+                self.pos += 1;
+                text.push('.');
+                while self.pos < self.src.len()
+                    && (self.src[self.pos].is_ascii_digit() || self.src[self.pos] == b'_')
+                {
+                    if self.src[self.pos] != b'_' {
+                        text.push(self.src[self.pos] as char);
+                    }
+                    self.pos += 1;
+                }
+            }
+            if exp_follows(self, 0) {
+                text.push('e');
+                self.pos += 1;
+                if matches!(self.peek(0), b'+' | b'-') {
+                    text.push(self.src[self.pos] as char);
+                    self.pos += 1;
+                }
+                while self.pos < self.src.len() && self.src[self.pos].is_ascii_digit() {
+                    text.push(self.src[self.pos] as char);
+                    self.pos += 1;
+                }
+            }
+            let value = text.parse::<f64>().unwrap_or(0.0);
+            if !value.is_finite() {
+                self.error(
+                    diag::BAD_NUMBER,
+                    start,
+                    self.pos,
+                    "this number is too large for LREAL",
+                );
+            }
+            self.trailing_letters(start);
+            self.push(Tok::Real(value), start);
+            return;
+        }
+        let value = match int.parse::<u128>() {
+            Ok(v) if v <= u64::MAX as u128 => v,
+            _ => {
+                self.error(
+                    diag::BAD_NUMBER,
+                    start,
+                    self.pos,
+                    "this number does not fit 64 bits (the largest type, ULINT)",
+                );
+                0
+            }
+        };
+        self.trailing_letters(start);
+        self.push(Tok::Int(value), start);
+    }
+
+    /// `12ab`: a number glued to letters.
+    fn trailing_letters(&mut self, start: usize) {
+        if is_ident_start(self.peek(0)) {
+            while is_ident_char(self.peek(0)) {
+                self.pos += 1;
+            }
+            self.error(
+                diag::BAD_NUMBER,
+                start,
+                self.pos,
+                format!(
+                    "`{}` is not a number; identifiers start with a letter or `_`, and a typed literal is written TYPE#value (e.g. INT#5, T#5s)",
+                    &self.text[start..self.pos]
+                ),
+            );
+        }
+    }
+
+    fn word(&mut self) {
+        let start = self.pos;
+        while self.pos < self.src.len() && is_ident_char(self.src[self.pos]) {
+            self.pos += 1;
+        }
+        let word = &self.text[start..self.pos];
+        if self.peek(0) == b'#' {
+            let kind = time_prefix(word);
+            self.pos += 1;
+            if let Some(kind) = kind {
+                self.time_literal(start, kind);
+            } else {
+                self.push(Tok::TypedPrefix, start);
+            }
+            return;
+        }
+        let tok = match Kw::of(word) {
+            Some(kw) => Tok::Kw(kw),
+            None => Tok::Ident,
+        };
+        self.push(tok, start);
+    }
+
+    fn time_literal(&mut self, start: usize, kind: TimeKind) {
+        let body_start = self.pos;
+        match kind {
+            TimeKind::Time | TimeKind::LTime => {
+                if matches!(self.peek(0), b'+' | b'-') {
+                    self.pos += 1;
+                }
+                while is_ident_char(self.peek(0))
+                    || (self.peek(0) == b'.' && self.peek(1).is_ascii_digit())
+                {
+                    self.pos += 1;
+                }
+            }
+            _ => {
+                while self.peek(0).is_ascii_digit()
+                    || matches!(self.peek(0), b'-' | b':' | b'_')
+                    || (self.peek(0) == b'.' && self.peek(1).is_ascii_digit())
+                {
+                    self.pos += 1;
+                }
+            }
+        }
+        let body = &self.text[body_start..self.pos];
+        let parsed = match kind {
+            TimeKind::Time | TimeKind::LTime => parse_duration(body),
+            TimeKind::Date => parse_date(body).map(|d| d as i128 * NANOS_PER_DAY),
+            TimeKind::Tod => parse_tod(body),
+            TimeKind::Dt => parse_dt(body),
+        };
+        let nanos = match parsed {
+            Ok(n) if (i64::MIN as i128..=i64::MAX as i128).contains(&n) => n,
+            Ok(_) => {
+                self.error(
+                    diag::BAD_TIME,
+                    start,
+                    self.pos,
+                    "this time does not fit 64 bits of nanoseconds (about ±292 years)",
+                );
+                0
+            }
+            Err(why) => {
+                self.error(
+                    diag::BAD_TIME,
+                    start,
+                    self.pos,
+                    format!("`{}`: {why}", &self.text[start..self.pos]),
+                );
+                0
+            }
+        };
+        self.push(Tok::Time { kind, nanos }, start);
+    }
+
+    fn punct(&mut self) {
+        let start = self.pos;
+        let (tok, len) = match (self.src[self.pos], self.peek(1)) {
+            (b':', b'=') => (Tok::Assign, 2),
+            (b'=', b'>') => (Tok::Arrow, 2),
+            (b'.', b'.') => (Tok::DotDot, 2),
+            (b'*', b'*') => (Tok::Power, 2),
+            (b'<', b'=') => (Tok::Le, 2),
+            (b'>', b'=') => (Tok::Ge, 2),
+            (b'<', b'>') => (Tok::Ne, 2),
+            (b'(', _) => (Tok::LParen, 1),
+            (b')', _) => (Tok::RParen, 1),
+            (b'[', _) => (Tok::LBracket, 1),
+            (b']', _) => (Tok::RBracket, 1),
+            (b',', _) => (Tok::Comma, 1),
+            (b';', _) => (Tok::Semi, 1),
+            (b':', _) => (Tok::Colon, 1),
+            (b'.', _) => (Tok::Dot, 1),
+            (b'+', _) => (Tok::Plus, 1),
+            (b'-', _) => (Tok::Minus, 1),
+            (b'*', _) => (Tok::Star, 1),
+            (b'/', _) => (Tok::Slash, 1),
+            (b'=', _) => (Tok::Eq, 1),
+            (b'<', _) => (Tok::Lt, 1),
+            (b'>', _) => (Tok::Gt, 1),
+            (b'&', _) => (Tok::Amp, 1),
+            (b'^', _) => (Tok::Caret, 1),
+            _ => {
+                let ch = self.text[self.pos..].chars().next().unwrap_or('?');
+                self.pos += ch.len_utf8().max(1);
+                self.error(
+                    diag::BAD_CHAR,
+                    start,
+                    self.pos,
+                    format!("unexpected character `{ch}`"),
+                );
+                self.push(Tok::Error, start);
+                return;
+            }
+        };
+        self.pos += len;
+        self.push(tok, start);
+    }
+}
+
+fn time_prefix(word: &str) -> Option<TimeKind> {
+    let w = word.to_ascii_uppercase();
+    Some(match w.as_str() {
+        "T" | "TIME" => TimeKind::Time,
+        "LT" | "LTIME" => TimeKind::LTime,
+        "D" | "DATE" | "LD" | "LDATE" => TimeKind::Date,
+        "TOD" | "TIME_OF_DAY" | "LTOD" | "LTIME_OF_DAY" => TimeKind::Tod,
+        "DT" | "DATE_AND_TIME" | "LDT" | "LDATE_AND_TIME" => TimeKind::Dt,
+        _ => return None,
+    })
+}
+
+pub const NANOS_PER_DAY: i128 = 86_400_000_000_000;
+
+/// `1d2h3m4s5ms6us7ns`, `1.5s`, `-250ms`, `1h_30m`: nanoseconds.
+pub fn parse_duration(body: &str) -> Result<i128, String> {
+    const HINT: &str = "write a duration as numbers with units d, h, m, s, ms, us, ns (e.g. T#1m30s, T#250ms, T#1.5s)";
+    let (neg, rest) = match body.as_bytes().first() {
+        Some(b'-') => (true, &body[1..]),
+        Some(b'+') => (false, &body[1..]),
+        _ => (false, body),
+    };
+    let rest = rest.replace('_', "");
+    if rest.is_empty() {
+        return Err(HINT.into());
+    }
+    let bytes = rest.as_bytes();
+    let mut i = 0;
+    let mut total: f64 = 0.0;
+    let mut exact: i128 = 0;
+    let mut any_fraction = false;
+    let mut last_rank = 0usize;
+    while i < bytes.len() {
+        let num_start = i;
+        while i < bytes.len() && (bytes[i].is_ascii_digit() || bytes[i] == b'.') {
+            i += 1;
+        }
+        let num = &rest[num_start..i];
+        if num.is_empty() {
+            return Err(HINT.into());
+        }
+        let unit_start = i;
+        while i < bytes.len() && bytes[i].is_ascii_alphabetic() {
+            i += 1;
+        }
+        let unit = rest[unit_start..i].to_ascii_lowercase();
+        let (scale, rank): (i128, usize) = match unit.as_str() {
+            "d" => (NANOS_PER_DAY, 1),
+            "h" => (3_600_000_000_000, 2),
+            "m" => (60_000_000_000, 3),
+            "s" => (1_000_000_000, 4),
+            "ms" => (1_000_000, 5),
+            "us" => (1_000, 6),
+            "ns" => (1, 7),
+            _ => return Err(HINT.into()),
+        };
+        if rank <= last_rank {
+            return Err(
+                "units of a duration go from the largest to the smallest (T#1h30m, not T#30m1h)"
+                    .into(),
+            );
+        }
+        last_rank = rank;
+        if num.contains('.') {
+            if i < bytes.len() {
+                return Err(
+                    "only the last unit of a duration may have a fraction (T#1m30.5s)".into(),
+                );
+            }
+            let v: f64 = num.parse().map_err(|_| HINT.to_string())?;
+            total += v * scale as f64;
+            any_fraction = true;
+        } else {
+            let v: i128 = num.parse().map_err(|_| HINT.to_string())?;
+            exact = v
+                .checked_mul(scale)
+                .and_then(|x| x.checked_add(exact))
+                .ok_or("this duration is too long")?;
+        }
+    }
+    let mut n = exact;
+    if any_fraction {
+        n += total.round() as i128;
+    }
+    Ok(if neg { -n } else { n })
+}
+
+/// `yyyy-mm-dd`: days since 1970-01-01.
+pub fn parse_date(body: &str) -> Result<i64, String> {
+    const HINT: &str = "write a date as yyyy-mm-dd (e.g. D#2024-03-01)";
+    let parts: Vec<&str> = body.split('-').collect();
+    if parts.len() != 3 {
+        return Err(HINT.into());
+    }
+    let y: i64 = parts[0].replace('_', "").parse().map_err(|_| HINT)?;
+    let m: u32 = parts[1].parse().map_err(|_| HINT)?;
+    let d: u32 = parts[2].parse().map_err(|_| HINT)?;
+    if !(1..=12).contains(&m) || d < 1 || d > days_in_month(y, m) {
+        return Err(format!("{y:04}-{m:02}-{d:02} is not a day of the calendar"));
+    }
+    Ok(days_from_civil(y, m, d))
+}
+
+/// `hh:mm:ss[.fff]`: nanoseconds since midnight.
+pub fn parse_tod(body: &str) -> Result<i128, String> {
+    const HINT: &str =
+        "write a time of day as hh:mm:ss with optional fraction (e.g. TOD#14:30:00.5)";
+    let parts: Vec<&str> = body.split(':').collect();
+    if parts.len() != 3 {
+        return Err(HINT.into());
+    }
+    let h: i128 = parts[0].parse().map_err(|_| HINT)?;
+    let m: i128 = parts[1].parse().map_err(|_| HINT)?;
+    let (s_int, frac) = match parts[2].split_once('.') {
+        Some((a, b)) => (a, b),
+        None => (parts[2], ""),
+    };
+    let s: i128 = s_int.parse().map_err(|_| HINT)?;
+    if h > 23 || m > 59 || s > 59 || !frac.chars().all(|c| c.is_ascii_digit()) || frac.len() > 9 {
+        return Err(format!(
+            "{body} is not a time of day (00:00:00 to 23:59:59.999999999)"
+        ));
+    }
+    let frac_ns: i128 = if frac.is_empty() {
+        0
+    } else {
+        format!("{frac:0<9}").parse().map_err(|_| HINT)?
+    };
+    Ok(((h * 60 + m) * 60 + s) * 1_000_000_000 + frac_ns)
+}
+
+/// `yyyy-mm-dd-hh:mm:ss[.fff]`: nanoseconds since 1970-01-01T00:00.
+pub fn parse_dt(body: &str) -> Result<i128, String> {
+    const HINT: &str = "write a date and time as yyyy-mm-dd-hh:mm:ss (e.g. DT#2024-03-01-14:30:00)";
+    let mut it = body.splitn(4, '-');
+    let (Some(y), Some(m), Some(d), Some(t)) = (it.next(), it.next(), it.next(), it.next()) else {
+        return Err(HINT.into());
+    };
+    let days = parse_date(&format!("{y}-{m}-{d}"))?;
+    let tod = parse_tod(t)?;
+    Ok(days as i128 * NANOS_PER_DAY + tod)
+}
+
+fn is_leap(y: i64) -> bool {
+    (y % 4 == 0 && y % 100 != 0) || y % 400 == 0
+}
+
+fn days_in_month(y: i64, m: u32) -> u32 {
+    match m {
+        1 | 3 | 5 | 7 | 8 | 10 | 12 => 31,
+        4 | 6 | 9 | 11 => 30,
+        _ if is_leap(y) => 29,
+        _ => 28,
+    }
+}
+
+/// Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant's algorithm).
+pub fn days_from_civil(y: i64, m: u32, d: u32) -> i64 {
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = if y >= 0 { y } else { y - 399 } / 400;
+    let yoe = y - era * 400;
+    let m = m as i64;
+    let doy = (153 * (if m > 2 { m - 3 } else { m + 9 }) + 2) / 5 + d as i64 - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    era * 146_097 + doe - 719_468
+}
+
+/// The date of a day number (inverse of [`days_from_civil`]).
+pub fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = if z >= 0 { z } else { z - 146_096 } / 146_097;
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (if m <= 2 { y + 1 } else { y }, m, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(src: &str, expect: &[Tok]) {
+        let mut d = Diagnostics::new();
+        let toks: Vec<Tok> = lex(FileId(0), src, &mut d)
+            .into_iter()
+            .map(|t| t.tok)
+            .collect();
+        assert!(d.is_empty(), "{src}: {d:?}");
+        let mut want = expect.to_vec();
+        want.push(Tok::Eof);
+        assert_eq!(toks, want, "{src}");
+    }
+
+    fn check_error(src: &str, code: diag::Code) {
+        let mut d = Diagnostics::new();
+        lex(FileId(0), src, &mut d);
+        assert!(
+            d.items.iter().any(|x| x.code == code),
+            "{src}: expected {code}, got {d:?}"
+        );
+    }
+
+    #[test]
+    fn numbers() {
+        check(
+            "16#FF 2#1010_1010 8#17 1_000",
+            &[Tok::Int(255), Tok::Int(170), Tok::Int(15), Tok::Int(1000)],
+        );
+        check(
+            "1.5 1.0E3 2.5e-1",
+            &[Tok::Real(1.5), Tok::Real(1000.0), Tok::Real(0.25)],
+        );
+        check("1..10", &[Tok::Int(1), Tok::DotDot, Tok::Int(10)]);
+        check_error("2#102", diag::BAD_NUMBER);
+        check_error("3#1", diag::BAD_NUMBER);
+        check_error("99999999999999999999999", diag::BAD_NUMBER);
+        check_error("12ab", diag::BAD_NUMBER);
+    }
+
+    #[test]
+    fn keywords_are_case_insensitive() {
+        check(
+            "if Then END_if x",
+            &[
+                Tok::Kw(Kw::If),
+                Tok::Kw(Kw::Then),
+                Tok::Kw(Kw::EndIf),
+                Tok::Ident,
+            ],
+        );
+    }
+
+    #[test]
+    fn times_and_dates() {
+        let t = |kind, nanos| Tok::Time { kind, nanos };
+        check("T#1m30s", &[t(TimeKind::Time, 90_000_000_000)]);
+        check("time#1.5s", &[t(TimeKind::Time, 1_500_000_000)]);
+        check("T#-250ms", &[t(TimeKind::Time, -250_000_000)]);
+        check("LTIME#1h_2m", &[t(TimeKind::LTime, 3_720_000_000_000)]);
+        check("D#1970-01-02", &[t(TimeKind::Date, NANOS_PER_DAY)]);
+        check("TOD#00:00:01.5", &[t(TimeKind::Tod, 1_500_000_000)]);
+        check(
+            "DT#1970-01-02-00:00:01",
+            &[t(TimeKind::Dt, NANOS_PER_DAY + 1_000_000_000)],
+        );
+        check("T#1s)", &[t(TimeKind::Time, 1_000_000_000), Tok::RParen]);
+        check_error("T#1x", diag::BAD_TIME);
+        check_error("T#30m1h", diag::BAD_TIME);
+        check_error("D#2023-02-29", diag::BAD_TIME);
+        check_error("TOD#24:00:00", diag::BAD_TIME);
+    }
+
+    #[test]
+    fn strings_and_escapes() {
+        check(
+            "'a$'b$$c$N$41'",
+            &[Tok::Str {
+                bytes: b"a'b$c\nA".to_vec(),
+                wide: false,
+            }],
+        );
+        check_error("'abc", diag::UNTERMINATED_STRING);
+        check_error("'a$Qb'", diag::BAD_ESCAPE);
+    }
+
+    #[test]
+    fn comments_nest_and_pragmas_vanish() {
+        check(
+            "a (* x (* y *) z *) b // c\n{pragma} /* d */ {{ C { code } }} e",
+            &[Tok::Ident, Tok::Ident, Tok::Ident],
+        );
+        check_error("(* (* *)", diag::UNTERMINATED_COMMENT);
+    }
+
+    #[test]
+    fn typed_prefixes_and_direct_variables() {
+        check(
+            "INT#5 Color#Red %IX0.1 %lamp",
+            &[
+                Tok::TypedPrefix,
+                Tok::Int(5),
+                Tok::TypedPrefix,
+                Tok::Ident,
+                Tok::Direct("IX0.1".into()),
+                Tok::Direct("lamp".into()),
+            ],
+        );
+    }
+
+    #[test]
+    fn operators() {
+        check(
+            ":= => .. ** <= >= <> < > = & ^",
+            &[
+                Tok::Assign,
+                Tok::Arrow,
+                Tok::DotDot,
+                Tok::Power,
+                Tok::Le,
+                Tok::Ge,
+                Tok::Ne,
+                Tok::Lt,
+                Tok::Gt,
+                Tok::Eq,
+                Tok::Amp,
+                Tok::Caret,
+            ],
+        );
+        let mut d = Diagnostics::new();
+        let toks: Vec<Tok> = lex(FileId(0), "a ? b", &mut d)
+            .into_iter()
+            .map(|t| t.tok)
+            .collect();
+        assert_eq!(toks, [Tok::Ident, Tok::Error, Tok::Ident, Tok::Eof]);
+        assert_eq!(d.items[0].code, diag::BAD_CHAR);
+    }
+
+    #[test]
+    fn civil_dates_round_trip() {
+        for days in [-800_000, -1, 0, 1, 59, 365, 11_016, 2_932_896] {
+            let (y, m, d) = civil_from_days(days);
+            assert_eq!(days_from_civil(y, m, d), days);
+        }
+        assert_eq!(days_from_civil(2000, 3, 1), 11_017);
+    }
+}

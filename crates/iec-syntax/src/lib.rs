@@ -1,0 +1,18 @@
+//! IEC 61131-3 sources: Structured Text text and PLCopen XML projects read into one syntax
+//! tree ([`ast`]) with a source position on every node, and the diagnostics of every stage
+//! ([`diag`]) with stable codes and `file:line:col` positions ([`source`]).
+//!
+//! Nothing here knows types or runs anything: the checker (`petriplc-iec-sema`) resolves and
+//! types the tree, the VM (`petriplc-iec-vm`) runs what the checker lowers.
+
+pub mod ast;
+pub mod diag;
+pub mod lexer;
+pub mod parser;
+pub mod plcopen;
+pub mod source;
+pub mod xml;
+
+pub use diag::{Code, Diagnostic, Diagnostics, Severity};
+pub use parser::parse;
+pub use source::{FileId, SourceMap, Span};

@@ -1,0 +1,222 @@
+//! Source texts and positions: every node of the tree carries a [`Span`] (a file and a byte
+//! range), and the [`SourceMap`] turns it into the 1-based line and column a person reads.
+//!
+//! A Structured Text body inside a PLCopen XML file is a source of its own whose text is the
+//! body, placed at the line and column where the body starts in the XML file, so messages
+//! about it point into the XML file.
+
+use std::fmt;
+
+/// Index of a source in its [`SourceMap`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct FileId(pub u32);
+
+/// A byte range of one source.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Span {
+    pub file: FileId,
+    pub start: u32,
+    pub end: u32,
+}
+
+impl Span {
+    pub fn new(file: FileId, start: usize, end: usize) -> Self {
+        Span {
+            file,
+            start: start as u32,
+            end: end as u32,
+        }
+    }
+
+    /// The smallest span covering both (same file).
+    pub fn to(self, other: Span) -> Span {
+        Span {
+            file: self.file,
+            start: self.start.min(other.start),
+            end: self.end.max(other.end),
+        }
+    }
+
+    /// An empty span at this one's start.
+    pub fn at_start(self) -> Span {
+        Span {
+            end: self.start,
+            ..self
+        }
+    }
+}
+
+/// One source text and where it sits in the file a person opens.
+#[derive(Clone, Debug)]
+pub struct SourceFile {
+    /// The path (or name) printed in messages.
+    pub name: String,
+    pub text: String,
+    /// Byte offset of each line start in `text`.
+    line_starts: Vec<usize>,
+    /// Lines before this text in the file (0 for a file of its own).
+    pub line_base: u32,
+    /// Columns before the text's first character on its first line.
+    pub col_base: u32,
+}
+
+impl SourceFile {
+    fn new(name: String, text: String, line_base: u32, col_base: u32) -> Self {
+        let mut line_starts = vec![0];
+        line_starts.extend(
+            text.bytes()
+                .enumerate()
+                .filter(|&(_, b)| b == b'\n')
+                .map(|(i, _)| i + 1),
+        );
+        SourceFile {
+            name,
+            text,
+            line_starts,
+            line_base,
+            col_base,
+        }
+    }
+
+    /// 1-based line and column (in characters) of a byte offset.
+    pub fn line_col(&self, offset: usize) -> (u32, u32) {
+        let offset = offset.min(self.text.len());
+        let line = match self.line_starts.binary_search(&offset) {
+            Ok(i) => i,
+            Err(i) => i - 1,
+        };
+        let start = self.line_starts[line];
+        let end = floor_char_boundary(&self.text, offset);
+        let col = self.text[start..end].chars().count() as u32 + 1;
+        let col = if line == 0 { col + self.col_base } else { col };
+        (line as u32 + 1 + self.line_base, col)
+    }
+
+    /// The text of a span (empty when it is not on character boundaries).
+    pub fn slice(&self, span: Span) -> &str {
+        self.text
+            .get(span.start as usize..span.end as usize)
+            .unwrap_or("")
+    }
+}
+
+fn floor_char_boundary(s: &str, mut i: usize) -> usize {
+    while i > 0 && !s.is_char_boundary(i) {
+        i -= 1;
+    }
+    i
+}
+
+/// Every source of a compilation.
+#[derive(Clone, Debug, Default)]
+pub struct SourceMap {
+    files: Vec<SourceFile>,
+}
+
+impl SourceMap {
+    pub fn new() -> Self {
+        SourceMap::default()
+    }
+
+    /// Adds a file of its own.
+    pub fn add(&mut self, name: impl Into<String>, text: impl Into<String>) -> FileId {
+        self.add_embedded(name, text, 0, 0)
+    }
+
+    /// Adds a text that starts at 1-based `line`, `col` of file `name`.
+    pub fn add_embedded(
+        &mut self,
+        name: impl Into<String>,
+        text: impl Into<String>,
+        line_base: u32,
+        col_base: u32,
+    ) -> FileId {
+        let id = FileId(self.files.len() as u32);
+        self.files.push(SourceFile::new(
+            name.into(),
+            text.into(),
+            line_base,
+            col_base,
+        ));
+        id
+    }
+
+    pub fn file(&self, id: FileId) -> &SourceFile {
+        &self.files[id.0 as usize]
+    }
+
+    pub fn get(&self, id: FileId) -> Option<&SourceFile> {
+        self.files.get(id.0 as usize)
+    }
+
+    pub fn files(&self) -> impl Iterator<Item = (FileId, &SourceFile)> {
+        self.files
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (FileId(i as u32), f))
+    }
+
+    /// `file:line:col` of a span's start.
+    pub fn position(&self, span: Span) -> Position {
+        match self.get(span.file) {
+            Some(f) => {
+                let (line, column) = f.line_col(span.start as usize);
+                Position {
+                    file: f.name.clone(),
+                    line,
+                    column,
+                }
+            }
+            None => Position {
+                file: "?".into(),
+                line: 0,
+                column: 0,
+            },
+        }
+    }
+
+    /// The 1-based line of a span's start in its file.
+    pub fn line(&self, span: Span) -> u32 {
+        self.get(span.file)
+            .map_or(0, |f| f.line_col(span.start as usize).0)
+    }
+
+    pub fn slice(&self, span: Span) -> &str {
+        self.get(span.file).map_or("", |f| f.slice(span))
+    }
+}
+
+/// A resolved position, printed `file:line:col`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Position {
+    pub file: String,
+    pub line: u32,
+    pub column: u32,
+}
+
+impl fmt::Display for Position {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}", self.file, self.line, self.column)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(text: &str, offset: usize, line_base: u32, col_base: u32, expect: (u32, u32)) {
+        let mut map = SourceMap::new();
+        let id = map.add_embedded("f", text, line_base, col_base);
+        assert_eq!(map.file(id).line_col(offset), expect);
+    }
+
+    #[test]
+    fn lines_and_columns() {
+        check("ab\ncd", 0, 0, 0, (1, 1));
+        check("ab\ncd", 4, 0, 0, (2, 2));
+        check("ab\ncd", 99, 0, 0, (2, 3));
+        check("é\nx", 2, 0, 0, (1, 2));
+        check("ab\ncd", 1, 10, 20, (11, 22));
+        check("ab\ncd", 3, 10, 20, (12, 1));
+    }
+}

@@ -1,0 +1,604 @@
+//! The VM's slower operations, out of the main instruction loop: conversions, standard
+//! functions, string functions, time arithmetic and range checks. Their meaning comes from
+//! [`petriplc_iec_sema::ops`], the same code the checker folds constants with.
+
+use petriplc_iec_sema::ir::Builtin;
+use petriplc_iec_sema::ops::{self, OpError};
+use petriplc_iec_sema::types::Elem;
+use petriplc_iec_sema::value::{wrap, Value};
+use petriplc_iec_syntax::ast::BinaryOp;
+use petriplc_iec_syntax::lexer::NANOS_PER_DAY;
+
+/// How values of a generic function's type compare.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Signed integers, BOOL, durations, dates, enumerations (as i64).
+    I,
+    /// 64-bit unsigned (ULINT, LWORD).
+    U,
+    F,
+    /// Strings: operands are pointer slots.
+    S,
+}
+
+pub fn kind_of(e: Elem) -> Kind {
+    match e {
+        Elem::Ulint | Elem::Lword => Kind::U,
+        Elem::Real | Elem::Lreal => Kind::F,
+        _ => Kind::I,
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExtOp {
+    Conv {
+        d: u32,
+        s: u32,
+        from: Elem,
+        to: Elem,
+    },
+    /// An elementary value (or enumeration, as DINT) written as text into the buffer at
+    /// pointer `dp` (capacity `cap`).
+    ToStr {
+        dp: u32,
+        s: u32,
+        from: Elem,
+        cap: u32,
+    },
+    FromStr {
+        d: u32,
+        sp: u32,
+        to: Elem,
+    },
+    Trunc {
+        d: u32,
+        s: u32,
+        to: Elem,
+    },
+    /// A value stored into a subrange: `lo <= s <= hi`.
+    Check {
+        d: u32,
+        s: u32,
+        lo: i64,
+        hi: i64,
+    },
+    /// `a ** b`; `int_exp`: b is an integer.
+    Pow {
+        d: u32,
+        a: u32,
+        b: u32,
+        e: Elem,
+        int_exp: bool,
+    },
+    /// TIME * or / a number (`real`: the number is a real).
+    TimeScale {
+        d: u32,
+        a: u32,
+        b: u32,
+        div: bool,
+        real: bool,
+    },
+    /// TOD ± TIME, wrapping around midnight.
+    TodAdd {
+        d: u32,
+        a: u32,
+        b: u32,
+        sub: bool,
+    },
+    Math {
+        f: Builtin,
+        d: u32,
+        s: u32,
+        e: Elem,
+    },
+    AbsI {
+        d: u32,
+        s: u32,
+        e: Elem,
+    },
+    Atan2 {
+        d: u32,
+        y: u32,
+        x: u32,
+        e: Elem,
+    },
+    /// MAX/MIN over `args` (pointers when `kind` is S; then `d` is the result buffer pointer).
+    MinMax {
+        max: bool,
+        d: u32,
+        args: Vec<u32>,
+        kind: Kind,
+        cap: u32,
+    },
+    Limit {
+        d: u32,
+        mn: u32,
+        x: u32,
+        mx: u32,
+        kind: Kind,
+        cap: u32,
+    },
+    /// SEL and MUX over scalars or (kind S) strings; `k` is G or K.
+    Select {
+        mux: bool,
+        d: u32,
+        k: u32,
+        args: Vec<u32>,
+        kind: Kind,
+        cap: u32,
+    },
+    Shift {
+        f: Builtin,
+        d: u32,
+        s: u32,
+        n: u32,
+        e: Elem,
+    },
+    /// String functions: `args` are pointers (strings) and integer slots in the standard's
+    /// order; the result goes to the buffer at pointer `d` (or slot `d` for LEN and FIND).
+    Str {
+        f: Builtin,
+        d: u32,
+        args: Vec<u32>,
+        cap: u32,
+    },
+    ConcatDateTod {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    /// A FOR loop's step must not be 0.
+    NonZeroStep {
+        s: u32,
+    },
+}
+
+/// Why an operation stopped the program, with the values involved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OpFault {
+    pub error: OpError,
+    pub detail: String,
+}
+
+impl OpFault {
+    pub fn new(error: OpError, detail: impl Into<String>) -> Self {
+        OpFault {
+            error,
+            detail: detail.into(),
+        }
+    }
+}
+
+#[inline]
+pub fn slot(mem: &[u64], base: usize, s: u32) -> u64 {
+    mem[base + s as usize]
+}
+
+/// A slot's value as the checker's [`Value`] for an elementary type.
+pub fn get_value(raw: u64, e: Elem) -> Value {
+    if e.is_real() {
+        Value::Real(f64::from_bits(raw))
+    } else if matches!(e, Elem::Ulint | Elem::Lword) {
+        Value::Int(raw as i128)
+    } else {
+        Value::Int(raw as i64 as i128)
+    }
+}
+
+/// The slot holding a [`Value`] of an elementary type (integers already in range).
+pub fn put_value(v: &Value, e: Elem) -> u64 {
+    match v {
+        Value::Real(f) => {
+            if e.is_real() {
+                f.to_bits()
+            } else {
+                *f as i64 as u64
+            }
+        }
+        Value::Int(i) => {
+            if e.is_real() {
+                (*i as f64).to_bits()
+            } else {
+                *i as i64 as u64
+            }
+        }
+        _ => 0,
+    }
+}
+
+/// Reads the string stored at absolute address `at`.
+pub fn read_str(mem: &[u64], at: usize) -> Vec<u8> {
+    let len = mem.get(at).copied().unwrap_or(0) as usize;
+    let mut out = Vec::with_capacity(len);
+    for i in 0..len {
+        let w = mem.get(at + 1 + i / 8).copied().unwrap_or(0);
+        out.push((w >> ((i % 8) * 8)) as u8);
+    }
+    out
+}
+
+/// Writes a string at absolute address `at`, truncated to `cap` bytes.
+pub fn write_str(mem: &mut [u64], at: usize, bytes: &[u8], cap: u32) {
+    let n = bytes.len().min(cap as usize);
+    if at >= mem.len() {
+        return;
+    }
+    mem[at] = n as u64;
+    for (i, chunk) in bytes[..n].chunks(8).enumerate() {
+        let mut w = 0u64;
+        for (j, b) in chunk.iter().enumerate() {
+            w |= (*b as u64) << (j * 8);
+        }
+        if let Some(x) = mem.get_mut(at + 1 + i) {
+            *x = w;
+        }
+    }
+}
+
+fn ptr(mem: &[u64], base: usize, s: u32) -> usize {
+    slot(mem, base, s) as usize
+}
+
+fn int(mem: &[u64], base: usize, s: u32) -> i128 {
+    slot(mem, base, s) as i64 as i128
+}
+
+fn real(mem: &[u64], base: usize, s: u32) -> f64 {
+    f64::from_bits(slot(mem, base, s))
+}
+
+fn fault(e: OpError, detail: String) -> OpFault {
+    OpFault::new(e, detail)
+}
+
+fn show(raw: u64, e: Elem) -> String {
+    let v = get_value(raw, e);
+    String::from_utf8_lossy(&ops::to_text(&v, e)).into_owned()
+}
+
+/// Compares two values of `kind` (strings through pointers).
+fn less(mem: &[u64], base: usize, a: u32, b: u32, kind: Kind) -> bool {
+    match kind {
+        Kind::I => (slot(mem, base, a) as i64) < (slot(mem, base, b) as i64),
+        Kind::U => slot(mem, base, a) < slot(mem, base, b),
+        Kind::F => real(mem, base, a) < real(mem, base, b),
+        Kind::S => read_str(mem, ptr(mem, base, a)) < read_str(mem, ptr(mem, base, b)),
+    }
+}
+
+/// Stores the value of slot `src` (or the string it points to) as the result `d`.
+fn set_from(mem: &mut [u64], base: usize, d: u32, src: u32, kind: Kind, cap: u32) {
+    if kind == Kind::S {
+        let s = read_str(mem, ptr(mem, base, src));
+        let at = ptr(mem, base, d);
+        write_str(mem, at, &s, cap);
+    } else {
+        mem[base + d as usize] = slot(mem, base, src);
+    }
+}
+
+pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
+    match x {
+        ExtOp::Conv { d, s, from, to } => {
+            let raw = slot(mem, base, *s);
+            let v = get_value(raw, *from);
+            let r = ops::convert_elem(&v, *from, *to).map_err(|e| {
+                fault(
+                    e,
+                    format!("{}_TO_{}({})", from.name(), to.name(), show(raw, *from)),
+                )
+            })?;
+            mem[base + *d as usize] = put_value(&r, *to);
+        }
+        ExtOp::ToStr { dp, s, from, cap } => {
+            let raw = slot(mem, base, *s);
+            let text = ops::to_text(&get_value(raw, *from), *from);
+            let at = ptr(mem, base, *dp);
+            write_str(mem, at, &text, *cap);
+        }
+        ExtOp::FromStr { d, sp, to } => {
+            let s = read_str(mem, ptr(mem, base, *sp));
+            let r = ops::from_text(&s, *to).map_err(|e| {
+                fault(
+                    e,
+                    format!("STRING_TO_{}('{}')", to.name(), String::from_utf8_lossy(&s)),
+                )
+            })?;
+            mem[base + *d as usize] = put_value(&r, *to);
+        }
+        ExtOp::Trunc { d, s, to } => {
+            let v = real(mem, base, *s);
+            let r = ops::trunc_to_int(v, *to)
+                .map_err(|e| fault(e, format!("TRUNC({v}) to {}", to.name())))?;
+            mem[base + *d as usize] = r as i64 as u64;
+        }
+        ExtOp::Check { d, s, lo, hi } => {
+            let v = slot(mem, base, *s) as i64;
+            if v < *lo || v > *hi {
+                return Err(fault(
+                    OpError::Conversion,
+                    format!("{v} is outside the subrange {lo}..{hi}"),
+                ));
+            }
+            mem[base + *d as usize] = v as u64;
+        }
+        ExtOp::Pow {
+            d,
+            a,
+            b,
+            e,
+            int_exp,
+        } => {
+            let x = real(mem, base, *a);
+            let r = if *int_exp {
+                let n = int(mem, base, *b);
+                ops::real_power_int(x, n, *e).map_err(|er| fault(er, format!("{x} ** {n}")))?
+            } else {
+                let y = real(mem, base, *b);
+                ops::real_binary(BinaryOp::Power, x, y, *e)
+                    .map_err(|er| fault(er, format!("{x} ** {y}")))?
+            };
+            mem[base + *d as usize] = r.to_bits();
+        }
+        ExtOp::TimeScale {
+            d,
+            a,
+            b,
+            div,
+            real: is_real,
+        } => {
+            let t = int(mem, base, *a);
+            let r = if *is_real {
+                let f = real(mem, base, *b);
+                if *div && f == 0.0 {
+                    return Err(fault(
+                        OpError::DivisionByZero,
+                        format!("{} / 0.0", ops::format_duration(t)),
+                    ));
+                }
+                let r = ops::round_even(if *div { t as f64 / f } else { t as f64 * f });
+                if !r.is_finite() || r.abs() > 9.2e18 {
+                    return Err(fault(
+                        OpError::Overflow,
+                        format!(
+                            "{} {} {f}",
+                            ops::format_duration(t),
+                            if *div { "/" } else { "*" }
+                        ),
+                    ));
+                }
+                r as i128
+            } else {
+                let n = int(mem, base, *b);
+                let op = if *div { BinaryOp::Div } else { BinaryOp::Mul };
+                ops::int_binary(op, t, n, Elem::Lint).map_err(|e| {
+                    fault(
+                        e,
+                        format!(
+                            "T#{} {} {n}",
+                            ops::format_duration(t),
+                            if *div { "/" } else { "*" }
+                        ),
+                    )
+                })?
+            };
+            mem[base + *d as usize] = r as i64 as u64;
+        }
+        ExtOp::TodAdd { d, a, b, sub } => {
+            let (t, dt) = (int(mem, base, *a), int(mem, base, *b));
+            let r = if *sub { t - dt } else { t + dt };
+            mem[base + *d as usize] = r.rem_euclid(NANOS_PER_DAY) as i64 as u64;
+        }
+        ExtOp::Math { f, d, s, e } => {
+            let v = real(mem, base, *s);
+            let r =
+                ops::real_fn(*f, v, *e).map_err(|er| fault(er, format!("{}({v})", f.name())))?;
+            mem[base + *d as usize] = r.to_bits();
+        }
+        ExtOp::AbsI { d, s, e } => {
+            let raw = slot(mem, base, *s);
+            let v = get_value(raw, *e).as_int().unwrap_or(0);
+            let r = ops::int_binary(BinaryOp::Sub, 0, -v.abs(), *e)
+                .map_err(|er| fault(er, format!("ABS({v}) in {}", e.name())))?;
+            mem[base + *d as usize] = r as i64 as u64;
+        }
+        ExtOp::Atan2 { d, y, x, e } => {
+            let r = ops::real_result(real(mem, base, *y).atan2(real(mem, base, *x)), *e)
+                .map_err(|er| fault(er, "ATAN2".to_string()))?;
+            mem[base + *d as usize] = r.to_bits();
+        }
+        ExtOp::MinMax {
+            max,
+            d,
+            args,
+            kind,
+            cap,
+        } => {
+            let mut best = args[0];
+            for &a in &args[1..] {
+                let better = if *max {
+                    less(mem, base, best, a, *kind)
+                } else {
+                    less(mem, base, a, best, *kind)
+                };
+                if better {
+                    best = a;
+                }
+            }
+            set_from(mem, base, *d, best, *kind, *cap);
+        }
+        ExtOp::Limit {
+            d,
+            mn,
+            x,
+            mx,
+            kind,
+            cap,
+        } => {
+            let pick = if less(mem, base, *x, *mn, *kind) {
+                *mn
+            } else if less(mem, base, *mx, *x, *kind) {
+                *mx
+            } else {
+                *x
+            };
+            set_from(mem, base, *d, pick, *kind, *cap);
+        }
+        ExtOp::Select {
+            mux,
+            d,
+            k,
+            args,
+            kind,
+            cap,
+        } => {
+            let i = if *mux {
+                let k = int(mem, base, *k);
+                match usize::try_from(k).ok().filter(|&i| i < args.len()) {
+                    Some(i) => i,
+                    None => {
+                        return Err(fault(
+                            OpError::Domain("MUX selector out of range"),
+                            format!(
+                                "MUX with K = {k} and {} inputs (K is 0..{})",
+                                args.len(),
+                                args.len() - 1
+                            ),
+                        ))
+                    }
+                }
+            } else {
+                (slot(mem, base, *k) != 0) as usize
+            };
+            set_from(mem, base, *d, args[i], *kind, *cap);
+        }
+        ExtOp::Shift { f, d, s, n, e } => {
+            let v = get_value(slot(mem, base, *s), *e).as_int().unwrap_or(0);
+            let k = int(mem, base, *n);
+            let r = ops::shift(*f, v, k, *e)
+                .map_err(|er| fault(er, format!("{}(…, {k})", f.name())))?;
+            mem[base + *d as usize] = r as i64 as u64;
+        }
+        ExtOp::Str { f, d, args, cap } => string_fn(*f, *d, args, *cap, mem, base)?,
+        ExtOp::NonZeroStep { s } => {
+            if slot(mem, base, *s) == 0 {
+                return Err(fault(
+                    OpError::Domain("a FOR loop with BY 0 never ends"),
+                    "the step (BY) is 0".to_string(),
+                ));
+            }
+        }
+        ExtOp::ConcatDateTod { d, a, b } => {
+            let date = int(mem, base, *a).div_euclid(NANOS_PER_DAY) * NANOS_PER_DAY;
+            let r = date + int(mem, base, *b).rem_euclid(NANOS_PER_DAY);
+            mem[base + *d as usize] = r as i64 as u64;
+        }
+    }
+    Ok(())
+}
+
+fn string_fn(
+    f: Builtin,
+    d: u32,
+    args: &[u32],
+    cap: u32,
+    mem: &mut [u64],
+    base: usize,
+) -> Result<(), OpFault> {
+    let s = |k: usize, mem: &[u64]| read_str(mem, ptr(mem, base, args[k]));
+    let n = |k: usize, mem: &[u64]| int(mem, base, args[k]);
+    let describe = |e: OpError, what: String| fault(e, what);
+    let out: Vec<u8> = match f {
+        Builtin::Len => {
+            mem[base + d as usize] = s(0, mem).len() as u64;
+            return Ok(());
+        }
+        Builtin::Find => {
+            mem[base + d as usize] = ops::find(&s(0, mem), &s(1, mem)) as u64;
+            return Ok(());
+        }
+        Builtin::Left => ops::left(&s(0, mem), n(1, mem))
+            .map_err(|e| describe(e, format!("LEFT with L = {}", n(1, mem))))?,
+        Builtin::Right => ops::right(&s(0, mem), n(1, mem))
+            .map_err(|e| describe(e, format!("RIGHT with L = {}", n(1, mem))))?,
+        Builtin::Mid => {
+            let x = s(0, mem);
+            ops::mid(&x, n(1, mem), n(2, mem)).map_err(|e| {
+                describe(
+                    e,
+                    format!(
+                        "MID with L = {}, P = {} on a string of {} characters",
+                        n(1, mem),
+                        n(2, mem),
+                        x.len()
+                    ),
+                )
+            })?
+        }
+        Builtin::Concat => {
+            let mut out = Vec::new();
+            for k in 0..args.len() {
+                out.extend(s(k, mem));
+            }
+            out
+        }
+        Builtin::Insert => {
+            let x = s(0, mem);
+            ops::insert(&x, &s(1, mem), n(2, mem)).map_err(|e| {
+                describe(
+                    e,
+                    format!(
+                        "INSERT with P = {} into a string of {} characters",
+                        n(2, mem),
+                        x.len()
+                    ),
+                )
+            })?
+        }
+        Builtin::Delete => {
+            let x = s(0, mem);
+            ops::delete(&x, n(1, mem), n(2, mem)).map_err(|e| {
+                describe(
+                    e,
+                    format!(
+                        "DELETE with L = {}, P = {} on a string of {} characters",
+                        n(1, mem),
+                        n(2, mem),
+                        x.len()
+                    ),
+                )
+            })?
+        }
+        Builtin::Replace => {
+            let x = s(0, mem);
+            ops::replace(&x, &s(1, mem), n(2, mem), n(3, mem)).map_err(|e| {
+                describe(
+                    e,
+                    format!(
+                        "REPLACE with L = {}, P = {} on a string of {} characters",
+                        n(2, mem),
+                        n(3, mem),
+                        x.len()
+                    ),
+                )
+            })?
+        }
+        _ => Vec::new(),
+    };
+    let at = ptr(mem, base, d);
+    write_str(mem, at, &out, cap);
+    Ok(())
+}
+
+/// Integer arithmetic of the main loop's slow cases (checked 64-bit), shared for messages.
+pub fn describe_arith(op: crate::op::Arith, a: i128, b: i128, e: Elem) -> String {
+    let sym = match op {
+        crate::op::Arith::Add => "+",
+        crate::op::Arith::Sub => "-",
+        crate::op::Arith::Mul => "*",
+        crate::op::Arith::Div => "/",
+        crate::op::Arith::Mod => "MOD",
+    };
+    let _ = wrap;
+    format!("{a} {sym} {b} in {}", e.name())
+}

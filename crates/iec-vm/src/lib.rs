@@ -1,0 +1,26 @@
+//! The IEC 61131-3 engine: the checker's lowered form ([`petriplc_iec_sema::ir`]) compiled
+//! to a register bytecode ([`op`]) and run by a VM ([`exec`]) over 64-bit slots.
+//!
+//! - Faults (integer division by zero, overflow, array index out of range, failed
+//!   conversions, a loop past the iteration budget) stop the run with the POU, line and
+//!   values ([`Fault`]); a bug in the engine is caught the same way, never a crash.
+//! - Time is passed in: the same program and inputs give the same results.
+//! - Function blocks written in Rust plug in through [`native::NativeFb`].
+//! - Retentive variables are listed ([`Engine::retained`]), saved and restored
+//!   ([`Machine::snapshot_retain`], [`Machine::restore_retain`]).
+
+pub mod compile;
+pub mod exec;
+pub mod ext;
+pub mod layout;
+mod machine;
+pub mod native;
+pub mod op;
+
+pub use compile::{CompileError, InstanceSpec};
+pub use exec::FaultKind;
+pub use machine::{
+    display, string_literal, Engine, Fault, Machine, RetainImage, Retained, VarRef,
+    DEFAULT_ITERATIONS,
+};
+pub use native::{NativeCtx, NativeFb};

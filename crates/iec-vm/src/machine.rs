@@ -1,0 +1,709 @@
+//! The engine's public face: an [`Engine`] (a compiled project, shared between threads) and
+//! [`Machine`]s running it (memory, tasks, faults), with access to variables by name and the
+//! snapshot and restore of retentive variables.
+
+use std::fmt;
+use std::sync::Arc;
+
+use petriplc_iec_sema::ir::{PouKind, Project, VarClass};
+use petriplc_iec_sema::ops;
+use petriplc_iec_sema::types::{Elem, FbRef, Type, TypeId};
+use petriplc_iec_sema::value::Value;
+use petriplc_iec_syntax::source::SourceMap;
+
+use crate::compile::{self, Code, CompileError, InstanceSpec};
+use crate::exec::{self, Budget, FaultKind, RawFault};
+use crate::ext;
+use crate::native::{self, NativeFb};
+
+/// A run-time fault, located: the POU, its file and line, what happened with which values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fault {
+    pub pou: String,
+    pub file: String,
+    pub line: u32,
+    pub kind: FaultKind,
+    /// What happened, with the values involved.
+    pub message: String,
+}
+
+impl fmt::Display for Fault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}:{}: in {}: {}",
+            self.file, self.line, self.pou, self.message
+        )
+    }
+}
+
+impl std::error::Error for Fault {}
+
+/// A compiled project with the native function blocks it uses.
+pub struct Engine {
+    pub project: Project,
+    pub code: Code,
+    natives: Vec<Box<dyn NativeFb>>,
+    pou_files: Vec<String>,
+    /// Tasks by priority, then declaration order.
+    task_order: Vec<usize>,
+}
+
+impl fmt::Debug for Engine {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Engine")
+            .field("ops", &self.code.ops.len())
+            .field("memory", &self.code.init.len())
+            .finish()
+    }
+}
+
+/// The iteration budget of one scan when none is set: a loop still going after this many
+/// iterations in one scan is stopped as endless.
+pub const DEFAULT_ITERATIONS: u64 = 10_000_000;
+
+impl Engine {
+    /// Compiles `project` for `instances`. `natives` implements `project.natives` in order
+    /// (the standard function blocks first: [`native::standard`]).
+    pub fn new(
+        project: Project,
+        instances: &[InstanceSpec],
+        natives: Vec<Box<dyn NativeFb>>,
+        sources: &SourceMap,
+    ) -> Result<Arc<Engine>, CompileError> {
+        if !native::matches(&natives, &project.natives) {
+            return Err(CompileError::Unsupported(
+                "the native function blocks do not match the ones the project was checked with"
+                    .into(),
+            ));
+        }
+        let line_of = |span| sources.line(span);
+        let mut code = compile::compile(&project, instances, &line_of)?;
+        code.native_sizes = project
+            .natives
+            .iter()
+            .map(|n| n.vars.len() as u32)
+            .collect();
+        let pou_files = project
+            .pous
+            .iter()
+            .map(|p| {
+                sources
+                    .get(p.span.file)
+                    .map_or_else(String::new, |f| f.name.clone())
+            })
+            .collect();
+        let mut task_order: Vec<usize> =
+            (0..project.configuration.as_ref().map_or(0, |c| c.tasks.len())).collect();
+        if let Some(c) = &project.configuration {
+            task_order.sort_by_key(|&t| (c.tasks[t].priority, t));
+        }
+        Ok(Arc::new(Engine {
+            project,
+            code,
+            natives,
+            pou_files,
+            task_order,
+        }))
+    }
+
+    /// The program instances: those of the configuration, or one of `pou` named after it.
+    pub fn instances(&self) -> &[compile::InstanceRt] {
+        &self.code.instances
+    }
+
+    fn locate(&self, f: RawFault) -> Fault {
+        let i = self.code.lines.partition_point(|(pc, _, _)| *pc <= f.pc);
+        let (pou, line) = match i.checked_sub(1).map(|k| self.code.lines[k]) {
+            Some((_, p, l)) => (p, l),
+            None => (u32::MAX, 0),
+        };
+        let (name, file) = if pou == u32::MAX {
+            let c = self
+                .project
+                .configuration
+                .as_ref()
+                .map_or("the configuration".to_string(), |c| {
+                    format!("CONFIGURATION {}", c.name)
+                });
+            (c, String::new())
+        } else {
+            let p = self.project.pou(pou);
+            (
+                format!("{} {}", p.kind.keyword(), p.name),
+                self.pou_files
+                    .get(pou as usize)
+                    .cloned()
+                    .unwrap_or_default(),
+            )
+        };
+        let what = match &f.error {
+            FaultKind::Op(e) => e.to_string(),
+            FaultKind::IndexOutOfRange => "array index out of range".into(),
+            FaultKind::Watchdog => "watchdog".into(),
+            FaultKind::Native => "function block failed".into(),
+            FaultKind::Internal => "internal limit".into(),
+        };
+        Fault {
+            pou: name,
+            file,
+            line,
+            kind: f.error,
+            message: format!("{what}: {}", f.detail),
+        }
+    }
+
+    /// The scan period the configuration's tasks ask for: the greatest common divisor of
+    /// their intervals (nanoseconds), if any task has one.
+    pub fn task_period(&self) -> Option<i64> {
+        let c = self.project.configuration.as_ref()?;
+        let used: Vec<i64> = self
+            .code
+            .instances
+            .iter()
+            .filter_map(|i| i.task)
+            .filter_map(|t| c.tasks[t as usize].interval)
+            .collect();
+        used.into_iter().reduce(gcd)
+    }
+
+    /// Resolves `name`, `instance.var`, `var.field[3].x` to a variable.
+    pub fn lookup(&self, path: &str) -> Option<VarRef> {
+        let mut parts = split_path(path)?.into_iter();
+        let first = parts.next()?;
+        let Segment::Name(first) = first else {
+            return None;
+        };
+        let p = &self.project;
+        let (mut addr, mut ty, mut class) = if let Some(g) = p.global_by_name(&first) {
+            (
+                self.code.global_addr[g as usize],
+                p.globals[g as usize].ty,
+                VarClass::Global,
+            )
+        } else if let Some(inst) = self
+            .code
+            .instances
+            .iter()
+            .find(|i| i.name.eq_ignore_ascii_case(&first))
+        {
+            let Some(Segment::Name(v)) = parts.next() else {
+                return None;
+            };
+            return self.member(inst.frame, inst.pou, &v, parts.collect());
+        } else {
+            return None;
+        };
+        for seg in parts {
+            let (a, t, c) = self.step(addr, ty, seg)?;
+            addr = a;
+            ty = t;
+            class = c;
+        }
+        Some(VarRef { addr, ty, class })
+    }
+
+    fn member(&self, frame: u32, pou: u32, var: &str, rest: Vec<Segment>) -> Option<VarRef> {
+        let p = self.project.pou(pou);
+        let v = p.var_by_name(var)?;
+        let decl = &p.vars[v as usize];
+        let (mut addr, ty) = match decl.class {
+            VarClass::External(g) => (self.code.global_addr[g as usize], decl.ty),
+            VarClass::InOut | VarClass::Hidden => return None,
+            _ => (
+                frame + self.code.layouts[pou as usize].offsets[v as usize]?,
+                decl.ty,
+            ),
+        };
+        let mut ty = ty;
+        let mut class = decl.class;
+        for seg in rest {
+            let (a, t, c) = self.step(addr, ty, seg)?;
+            addr = a;
+            ty = t;
+            class = c;
+        }
+        Some(VarRef { addr, ty, class })
+    }
+
+    fn step(&self, addr: u32, ty: TypeId, seg: Segment) -> Option<(u32, TypeId, VarClass)> {
+        let p = &self.project;
+        match (p.types.get(ty), seg) {
+            (Type::Struct { fields, .. }, Segment::Name(n)) => {
+                let i = fields
+                    .iter()
+                    .position(|f| f.name.eq_ignore_ascii_case(&n))?;
+                let offs = self.code.sizes.field_offsets(p, ty);
+                Some((addr + offs[i], fields[i].ty, VarClass::Local))
+            }
+            (Type::Fb(FbRef::User(q)), Segment::Name(n)) => {
+                let r = self.member(addr, *q, &n, Vec::new())?;
+                Some((r.addr, r.ty, r.class))
+            }
+            (Type::Fb(FbRef::Native(k)), Segment::Name(n)) => {
+                let sig = &p.natives[*k as usize];
+                let i = sig.var_by_name(&n)?;
+                Some((
+                    addr + i,
+                    petriplc_iec_sema::types::TypeTable::elem_id(sig.vars[i as usize].ty),
+                    VarClass::Local,
+                ))
+            }
+            (Type::Array { dims, elem }, Segment::Index(idx)) => {
+                if idx.len() != dims.len() {
+                    return None;
+                }
+                let es = self.code.sizes.of(p, *elem)?;
+                let mut lin: u64 = 0;
+                for (k, (i, (lo, hi))) in idx.iter().zip(dims).enumerate() {
+                    if i < lo || i > hi {
+                        return None;
+                    }
+                    let _ = k;
+                    lin = lin * (hi - lo + 1) as u64 + (i - lo) as u64;
+                }
+                Some((addr + (lin * es as u64) as u32, *elem, VarClass::Local))
+            }
+            _ => None,
+        }
+    }
+
+    /// The variables of a program instance, in declaration order (name, class, type).
+    pub fn instance_vars(&self, instance: usize) -> Vec<(String, VarClass, TypeId)> {
+        let Some(inst) = self.code.instances.get(instance) else {
+            return Vec::new();
+        };
+        self.project
+            .pou(inst.pou)
+            .vars
+            .iter()
+            .filter(|v| v.class != VarClass::Hidden)
+            .map(|v| (v.name.clone(), v.class, v.ty))
+            .collect()
+    }
+
+    /// Every retentive variable: RETAIN globals, RETAIN variables of program instances
+    /// (and everything inside an instance declared RETAIN), by path.
+    pub fn retained(&self) -> Vec<Retained> {
+        let mut out = Vec::new();
+        let p = &self.project;
+        for (g, v) in p.globals.iter().enumerate() {
+            if v.retain {
+                out.push(self.retained_var(v.name.clone(), self.code.global_addr[g], v.ty));
+            }
+        }
+        for inst in &self.code.instances {
+            self.retained_in(&inst.name, inst.frame, inst.pou, false, &mut out);
+        }
+        out
+    }
+
+    fn retained_in(&self, path: &str, frame: u32, pou: u32, all: bool, out: &mut Vec<Retained>) {
+        let p = self.project.pou(pou);
+        let layout = &self.code.layouts[pou as usize];
+        for (i, v) in p.vars.iter().enumerate() {
+            let Some(off) = layout.offsets[i] else {
+                continue;
+            };
+            if matches!(
+                v.class,
+                VarClass::InOut | VarClass::Temp | VarClass::External(_)
+            ) {
+                continue;
+            }
+            let name = format!("{path}.{}", v.name);
+            if v.retain || all {
+                out.push(self.retained_var(name, frame + off, v.ty));
+            } else if let Type::Fb(FbRef::User(q)) = self.project.types.get(v.ty) {
+                // RETAIN variables inside a non-retained instance.
+                self.retained_in(&name, frame + off, *q, false, out);
+            }
+        }
+    }
+
+    fn retained_var(&self, path: String, addr: u32, ty: TypeId) -> Retained {
+        Retained {
+            path,
+            addr,
+            len: self.code.sizes.of(&self.project, ty).unwrap_or(1),
+            type_name: self.project.types.name(ty),
+        }
+    }
+
+    pub fn pou_kind(&self, name: &str) -> Option<PouKind> {
+        self.project
+            .pou_by_name(name)
+            .map(|p| self.project.pou(p).kind)
+    }
+}
+
+/// Runs one program instance; a panic inside (a bug in the engine) becomes a fault.
+fn run_one(
+    engine: &Engine,
+    mem: &mut [u64],
+    stack: &mut Vec<(u32, u32)>,
+    iterations: u64,
+    instance: usize,
+    now: i64,
+    check: &mut dyn FnMut() -> bool,
+) -> Result<(), Fault> {
+    let Some(inst) = engine.code.instances.get(instance) else {
+        return Ok(());
+    };
+    let mut budget = Budget {
+        iterations: iterations.max(1),
+        check,
+    };
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        exec::run(
+            &engine.code,
+            &engine.natives,
+            mem,
+            inst.entry,
+            now,
+            &mut budget,
+            stack,
+        )
+    }));
+    match r {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(f)) => Err(engine.locate(f)),
+        Err(_) => Err(Fault {
+            pou: format!("PROGRAM instance {}", inst.name),
+            file: String::new(),
+            line: 0,
+            kind: FaultKind::Internal,
+            message: "internal error in the IEC engine (please report it)".into(),
+        }),
+    }
+}
+
+fn gcd(a: i64, b: i64) -> i64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+/// A variable in a machine's memory.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VarRef {
+    pub addr: u32,
+    pub ty: TypeId,
+    pub class: VarClass,
+}
+
+/// A retentive variable: where it is and what it is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Retained {
+    pub path: String,
+    pub addr: u32,
+    pub len: u32,
+    pub type_name: String,
+}
+
+/// The values of the retentive variables, by path and type, for the PLC's retentive store.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RetainImage {
+    pub entries: Vec<(String, String, Vec<u64>)>,
+}
+
+enum Segment {
+    Name(String),
+    Index(Vec<i64>),
+}
+
+fn split_path(path: &str) -> Option<Vec<Segment>> {
+    let mut out = Vec::new();
+    let mut rest = path.trim();
+    while !rest.is_empty() {
+        if let Some(r) = rest.strip_prefix('.') {
+            rest = r;
+            continue;
+        }
+        if let Some(r) = rest.strip_prefix('[') {
+            let end = r.find(']')?;
+            let idx: Option<Vec<i64>> =
+                r[..end].split(',').map(|s| s.trim().parse().ok()).collect();
+            out.push(Segment::Index(idx?));
+            rest = &r[end + 1..];
+            continue;
+        }
+        let end = rest.find(['.', '[']).unwrap_or(rest.len());
+        out.push(Segment::Name(rest[..end].trim().to_string()));
+        rest = &rest[end..];
+    }
+    Some(out)
+}
+
+/// A running copy of an engine: its memory and task clocks.
+pub struct Machine {
+    engine: Arc<Engine>,
+    mem: Vec<u64>,
+    stack: Vec<(u32, u32)>,
+    /// Loop iterations one scan may make before it fails as endless.
+    pub iterations: u64,
+    next_due: Vec<Option<i64>>,
+}
+
+impl fmt::Debug for Machine {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Machine")
+            .field("engine", &self.engine)
+            .finish()
+    }
+}
+
+impl Machine {
+    /// A machine in its initial state (a cold start).
+    pub fn new(engine: Arc<Engine>) -> Self {
+        let tasks = engine
+            .project
+            .configuration
+            .as_ref()
+            .map_or(0, |c| c.tasks.len());
+        Machine {
+            mem: engine.code.init.clone(),
+            engine,
+            stack: Vec::with_capacity(16),
+            iterations: DEFAULT_ITERATIONS,
+            next_due: vec![None; tasks],
+        }
+    }
+
+    pub fn engine(&self) -> &Arc<Engine> {
+        &self.engine
+    }
+
+    /// Back to the initial values (retained ones included: restore them afterwards).
+    pub fn reset(&mut self) {
+        self.mem.copy_from_slice(&self.engine.code.init);
+        self.next_due.iter_mut().for_each(|d| *d = None);
+    }
+
+    /// Runs one program instance once at time `now` (nanoseconds).
+    pub fn run_instance(&mut self, instance: usize, now: i64) -> Result<(), Fault> {
+        let Machine {
+            engine,
+            mem,
+            stack,
+            iterations,
+            ..
+        } = self;
+        run_one(engine, mem, stack, *iterations, instance, now, &mut || true)
+    }
+
+    /// One scan at `now` (nanoseconds): every task whose interval has come, by priority (then
+    /// declaration order), runs its program instances; instances without a task run every
+    /// scan, after the tasks. `check` is called every 65 536 loop iterations and stops the
+    /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
+    pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
+        let Machine {
+            engine,
+            mem,
+            stack,
+            iterations,
+            next_due,
+        } = self;
+        let engine: &Engine = engine;
+        let instances = &engine.code.instances;
+        let tasks = match engine.project.configuration.as_ref() {
+            Some(c) if instances.iter().any(|i| i.task.is_some()) => &c.tasks,
+            _ => {
+                for i in 0..instances.len() {
+                    run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                }
+                return Ok(());
+            }
+        };
+        for &t in &engine.task_order {
+            let due = match tasks[t].interval {
+                None => true,
+                Some(iv) => {
+                    let next = next_due[t].unwrap_or(now);
+                    if now >= next {
+                        // The next multiple of the interval after now (missed ones are skipped).
+                        let k = (now - next) / iv + 1;
+                        next_due[t] = Some(next + k * iv);
+                        true
+                    } else {
+                        false
+                    }
+                }
+            };
+            if !due {
+                continue;
+            }
+            for (i, inst) in instances.iter().enumerate() {
+                if inst.task == Some(t as u32) {
+                    run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                }
+            }
+        }
+        for (i, inst) in instances.iter().enumerate() {
+            if inst.task.is_none() {
+                run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The value of a scalar or string variable (`None` for aggregates).
+    pub fn get(&self, v: VarRef) -> Option<Value> {
+        let p = &self.engine.project;
+        let raw = *self.mem.get(v.addr as usize)?;
+        Some(match p.types.get(v.ty) {
+            Type::Elem(e) | Type::Subrange { base: e, .. } => ext::get_value(raw, *e),
+            Type::Enum { .. } => Value::Int(raw as i64 as i128),
+            Type::Str { .. } => Value::Str(ext::read_str(&self.mem, v.addr as usize)),
+            _ => return None,
+        })
+    }
+
+    /// Sets a scalar or string variable; the value is converted to its type (integers kept
+    /// in range, BOOL from 0/1).
+    pub fn set(&mut self, v: VarRef, value: &Value) -> Result<(), String> {
+        let p = &self.engine.project;
+        match p.types.get(v.ty).clone() {
+            Type::Elem(e) => {
+                let from = match value {
+                    Value::Real(_) => Elem::Lreal,
+                    Value::Str(s) => {
+                        let r = ops::from_text(s, e).map_err(|_| {
+                            format!("`{}` is not a {}", String::from_utf8_lossy(s), e.name())
+                        })?;
+                        self.mem[v.addr as usize] = ext::put_value(&r, e);
+                        return Ok(());
+                    }
+                    _ => Elem::Lint,
+                };
+                let r = match (value, e) {
+                    (Value::Int(i), _) if e.is_integral() && !(e.is_duration() || e.is_date()) => {
+                        if !petriplc_iec_sema::value::fits(*i, e) {
+                            return Err(format!("{i} does not fit {}", e.name()));
+                        }
+                        Value::Int(*i)
+                    }
+                    (Value::Int(i), _) if e.is_duration() || e.is_date() => Value::Int(*i),
+                    _ => ops::convert_elem(value, from, e).map_err(|er| er.to_string())?,
+                };
+                self.mem[v.addr as usize] = ext::put_value(&r, e);
+                Ok(())
+            }
+            Type::Subrange { base, lo, hi } => {
+                let i = value.as_int().ok_or("a subrange takes an integer")?;
+                if i < lo || i > hi {
+                    return Err(format!("{i} is outside {lo}..{hi}"));
+                }
+                self.mem[v.addr as usize] = ext::put_value(&Value::Int(i), base);
+                Ok(())
+            }
+            Type::Enum { values, .. } => {
+                let i = value
+                    .as_int()
+                    .ok_or("an enumeration takes its value's number")?;
+                if !values.iter().any(|(_, x)| *x as i128 == i) {
+                    return Err(format!("{i} is not a value of the enumeration"));
+                }
+                self.mem[v.addr as usize] = i as i64 as u64;
+                Ok(())
+            }
+            Type::Str { len } => match value {
+                Value::Str(s) => {
+                    ext::write_str(&mut self.mem, v.addr as usize, s, len);
+                    Ok(())
+                }
+                _ => Err("a STRING takes text".into()),
+            },
+            _ => Err("only elementary variables and strings can be set".into()),
+        }
+    }
+
+    /// Raw slots (for bindings that copy words).
+    pub fn slot(&self, addr: u32) -> u64 {
+        self.mem.get(addr as usize).copied().unwrap_or(0)
+    }
+
+    pub fn set_slot(&mut self, addr: u32, raw: u64) {
+        if let Some(s) = self.mem.get_mut(addr as usize) {
+            *s = raw;
+        }
+    }
+
+    /// The current values of every retentive variable.
+    pub fn snapshot_retain(&self) -> RetainImage {
+        RetainImage {
+            entries: self
+                .engine
+                .retained()
+                .into_iter()
+                .map(|r| {
+                    let a = r.addr as usize;
+                    (
+                        r.path,
+                        r.type_name,
+                        self.mem[a..a + r.len as usize].to_vec(),
+                    )
+                })
+                .collect(),
+        }
+    }
+
+    /// Restores retentive variables saved by [`Machine::snapshot_retain`], matched by path
+    /// and type; returns the paths skipped (no longer there, or of another type).
+    pub fn restore_retain(&mut self, image: &RetainImage) -> Vec<String> {
+        let here = self.engine.retained();
+        let mut skipped = Vec::new();
+        for (path, ty, slots) in &image.entries {
+            match here.iter().find(|r| r.path.eq_ignore_ascii_case(path)) {
+                Some(r) if &r.type_name == ty && r.len as usize == slots.len() => {
+                    let a = r.addr as usize;
+                    self.mem[a..a + slots.len()].copy_from_slice(slots);
+                }
+                _ => skipped.push(path.clone()),
+            }
+        }
+        skipped
+    }
+}
+
+/// A value as the trace and messages show it: BOOL 0/1, integers in decimal, reals and
+/// durations as IEC literals, strings in quotes.
+pub fn display(project: &Project, ty: TypeId, v: &Value) -> String {
+    match (project.types.get(ty), v) {
+        (Type::Elem(Elem::Bool), Value::Int(i)) => if *i != 0 { "1" } else { "0" }.to_string(),
+        (Type::Elem(e), v) if e.is_real() || e.is_duration() || e.is_date() => {
+            String::from_utf8_lossy(&ops::to_text(v, *e)).into_owned()
+        }
+        (Type::Enum { values, .. }, Value::Int(i)) => values
+            .iter()
+            .find(|(_, x)| *x as i128 == *i)
+            .map_or_else(|| i.to_string(), |(n, _)| n.clone()),
+        (_, Value::Int(i)) => i.to_string(),
+        (_, Value::Real(f)) => ops::format_real(*f, Elem::Lreal),
+        (_, Value::Str(s)) => string_literal(s),
+        _ => String::new(),
+    }
+}
+
+/// A string as an IEC literal: `'it$'s'`, with `$$`, `$'`, `$N`, `$T`, `$R` and `$hh` for
+/// other control characters.
+pub fn string_literal(s: &[u8]) -> String {
+    let mut out = String::from("'");
+    for &b in s {
+        match b {
+            b'\'' => out.push_str("$'"),
+            b'$' => out.push_str("$$"),
+            b'\n' => out.push_str("$N"),
+            b'\t' => out.push_str("$T"),
+            b'\r' => out.push_str("$R"),
+            0x0c => out.push_str("$P"),
+            b if b < 0x20 || b == 0x7f => out.push_str(&format!("${b:02X}")),
+            b if b < 0x80 => out.push(b as char),
+            b => out.push_str(&format!("${b:02X}")),
+        }
+    }
+    out.push('\'');
+    out
+}

@@ -1,0 +1,373 @@
+//! The register bytecode. Operands are slot numbers relative to the running code's base
+//! (a function block instance's first slot; 0 for programs, functions and configuration
+//! code, whose slots are absolute); `g` operands are absolute. Every value is one 64-bit slot:
+//! BOOL 0/1, integers sign- or zero-extended, reals as f64 bits (REAL rounded to single
+//! precision), durations and dates as i64 nanoseconds; a STRING[n] is a length slot followed
+//! by its bytes, eight to a slot.
+//!
+//! Operations that can fail (overflow, division by zero, index, conversion) return a fault
+//! the VM reports with the POU and line of the instruction.
+
+/// Ranges of the narrow integer types, indexed by `r` operands (see [`range_of`]).
+pub const RANGES: [(i64, i64); 9] = [
+    (0, 1),
+    (i8::MIN as i64, i8::MAX as i64),
+    (i16::MIN as i64, i16::MAX as i64),
+    (i32::MIN as i64, i32::MAX as i64),
+    (0, u8::MAX as i64),
+    (0, u16::MAX as i64),
+    (0, u32::MAX as i64),
+    (i64::MIN, i64::MAX),
+    (0, i64::MAX),
+];
+
+use petriplc_iec_sema::types::Elem;
+
+/// The `RANGES` index of an integer type narrower than 64 bits.
+pub fn range_of(e: Elem) -> u8 {
+    match e {
+        Elem::Bool => 0,
+        Elem::Sint => 1,
+        Elem::Int => 2,
+        Elem::Dint => 3,
+        Elem::Usint | Elem::Byte => 4,
+        Elem::Uint | Elem::Word => 5,
+        Elem::Udint | Elem::Dword => 6,
+        _ => 7,
+    }
+}
+
+/// How integers of a type compute: narrow types in i64 with a range check, 64-bit signed
+/// checked, 64-bit unsigned checked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IntClass {
+    Narrow(u8),
+    Long,
+    ULong,
+}
+
+pub fn int_class(e: Elem) -> IntClass {
+    match e {
+        Elem::Ulint | Elem::Lword => IntClass::ULong,
+        Elem::Lint | Elem::Time | Elem::Ltime | Elem::Date | Elem::Tod | Elem::Dt => IntClass::Long,
+        e => IntClass::Narrow(range_of(e)),
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Arith {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Mod,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cmp {
+    Eq,
+    Ne,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Op {
+    /// Stop: the end of a configuration-level code block.
+    Halt,
+    Mov {
+        d: u32,
+        s: u32,
+    },
+    MovK {
+        d: u32,
+        k: u64,
+    },
+    /// `if c != 0 { d = k }`: `IF c THEN x := constant; END_IF`.
+    CondMovK {
+        c: u32,
+        d: u32,
+        k: u64,
+    },
+    /// `if c == 0 { d = k }`.
+    CondNotMovK {
+        c: u32,
+        d: u32,
+        k: u64,
+    },
+    /// Absolute load and store.
+    LdG {
+        d: u32,
+        g: u32,
+    },
+    StG {
+        g: u32,
+        s: u32,
+    },
+    /// `d = base + s`: the absolute address of a slot.
+    Lea {
+        d: u32,
+        s: u32,
+    },
+    /// `d = g`: an absolute address.
+    LeaG {
+        d: u32,
+        g: u32,
+    },
+    /// Load and store through a pointer slot `p` (plus an offset).
+    LdI {
+        d: u32,
+        p: u32,
+        off: u32,
+    },
+    StI {
+        p: u32,
+        off: u32,
+        s: u32,
+    },
+    /// `d = p + off` (pointer arithmetic on absolute addresses).
+    AddrK {
+        d: u32,
+        p: u32,
+        off: u32,
+    },
+    /// `d = p + (i - lo) * stride` with `lo <= i <= hi` checked (array info `a`).
+    Index {
+        d: u32,
+        p: u32,
+        i: u32,
+        a: u32,
+    },
+    /// Copies `n` slots from address `sp` to address `dp` (pointer slots).
+    CopyI {
+        dp: u32,
+        sp: u32,
+        n: u32,
+    },
+    /// Copies a string from `sp` to `dp`, truncated to `cap` characters.
+    StrCopyI {
+        dp: u32,
+        sp: u32,
+        cap: u32,
+    },
+    /// Re-initialises `n` slots at `s` from the initial image (VAR_TEMP, a function's
+    /// variables).
+    Init {
+        s: u32,
+        n: u32,
+    },
+
+    /// `d` = AND of the literals `lits[start..start + len]` (a slot, and 1 to negate it),
+    /// stopping at the first FALSE: an enabling condition in one instruction.
+    AndLits {
+        d: u32,
+        start: u32,
+        len: u32,
+    },
+    /// `d` = OR of the literals, stopping at the first TRUE.
+    OrLits {
+        d: u32,
+        start: u32,
+        len: u32,
+    },
+    /// If slot `c` (negated when `neg`) is TRUE, stores `stores[start..start + len]`
+    /// (slot, constant): consecutive `IF c THEN x := constant; END_IF`.
+    CondStore {
+        c: u32,
+        neg: bool,
+        start: u32,
+        len: u32,
+    },
+    /// Copies `n` slots from `s` to `d` (consecutive assignments of consecutive variables).
+    MovN {
+        d: u32,
+        s: u32,
+        n: u32,
+    },
+    Not {
+        d: u32,
+        s: u32,
+    },
+    /// Bitwise NOT within `bits` bits.
+    BNot {
+        d: u32,
+        s: u32,
+        bits: u8,
+    },
+    And {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    /// `a AND NOT b` on BOOL.
+    AndN {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    Or {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    /// `a OR NOT b` on BOOL.
+    OrN {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    Xor {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    GetBit {
+        d: u32,
+        s: u32,
+        n: u8,
+    },
+    /// `d = s` with bit `n` set to `v`.
+    SetBit {
+        d: u32,
+        s: u32,
+        n: u8,
+        v: u32,
+    },
+
+    /// Integer comparisons (signed i64, unsigned u64).
+    CmpI {
+        op: Cmp,
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    CmpU {
+        op: Cmp,
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    CmpF {
+        op: Cmp,
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    /// String comparison through pointer slots.
+    CmpS {
+        op: Cmp,
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+
+    /// Integer arithmetic of a narrow type (range `r`), of LINT-like and ULINT-like types.
+    ArN {
+        op: Arith,
+        d: u32,
+        a: u32,
+        b: u32,
+        r: u8,
+    },
+    ArL {
+        op: Arith,
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    ArU {
+        op: Arith,
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    NegN {
+        d: u32,
+        s: u32,
+        r: u8,
+    },
+    NegL {
+        d: u32,
+        s: u32,
+    },
+    /// Real arithmetic; `single`: REAL (rounded to f32).
+    ArF {
+        op: Arith,
+        d: u32,
+        a: u32,
+        b: u32,
+        single: bool,
+    },
+    NegF {
+        d: u32,
+        s: u32,
+    },
+
+    Jmp {
+        t: u32,
+    },
+    JmpF {
+        c: u32,
+        t: u32,
+    },
+    JmpT {
+        c: u32,
+        t: u32,
+    },
+    /// A backward jump: spends one unit of the iteration budget.
+    Loop {
+        t: u32,
+    },
+    /// The end of a FOR iteration: `v += by` and back to `t` unless the next value passes
+    /// `to` or leaves the range `r` of the variable's type (`u`: ULINT); spends one unit of
+    /// the iteration budget.
+    ForNext {
+        v: u32,
+        to: u32,
+        by: u32,
+        t: u32,
+        r: u8,
+        u: bool,
+    },
+
+    /// Calls user code at `entry` with base `base + inst` (a function block instance).
+    CallFb {
+        entry: u32,
+        inst: u32,
+    },
+    /// Same with the instance's absolute address in slot `p`.
+    CallFbI {
+        entry: u32,
+        p: u32,
+    },
+    /// Calls absolute code (a function, a program) with base 0.
+    CallAbs {
+        entry: u32,
+    },
+    /// Calls native function block `k` on the instance at `base + inst` / at address `p`.
+    CallNative {
+        k: u32,
+        inst: u32,
+    },
+    CallNativeI {
+        k: u32,
+        p: u32,
+    },
+    Ret,
+
+    /// Conversions and standard functions, described in a side table (`x` indexes
+    /// [`crate::compile::Code::ext`]).
+    Ext {
+        x: u32,
+    },
+}
+
+/// An array's bounds for [`Op::Index`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ArrayInfo {
+    pub lo: i64,
+    pub hi: i64,
+    pub stride: u32,
+}

@@ -1,0 +1,119 @@
+//! PLCopen XML projects: a CODESYS-style export runs, Beremiz's libraries load, projects the
+//! engine cannot run say why, malformed files give positioned errors.
+
+use std::path::Path;
+
+use petriplc_iec::{build_file, check, Natives, Select, Sources};
+use petriplc_iec_sema::value::Value;
+use petriplc_iec_vm::Machine;
+
+const SAMPLES: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../../shared/schemas/plcopen/samples"
+);
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data");
+
+fn checked(path: &str) -> Result<Vec<String>, String> {
+    let mut s = Sources::new();
+    s.add_file(Path::new(path)).map_err(|e| e.to_string())?;
+    check(&s, &Natives::default())
+        .map(|c| c.warnings)
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn a_codesys_style_export_runs() {
+    let b = build_file(
+        Path::new(&format!("{DATA}/codesys_style.xml")),
+        &Select::Auto,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let e = b.engine.clone();
+    let mut m = Machine::new(e.clone());
+    let go = e.lookup("PLC_PRG.go").unwrap();
+    let parts = e.lookup("PLC_PRG.counts.parts").unwrap();
+    let busy = e.lookup("PLC_PRG.busy").unwrap();
+    let limit = e.lookup("PLC_PRG.limits[2]").unwrap();
+    assert_eq!(m.get(limit), Some(Value::Int(20)));
+    m.set(go, &Value::Int(1)).unwrap();
+    let mut busy_seen = Vec::new();
+    for k in 0..8 {
+        m.scan(k * 10_000_000, &mut || true).unwrap();
+        busy_seen.push(m.get(busy) == Some(Value::Int(1)));
+    }
+    // Running from the first scan until the 30 ms timer fires at t = 40 ms.
+    assert_eq!(
+        busy_seen,
+        [true, true, true, true, false, false, false, false]
+    );
+    assert_eq!(m.get(parts), Some(Value::Int(1)));
+}
+
+#[test]
+fn beremiz_libraries_load() {
+    let w = checked(&format!("{SAMPLES}/plcopen_Standard_Function_Blocks.xml")).unwrap();
+    assert!(
+        w.iter().any(|w| w
+            .contains("warning[W001]: FUNCTION_BLOCK TON replaces the standard function block")),
+        "{w:?}"
+    );
+    checked(&format!("{SAMPLES}/plcopen_Additional_Function_Blocks.xml")).unwrap();
+}
+
+#[test]
+fn beremiz_projects_in_other_languages_are_refused_with_the_reason() {
+    let e = checked(&format!("{SAMPLES}/exemples_first_steps.xml")).unwrap_err();
+    assert!(
+        e.contains("exemples_first_steps.xml:1144:13: error[E190]: program plc_prg is not written in Structured Text"),
+        "{e}"
+    );
+    // Every sample is read without a crash, whatever it holds.
+    for entry in std::fs::read_dir(SAMPLES).unwrap() {
+        let path = entry.unwrap().path();
+        let _ = checked(&path.display().to_string());
+    }
+}
+
+#[test]
+fn malformed_files_get_positioned_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    };
+    let p = write("a.xml", "<project xmlns=\"http://www.plcopen.org/xml/tc6_0201\"><types><pous><pou name=\"x\"></pous></types></project>");
+    let e = checked(&p).unwrap_err();
+    assert!(
+        e.contains("a.xml:1:") && e.contains("error[E050]: malformed XML"),
+        "{e}"
+    );
+    let p = write(
+        "b.xml",
+        "<pnml xmlns=\"http://www.plcopen.org/xml/tc6_0201\"/>",
+    );
+    let e = checked(&p).unwrap_err();
+    assert!(
+        e.contains("b.xml:1:1: error[E051]: the root element is <pnml>"),
+        "{e}"
+    );
+    let p = write(
+        "c.xml",
+        "<project xmlns=\"http://www.plcopen.org/xml/tc6_0201\"><types><pous>\n<pou name=\"p\" pouType=\"program\"><body><ST><xhtml:p xmlns:xhtml=\"http://www.w3.org/1999/xhtml\"><![CDATA[x := 1;\ny := ;]]></xhtml:p></ST></body></pou>\n</pous></types></project>",
+    );
+    let e = checked(&p).unwrap_err();
+    // The ST body's errors point into the XML file, at the body's own lines.
+    assert!(
+        e.contains("c.xml:3:6: error[E010]: expected an expression, found `;`"),
+        "{e}"
+    );
+    let p = write(
+        "d.xml",
+        "<project xmlns=\"http://www.plcopen.org/xml/tc6_0201\"><types><pous>\n<pou name=\"p\" pouType=\"program\"><body><ST><xhtml:p xmlns:xhtml=\"http://www.w3.org/1999/xhtml\"><![CDATA[\n  x := 1;]]></xhtml:p></ST></body></pou>\n</pous></types></project>",
+    );
+    let e = checked(&p).unwrap_err();
+    assert!(
+        e.contains("d.xml:3:3: error[E100]: `x` is not declared"),
+        "{e}"
+    );
+}
