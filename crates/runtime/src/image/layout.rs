@@ -462,6 +462,7 @@ mod tests {
             kind: PointKind::Unsigned,
             bits,
             init: PointValue::Unsigned(0),
+            retain: false,
             origin: Origin {
                 file: "t.conf".into(),
                 line: 1,
