@@ -112,6 +112,11 @@ impl Retained {
 }
 
 impl ModuleData {
+    /// Whether the module registered no value (its commits are plain updates).
+    pub fn is_empty(&self) -> bool {
+        lock(&self.entries).is_empty()
+    }
+
     /// Runs `update` (the scan's end-of-scan `update()`, which commits its points) and
     /// commits the values set during the scan with it, so that a snapshot sees both or
     /// neither. Cheap when the module registered nothing.
@@ -233,6 +238,14 @@ impl Registry {
             instance,
             volatile: false,
         })
+    }
+
+    /// How many values modules have registered.
+    pub fn registered(&self) -> usize {
+        lock(&self.modules)
+            .values()
+            .map(|m| lock(&m.entries).len())
+            .sum()
     }
 
     /// Stored values no module registered (once every module is initialised): they are

@@ -125,7 +125,12 @@ fn run(
         if due || stopping {
             current.clear();
             source(&mut current);
-            if written.as_ref() != Some(&current) {
+            // An empty snapshot is worth writing only over one that was not empty.
+            let unchanged = match &written {
+                Some(w) => *w == current,
+                None => current.is_empty(),
+            };
+            if !unchanged {
                 let at = SystemTime::now();
                 match file.write(&identity, &current, at) {
                     Ok(seq) => {

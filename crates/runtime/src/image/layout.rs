@@ -36,6 +36,8 @@ pub struct Slot {
     pub owner: String,
     /// Whether `at` fixed the place (otherwise the layout allocated it).
     pub fixed: bool,
+    /// Whether the point is retentive (`retain`): restored at start, kept in the retain file.
+    pub retain: bool,
     pub origin: Origin,
 }
 
@@ -137,6 +139,7 @@ impl Layout {
                 init: p.init,
                 owner: p.owner.clone(),
                 fixed: p.at.is_some(),
+                retain: p.retain,
                 origin: p.origin.clone(),
             });
         }
