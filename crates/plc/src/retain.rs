@@ -203,7 +203,7 @@ impl Retain {
         if let Some(p) = take(&self.persister) {
             if let Some((_, Some(ack))) = p.stop() {
                 log::info!(
-                    "retain file {}: snapshot {} written",
+                    "retain file {}: holds snapshot {}, the values as the PLC stopped",
                     self.path.display(),
                     ack.seq
                 );
