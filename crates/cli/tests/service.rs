@@ -111,7 +111,7 @@ fn sigterm_stops_cleanly_with_safe_values_and_retained_values_written() {
     assert!(out.status.success(), "{log}");
     assert!(log.contains("module lamps: safe value lamp = 0"), "{log}");
     assert!(log.contains("retain file "), "{log}");
-    let retain = dir.path().join(format!("{id}.retain"));
+    let retain = dir.path().join("plc.retain");
     let snap = petriplc_retain::file::peek(&retain)
         .unwrap()
         .snapshot

@@ -500,8 +500,11 @@ impl Plc {
         let canonical =
             std::fs::canonicalize(config_path).unwrap_or_else(|_| config_path.to_path_buf());
         // The retain file is checked against the configuration before anything is made.
+        let data = kinds
+            .iter()
+            .any(|k| k.as_ref().is_ok_and(|(_, m)| m.retains_data()));
         let (retain, restore) =
-            retain::Retain::open(&config, &layout, &base_dir, &canonical, &opts.plc_id)?;
+            retain::Retain::open(&config, &layout, &base_dir, &canonical, &opts.plc_id, data)?;
         let global = GlobalMap::create(&opts.plc_id, &layout)?;
         let synch = SharedSynch::create(&opts.plc_id, &net)?;
         let clocks = ScanClocks::create(&opts.plc_id, config.modules.len())?;

@@ -33,44 +33,56 @@ struct Pending {
 
 /// The retain file of PLC `plc_id`: `[PLC] retain_file` (relative to the configuration's
 /// folder), else `ID.retain` in systemd's state directory (`$STATE_DIRECTORY`, set by
-/// `StateDirectory=`), else `ID.retain` beside the configuration.
-pub(crate) fn path(config: &PlcConfig, base_dir: &Path, plc_id: &str) -> PathBuf {
+/// `StateDirectory=`), else beside the configuration, named after it (`plc.conf` →
+/// `plc.retain`).
+pub(crate) fn path(
+    config: &PlcConfig,
+    base_dir: &Path,
+    config_path: &Path,
+    plc_id: &str,
+) -> PathBuf {
     if let Some(s) = &config.retain.file {
         return base_dir.join(&s.value);
     }
-    let name = format!("{plc_id}.retain");
     match std::env::var_os("STATE_DIRECTORY") {
         // systemd lists one folder per StateDirectory= entry, separated by colons.
         Some(dirs) if !dirs.is_empty() => {
             let dirs = dirs.to_string_lossy().into_owned();
-            PathBuf::from(dirs.split(':').next().unwrap_or_default()).join(name)
+            PathBuf::from(dirs.split(':').next().unwrap_or_default())
+                .join(format!("{plc_id}.retain"))
         }
-        _ => base_dir.join(name),
+        _ => {
+            let stem = config_path
+                .file_stem()
+                .map_or_else(|| "plc".into(), |s| s.to_string_lossy().into_owned());
+            base_dir.join(format!("{stem}.retain"))
+        }
     }
 }
 
 impl Retain {
     /// Opens (and locks) the retain file when the PLC keeps anything there — retentive
-    /// points, a `retain_file` setting, or a file left by an earlier run — and checks what
-    /// it holds against the configuration. Returns the values to restore, by point.
-    /// Otherwise the file is opened only if a module registers retained data.
+    /// points, module data (`data`: a module said it registers some), or a `retain_file`
+    /// setting — and checks what it holds against the configuration. Returns the values to
+    /// restore, by point. A PLC that keeps nothing opens no file.
     pub(crate) fn open(
         config: &PlcConfig,
         layout: &Layout,
         base_dir: &Path,
         config_path: &Path,
         plc_id: &str,
+        data: bool,
     ) -> Result<(Retain, Vec<(PointId, u32)>), RetainError> {
-        let path = path(config, base_dir, plc_id);
+        let path = path(config, base_dir, config_path, plc_id);
         let points = retained::points(layout);
         let identity = Identity {
             plc_id: plc_id.to_string(),
             config: config_path.display().to_string(),
         };
-        if points.is_empty() && config.retain.file.is_none() && !path.exists() {
+        if points.is_empty() && config.retain.file.is_none() && !data {
             return Ok((
                 Retain {
-                    registry: Arc::new(Registry::new(path.clone(), &[])),
+                    registry: Arc::new(Registry::without_file(path.clone())),
                     path,
                     points,
                     persister: Mutex::new(None),
@@ -163,18 +175,8 @@ impl Retain {
                 self.path.display()
             );
         }
-        let pending = match take(&self.pending) {
-            Some(p) => p,
-            // No retentive point, but a module keeps data: the file is made now (it did not
-            // exist at start, so there was nothing to give back).
-            None if self.registry.registered() > 0 => {
-                let (file, _) = petriplc_retain::RetainFile::open(&self.path)?;
-                Pending {
-                    file,
-                    restored: None,
-                }
-            }
-            None => return Ok(()),
+        let Some(pending) = take(&self.pending) else {
+            return Ok(());
         };
         let source = source(
             global.clone(),

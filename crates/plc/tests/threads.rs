@@ -101,6 +101,8 @@ impl Module for Watcher {
 struct Totaliser {
     total: Option<petriplc_retain::Retained>,
     value: u64,
+    /// Registers data without saying so (`retains_data`): a bug the runner refuses.
+    sneaky: bool,
 }
 
 impl Module for Totaliser {
@@ -122,6 +124,10 @@ impl Module for Totaliser {
 
     fn status(&self) -> String {
         format!("total {}", self.value)
+    }
+
+    fn retains_data(&self) -> bool {
+        !self.sneaky
     }
 }
 
@@ -154,6 +160,14 @@ fn registry(kind: &str) -> Option<Factory> {
             Ok(Box::new(Totaliser {
                 total: None,
                 value: 0,
+                sneaky: false,
+            }))
+        }),
+        "sneaky" => Some(|_| {
+            Ok(Box::new(Totaliser {
+                total: None,
+                value: 0,
+                sneaky: true,
             }))
         }),
         _ => None,
@@ -166,10 +180,30 @@ fn start(dir: &Path, name: &str, conf: &str) -> Plc {
     let opts = RunOptions {
         plc_id: format!("threads-{name}-{}", std::process::id()),
         duration: None,
-        known_kinds: &["sleeper", "stuck", "watcher", "totaliser"],
+        known_kinds: &["sleeper", "stuck", "watcher", "totaliser", "sneaky"],
         overrides: Vec::new(),
     };
     Plc::start(&path, registry, &opts).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn data_registered_without_saying_so_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plc.conf");
+    std::fs::write(&path, "[PLC]\nmodule s sneaky\n").unwrap();
+    let opts = RunOptions {
+        plc_id: format!("threads-sneaky-{}", std::process::id()),
+        duration: None,
+        known_kinds: &[],
+        overrides: Vec::new(),
+    };
+    let e = Plc::start(&path, registry, &opts).err().unwrap();
+    assert!(e.is_bad_input());
+    assert_eq!(
+        e.to_string(),
+        "module s: module s registers retained data (`total`) but its kind does not say so \
+         (`Module::retains_data`), so the PLC opened no retain file for it: a bug in the module"
+    );
 }
 
 /// Waits until `SEEN` satisfies `done`.
@@ -279,8 +313,8 @@ fn a_module_stuck_for_ever_is_left_behind_and_restarted() {
 fn module_data_is_retained_over_a_restart_of_the_plc() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
-    let conf = "[PLC]\nmodule tot totaliser\nretain_file = tot.retain\n\
-                [tot]\nscan_period = T#2ms\n";
+    // No retentive point, no retain_file: the module's word opens the default file.
+    let conf = "[PLC]\nmodule tot totaliser\n[tot]\nscan_period = T#2ms\n";
     let total = |last: &petriplc_plc::PlcStatus| -> u64 {
         last.modules[0]
             .detail
@@ -300,7 +334,7 @@ fn module_data_is_retained_over_a_restart_of_the_plc() {
         second > first,
         "{second} after {first}: the total started afresh"
     );
-    let snap = petriplc_retain::file::peek(&dir.path().join("tot.retain"))
+    let snap = petriplc_retain::file::peek(&dir.path().join("plc.retain"))
         .unwrap()
         .snapshot
         .unwrap();

@@ -27,6 +27,8 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 #[derive(Debug)]
 pub struct Registry {
     path: PathBuf,
+    /// Whether a retain file keeps the values (else registering is refused).
+    persistent: bool,
     /// Read from the file at start, by `MODULE/NAME`: signature and bytes.
     stored: Mutex<BTreeMap<String, (String, Vec<u8>)>>,
     modules: Mutex<BTreeMap<String, Arc<ModuleData>>>,
@@ -150,6 +152,16 @@ impl Registry {
     /// A registry for the PLC whose retain file is `path`, with the module data `entries`
     /// read from it (points among them are ignored).
     pub fn new(path: PathBuf, entries: &[Entry]) -> Registry {
+        Registry::with_file(path, entries, true)
+    }
+
+    /// A registry with no retain file behind it (a PLC that keeps nothing): registering is
+    /// refused, naming the module.
+    pub fn without_file(path: PathBuf) -> Registry {
+        Registry::with_file(path, &[], false)
+    }
+
+    fn with_file(path: PathBuf, entries: &[Entry], persistent: bool) -> Registry {
         let stored = entries
             .iter()
             .filter_map(|e| match &e.value {
@@ -161,6 +173,7 @@ impl Registry {
             .collect();
         Registry {
             path,
+            persistent,
             stored: Mutex::new(stored),
             modules: Mutex::new(BTreeMap::new()),
         }
@@ -187,6 +200,12 @@ impl Registry {
         name: &str,
         signature: &str,
     ) -> Result<Retained, RetainError> {
+        if !self.persistent {
+            return Err(RetainError::Undeclared {
+                module: module.to_string(),
+                name: name.to_string(),
+            });
+        }
         let m = self.module(module);
         let instance = m.instance.load(Ordering::Acquire);
         let key = format!("{module}/{name}");

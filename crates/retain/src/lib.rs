@@ -148,6 +148,11 @@ pub enum RetainError {
         now: String,
     },
     #[error(
+        "module {module} registers retained data (`{name}`) but its kind does not say so \
+         (`Module::retains_data`), so the PLC opened no retain file for it: a bug in the module"
+    )]
+    Undeclared { module: String, name: String },
+    #[error(
         "retain file {} belongs to PLC `{stored}` (written for {config}), not to this PLC \
          `{plc_id}`: give this PLC its own file with `retain_file` in [PLC] (or `--set \
          PLC:retain_file=FILE`), or remove that file if its values are not wanted",

@@ -126,6 +126,12 @@ pub trait Module: Send {
     fn default_scan_period(&self) -> Option<Duration> {
         None
     }
+    /// Whether the module will register retained data in `init` ([`InitContext::retain`]),
+    /// known from its settings alone: the runner then opens the PLC's retain file before
+    /// initialising any module (a module that registers without saying so is refused).
+    fn retains_data(&self) -> bool {
+        false
+    }
 }
 
 /// Makes a module of a built-in kind from its declaration.
