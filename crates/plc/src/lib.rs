@@ -1389,14 +1389,13 @@ fn scan_loop(
         if end(shared, scan_ref.as_ref()).is_err() {
             return Ended::Stopped;
         }
-        let mut stats = lock(stats);
-        stats.record(period::now().saturating_sub(started), late, missed);
+        lock(stats).record(period::now().saturating_sub(started), late, missed);
         scan += 1;
         let now = period::now();
         if now.saturating_sub(published) >= Duration::from_millis(25) {
             published = now;
             let (line, marking) = (module.status(), module.marking());
-            shared.set_status(index, |s| s.record(&stats, line, marking));
+            shared.set_status(index, |s| s.record(&lock(stats), line, marking));
         }
     }
 }

@@ -455,6 +455,9 @@ pub fn decode(bytes: &[u8]) -> Result<(Snapshot, usize), String> {
         };
         entries.push(Entry { name, value });
     }
+    if r.at != r.bytes.len() {
+        return Err(bad());
+    }
     let snap = Snapshot {
         seq,
         written: UNIX_EPOCH + Duration::from_nanos(ns),
