@@ -16,7 +16,9 @@ use petriplc_runtime::image::module::process_threads;
 use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap};
 use petriplc_runtime::period::{self, Period, ScanStats};
 use petriplc_runtime::report::Sender;
+use petriplc_runtime::retained::{self, Adopt};
 use petriplc_runtime::synch::{ScanRef, SharedSynch, SynchError, SynchNet, TransitionRef};
+use petriplc_runtime::watchdog::{ScanClock, ScanClocks, Token};
 
 use crate::args::{self, Target};
 use crate::*;
@@ -60,6 +62,10 @@ struct Plc {
     under_way: Option<(Duration, Duration, u64)>,
     /// To the runner that started this process (`None` when started by hand).
     report: Option<Sender>,
+    /// With a watchdog: the module's scan clock, which the runner watches, and the scan
+    /// under way on it.
+    clock: Option<ScanClock>,
+    scan_token: Option<Token>,
 }
 
 static STATE: Mutex<Option<Plc>> = Mutex::new(None);
@@ -230,10 +236,17 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
     };
     let (map, global) = if decl.location == Location::Isolate {
         check_single_threaded().map_err(context)?;
-        let map = ModuleMap::isolated(&layout, module, &plc_id).map_err(attach_image)?;
+        let mut map = ModuleMap::isolated(&layout, module, &plc_id).map_err(attach_image)?;
+        // The module's retentive points go on from the image: read once here, before any
+        // of the module's code runs, and never mapped again by this process.
+        if let Ok(global) = GlobalMap::open(&plc_id) {
+            if global.check_layout(&layout).is_ok() {
+                retained::adopt(&mut map, &global, Adopt::Retentive);
+            }
+        }
         (map, None)
     } else {
-        let map = ModuleMap::new(&layout, module, decl.location)
+        let mut map = ModuleMap::new(&layout, module, decl.location)
             .map_err(image_error)
             .map_err(context)?;
         let global = GlobalMap::open(&plc_id).map_err(attach_image)?;
@@ -241,7 +254,23 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
             .check_layout(&layout)
             .map_err(image_error)
             .map_err(attach)?;
+        // Retentive points go on from the image (restored at start, or as a previous
+        // process of this module left them), not from their init values.
+        retained::adopt(&mut map, &global, Adopt::Retentive);
         (map, Some(global))
+    };
+    let clock = match decl.watchdog {
+        None => None,
+        Some(_) => {
+            let index = config
+                .modules
+                .iter()
+                .position(|m| m.name == module)
+                .unwrap_or(usize::MAX);
+            ScanClocks::open(&plc_id)
+                .map_err(|e| attach(Error::new(PLC_ERR_OS, e.to_string())))?
+                .clock(index)
+        }
     };
     let synch = SharedSynch::open(&plc_id, &net)
         .map_err(|e| match e {
@@ -269,6 +298,8 @@ pub(crate) fn init(target: Target) -> Result<(), Error> {
         stats: ScanStats::new(),
         under_way: None,
         report: Sender::from_env(),
+        clock,
+        scan_token: None,
     });
     Ok(())
 }
@@ -441,16 +472,27 @@ pub(crate) fn scan_beg() -> Result<c_int, Error> {
     }
     with_session(session, |plc| {
         plc.update()?;
+        plc.scan_token = plc.clock.as_ref().map(ScanClock::begin);
         Ok(PLC_OK)
     })
 }
 
 /// Updates the map, then synchronises on the module's `scan_end` transition; counts the scan.
 pub(crate) fn scan_end() -> Result<c_int, Error> {
-    let (session, synch, scan) = with_plc(|plc| {
+    let ended = with_plc(|plc| {
+        if let (Some(clock), Some(t)) = (&plc.clock, plc.scan_token.take()) {
+            if !clock.end(t) {
+                // The watchdog took this scan (the runner is killing this process): nothing
+                // of it may be written.
+                return Ok(None);
+            }
+        }
         plc.update()?;
-        Ok((plc.session, plc.synch.clone(), plc.scan))
+        Ok(Some((plc.session, plc.synch.clone(), plc.scan)))
     })?;
+    let Some((session, synch, scan)) = ended else {
+        return Ok(PLC_STOPPING);
+    };
     let ended = match &scan {
         Some(scan) => synch.end_scan(scan).map(drop),
         None => synch.synch(TransitionRef::Null).map(drop),

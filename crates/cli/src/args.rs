@@ -361,6 +361,11 @@ pub struct RunArgs {
     /// The least important messages shown.
     #[arg(long, default_value = "info", value_parser = ["error", "warn", "info", "debug", "trace"])]
     pub log_level: String,
+    /// Where log lines go: `auto` (the systemd journal when systemd connected standard error
+    /// to it, else the terminal), `terminal`, `journal`, `syslog` (the local syslog socket),
+    /// `syslog:PATH` (a syslog Unix socket), `syslog:HOST:PORT` (syslog over UDP).
+    #[arg(long, value_name = "WHERE", default_value = "auto", value_parser = crate::logging::parse_log_to)]
+    pub log_to: crate::logging::LogTo,
     /// Overrides a setting of a module's section, e.g. `--set hmi:listen=127.0.0.1:8081`
     /// (repeatable).
     #[arg(long = "set", value_name = "MODULE:SETTING=VALUE")]

@@ -105,6 +105,10 @@ pub const UNKNOWN_SCAN_TRANSITION: &str = "C038";
 pub const SECTION_CASE: &str = "C039";
 pub const BAD_RESTART: &str = "C029";
 
+// Retentive values and watchdogs.
+pub const BAD_WATCHDOG: &str = "C060";
+pub const BAD_RETAIN_SETTING: &str = "C061";
+
 // The synchronisation net.
 pub const PLACE_SHAPE: &str = "C040";
 pub const TRANSITION_SHAPE: &str = "C041";
@@ -140,7 +144,7 @@ pub const CODES: &[(&str, &str)] = &[
     (UNKNOWN_TABLE, "an unknown table in [PLC]"),
     (
         UNKNOWN_PLC_SETTING,
-        "a setting in [PLC] other than plc_id (nothing would read it)",
+        "a setting in [PLC] other than plc_id, retain_file, retain_write (nothing would read it)",
     ),
     (BAD_PLC_ID, "an empty plc_id"),
     (
@@ -193,6 +197,14 @@ pub const CODES: &[(&str, &str)] = &[
     (
         BAD_RESTART,
         "a bad restart_delay/restart_delay_max/restart_limit, or one without on_failure = restart",
+    ),
+    (
+        BAD_WATCHDOG,
+        "a watchdog that is not a duration longer than 0",
+    ),
+    (
+        BAD_RETAIN_SETTING,
+        "an empty retain_file, or a retain_write other than `change` or a duration",
     ),
     (PLACE_SHAPE, "a malformed `place` row"),
     (TRANSITION_SHAPE, "a malformed `transition` row"),

@@ -42,7 +42,7 @@ pub enum PointValue {
     Float(f32),
 }
 
-/// `point NAME "description" OWNER [at W.B] [i|u|f][bits] [init V]`
+/// `point NAME "description" OWNER [at W.B] [i|u|f][bits] [init V] [retain]`
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointDecl {
     pub name: String,
@@ -55,6 +55,9 @@ pub struct PointDecl {
     /// 1 to 32; `bit + bits <= 32`.
     pub bits: u8,
     pub init: PointValue,
+    /// `retain`: the value outlives a restart of the PLC (kept in the retain file and restored
+    /// at start, before any module's first scan).
+    pub retain: bool,
     pub origin: Origin,
 }
 
@@ -122,6 +125,8 @@ pub struct ModuleDecl {
     pub on_failure: OnFailure,
     /// With `on_failure = restart`: how restarts are paced and limited.
     pub restart: Restart,
+    /// `watchdog`: a scan (from `scan_beg` to `scan_end`) that runs longer is a failure.
+    pub watchdog: Option<Duration>,
     /// `scan_beg` / `scan_end`: transitions of the synchronisation net (`NULL` when absent).
     pub scan_beg: Option<String>,
     pub scan_end: Option<String>,
@@ -144,6 +149,7 @@ impl ModuleDecl {
             priority: None,
             on_failure: OnFailure::default(),
             restart: Restart::default(),
+            watchdog: None,
             scan_beg: None,
             scan_end: None,
             settings: BTreeMap::new(),
@@ -198,6 +204,32 @@ pub struct SynchDecl {
     pub starts: Vec<(String, Origin)>,
 }
 
+/// When the retentive values are written to the retain file (`[PLC] retain_write`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RetainWrite {
+    /// `change`: every change, as soon as the previous write is done.
+    Change,
+    /// A duration: at most one write per this long (changes are written this long after the
+    /// last write at the latest).
+    Every(Duration),
+}
+
+impl Default for RetainWrite {
+    /// At most every 500 ms, so that a crash loses at most the last second of changes.
+    fn default() -> Self {
+        RetainWrite::Every(Duration::from_millis(500))
+    }
+}
+
+/// `[PLC] retain_file` and `retain_write`.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub struct RetainSettings {
+    /// `retain_file`, as written (relative to the configuration file's folder); `None`: the
+    /// default file.
+    pub file: Option<Setting>,
+    pub write: RetainWrite,
+}
+
 /// A whole PLC configuration.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct PlcConfig {
@@ -205,6 +237,8 @@ pub struct PlcConfig {
     pub file: String,
     /// Every `name = value` of the `[PLC]` section (e.g. `plc_id`).
     pub plc: BTreeMap<String, Setting>,
+    /// Where and how often retentive values are kept.
+    pub retain: RetainSettings,
     pub points: Vec<PointDecl>,
     pub modules: Vec<ModuleDecl>,
     pub synch: SynchDecl,

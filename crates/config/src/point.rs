@@ -1,5 +1,5 @@
-//! `point NAME "description" OWNER [at W[.B]] [i|u|f][bits] [init V]` rows: the optional
-//! clauses may come in any order, each at most once.
+//! `point NAME "description" OWNER [at W[.B]] [i|u|f][bits] [init V] [retain]` rows: the
+//! optional clauses may come in any order, each at most once.
 //!
 //! Defaults follow MatPLC: the length is 1 bit without `at`, 32 bits with `at W`, 1 bit with
 //! `at W.B`, and 32 bits for `f`. Without an `i`/`u`/`f` letter the kind follows the
@@ -13,7 +13,7 @@ use crate::model::{Origin, PointDecl, PointKind, PointValue};
 /// any PLC needs, small enough that a typo cannot make the runtime allocate gigabytes.
 pub const MAX_WORDS: u32 = 65_536;
 
-const SYNTAX: &str = "`point NAME \"description\" OWNER [at W.B] [i|u|f][bits] [init V]`";
+const SYNTAX: &str = "`point NAME \"description\" OWNER [at W.B] [i|u|f][bits] [init V] [retain]`";
 
 /// The point a row declares, or `None` after pushing what is wrong with it.
 pub(crate) fn parse_point(
@@ -41,12 +41,13 @@ pub(crate) fn parse_point(
     let mut kind: Option<PointKind> = None;
     let mut len: Option<u32> = None;
     let mut init: Option<&str> = None;
+    let mut retain = false;
     let mut seen = Vec::new();
     let mut i = 0;
     while i < rest.len() {
         let cell = rest[i].as_str();
         let clause = match cell {
-            "at" | "init" => cell,
+            "at" | "init" | "retain" => cell,
             _ => "type",
         };
         if seen.contains(&clause) {
@@ -60,6 +61,10 @@ pub(crate) fn parse_point(
         }
         seen.push(clause);
         match clause {
+            "retain" => {
+                retain = true;
+                i += 1;
+            }
             "at" | "init" => {
                 let Some(value) = rest.get(i + 1) else {
                     let example = if clause == "at" { "at 3.0" } else { "init 0" };
@@ -92,7 +97,7 @@ pub(crate) fn parse_point(
                         format!(
                             "unexpected `{cell}` in point {name}: after the owner come \
                              `at W.B`, a type and length such as `1`, `u8`, `i16` or `f32`, \
-                             and `init V`"
+                             `init V` and `retain`"
                         ),
                     ),
                 }
@@ -187,6 +192,7 @@ pub(crate) fn parse_point(
         kind,
         bits: bits as u8,
         init,
+        retain,
         origin: origin.clone(),
     })
 }
@@ -370,8 +376,13 @@ mod tests {
                 assert!(diags.is_empty());
                 let at = p.at.map_or("-".into(), |(w, b)| format!("{w}.{b}"));
                 format!(
-                    "{} {} {at} {:?}{} {:?}",
-                    p.name, p.owner, p.kind, p.bits, p.init
+                    "{} {} {at} {:?}{} {:?}{}",
+                    p.name,
+                    p.owner,
+                    p.kind,
+                    p.bits,
+                    p.init,
+                    if p.retain { " retain" } else { "" }
                 )
             }
             None => diags
@@ -395,6 +406,24 @@ mod tests {
         check("T _ m at 3 f init 2", "T m 3.0 Float32 Float(2.0)");
         check("S _ m i16 init -300", "S m - Signed16 Signed(-300)");
         check("S _ m init 1 at 2.4 u4", "S m 2.4 Unsigned4 Unsigned(1)");
+    }
+
+    #[test]
+    fn retain_anywhere_after_the_owner() {
+        check("c _ m u32 retain", "c m - Unsigned32 Unsigned(0) retain");
+        check(
+            "c _ m retain at 4 i16 init -2",
+            "c m 4.0 Signed16 Signed(-2) retain",
+        );
+        check(
+            "c _ m retain u8 retain",
+            "C024 point c has `retain` twice: keep one",
+        );
+        check(
+            "c _ m retained",
+            "C024 unexpected `retained` in point c: after the owner come `at W.B`, a type and \
+             length such as `1`, `u8`, `i16` or `f32`, `init V` and `retain`",
+        );
     }
 
     #[test]
@@ -463,12 +492,12 @@ mod tests {
         check(
             "a _",
             "C020 a point needs a name, a description and an owner: `point NAME \
-             \"description\" OWNER [at W.B] [i|u|f][bits] [init V]`",
+             \"description\" OWNER [at W.B] [i|u|f][bits] [init V] [retain]`",
         );
         check(
             "a x _",
             "C020 a point's name and owner must not be empty: `point NAME \"description\" \
-             OWNER [at W.B] [i|u|f][bits] [init V]`",
+             OWNER [at W.B] [i|u|f][bits] [init V] [retain]`",
         );
         check(
             "a _ m at 1.",
@@ -506,7 +535,7 @@ mod tests {
         check(
             "a _ m bool",
             "C024 unexpected `bool` in point a: after the owner come `at W.B`, a type and length \
-             such as `1`, `u8`, `i16` or `f32`, and `init V`",
+             such as `1`, `u8`, `i16` or `f32`, `init V` and `retain`",
         );
         check("a _ m at 1 at 2", "C024 point a has `at` twice: keep one");
         check(

@@ -2,8 +2,8 @@
 //! synchronisation net; each module's section gives its settings; then everything is
 //! cross-checked, collecting every problem.
 //!
-//! A setting nobody reads is an error, wherever it is written: `[PLC]` has one setting,
-//! `plc_id`; a section (or `X: name = value` line) for a module that is not declared is read
+//! A setting nobody reads is an error, wherever it is written: `[PLC]` has three settings,
+//! `plc_id`, `retain_file` and `retain_write`; a section (or `X: name = value` line) for a module that is not declared is read
 //! by nobody (a module program started by hand must be declared too: the C ABI refuses an
 //! undeclared module), so any setting or row in it is an error; module sections are checked
 //! by their module kinds, and the runner checks the settings it reads itself.
@@ -13,8 +13,8 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use crate::arrow::parse_arrow;
 use crate::error::{self, ConfigError, Diagnostic};
 use crate::model::{
-    ArcDecl, Location, ModuleDecl, OnFailure, Origin, PlaceDecl, PlcConfig, PointDecl, Row,
-    Section, Setting, SynchDecl, SynchRule,
+    ArcDecl, Location, ModuleDecl, OnFailure, Origin, PlaceDecl, PlcConfig, PointDecl,
+    RetainSettings, RetainWrite, Row, Section, Setting, SynchDecl, SynchRule,
 };
 use crate::point::parse_point;
 use crate::raw::RawConfig;
@@ -39,12 +39,13 @@ pub const MODULE_SETTINGS: &[&str] = &[
     "restart_delay",
     "restart_delay_max",
     "restart_limit",
+    "watchdog",
     "scan_beg",
     "scan_end",
 ];
 
 /// The settings `[PLC]` may hold.
-pub const PLC_SETTINGS: &[&str] = &["plc_id"];
+pub const PLC_SETTINGS: &[&str] = &["plc_id", "retain_file", "retain_write"];
 
 /// MatPLC's `[PLC]` settings that petriplc has no use for, and why.
 const MATPLC_PLC_SETTINGS: &[(&str, &str)] = &[
@@ -70,7 +71,7 @@ pub(crate) fn build(raw: RawConfig) -> Result<PlcConfig, ConfigError> {
     for row in &plc.rows {
         b.row(row);
     }
-    b.check_plc_settings(plc);
+    let retain = b.check_plc_settings(plc);
     b.check_points();
     b.check_modules();
     b.check_net();
@@ -83,6 +84,7 @@ pub(crate) fn build(raw: RawConfig) -> Result<PlcConfig, ConfigError> {
     Ok(PlcConfig {
         file: raw.file,
         plc: first_settings(plc),
+        retain,
         points: b.points,
         modules,
         synch: b.synch,
@@ -265,11 +267,45 @@ impl Builder {
         }
     }
 
-    /// `[PLC]` holds `plc_id` and nothing else.
-    fn check_plc_settings(&mut self, plc: &Section) {
+    /// `[PLC]` holds `plc_id`, `retain_file`, `retain_write` and nothing else.
+    fn check_plc_settings(&mut self, plc: &Section) -> RetainSettings {
+        let mut retain = RetainSettings::default();
         let mut seen = HashSet::new();
         for (key, s) in &plc.pairs {
             if !seen.insert(key) {
+                continue;
+            }
+            if key == "retain_file" {
+                if s.value.is_empty() {
+                    self.err(
+                        &s.origin,
+                        error::BAD_RETAIN_SETTING,
+                        "`retain_file` is empty: give the file that keeps the retentive values \
+                         (relative to this configuration file's folder), or remove the line for \
+                         the default",
+                    );
+                } else {
+                    retain.file = Some(s.clone());
+                }
+                continue;
+            }
+            if key == "retain_write" {
+                match s.value.as_str() {
+                    "change" => retain.write = RetainWrite::Change,
+                    v => match petriplc_net::time::parse_duration(v) {
+                        Ok(d) if !d.is_zero() => retain.write = RetainWrite::Every(d),
+                        Ok(_) => retain.write = RetainWrite::Change,
+                        Err(e) => self.err(
+                            &s.origin,
+                            error::BAD_RETAIN_SETTING,
+                            format!(
+                                "`retain_write = {v}`: write `change` (every change, as soon as \
+                                 the previous write is done) or the shortest time between two \
+                                 writes (e.g. `T#500ms`, the default): {e}"
+                            ),
+                        ),
+                    },
+                }
                 continue;
             }
             if key == "plc_id" {
@@ -308,6 +344,7 @@ impl Builder {
                 ),
             );
         }
+        retain
     }
 
     fn check_points(&mut self) {
@@ -600,6 +637,16 @@ impl Builder {
                             Err(e) => bad(error::BAD_RESTART, e.to_string()),
                         }
                     }
+                    "watchdog" => match petriplc_net::time::parse_duration(v) {
+                        Ok(d) if !d.is_zero() => decl.watchdog = Some(d),
+                        Ok(_) => bad(
+                            error::BAD_WATCHDOG,
+                            "a watchdog must be longer than 0 (e.g. `T#100ms`); remove the \
+                             line for none"
+                                .into(),
+                        ),
+                        Err(e) => bad(error::BAD_WATCHDOG, e.to_string()),
+                    },
                     "restart_limit" => match v.parse::<u32>() {
                         Ok(n) => decl.restart.limit = n,
                         Err(_) => bad(
@@ -783,6 +830,13 @@ mod tests {
         for (k, v) in &c.plc {
             out.push_str(&format!("plc {k}={}\n", v.value));
         }
+        if c.retain != RetainSettings::default() {
+            out.push_str(&format!(
+                "retain {:?} {:?}\n",
+                c.retain.file.as_ref().map(|s| &s.value),
+                c.retain.write
+            ));
+        }
         for p in &c.points {
             let at = p.at.map_or("-".into(), |(w, b)| format!("{w}.{b}"));
             out.push_str(&format!(
@@ -791,6 +845,9 @@ mod tests {
             ));
         }
         for m in &c.modules {
+            if let Some(w) = m.watchdog {
+                out.push_str(&format!("watchdog {} {w:?}\n", m.name));
+            }
             out.push_str(&format!(
                 "module {} {} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?}\n",
                 m.name,
@@ -865,13 +922,40 @@ t.conf:16: error[C033]: `own` is set for `ghost`, but no module ghost is declare
         check(
             "[PLC]\nplc_id = line2\nmodule a x\nconfmap_key = 20\nscan_period = 1\nflavour = 3\n\
              [Kbd]\nkey 38 left\nquiet = 1\n",
-            "t.conf:4: error[C012]: `confmap_key = 20` in [PLC]: nothing reads this setting (MatPLC's key of its configuration shared memory; petriplc names its shared memory after the plc id); [PLC] has only plc_id
-t.conf:5: error[C012]: `scan_period = 1` in [PLC]: nothing reads this setting; [PLC] has only plc_id; `scan_period` is a module's setting: write it in the module's section ([NAME]) or as `NAME: scan_period = 1`
-t.conf:6: error[C012]: `flavour = 3` in [PLC]: nothing reads this setting; [PLC] has only plc_id
+            "t.conf:4: error[C012]: `confmap_key = 20` in [PLC]: nothing reads this setting (MatPLC's key of its configuration shared memory; petriplc names its shared memory after the plc id); [PLC] has only plc_id, retain_file, retain_write
+t.conf:5: error[C012]: `scan_period = 1` in [PLC]: nothing reads this setting; [PLC] has only plc_id, retain_file, retain_write; `scan_period` is a module's setting: write it in the module's section ([NAME]) or as `NAME: scan_period = 1`
+t.conf:6: error[C012]: `flavour = 3` in [PLC]: nothing reads this setting; [PLC] has only plc_id, retain_file, retain_write
 t.conf:9: error[C033]: `quiet` is set for `Kbd`, but no module Kbd is declared: add `module Kbd KIND-or-PATH` to [PLC], or remove the setting
 t.conf:8: error[C033]: a `key` row in section [Kbd], but no module Kbd is declared: add `module Kbd KIND-or-PATH` to [PLC], or remove the row",
         );
         check("[PLC]\nplc_id =\n", "t.conf:2: error[C013]: `plc_id` is empty: give the PLC's id (letters, digits, `_`, `-`, `.`) or remove the line");
+    }
+
+    #[test]
+    fn retain_and_watchdog_settings() {
+        check(
+            "[PLC]\nretain_file = state/plc.retain\nretain_write = change\nmodule a x\n\
+             [a]\nwatchdog = T#50ms\n",
+            r#"plc retain_file=state/plc.retain
+plc retain_write=change
+retain Some("state/plc.retain") Change
+watchdog a 50ms
+module a x [] None Local None Stop None None ["watchdog"]"#,
+        );
+        check(
+            "[PLC]\nretain_write = 0.2\nmodule a x\n",
+            r#"plc retain_write=0.2
+retain None Every(200ms)
+module a x [] None Local None Stop None None []"#,
+        );
+        check(
+            "[PLC]\nretain_file =\nretain_write = often\nmodule a x\nmodule b y\n\
+             [a]\nwatchdog = 0\n[b]\nwatchdog = soon\n",
+            "t.conf:2: error[C061]: `retain_file` is empty: give the file that keeps the retentive values (relative to this configuration file's folder), or remove the line for the default
+t.conf:3: error[C061]: `retain_write = often`: write `change` (every change, as soon as the previous write is done) or the shortest time between two writes (e.g. `T#500ms`, the default): `often` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)
+t.conf:7: error[C060]: `watchdog = 0` for module a: a watchdog must be longer than 0 (e.g. `T#100ms`); remove the line for none
+t.conf:9: error[C060]: `watchdog = soon` for module b: `soon` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)",
+        );
     }
 
     #[test]

@@ -10,12 +10,15 @@
 //! statistics of every module are published for `petriplc status`. A start that fails
 //! removes everything it made.
 
+mod retain;
+
 use std::os::fd::AsRawFd;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -30,9 +33,13 @@ use petriplc_runtime::owner::{self, Owner, OwnerError, Probe};
 use petriplc_runtime::period::{self, Period, ScanStats};
 use petriplc_runtime::process::{self as proc, Pidfd};
 use petriplc_runtime::report::{self, Receiver};
+use petriplc_runtime::retained::{self, Adopt};
 use petriplc_runtime::synch::{
     Abandoned, ScanRef, SharedSynch, SynchError, SynchNet, TransitionRef,
 };
+use petriplc_runtime::watchdog::{ClockError, ScanClock, ScanClocks};
+
+pub use petriplc_retain::RetainError;
 
 pub use petriplc_runtime::status::{self, ModuleState, ModuleStatus, PlcStatus};
 
@@ -107,6 +114,16 @@ pub enum RunError {
         if .modules.len() == 1 { "its scan_beg" } else { "their scan_beg" }
     )]
     DeadSynch { modules: Vec<String> },
+    #[error(transparent)]
+    Retain(#[from] RetainError),
+    #[error(transparent)]
+    Clocks(#[from] ClockError),
+    #[error(
+        "module {module}: `watchdog` needs `location = local`: a built-in module with \
+         `location = shared` writes the process image directly, so a scan the watchdog gives \
+         up on could still write to it"
+    )]
+    WatchdogShared { module: String },
     #[error("{origin}: plc_id = {plc_id}: {reason}")]
     BadConfigPlcId {
         origin: Origin,
@@ -146,9 +163,9 @@ impl RunError {
             | RunError::Taken(_)
             | RunError::Image(ImageError::AlreadyRunning { .. } | ImageError::Os { .. })
             | RunError::Synch(SynchError::Exists { .. } | SynchError::Os { .. })
-            | RunError::Owner(OwnerError::Running { .. } | OwnerError::Os { .. }) => {
-                NotStarted::CouldNotStart
-            }
+            | RunError::Owner(OwnerError::Running { .. } | OwnerError::Os { .. })
+            | RunError::Clocks(_) => NotStarted::CouldNotStart,
+            RunError::Retain(e) if !e.is_bad_input() => NotStarted::CouldNotStart,
             _ => NotStarted::BadInput,
         }
     }
@@ -271,6 +288,10 @@ struct Shared {
     layout: Layout,
     global: GlobalMap,
     synch: SharedSynch,
+    /// The modules' scan clocks, for their watchdogs.
+    clocks: ScanClocks,
+    /// The retain file and the modules' retained data.
+    retain: retain::Retain,
     /// Per module: its `safe` values, checked at start.
     safe: Vec<Vec<SafeValue>>,
     t0: Duration,
@@ -420,6 +441,13 @@ impl Plc {
             .iter()
             .map(|decl| safe_values(&config, &layout, decl))
             .collect::<Result<Vec<_>, _>>()?;
+        for (decl, kind) in config.modules.iter().zip(&kinds) {
+            if decl.watchdog.is_some() && decl.location == Location::Shared && kind.is_ok() {
+                return Err(RunError::WatchdogShared {
+                    module: decl.name.clone(),
+                });
+            }
+        }
         let programs_fire = kinds.iter().any(Result::is_err);
         if let Some(dead) = net.never_scanning(programs_fire) {
             if !dead.is_empty() {
@@ -469,8 +497,20 @@ impl Plc {
             // The id just taken is given up when dropped here.
             _ => return Err(RunError::Taken(taken)),
         };
+        let canonical =
+            std::fs::canonicalize(config_path).unwrap_or_else(|_| config_path.to_path_buf());
+        // The retain file is checked against the configuration before anything is made.
+        let data = kinds
+            .iter()
+            .any(|k| k.as_ref().is_ok_and(|(_, m)| m.retains_data()));
+        let (retain, restore) =
+            retain::Retain::open(&config, &layout, &base_dir, &canonical, &opts.plc_id, data)?;
         let global = GlobalMap::create(&opts.plc_id, &layout)?;
         let synch = SharedSynch::create(&opts.plc_id, &net)?;
+        let clocks = ScanClocks::create(&opts.plc_id, config.modules.len())?;
+        // Restored before any module exists: every module's first scan sees these values.
+        retained::write(&global, &layout, &restore);
+        retain.install();
 
         if !global.priority_inheritance() {
             log::warn!(
@@ -492,6 +532,8 @@ impl Plc {
                 }
             };
             let mut map = ModuleMap::new(&layout, &decl.name, decl.location)?;
+            retained::adopt(&mut map, &global, Adopt::Retentive);
+            retain.registry.new_instance(&decl.name);
             module
                 .init(&mut InitContext {
                     decl,
@@ -511,6 +553,8 @@ impl Plc {
                 factory,
             });
         }
+
+        retain.start(&global, &layout, config.retain.write)?;
 
         // A program's path would not fit the kind column: it goes to the detail line.
         let status = config
@@ -536,13 +580,14 @@ impl Plc {
                 .map(|o| format!("{}:{}={}", o.section, o.name, o.value))
                 .collect::<Vec<_>>()
                 .join("\n"),
-            config_path: std::fs::canonicalize(config_path)
-                .unwrap_or_else(|_| config_path.to_path_buf()),
+            config_path: canonical,
             base_dir,
             config,
             layout,
             global,
             synch,
+            clocks,
+            retain,
             safe,
             t0: period::now(),
             status: Mutex::new(status),
@@ -629,6 +674,8 @@ impl Plc {
         for t in self.threads.drain(..) {
             let _ = t.join();
         }
+        // Every module has stopped: the last values go to the retain file.
+        self.shared.retain.stop();
         let last = self.shared.snapshot();
         let _ = std::fs::remove_file(&file);
         let _ = std::fs::remove_file(status::tmp_path(&file));
@@ -641,6 +688,7 @@ impl Plc {
     fn finish(&mut self) {
         let _ = GlobalMap::unlink(&self.shared.plc_id);
         let _ = SharedSynch::unlink(&self.shared.plc_id);
+        ScanClocks::unlink(&self.shared.plc_id);
         if let Some(owner) = self.owner.take() {
             owner.release();
         }
@@ -663,6 +711,7 @@ impl Drop for Plc {
         for t in self.threads.drain(..) {
             let _ = t.join();
         }
+        self.shared.retain.stop();
         let file = status::path(&self.shared.plc_id);
         let _ = std::fs::remove_file(&file);
         let _ = std::fs::remove_file(status::tmp_path(&file));
@@ -730,6 +779,15 @@ fn safe_values(
                     "the point belongs to module {owner}: a module's safe values are for its \
                      own points"
                 ),
+            ));
+        }
+        if layout.slot(handle.id()).retain {
+            return Err(bad(
+                point,
+                value,
+                "the point is retentive (`retain`): it keeps the value of its last scan, which \
+                 a safe value would overwrite; remove the safe row or the `retain`"
+                    .into(),
             ));
         }
         let v = parse_value(value, handle.kind()).ok_or_else(|| {
@@ -801,6 +859,7 @@ impl Shared {
                 .collect::<Vec<_>>()
                 .join(" "),
             modules: self.status.lock().map(|s| s.clone()).unwrap_or_default(),
+            retain: self.retain.status(),
         }
     }
 
@@ -871,6 +930,26 @@ impl Shared {
         }
     }
 
+    /// Module `index` has stopped for good (its thread or process is done): unless it
+    /// failed (its safe values are written already), its safe values are written now, so
+    /// that a PLC that stops (SIGTERM, `petriplc stop`, Ctrl-C) leaves every output safe.
+    fn stopped(&self, index: usize) {
+        let failed = lock(&self.status)[index].state == ModuleState::Failed;
+        if !failed {
+            if let Err(e) = self.write_safe_values(index) {
+                log::error!(
+                    "module {}: safe values not written: {e}",
+                    self.decl(index).name
+                );
+            }
+        }
+        self.set_status(index, |s| {
+            if s.state != ModuleState::Failed {
+                s.state = ModuleState::Stopped;
+            }
+        });
+    }
+
     /// Marks module `index` failed for good and writes its safe values.
     fn fail(&self, index: usize) {
         self.set_status(index, |s| s.state = ModuleState::Failed);
@@ -892,6 +971,8 @@ impl Shared {
         let decl = self.decl(index);
         // Local whatever the module's location: the runner writes the image itself.
         let mut map = ModuleMap::new(&self.layout, &decl.name, Location::Local)?;
+        // The module's other points keep their values: only the safe rows change.
+        retained::adopt(&mut map, &self.global, Adopt::All);
         map.update(&self.global);
         for s in safe {
             map.set(&s.handle, s.value)?;
@@ -958,6 +1039,15 @@ impl Restarts {
     }
 }
 
+/// A scan's duration for watchdog messages: to a tenth of a millisecond.
+fn show_precise(d: Duration) -> String {
+    if d < Duration::from_secs(1) {
+        format!("{:.1} ms", d.as_secs_f64() * 1e3)
+    } else {
+        format!("{:.3} s", d.as_secs_f64())
+    }
+}
+
 fn show_duration(d: Duration) -> String {
     if d < Duration::from_secs(1) {
         format!("{} ms", d.as_millis())
@@ -991,11 +1081,21 @@ enum Ended {
     Stopped,
     /// The module failed; the message says how.
     Failed(String),
+    /// A scan ran longer than the module's watchdog; the message says how long.
+    Watchdog(String),
+    /// The watchdog gave up on this instance while it was in a scan (which has now
+    /// returned): it must write nothing and report nothing, another instance has taken over.
+    Abandoned,
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
 /// A built-in module's thread: runs instances of the module until the PLC stops, handling
-/// failures (errors and panics alike) by its `on_failure`.
-fn run_thread(shared: &Shared, r: Ready) {
+/// failures (errors, panics, scans past the watchdog) by its `on_failure`. With a
+/// watchdog, each instance runs on a thread of its own that this one watches.
+fn run_thread(shared: &Arc<Shared>, r: Ready) {
     let Ready {
         index,
         module,
@@ -1004,14 +1104,20 @@ fn run_thread(shared: &Shared, r: Ready) {
     } = r;
     let decl = shared.decl(index);
     let name = decl.name.clone();
-    for w in period::realtime(decl.priority) {
-        log::warn!("module {name}: {w}");
+    if decl.watchdog.is_none() {
+        for w in period::realtime(decl.priority) {
+            log::warn!("module {name}: {w}");
+        }
+    } else {
+        // The watcher must get the CPU from a real-time module stuck in a loop.
+        let _ = period::realtime(decl.priority.map(|p| p.saturating_add(1).min(99)));
     }
-    let mut stats = ScanStats::new();
+    let stats = Arc::new(Mutex::new(ScanStats::new()));
     let mut restarts = Restarts::new();
     let mut instance = Some((module, map));
+    let mut first = true;
     loop {
-        let (mut module, map) = match instance.take() {
+        let (module, map) = match instance.take() {
             Some(i) => i,
             None => match fresh(shared, index, factory) {
                 Ok(i) => i,
@@ -1029,32 +1135,143 @@ fn run_thread(shared: &Shared, r: Ready) {
             s.pid = std::process::id();
         });
         restarts.started();
-        let ended = catch_unwind(AssertUnwindSafe(|| {
-            scan_loop(shared, index, &mut *module, map, &mut stats)
-        }))
-        .unwrap_or_else(|_| Ended::Failed("the module panicked".into()));
-        let closed = catch_unwind(AssertUnwindSafe(|| module.close()));
-        let (line, marking) =
-            catch_unwind(AssertUnwindSafe(|| (module.status(), module.marking())))
-                .unwrap_or_default();
-        shared.set_status(index, |s| s.record(&stats, line, marking));
-        let why = match (ended, closed) {
-            (Ended::Failed(why), _) => why,
-            (Ended::Stopped, Err(_)) if !shared.synch.is_stopping() => {
+        let (ended, close_panicked) = match decl.watchdog {
+            None => run_instance(shared, index, module, map, &stats),
+            Some(limit) => supervise(shared, index, module, map, &stats, limit, first),
+        };
+        first = false;
+        let why = match ended {
+            Ended::Failed(why) => why,
+            Ended::Watchdog(why) => {
+                // A stuck module's outputs are stale whatever its on_failure: safe now.
+                if let Err(e) = shared.write_safe_values(index) {
+                    log::error!("module {name}: safe values not written: {e}");
+                }
+                why
+            }
+            Ended::Stopped | Ended::Abandoned if close_panicked && !shared.synch.is_stopping() => {
                 "the module panicked while closing".to_string()
             }
-            (Ended::Stopped, _) => break,
+            Ended::Stopped | Ended::Abandoned => break,
         };
         match shared.failure(index, &why, &mut restarts) {
             Some(delay) if shared.pause(delay) => {}
             _ => break,
         }
     }
-    shared.set_status(index, |s| {
-        if s.state != ModuleState::Failed {
-            s.state = ModuleState::Stopped;
+    shared.stopped(index);
+}
+
+/// Runs one instance of a module until it ends, then closes it and publishes its status;
+/// says how it ended and whether closing panicked.
+fn run_instance(
+    shared: &Shared,
+    index: usize,
+    mut module: Box<dyn Module>,
+    map: ModuleMap,
+    stats: &Mutex<ScanStats>,
+) -> (Ended, bool) {
+    let ended = catch_unwind(AssertUnwindSafe(|| {
+        scan_loop(shared, index, &mut *module, map, stats)
+    }))
+    .unwrap_or_else(|_| Ended::Failed("the module panicked".into()));
+    let closed = catch_unwind(AssertUnwindSafe(|| module.close()));
+    if let Ended::Abandoned = ended {
+        log::warn!(
+            "module {}: the scan its watchdog gave up on has returned; that instance is closed \
+             and what it did is discarded",
+            shared.decl(index).name
+        );
+        return (Ended::Abandoned, false);
+    }
+    let (line, marking) =
+        catch_unwind(AssertUnwindSafe(|| (module.status(), module.marking()))).unwrap_or_default();
+    shared.set_status(index, |s| s.record(&lock(stats), line, marking));
+    (ended, closed.is_err())
+}
+
+/// Runs one instance on a thread of its own and watches its scans: one that runs longer
+/// than `limit` is taken from it (its outputs will never reach the image) and reported as
+/// [`Ended::Watchdog`] at once, while the thread may still be stuck in it. A thread cannot
+/// be killed: a stuck one is left behind, detached, and ends (or not) on its own; the PLC
+/// goes on, and a restart runs a new instance on a new thread.
+fn supervise(
+    shared: &Arc<Shared>,
+    index: usize,
+    module: Box<dyn Module>,
+    map: ModuleMap,
+    stats: &Arc<Mutex<ScanStats>>,
+    limit: Duration,
+    first: bool,
+) -> (Ended, bool) {
+    let decl = shared.decl(index);
+    let Some(clock) = shared.clocks.clock(index) else {
+        return run_instance(shared, index, module, map, stats);
+    };
+    clock.reset();
+    let (tx, rx) = mpsc::channel();
+    let worker = {
+        let (shared, stats) = (Arc::clone(shared), Arc::clone(stats));
+        let (name, priority) = (decl.name.clone(), decl.priority);
+        std::thread::Builder::new()
+            .name(decl.name.clone())
+            .spawn(move || {
+                for w in period::realtime(priority) {
+                    if first {
+                        log::warn!("module {name}: {w}");
+                    }
+                }
+                let _ = tx.send(run_instance(&shared, index, module, map, &stats));
+            })
+    };
+    let worker = match worker {
+        Ok(w) => w,
+        Err(e) => {
+            return (
+                Ended::Failed(format!("cannot start its thread: {e}")),
+                false,
+            )
         }
-    });
+    };
+    // Often enough to see every scan before its deadline, then woken at the deadline.
+    let poll = (limit / 2).clamp(Duration::from_millis(1), Duration::from_millis(50));
+    loop {
+        let wait = match clock.running() {
+            Some(t) => (t.began() + limit).saturating_sub(period::now()),
+            None => poll,
+        };
+        match rx.recv_timeout(wait) {
+            Ok(ended) => {
+                let _ = worker.join();
+                return ended;
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                let _ = worker.join();
+                return (
+                    Ended::Failed("its thread ended without a word".into()),
+                    false,
+                );
+            }
+            Err(RecvTimeoutError::Timeout) => {
+                let Some(t) = clock.running() else { continue };
+                let ran = period::now().saturating_sub(t.began());
+                if ran >= limit && clock.expire(t) {
+                    // Detached: never joined, so a stop does not wait for it either.
+                    drop(worker);
+                    return (
+                        Ended::Watchdog(format!(
+                            "its scan has run {} without ending, longer than its watchdog \
+                             ({}): it is stuck or too slow; the scan is abandoned and nothing \
+                             it writes reaches the image",
+                            show_precise(ran),
+                            show_precise(limit)
+                        )),
+                        false,
+                    );
+                }
+            }
+        }
+    }
 }
 
 /// A fresh instance of a built-in module and a fresh map, as a new process would get.
@@ -1066,7 +1283,10 @@ fn fresh(
     let decl = shared.decl(index);
     let mut map = ModuleMap::new(&shared.layout, &decl.name, decl.location)
         .map_err(|e| ModuleError::new(e.to_string()))?;
+    // Its retentive points go on from the last committed scan, not from their init values.
+    retained::adopt(&mut map, &shared.global, Adopt::Retentive);
     map.update(&shared.global);
+    shared.retain.registry.new_instance(&decl.name);
     let module = catch_unwind(AssertUnwindSafe(|| {
         make(
             factory,
@@ -1087,7 +1307,7 @@ fn scan_loop(
     index: usize,
     module: &mut dyn Module,
     mut map: ModuleMap,
-    stats: &mut ScanStats,
+    stats: &Mutex<ScanStats>,
 ) -> Ended {
     let decl = shared.decl(index);
     let name = &decl.name;
@@ -1100,6 +1320,19 @@ fn scan_loop(
         .or_else(|| module.default_scan_period().filter(|_| scan_ref.is_none()))
         .filter(|p| !p.is_zero())
         .map(|p| Period::starting_at(shared.t0, p));
+    let watchdog: Option<(Duration, ScanClock)> = decl
+        .watchdog
+        .and_then(|limit| Some((limit, shared.clocks.clock(index)?)));
+    // Retained data the module registered is committed with its end-of-scan update.
+    let data = shared.retain.registry.module(name);
+    let commits = !data.is_empty();
+    let commit = |map: &mut ModuleMap| {
+        if commits {
+            data.commit(|| map.update(&shared.global));
+        } else {
+            map.update(&shared.global);
+        }
+    };
     // The status file is rewritten every 50 ms: a fresh status line and marking every 25 ms
     // is enough, and a module scanning every 100 µs does not pay for formatting them.
     let mut published = Duration::ZERO;
@@ -1116,33 +1349,53 @@ fn scan_loop(
             return Ended::Stopped;
         }
         map.update(&shared.global);
+        let token = watchdog.as_ref().map(|(_, c)| c.begin());
         let mut ctx = ScanContext {
             now: period::now().saturating_sub(shared.t0),
             scan,
             map: &mut map,
         };
-        match module.scan(&mut ctx) {
+        let result = module.scan(&mut ctx);
+        if let (Some((limit, clock)), Some(t)) = (&watchdog, token) {
+            if !clock.end(t) {
+                return Ended::Abandoned;
+            }
+            let took = period::now().saturating_sub(t.began());
+            if took > *limit {
+                data.discard();
+                return Ended::Watchdog(format!(
+                    "its scan took {}, longer than its watchdog ({}); its outputs were not \
+                     written",
+                    show_precise(took),
+                    show_precise(*limit)
+                ));
+            }
+        }
+        match result {
             Ok(Control::Continue) => {}
             Ok(Control::StopPlc) => {
                 log::info!("module {name} stops the PLC");
-                map.update(&shared.global);
+                commit(&mut map);
                 shared.synch.stop();
                 return Ended::Stopped;
             }
             // The failed scan's outputs are not written: its map is dropped unexchanged.
-            Err(e) => return Ended::Failed(e.0),
+            Err(e) => {
+                data.discard();
+                return Ended::Failed(e.0);
+            }
         }
-        map.update(&shared.global);
+        commit(&mut map);
         if end(shared, scan_ref.as_ref()).is_err() {
             return Ended::Stopped;
         }
-        stats.record(period::now().saturating_sub(started), late, missed);
+        lock(stats).record(period::now().saturating_sub(started), late, missed);
         scan += 1;
         let now = period::now();
         if now.saturating_sub(published) >= Duration::from_millis(25) {
             published = now;
             let (line, marking) = (module.status(), module.marking());
-            shared.set_status(index, |s| s.record(stats, line, marking));
+            shared.set_status(index, |s| s.record(&lock(stats), line, marking));
         }
     }
 }
@@ -1198,17 +1451,29 @@ fn spawn(shared: &Shared, index: usize, program: &Path) -> Result<(Child, Receiv
 
 /// Watches a module process: restarts it or stops the PLC when it dies unasked (through its
 /// `on_failure`), and ends it when the PLC stops (it should leave on its own at its next
-/// synch; else SIGTERM, SIGKILL). Its scan statistics come through `stats`.
+/// synch; else SIGTERM, SIGKILL). Its scan statistics come through `stats`. With a
+/// watchdog, a scan that runs longer (as the process's scan clock shows) gets the process
+/// killed, and the death goes through `on_failure` as a watchdog failure.
 fn watch_process(
     shared: &Shared,
     index: usize,
     program: PathBuf,
     (mut child, mut stats): (Child, Receiver),
 ) {
-    let name = shared.decl(index).name.clone();
+    let decl = shared.decl(index);
+    let name = decl.name.clone();
+    let watchdog: Option<(Duration, ScanClock)> = decl
+        .watchdog
+        .and_then(|limit| Some((limit, shared.clocks.clock(index)?)));
+    if watchdog.is_some() {
+        // The watcher must get the CPU from a real-time module stuck in a loop.
+        let _ = period::realtime(decl.priority.map(|p| p.saturating_add(1).min(99)));
+    }
     let mut restarts = Restarts::new();
     // A pidfd wakes the watcher the moment the process exits; polling is the fallback.
     let mut pidfd = Pidfd::open(child.id()).ok();
+    // Set when the watchdog killed the process: the reason its death is reported with.
+    let mut killed: Option<String> = None;
     loop {
         // Read after the exit is seen, so that the process's last report is in.
         let exited = child.try_wait();
@@ -1216,21 +1481,31 @@ fn watch_process(
             shared.set_status(index, |s| r.apply(s));
         }
         match exited {
-            Ok(Some(exit)) if shared.synch.is_stopping() => {
+            Ok(Some(exit)) if shared.synch.is_stopping() && killed.is_none() => {
                 log::info!("module {name} (process) ended: {exit}");
-                shared.set_status(index, |s| {
-                    if s.state != ModuleState::Failed {
-                        s.state = ModuleState::Stopped;
-                    }
-                });
+                shared.stopped(index);
                 return;
             }
             Ok(Some(exit)) => {
-                let delay =
-                    shared.failure(index, &format!("its process ended: {exit}"), &mut restarts);
+                let why = match killed.take() {
+                    Some(why) => {
+                        if let Err(e) = shared.write_safe_values(index) {
+                            log::error!("module {name}: safe values not written: {e}");
+                        }
+                        why
+                    }
+                    None => format!("its process ended: {exit}"),
+                };
+                let delay = shared.failure(index, &why, &mut restarts);
                 match delay {
                     Some(d) if shared.pause(d) => {}
-                    _ => return,
+                    _ => {
+                        shared.stopped(index);
+                        return;
+                    }
+                }
+                if let Some((_, clock)) = &watchdog {
+                    clock.reset();
                 }
                 match spawn(shared, index, &program) {
                     Ok(c) => {
@@ -1246,25 +1521,48 @@ fn watch_process(
                     }
                 }
             }
-            Ok(None) if shared.synch.is_stopping() => {
+            Ok(None) if shared.synch.is_stopping() && killed.is_none() => {
                 end_process(&name, &mut child);
                 let last = stats.latest();
                 shared.set_status(index, |s| {
                     if let Some(r) = last {
                         r.apply(s);
                     }
-                    if s.state != ModuleState::Failed {
-                        s.state = ModuleState::Stopped;
-                    }
                 });
+                shared.stopped(index);
                 return;
             }
-            Ok(None) => match &pidfd {
-                Some(fd) => {
-                    fd.wait_exit(Duration::from_millis(50));
+            Ok(None) => {
+                let wait = match &watchdog {
+                    None => Duration::from_millis(50),
+                    Some((limit, clock)) => match clock.running() {
+                        Some(t) => (t.began() + *limit).saturating_sub(period::now()),
+                        None => *limit / 2,
+                    }
+                    .clamp(Duration::from_micros(100), Duration::from_millis(50)),
+                };
+                match &pidfd {
+                    Some(fd) => {
+                        fd.wait_exit(wait);
+                    }
+                    None => std::thread::sleep(wait.min(Duration::from_millis(20))),
                 }
-                None => std::thread::sleep(Duration::from_millis(20)),
-            },
+                if let Some((limit, clock)) = &watchdog {
+                    if let Some(t) = clock.running() {
+                        let ran = period::now().saturating_sub(t.began());
+                        if ran >= *limit && killed.is_none() && clock.expire(t) {
+                            killed = Some(format!(
+                                "its scan has run {} without ending, longer than its watchdog \
+                                 ({}): it is stuck or too slow; its process is killed",
+                                show_precise(ran),
+                                show_precise(*limit)
+                            ));
+                            // Our own unreaped child: its pid cannot have been reused.
+                            let _ = child.kill();
+                        }
+                    }
+                }
+            }
             Err(e) => {
                 log::error!("module {name}: cannot watch its process: {e}");
                 return;

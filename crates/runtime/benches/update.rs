@@ -22,6 +22,7 @@ fn layout(n: usize, interleaved: bool) -> Layout {
             kind: PointKind::Unsigned,
             bits: 32,
             init: PointValue::Unsigned(0),
+            retain: false,
             origin: Origin::default(),
         })
         .collect();

@@ -55,6 +55,28 @@ impl InitContext<'_> {
     pub fn path(&self, value: &str) -> std::path::PathBuf {
         self.base_dir.join(value)
     }
+
+    /// Registers a value the module keeps for itself across restarts (module-private
+    /// retained data, e.g. an IEC program's `VAR RETAIN` variables): `name` is unique within
+    /// the module, `signature` its type as the module describes it (`INT`, `ARRAY[1..4] OF
+    /// REAL`). The handle holds the stored bytes (`get`; `None`: nothing stored, start from
+    /// the module's initial value); set the new bytes in each scan (`set`): they are
+    /// committed with the scan's outputs and written to the PLC's retain file with its
+    /// retentive points. A stored value of another signature is refused (the module does not
+    /// start). Register in `init` only. Without a running PLC (a test harness) the value is
+    /// kept in memory only.
+    pub fn retain(
+        &self,
+        name: &str,
+        signature: &str,
+    ) -> Result<petriplc_retain::Retained, ModuleError> {
+        match petriplc_retain::data::installed(self.plc_id) {
+            Some(r) => r
+                .register(&self.decl.name, name, signature)
+                .map_err(|e| ModuleError::new(format!("module {}: {e}", self.decl.name))),
+            None => Ok(petriplc_retain::Retained::volatile(name, signature)),
+        }
+    }
 }
 
 /// What a module sees during one scan.
@@ -103,6 +125,12 @@ pub trait Module: Send {
     /// watchers do not scan as fast as the CPU allows.
     fn default_scan_period(&self) -> Option<Duration> {
         None
+    }
+    /// Whether the module will register retained data in `init` ([`InitContext::retain`]),
+    /// known from its settings alone: the runner then opens the PLC's retain file before
+    /// initialising any module (a module that registers without saying so is refused).
+    fn retains_data(&self) -> bool {
+        false
     }
 }
 

@@ -156,12 +156,12 @@ pub fn rfc3339(t: SystemTime) -> String {
 }
 
 /// Everything but the lock file a PLC id may own, as paths: the shared memory objects
-/// (`/dev/shm/petriplc-ID-image`, `-synch`, where POSIX shared memory lives on Linux), the
+/// (`/dev/shm/petriplc-ID-image`, `-synch`, `-watchdog`, where POSIX shared memory lives on Linux), the
 /// status file and its temporary.
 fn objects(plc_id: &str) -> Vec<(PathBuf, Object)> {
     let shm = |object: &str| crate::shm_name::object_name(plc_id, object).ok();
     let mut out = Vec::new();
-    for object in ["image", "synch"] {
+    for object in ["image", "synch", "watchdog"] {
         if let Some(name) = shm(object) {
             out.push((PathBuf::from(format!("/dev/shm{name}")), Object::Shm(name)));
         }

@@ -122,6 +122,52 @@ pub struct PlcStatus {
     /// The synchronisation net's marking, as text.
     pub marking: String,
     pub modules: Vec<ModuleStatus>,
+    /// What the retain file holds, when the PLC keeps retentive values.
+    pub retain: Option<RetainStatus>,
+}
+
+/// The last snapshot of the retentive values known to be in the retain file (written and
+/// synced: "acknowledged").
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct RetainStatus {
+    pub file: String,
+    /// The snapshot's sequence number (0: nothing written yet).
+    pub sequence: u64,
+    /// When it was taken, RFC 3339.
+    pub written: String,
+    /// Every retained value, by name, as text.
+    pub values: Vec<(String, String)>,
+}
+
+impl RetainStatus {
+    fn to_json(&self) -> Value {
+        let values: serde_json::Map<String, Value> = self
+            .values
+            .iter()
+            .map(|(k, v)| (k.clone(), Value::String(v.clone())))
+            .collect();
+        json!({
+            "file": self.file,
+            "sequence": self.sequence,
+            "written": self.written,
+            "values": values,
+        })
+    }
+
+    fn from_json(v: &Value) -> Option<RetainStatus> {
+        let o = v.as_object()?;
+        Some(RetainStatus {
+            file: o.get("file")?.as_str()?.to_string(),
+            sequence: o.get("sequence")?.as_u64()?,
+            written: o.get("written")?.as_str()?.to_string(),
+            values: o
+                .get("values")?
+                .as_object()?
+                .iter()
+                .map(|(k, v)| (k.clone(), v.as_str().unwrap_or_default().to_string()))
+                .collect(),
+        })
+    }
 }
 
 /// The status file of PLC `plc_id`.
@@ -147,6 +193,7 @@ impl PlcStatus {
             "uptime_s": self.uptime.as_secs_f64(),
             "marking": self.marking,
             "modules": self.modules.iter().map(ModuleStatus::to_json).collect::<Vec<_>>(),
+            "retain": self.retain.as_ref().map(RetainStatus::to_json),
         })
     }
 
@@ -197,6 +244,7 @@ impl PlcStatus {
                         .collect()
                 })
                 .unwrap_or_default(),
+            retain: RetainStatus::from_json(&v["retain"]),
         })
     }
 }
@@ -254,6 +302,21 @@ impl fmt::Display for PlcStatus {
         }
         if !self.marking.is_empty() {
             writeln!(f, "synchronisation net marking: {}", self.marking)?;
+        }
+        if let Some(r) = &self.retain {
+            if r.sequence == 0 {
+                writeln!(f, "retain: {}: nothing written yet", r.file)?;
+            } else {
+                writeln!(
+                    f,
+                    "retain: {}: snapshot {} of {} ({} value{})",
+                    r.file,
+                    r.sequence,
+                    r.written,
+                    r.values.len(),
+                    if r.values.len() == 1 { "" } else { "s" }
+                )?;
+            }
         }
         Ok(())
     }

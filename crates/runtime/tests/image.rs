@@ -33,6 +33,7 @@ fn point(name: &str, owner: &str, kind: PointKind, bits: u8, at: Option<(u32, u8
             PointKind::Float => PointValue::Float(0.0),
             _ => PointValue::Unsigned(0),
         },
+        retain: false,
         origin: Origin::default(),
     }
 }

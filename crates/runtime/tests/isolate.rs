@@ -40,6 +40,7 @@ fn point(name: &str, owner: &str, kind: PointKind, bits: u8) -> PointDecl {
         kind,
         bits,
         init: PointValue::Unsigned(0),
+        retain: false,
         origin: Origin::default(),
     }
 }

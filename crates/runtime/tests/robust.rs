@@ -36,6 +36,7 @@ fn point(name: &str, owner: &str, at: u32) -> PointDecl {
         kind: PointKind::Unsigned,
         bits: 32,
         init: PointValue::Unsigned(0),
+        retain: false,
         origin: Origin::default(),
     }
 }

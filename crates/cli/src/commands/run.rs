@@ -56,7 +56,11 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     options.plc_id = petriplc_plc::plc_id_of(&config, args.plc_id.as_deref(), DEFAULT_PLC_ID);
     // While the vitrine holds the terminal, log lines go to its footer (and are printed when
     // it gives the terminal back) instead of over the display.
-    init_logging(&args, petriplc_vitrine::takes_terminal(&config))?;
+    init_logging(
+        &args,
+        petriplc_vitrine::takes_terminal(&config),
+        &options.plc_id,
+    )?;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
@@ -158,7 +162,7 @@ fn shell_word(w: &str) -> String {
     }
 }
 
-fn init_logging(args: &RunArgs, vitrine: bool) -> Result<(), Failure> {
+fn init_logging(args: &RunArgs, vitrine: bool, plc_id: &str) -> Result<(), Failure> {
     let level = match args.log_level.as_str() {
         "error" => LevelFilter::Error,
         "warn" => LevelFilter::Warn,
@@ -182,7 +186,19 @@ fn init_logging(args: &RunArgs, vitrine: bool) -> Result<(), Failure> {
         .set_thread_level(LevelFilter::Off)
         .set_target_level(LevelFilter::Off)
         .build();
-    let terminal: Box<dyn SharedLogger> = if vitrine {
+    // Under systemd (or when asked) the journal or syslog takes the terminal's place: what
+    // reaches standard error there goes to the journal anyway.
+    let system = match crate::logging::system_logger(&args.log_to, level, plc_id) {
+        Ok(logger) => logger,
+        Err(why) if args.log_to == crate::logging::LogTo::Auto => {
+            eprintln!("warning: {why}; the log goes to standard error");
+            None
+        }
+        Err(why) => return Err(Failure::CannotStart(anyhow!("{why}; nothing was started"))),
+    };
+    let terminal: Box<dyn SharedLogger> = if let Some(system) = system {
+        system
+    } else if vitrine {
         WriteLogger::new(
             level,
             short(format_description!("[hour]:[minute]:[second]")),

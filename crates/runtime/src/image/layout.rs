@@ -36,6 +36,8 @@ pub struct Slot {
     pub owner: String,
     /// Whether `at` fixed the place (otherwise the layout allocated it).
     pub fixed: bool,
+    /// Whether the point is retentive (`retain`): restored at start, kept in the retain file.
+    pub retain: bool,
     pub origin: Origin,
 }
 
@@ -137,6 +139,7 @@ impl Layout {
                 init: p.init,
                 owner: p.owner.clone(),
                 fixed: p.at.is_some(),
+                retain: p.retain,
                 origin: p.origin.clone(),
             });
         }
@@ -462,6 +465,7 @@ mod tests {
             kind: PointKind::Unsigned,
             bits,
             init: PointValue::Unsigned(0),
+            retain: false,
             origin: Origin {
                 file: "t.conf".into(),
                 line: 1,

@@ -1,0 +1,688 @@
+//! The retain file: two slots of equal size, each able to hold one whole snapshot.
+//!
+//! ```text
+//! file   = slot 0 | slot 1                    (each SLOT bytes, a multiple of 4096)
+//! slot   = header payload [unused]
+//! header = "PPLCRTN1" seq:u64 written_ns:u64 layout_hash:u64 payload_len:u32 crc:u32
+//! payload= str plc_id, str config, u32 count, count × entry
+//! entry  = str name, 1 u8 kind u8 bits u32 raw          (a point)
+//!                  | 2 str signature u32 len bytes        (a module's data)
+//! str    = u16 len, UTF-8 bytes;  every number little-endian
+//! ```
+//!
+//! The CRC (CRC-32C, Castagnoli) covers the header before it and the payload. Snapshot `n`
+//! goes to slot `n % 2`, written in place over the older copy and synced (`fdatasync`) before
+//! it counts as written: whatever moment a crash or power loss strikes, the other slot still
+//! holds a whole snapshot, and a torn or damaged slot fails its CRC. Reading takes the valid
+//! slot with the higher sequence number. A slot of zeros is empty (a file just created), not
+//! damaged.
+//!
+//! A snapshot too large for its slot (a module registered more data) makes a new file: both
+//! copies written to a temporary file beside it, synced, locked, then renamed over the old
+//! one and the folder synced, so that the file at the path is always whole.
+
+use std::fs::{File, OpenOptions};
+use std::io::{self, Read, Seek, SeekFrom, Write};
+use std::os::unix::fs::{FileExt, MetadataExt};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use crc::{Crc, CRC_32_ISCSI};
+use nix::fcntl::{Flock, FlockArg};
+use petriplc_config::PointKind;
+
+use crate::{Entry, Identity, RetainError, Snapshot, Value};
+
+const MAGIC: &[u8; 8] = b"PPLCRTN1";
+const HEADER: usize = 40;
+const PAGE: u64 = 4096;
+const CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
+
+/// An open, locked retain file.
+#[derive(Debug)]
+pub struct RetainFile {
+    path: PathBuf,
+    file: Flock<File>,
+    slot: u64,
+    /// The sequence number of the newest whole snapshot in the file (0: none).
+    last_seq: u64,
+    /// The newest snapshot's bytes, kept to carry it over when the file grows.
+    last_record: Option<Vec<u8>>,
+}
+
+/// What reading a retain file found.
+#[derive(Debug)]
+pub struct Loaded {
+    /// The newest whole snapshot, if any.
+    pub snapshot: Option<Snapshot>,
+    /// A damaged copy, said once for the log: which, and what was used instead.
+    pub warning: Option<String>,
+}
+
+fn io<'a>(path: &'a Path, what: &'static str) -> impl FnOnce(io::Error) -> RetainError + 'a {
+    move |source| RetainError::Io {
+        path: path.to_path_buf(),
+        what,
+        source,
+    }
+}
+
+impl RetainFile {
+    /// Opens (creating it and its folder if need be) and locks the retain file at `path`,
+    /// and reads the newest whole snapshot in it. Refused while another process holds the
+    /// file, and when neither copy can be read (a file that is not a retain file, or with
+    /// both copies damaged).
+    pub fn open(path: &Path) -> Result<(RetainFile, Loaded), RetainError> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(io(path, "cannot create its folder"))?;
+        }
+        let file = loop {
+            let file = OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(path)
+                .map_err(io(path, "cannot open it"))?;
+            let file = match Flock::lock(file, FlockArg::LockExclusiveNonblock) {
+                Ok(f) => f,
+                Err((_, nix::errno::Errno::EWOULDBLOCK)) => {
+                    return Err(RetainError::InUse {
+                        path: path.to_path_buf(),
+                    })
+                }
+                Err((_, e)) => return Err(io(path, "cannot lock it")(e.into())),
+            };
+            // A file renamed over the one we opened (a grown file) is the one to lock.
+            let ours = file.metadata().map_err(io(path, "cannot read it"))?.ino();
+            match path.metadata() {
+                Ok(m) if m.ino() == ours => break file,
+                _ => continue,
+            }
+        };
+        let mut bytes = Vec::new();
+        (&*file)
+            .read_to_end(&mut bytes)
+            .map_err(io(path, "cannot read it"))?;
+        let unreadable = |why: String| RetainError::Unreadable {
+            path: path.to_path_buf(),
+            why,
+        };
+        let mut me = RetainFile {
+            path: path.to_path_buf(),
+            file,
+            slot: PAGE,
+            last_seq: 0,
+            last_record: None,
+        };
+        if bytes.is_empty() {
+            return Ok((
+                me,
+                Loaded {
+                    snapshot: None,
+                    warning: None,
+                },
+            ));
+        }
+        let len = bytes.len() as u64;
+        if len % (2 * PAGE) != 0 && !bytes.starts_with(MAGIC) {
+            return Err(unreadable(format!(
+                "it is not a petriplc retain file ({len} bytes, not two slots of whole pages)"
+            )));
+        }
+        let slot = (len / 2).max(PAGE) as usize;
+        me.slot = slot as u64;
+        let slots: Vec<Slot> = (0..2)
+            .map(|i| decode_slot(bytes.get(i * slot..((i + 1) * slot).min(bytes.len()))))
+            .collect();
+        let good: Vec<(usize, &Snapshot)> = slots
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| match s {
+                Slot::Good(snap, _) => Some((i, snap)),
+                _ => None,
+            })
+            .collect();
+        let newest = good.iter().max_by_key(|(_, s)| s.seq).copied();
+        let damaged: Vec<(usize, &str)> = slots
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| match s {
+                Slot::Damaged(why) => Some((i, why.as_str())),
+                _ => None,
+            })
+            .collect();
+        let Some((index, snapshot)) = newest else {
+            if damaged.is_empty() {
+                return Ok((
+                    me,
+                    Loaded {
+                        snapshot: None,
+                        warning: None,
+                    },
+                ));
+            }
+            let whys: Vec<String> = damaged
+                .iter()
+                .map(|(i, why)| format!("copy {i}: {why}"))
+                .collect();
+            return Err(unreadable(format!(
+                "no copy is whole ({})",
+                whys.join("; ")
+            )));
+        };
+        let warning = damaged.first().map(|(i, why)| {
+            format!(
+                "retain file {}: copy {i} is damaged ({why}: a write cut short by a crash or \
+                 power loss, or a failing disk); using the other copy, snapshot {} of {}",
+                path.display(),
+                snapshot.seq,
+                show_time(snapshot.written)
+            )
+        });
+        me.last_seq = snapshot.seq;
+        if let Slot::Good(_, record) = &slots[index] {
+            me.last_record = Some(record.clone());
+        }
+        Ok((
+            me,
+            Loaded {
+                snapshot: Some(snapshot.clone()),
+                warning,
+            },
+        ))
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The sequence number of the newest snapshot written (or read at open).
+    pub fn last_seq(&self) -> u64 {
+        self.last_seq
+    }
+
+    /// Writes `entries` as the next snapshot (its sequence number, the newest plus one, is
+    /// returned) over the older copy, and syncs it: when this returns, a crash or power loss
+    /// gives back these values (or, if the disk lies about syncing, the previous ones).
+    pub fn write(
+        &mut self,
+        identity: &Identity,
+        entries: &[Entry],
+        written: SystemTime,
+    ) -> Result<u64, RetainError> {
+        let seq = self.last_seq + 1;
+        let record = encode(&Snapshot {
+            seq,
+            written,
+            identity: identity.clone(),
+            entries: entries.to_vec(),
+        });
+        let file_len = self
+            .file
+            .metadata()
+            .map_err(io(&self.path, "cannot read it"))?
+            .len();
+        if record.len() as u64 > self.slot || file_len != 2 * self.slot {
+            self.grow(seq, &record)?;
+        } else {
+            let offset = (seq % 2) * self.slot;
+            self.file
+                .write_all_at(&record, offset)
+                .map_err(io(&self.path, "cannot write it"))?;
+            self.file
+                .sync_data()
+                .map_err(io(&self.path, "cannot sync it"))?;
+        }
+        self.last_seq = seq;
+        self.last_record = Some(record);
+        Ok(seq)
+    }
+
+    /// Makes a new file with slots big enough for `record` (and room to grow), holding
+    /// `record` and the previous snapshot, and puts it in place of the old one atomically.
+    fn grow(&mut self, seq: u64, record: &[u8]) -> Result<(), RetainError> {
+        let need = record
+            .len()
+            .max(self.last_record.as_ref().map_or(0, Vec::len)) as u64;
+        let slot = (need + need / 2).div_ceil(PAGE).max(1) * PAGE;
+        let mut image = vec![0u8; 2 * slot as usize];
+        let place = |image: &mut [u8], n: u64, bytes: &[u8]| {
+            let at = ((n % 2) * slot) as usize;
+            image[at..at + bytes.len()].copy_from_slice(bytes);
+        };
+        if let Some(last) = &self.last_record {
+            place(&mut image, seq - 1, last);
+        }
+        place(&mut image, seq, record);
+        let tmp = tmp_path(&self.path);
+        let path = self.path.clone();
+        let mut f = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&tmp)
+            .map_err(io(&path, "cannot create its new copy"))?;
+        f.write_all(&image)
+            .and_then(|()| f.sync_all())
+            .map_err(io(&path, "cannot write its new copy"))?;
+        // Locked before it takes the name, so that nobody else can lock it in between.
+        let f = Flock::lock(f, FlockArg::LockExclusiveNonblock)
+            .map_err(|(_, e)| io(&path, "cannot lock its new copy")(e.into()))?;
+        std::fs::rename(&tmp, &path).map_err(io(&path, "cannot replace it"))?;
+        sync_dir(&path).map_err(io(&path, "cannot sync its folder"))?;
+        self.file = f;
+        self.slot = slot;
+        Ok(())
+    }
+}
+
+/// The temporary file a growing retain file is written to, beside it.
+pub fn tmp_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".tmp");
+    PathBuf::from(name)
+}
+
+fn sync_dir(path: &Path) -> io::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    File::open(dir)?.sync_all()
+}
+
+/// `2026-01-31 12:00:00.123 UTC`-like text without a time crate: seconds since the epoch
+/// are enough for messages that a person compares with the log.
+pub fn show_time(t: SystemTime) -> String {
+    let d = t.duration_since(UNIX_EPOCH).unwrap_or(Duration::ZERO);
+    let secs = d.as_secs();
+    let (days, rest) = (secs / 86_400, secs % 86_400);
+    let (y, m, day) = civil(days as i64);
+    format!(
+        "{y:04}-{m:02}-{day:02}T{:02}:{:02}:{:02}.{:03}Z",
+        rest / 3600,
+        rest / 60 % 60,
+        rest % 60,
+        d.subsec_millis()
+    )
+}
+
+/// Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
+fn civil(days: i64) -> (i64, u32, u32) {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    (y, m, d)
+}
+
+enum Slot {
+    Empty,
+    Good(Snapshot, Vec<u8>),
+    Damaged(String),
+}
+
+fn decode_slot(bytes: Option<&[u8]>) -> Slot {
+    let Some(bytes) = bytes else {
+        return Slot::Empty;
+    };
+    if bytes.len() < HEADER || bytes[..HEADER].iter().all(|&b| b == 0) {
+        return Slot::Empty;
+    }
+    match decode(bytes) {
+        Ok((snap, len)) => Slot::Good(snap, bytes[..len].to_vec()),
+        Err(why) => Slot::Damaged(why),
+    }
+}
+
+/// One snapshot as the bytes of a slot.
+pub fn encode(s: &Snapshot) -> Vec<u8> {
+    let mut p = Vec::new();
+    put_str(&mut p, &s.identity.plc_id);
+    put_str(&mut p, &s.identity.config);
+    p.extend_from_slice(&(s.entries.len() as u32).to_le_bytes());
+    for e in &s.entries {
+        put_str(&mut p, &e.name);
+        match &e.value {
+            Value::Point { kind, bits, raw } => {
+                p.push(1);
+                p.push(match kind {
+                    PointKind::Unsigned => b'u',
+                    PointKind::Signed => b'i',
+                    PointKind::Float => b'f',
+                });
+                p.push(*bits);
+                p.extend_from_slice(&raw.to_le_bytes());
+            }
+            Value::Data { signature, bytes } => {
+                p.push(2);
+                put_str(&mut p, signature);
+                p.extend_from_slice(&(bytes.len() as u32).to_le_bytes());
+                p.extend_from_slice(bytes);
+            }
+        }
+    }
+    let ns = s
+        .written
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64);
+    let mut out = Vec::with_capacity(HEADER + p.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&s.seq.to_le_bytes());
+    out.extend_from_slice(&ns.to_le_bytes());
+    out.extend_from_slice(&s.layout_hash().to_le_bytes());
+    out.extend_from_slice(&(p.len() as u32).to_le_bytes());
+    let mut digest = CRC.digest();
+    digest.update(&out);
+    digest.update(&p);
+    out.extend_from_slice(&digest.finalize().to_le_bytes());
+    out.extend_from_slice(&p);
+    out
+}
+
+fn put_str(out: &mut Vec<u8>, s: &str) {
+    // Names and signatures are short; a longer one is cut at a character boundary.
+    let mut end = s.len().min(u16::MAX as usize);
+    while !s.is_char_boundary(end) {
+        end -= 1;
+    }
+    out.extend_from_slice(&(end as u16).to_le_bytes());
+    out.extend_from_slice(&s.as_bytes()[..end]);
+}
+
+/// The snapshot at the start of `bytes` and its length, or why it is not a whole one.
+pub fn decode(bytes: &[u8]) -> Result<(Snapshot, usize), String> {
+    if bytes.len() < HEADER {
+        return Err("too short for a header".into());
+    }
+    if &bytes[..8] != MAGIC {
+        return Err("no retain-file header".into());
+    }
+    let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
+    let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
+    let seq = u64_at(8);
+    let ns = u64_at(16);
+    let hash = u64_at(24);
+    let len = u32_at(32) as usize;
+    let crc = u32_at(36);
+    let end = HEADER
+        .checked_add(len)
+        .filter(|&e| e <= bytes.len())
+        .ok_or("its length runs past the slot")?;
+    let mut digest = CRC.digest();
+    digest.update(&bytes[..36]);
+    digest.update(&bytes[HEADER..end]);
+    if digest.finalize() != crc {
+        return Err("checksum mismatch".into());
+    }
+    let mut r = Reader {
+        bytes: &bytes[HEADER..end],
+        at: 0,
+    };
+    let bad = || "malformed contents under a good checksum".to_string();
+    let plc_id = r.str().ok_or_else(bad)?;
+    let config = r.str().ok_or_else(bad)?;
+    let count = r.u32().ok_or_else(bad)?;
+    let mut entries = Vec::new();
+    for _ in 0..count {
+        let name = r.str().ok_or_else(bad)?;
+        let value = match r.u8().ok_or_else(bad)? {
+            1 => {
+                let kind = match r.u8().ok_or_else(bad)? {
+                    b'u' => PointKind::Unsigned,
+                    b'i' => PointKind::Signed,
+                    b'f' => PointKind::Float,
+                    _ => return Err(bad()),
+                };
+                let bits = r.u8().ok_or_else(bad)?;
+                let raw = r.u32().ok_or_else(bad)?;
+                Value::Point { kind, bits, raw }
+            }
+            2 => {
+                let signature = r.str().ok_or_else(bad)?;
+                let n = r.u32().ok_or_else(bad)? as usize;
+                let bytes = r.take(n).ok_or_else(bad)?.to_vec();
+                Value::Data { signature, bytes }
+            }
+            _ => return Err(bad()),
+        };
+        entries.push(Entry { name, value });
+    }
+    if r.at != r.bytes.len() {
+        return Err(bad());
+    }
+    let snap = Snapshot {
+        seq,
+        written: UNIX_EPOCH + Duration::from_nanos(ns),
+        identity: Identity { plc_id, config },
+        entries,
+    };
+    if snap.layout_hash() != hash {
+        return Err(bad());
+    }
+    Ok((snap, end))
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let s = self.bytes.get(self.at..self.at.checked_add(n)?)?;
+        self.at += n;
+        Some(s)
+    }
+    fn u8(&mut self) -> Option<u8> {
+        Some(self.take(1)?[0])
+    }
+    fn u32(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes(self.take(4)?.try_into().ok()?))
+    }
+    fn str(&mut self) -> Option<String> {
+        let n = u16::from_le_bytes(self.take(2)?.try_into().ok()?) as usize;
+        String::from_utf8(self.take(n)?.to_vec()).ok()
+    }
+}
+
+/// Reads the newest whole snapshot of the file at `path` without locking it (for tools and
+/// tests that look at a PLC's file): `Ok(None)` for an empty file.
+pub fn peek(path: &Path) -> Result<Loaded, RetainError> {
+    let mut bytes = Vec::new();
+    File::open(path)
+        .and_then(|mut f| {
+            f.seek(SeekFrom::Start(0))?;
+            f.read_to_end(&mut bytes)
+        })
+        .map_err(io(path, "cannot read it"))?;
+    let slot = (bytes.len() / 2).max(PAGE as usize);
+    let slots: Vec<Slot> = (0..2)
+        .map(|i| decode_slot(bytes.get(i * slot..((i + 1) * slot).min(bytes.len()))))
+        .collect();
+    let mut snapshot: Option<Snapshot> = None;
+    let mut warning = None;
+    for (i, s) in slots.into_iter().enumerate() {
+        match s {
+            Slot::Good(snap, _) => {
+                if snapshot.as_ref().is_none_or(|old| old.seq < snap.seq) {
+                    snapshot = Some(snap);
+                }
+            }
+            Slot::Damaged(why) => warning = Some(format!("copy {i} is damaged ({why})")),
+            Slot::Empty => {}
+        }
+    }
+    Ok(Loaded { snapshot, warning })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(name: &str, raw: u32) -> Entry {
+        Entry {
+            name: name.into(),
+            value: Value::Point {
+                kind: PointKind::Unsigned,
+                bits: 32,
+                raw,
+            },
+        }
+    }
+
+    fn ident() -> Identity {
+        Identity {
+            plc_id: "p".into(),
+            config: "/etc/plc.conf".into(),
+        }
+    }
+
+    fn newest(path: &Path) -> (Option<u64>, Option<u32>, Option<String>) {
+        let (_, loaded) = RetainFile::open(path).unwrap();
+        let snap = loaded.snapshot;
+        let raw = snap.as_ref().and_then(|s| match s.entries[0].value {
+            Value::Point { raw, .. } => Some(raw),
+            _ => None,
+        });
+        (snap.map(|s| s.seq), raw, loaded.warning)
+    }
+
+    #[test]
+    fn snapshots_round_trip() {
+        let snap = Snapshot {
+            seq: 7,
+            written: UNIX_EPOCH + Duration::from_millis(1_700_000_000_123),
+            identity: ident(),
+            entries: vec![
+                point("count", 42),
+                Entry {
+                    name: "iec/main.total".into(),
+                    value: Value::Data {
+                        signature: "LREAL".into(),
+                        bytes: vec![1, 2, 3],
+                    },
+                },
+            ],
+        };
+        let bytes = encode(&snap);
+        assert_eq!(decode(&bytes), Ok((snap, bytes.len())));
+        assert_eq!(
+            show_time(UNIX_EPOCH + Duration::from_millis(1_700_000_000_123)),
+            "2023-11-14T22:13:20.123Z"
+        );
+    }
+
+    #[test]
+    fn writes_alternate_and_the_newest_whole_copy_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sub/plc.retain");
+        let (mut f, loaded) = RetainFile::open(&path).unwrap();
+        assert!(loaded.snapshot.is_none());
+        for v in 1..=5 {
+            f.write(&ident(), &[point("count", v * 10)], SystemTime::now())
+                .unwrap();
+        }
+        drop(f);
+        assert_eq!(newest(&path), (Some(5), Some(50), None));
+        assert_eq!(std::fs::metadata(&path).unwrap().len(), 2 * PAGE);
+        // Damage the newest copy (slot 5 % 2 = 1): the previous one is used, with a warning.
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes[PAGE as usize + HEADER + 3] ^= 0x40;
+        std::fs::write(&path, &bytes).unwrap();
+        let (seq, raw, warning) = newest(&path);
+        assert_eq!((seq, raw), (Some(4), Some(40)));
+        let warning = warning.unwrap();
+        assert!(
+            warning.contains("copy 1 is damaged (checksum mismatch")
+                && warning.contains("using the other copy, snapshot 4 of "),
+            "{warning}"
+        );
+        // The next write goes over the damaged copy, and numbering goes on.
+        let (mut f, _) = RetainFile::open(&path).unwrap();
+        assert_eq!(
+            f.write(&ident(), &[point("count", 60)], SystemTime::now())
+                .unwrap(),
+            5
+        );
+        drop(f);
+        assert_eq!(newest(&path), (Some(5), Some(60), None));
+    }
+
+    #[test]
+    fn both_copies_damaged_or_another_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plc.retain");
+        let (mut f, _) = RetainFile::open(&path).unwrap();
+        f.write(&ident(), &[point("a", 1)], SystemTime::now())
+            .unwrap();
+        f.write(&ident(), &[point("a", 2)], SystemTime::now())
+            .unwrap();
+        drop(f);
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes[HEADER] ^= 1;
+        bytes[PAGE as usize + 9] ^= 1;
+        std::fs::write(&path, &bytes).unwrap();
+        let e = RetainFile::open(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("no copy is whole (copy 0: checksum mismatch; copy 1: checksum mismatch)")
+                && e.contains("Move it away"),
+            "{e}"
+        );
+        std::fs::write(&path, "hello, world\n").unwrap();
+        let e = RetainFile::open(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("it is not a petriplc retain file (13 bytes"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_file_in_use_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plc.retain");
+        let (_held, _) = RetainFile::open(&path).unwrap();
+        assert!(matches!(
+            RetainFile::open(&path),
+            Err(RetainError::InUse { .. })
+        ));
+    }
+
+    #[test]
+    fn a_snapshot_too_big_for_its_slot_grows_the_file_keeping_both_copies() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plc.retain");
+        let (mut f, _) = RetainFile::open(&path).unwrap();
+        f.write(&ident(), &[point("small", 1)], SystemTime::now())
+            .unwrap();
+        let big: Vec<Entry> = (0..400)
+            .map(|i| point(&format!("point{i:04}"), i))
+            .collect();
+        f.write(&ident(), &big, SystemTime::now()).unwrap();
+        let len = std::fs::metadata(&path).unwrap().len();
+        assert!(len > 2 * PAGE && len % (2 * PAGE) == 0, "{len}");
+        assert!(!tmp_path(&path).exists());
+        // The lock moved to the new file with the name.
+        assert!(matches!(
+            RetainFile::open(&path),
+            Err(RetainError::InUse { .. })
+        ));
+        drop(f);
+        let (mut f, loaded) = RetainFile::open(&path).unwrap();
+        assert_eq!(loaded.snapshot.unwrap().entries.len(), 400);
+        // Damage the big copy (snapshot 2, slot 0): the small one before it is still there.
+        drop(f);
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes[100] ^= 1;
+        std::fs::write(&path, &bytes).unwrap();
+        (f, _) = RetainFile::open(&path).unwrap();
+        assert_eq!(f.last_seq(), 1);
+    }
+}

@@ -1,0 +1,72 @@
+//! A write cut short at any byte, or any byte of the newest copy damaged, never gives back
+//! a mix of two snapshots: the file gives the newest whole snapshot, the older one with a
+//! warning when the newest is damaged.
+
+use std::time::SystemTime;
+
+use petriplc_config::PointKind;
+use petriplc_retain::file::RetainFile;
+use petriplc_retain::{Entry, Identity, Value};
+use proptest::prelude::*;
+
+fn entries(v: u32, n: usize) -> Vec<Entry> {
+    (0..n)
+        .map(|i| Entry {
+            name: format!("p{i}"),
+            value: Value::Point {
+                kind: PointKind::Unsigned,
+                bits: 32,
+                raw: v,
+            },
+        })
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    #[test]
+    fn torn_or_damaged_newest_copy_falls_back_whole(
+        n in 1usize..60,
+        cut in 0usize..4096,
+        flip in proptest::option::of(0usize..4096),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.retain");
+        let ident = Identity { plc_id: "t".into(), config: "t.conf".into() };
+        let (mut f, _) = RetainFile::open(&path).unwrap();
+        f.write(&ident, &entries(1, n), SystemTime::now()).unwrap();
+        f.write(&ident, &entries(2, n), SystemTime::now()).unwrap();
+        let before = std::fs::read(&path).unwrap();
+        f.write(&ident, &entries(3, n), SystemTime::now()).unwrap();
+        drop(f);
+        let after = std::fs::read(&path).unwrap();
+        // Snapshot 3 went to slot 1: keep its first `cut` bytes, the rest as before the
+        // write (a write that stopped there), then perhaps damage one byte of it.
+        let slot = after.len() / 2;
+        let mut torn = after.clone();
+        torn[slot + cut..2 * slot].copy_from_slice(&before[slot + cut..2 * slot]);
+        if let Some(i) = flip {
+            torn[slot + i] ^= 0x20;
+        }
+        std::fs::write(&path, &torn).unwrap();
+        let (_, loaded) = RetainFile::open(&path).unwrap();
+        let snap = loaded.snapshot.unwrap();
+        let values: Vec<u32> = snap.entries.iter().map(|e| match e.value {
+            Value::Point { raw, .. } => raw,
+            Value::Data { .. } => unreachable!(),
+        }).collect();
+        prop_assert_eq!(values.len(), n);
+        prop_assert!(values.iter().all(|&v| v == values[0]), "a mix: {:?}", values);
+        let whole = torn[slot..2 * slot] == after[slot..2 * slot];
+        if whole {
+            prop_assert_eq!((snap.seq, values[0]), (3, 3));
+            prop_assert!(loaded.warning.is_none());
+        } else {
+            prop_assert!(snap.seq == 2 || snap.seq == 3);
+            prop_assert_eq!(values[0] as u64, snap.seq);
+            if snap.seq == 2 {
+                prop_assert!(loaded.warning.is_some());
+            }
+        }
+    }
+}
