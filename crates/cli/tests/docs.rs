@@ -36,10 +36,16 @@ const STOP: Duration = Duration::from_secs(20);
 
 /// Documents whose ```sh blocks a test of their own runs, checking their output, and the
 /// test: running them here too would only repeat the same long commands.
-const RUN_ELSEWHERE: &[(&str, &str)] = &[(
-    "examples/turntable/README.md",
-    "crates/cli/tests/turntable.rs",
-)];
+const RUN_ELSEWHERE: &[(&str, &str)] = &[
+    (
+        "examples/turntable/README.md",
+        "crates/cli/tests/turntable.rs",
+    ),
+    (
+        "examples/two-cells/README.md",
+        "crates/cli/tests/two_cells.rs",
+    ),
+];
 
 /// The tests of this file share ports 5020 and 8080 and the default PLC id: one at a time.
 static SERIAL: Mutex<()> = Mutex::new(());

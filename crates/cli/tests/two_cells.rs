@@ -2,6 +2,9 @@
 //! on another (two `--plc-id`s), exchanging valves and level sensors through Debian's
 //! mosquitto started on a free loopback port; the broker is killed and started again mid-run;
 //! paho-mqtt (a third-party client, pinned in scripts/test-all.sh) watches the topics.
+//!
+//! The documented-commands test (docs.rs) leaves examples/two-cells/README.md to this file:
+//! its ```sh block starts background jobs and waits for them, so it runs here as one script.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command as Process, Stdio};
@@ -168,4 +171,33 @@ fn two_plcs_run_the_mixer_through_mosquitto_and_survive_a_broker_restart() {
             "{topic}: {values:?}"
         );
     }
+}
+
+/// The README's ```sh block, run as one bash script from the repository root (`petriplc`
+/// being the built binary): both cells run a whole cycle through the README's broker.
+#[test]
+fn the_readme_runs_as_written() {
+    let readme = std::fs::read_to_string(format!("{EXAMPLES}/README.md")).unwrap();
+    let blocks: Vec<&str> = readme
+        .split("```sh\n")
+        .skip(1)
+        .map(|b| b.split("```").next().unwrap())
+        .collect();
+    assert_eq!(blocks.len(), 1, "the README has one ```sh block, run here");
+    let bin = assert_cmd::cargo::cargo_bin("petriplc");
+    let path = format!(
+        "{}:{}",
+        bin.parent().unwrap().display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let out = Process::new("bash")
+        .args(["-e", "-c", blocks[0]])
+        .current_dir(format!("{EXAMPLES}/../.."))
+        .env("PATH", path)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "the README's block failed:\n{stderr}");
+    assert!(fired(&stderr, "B1") >= 1, "no cycle ran:\n{stderr}");
 }
