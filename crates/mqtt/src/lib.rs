@@ -83,6 +83,9 @@ pub(crate) struct Shared {
     up: AtomicBool,
     outages: AtomicU64,
     published: AtomicU64,
+    /// Changes overwritten by a newer value before the network sent them (the broker, or
+    /// the link to it, slower than the changes).
+    coalesced: AtomicU64,
     received: AtomicU64,
     rejected: AtomicU64,
     last_error: Mutex<String>,
@@ -175,6 +178,7 @@ impl Module for Mqtt {
             up: AtomicBool::new(false),
             outages: AtomicU64::new(0),
             published: AtomicU64::new(0),
+            coalesced: AtomicU64::new(0),
             received: AtomicU64::new(0),
             rejected: AtomicU64::new(0),
             last_error: Mutex::new(String::new()),
@@ -274,6 +278,9 @@ impl Module for Mqtt {
             run.last[i] = Some(v);
             let ts = *ts.get_or_insert_with(now_ms);
             let outbox = outbox.get_or_insert_with(|| lock(&shared.outbox));
+            if outbox[i].dirty && shared.up.load(Ordering::Relaxed) {
+                shared.coalesced.fetch_add(1, Ordering::Relaxed);
+            }
             outbox[i] = Slot {
                 value: Some((v, ts)),
                 dirty: true,
@@ -311,8 +318,12 @@ impl Module for Mqtt {
                 format!("stale: {why}")
             }
         };
+        let coalesced = match s.coalesced.load(Ordering::Relaxed) {
+            0 => String::new(),
+            n => format!(", {n} coalesced"),
+        };
         format!(
-            "broker {} {state}; {} published, {} received, {} rejected, {} outages",
+            "broker {} {state}; {} published, {} received, {} rejected, {} outages{coalesced}",
             s.broker,
             s.published.load(Ordering::Relaxed),
             s.received.load(Ordering::Relaxed),

@@ -252,6 +252,11 @@ fn an_edge_node_is_born_reports_changes_is_reborn_and_dies() {
     plc.close();
     let death = host.wait(None, "NDEATH", |_| true);
     assert_eq!(death["bdSeq"], bd_seq);
+    // Only one: the module's own, then a DISCONNECT, after which the broker drops the will
+    // (a connection closed without one would send the will as a second NDEATH).
+    std::thread::sleep(Duration::from_millis(300));
+    let later: Vec<Value> = host.lines.try_iter().collect();
+    assert!(later.is_empty(), "after the NDEATH: {later:?}");
     host.command("quit");
 }
 
