@@ -238,7 +238,7 @@ fn will(spb: &Spb) -> LastWill {
 
 /// At a clean stop while connected: the NDEATH of a Sparkplug B node (the broker sends no
 /// will after a DISCONNECT), then a DISCONNECT so the broker does not wait for the
-/// keep-alive; the event loop is driven until it is sent, 500 ms at most.
+/// keep-alive; the event loop is driven until it is sent, 2 s at most.
 async fn goodbye(eventloop: &mut EventLoop, client: &AsyncClient, shared: &Shared) {
     if !shared.up.load(Ordering::Acquire) {
         return;
@@ -248,7 +248,7 @@ async fn goodbye(eventloop: &mut EventLoop, client: &AsyncClient, shared: &Share
         let _ = client.try_publish(w.topic, w.qos, w.retain, w.message.to_vec());
     }
     let _ = client.try_disconnect();
-    let _ = tokio::time::timeout(Duration::from_millis(500), async {
+    let _ = tokio::time::timeout(Duration::from_secs(2), async {
         loop {
             match eventloop.poll().await {
                 Ok(Event::Outgoing(rumqttc::Outgoing::Disconnect)) | Err(_) => return,
