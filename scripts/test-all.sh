@@ -77,6 +77,16 @@ if ! target/py/bin/python -c "import sys; from importlib.metadata import version
   echo "== installing asyncua $ASYNCUA_VERSION and paho-mqtt $PAHO_VERSION into target/py"
   target/py/bin/python -m pip install -q "asyncua==$ASYNCUA_VERSION" "paho-mqtt==$PAHO_VERSION"
 fi
+# pysparkplug (pinned; protobuf classes compiled from Eclipse Tahu's sparkplug_b.proto) on
+# Google's protobuf runtime (pinned) decodes the Sparkplug B messages of the mqtt tests. It
+# asks for paho-mqtt<2 for its own client, which the tests do not use: --no-deps.
+PROTOBUF_VERSION=6.33.1
+PYSPARKPLUG_VERSION=0.6.1
+if ! target/py/bin/python -c "import sys; from importlib.metadata import version as v; sys.exit(not (v('protobuf') == '$PROTOBUF_VERSION' and v('pysparkplug') == '$PYSPARKPLUG_VERSION'))" 2>/dev/null; then
+  echo "== installing protobuf $PROTOBUF_VERSION and pysparkplug $PYSPARKPLUG_VERSION into target/py"
+  target/py/bin/python -m pip install -q "protobuf==$PROTOBUF_VERSION"
+  target/py/bin/python -m pip install -q --no-deps "pysparkplug==$PYSPARKPLUG_VERSION"
+fi
 
 # playwright-core (pinned) drives chromium in the HMI's browser test.
 PLAYWRIGHT_VERSION=1.65.1

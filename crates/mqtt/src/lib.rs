@@ -11,6 +11,7 @@
 //! publish V1 V2 V3
 //! subscribe cell-b/N1 N1           # N1 owned by this module; `hold` (default) or a safe value
 //! subscribe cell-b/N2 N2 0
+//! # sparkplug = plant/cell-a      # publish as a Sparkplug B edge node instead (sparkplug.rs)
 //! ```
 //!
 //! The network runs on a tokio runtime in a thread of its own (started by `init`, stopped by
@@ -20,10 +21,11 @@
 mod link;
 pub mod payload;
 pub mod settings;
+pub mod sparkplug;
 #[doc(hidden)]
 pub mod testing;
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -50,11 +52,22 @@ fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
     Ok(Box::new(Mqtt::new(decl)?))
 }
 
-/// The latest payload of a published point and whether the broker has it yet.
+/// The latest value of a published point (with the wall-clock time of the scan that saw it,
+/// in ms) and whether the broker has it yet.
 #[derive(Default)]
 struct Slot {
-    payload: Option<Vec<u8>>,
+    value: Option<(PointValue, u64)>,
     dirty: bool,
+}
+
+/// What the network side of a Sparkplug B edge node keeps.
+pub(crate) struct Spb {
+    node: sparkplug::Node,
+    metrics: Vec<sparkplug::MetricDef>,
+    /// The bdSeq of the current (or next) connection's will and NBIRTH, 0–255.
+    bd_seq: AtomicU8,
+    /// A host asked for a rebirth (NCMD `Node Control/Rebirth`).
+    rebirth: AtomicBool,
 }
 
 /// What the scan and the network share.
@@ -70,9 +83,15 @@ pub(crate) struct Shared {
     up: AtomicBool,
     outages: AtomicU64,
     published: AtomicU64,
+    /// Changes overwritten by a newer value before the network sent them (the broker, or
+    /// the link to it, slower than the changes).
+    coalesced: AtomicU64,
     received: AtomicU64,
     rejected: AtomicU64,
     last_error: Mutex<String>,
+    format: Format,
+    /// Set when the module publishes as a Sparkplug B edge node.
+    spb: Option<Spb>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -133,7 +152,14 @@ impl Module for Mqtt {
             .topic_prefix
             .clone()
             .unwrap_or_else(|| ctx.plc_id.to_string());
-        if let Err(why) = settings::check_topic(&prefix) {
+        let spb_node = self.settings.sparkplug.clone();
+        // A Sparkplug B node publishes under spBv1.0/GROUP/…: the prefix is not used.
+        let checked = if spb_node.is_some() {
+            Ok(())
+        } else {
+            settings::check_topic(&prefix)
+        };
+        if let Err(why) = checked {
             return Err(error(
                 &name,
                 format!(
@@ -152,9 +178,26 @@ impl Module for Mqtt {
             up: AtomicBool::new(false),
             outages: AtomicU64::new(0),
             published: AtomicU64::new(0),
+            coalesced: AtomicU64::new(0),
             received: AtomicU64::new(0),
             rejected: AtomicU64::new(0),
             last_error: Mutex::new(String::new()),
+            format: self.settings.format,
+            spb: spb_node.map(|node| Spb {
+                node,
+                metrics: plan
+                    .publish
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| sparkplug::MetricDef {
+                        name: p.point.clone(),
+                        alias: i as u64 + 1,
+                        datatype: sparkplug::datatype_of(p.handle.kind(), p.handle.bits()),
+                    })
+                    .collect(),
+                bd_seq: AtomicU8::new(0),
+                rebirth: AtomicBool::new(false),
+            }),
         });
         let client_id = self
             .settings
@@ -168,8 +211,12 @@ impl Module for Mqtt {
             &plan,
             Arc::clone(&shared),
         )?;
+        let under = match &shared.spb {
+            Some(spb) => format!("as Sparkplug B edge node {}", spb.node.topic("NDATA")),
+            None => format!("under {prefix}/"),
+        };
         log::info!(
-            "mqtt {name}: broker {}, {} published under {prefix}/, {} subscribed",
+            "mqtt {name}: broker {}, {} published {under}, {} subscribed",
             self.settings.broker,
             plan.publish.len(),
             plan.subscribe.len()
@@ -220,7 +267,6 @@ impl Module for Mqtt {
                 }
             }
         }
-        let format = self.settings.format;
         let mut changed = false;
         let mut ts = None;
         let mut outbox = None;
@@ -230,13 +276,13 @@ impl Module for Mqtt {
                 continue;
             }
             run.last[i] = Some(v);
-            let ts = *ts.get_or_insert_with(|| match format {
-                Format::Json => now_ms(),
-                Format::Plain => 0,
-            });
+            let ts = *ts.get_or_insert_with(now_ms);
             let outbox = outbox.get_or_insert_with(|| lock(&shared.outbox));
+            if outbox[i].dirty && shared.up.load(Ordering::Relaxed) {
+                shared.coalesced.fetch_add(1, Ordering::Relaxed);
+            }
             outbox[i] = Slot {
-                payload: Some(payload::encode(v, format, ts)),
+                value: Some((v, ts)),
                 dirty: true,
             };
             changed = true;
@@ -272,8 +318,12 @@ impl Module for Mqtt {
                 format!("stale: {why}")
             }
         };
+        let coalesced = match s.coalesced.load(Ordering::Relaxed) {
+            0 => String::new(),
+            n => format!(", {n} coalesced"),
+        };
         format!(
-            "broker {} {state}; {} published, {} received, {} rejected, {} outages",
+            "broker {} {state}; {} published, {} received, {} rejected, {} outages{coalesced}",
             s.broker,
             s.published.load(Ordering::Relaxed),
             s.received.load(Ordering::Relaxed),

@@ -10,17 +10,17 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use petriplc_config::PointKind;
+use petriplc_config::{PointKind, PointValue};
 use petriplc_modules::common::{self, error};
 use petriplc_runtime::module::ModuleError;
 use rumqttc::{
-    AsyncClient, ConnectReturnCode, Event, EventLoop, MqttOptions, Packet, QoS, SubscribeFilter,
-    SubscribeReasonCode, TlsConfiguration, Transport,
+    AsyncClient, ConnectReturnCode, Event, EventLoop, LastWill, MqttOptions, Packet, QoS,
+    SubscribeFilter, SubscribeReasonCode, TlsConfiguration, Transport,
 };
 use tokio::sync::{oneshot, watch};
 
 use crate::settings::{Plan, Settings};
-use crate::{lock, payload, Shared};
+use crate::{lock, payload, sparkplug, Shared, Spb};
 
 /// The first wait after a failed connection; it doubles up to `backoff_max`.
 const BACKOFF_MIN: Duration = Duration::from_millis(100);
@@ -89,6 +89,15 @@ impl Link {
         }
         let mut topics: HashMap<String, Vec<(usize, PointKind, u8)>> = HashMap::new();
         let mut filters: Vec<SubscribeFilter> = Vec::new();
+        if let Some(spb) = &shared.spb {
+            // The will is the NDEATH of this connection's bdSeq (drive() renews it before
+            // each new connection); commands come on NCMD.
+            options.set_last_will(will(spb));
+            filters.push(SubscribeFilter::new(
+                spb.node.topic("NCMD"),
+                QoS::AtLeastOnce,
+            ));
+        }
         for (i, s) in plan.subscribe.iter().enumerate() {
             let entry = topics.entry(s.topic.clone()).or_default();
             if entry.is_empty() {
@@ -122,9 +131,9 @@ impl Link {
                         conn_rx,
                     ));
                     let link = drive(
-                        eventloop,
+                        &mut eventloop,
                         client.clone(),
-                        shared,
+                        Arc::clone(&shared),
                         filters,
                         topics,
                         conn_tx,
@@ -135,8 +144,7 @@ impl Link {
                         _ = link => {}
                     }
                     publisher.abort();
-                    // A clean DISCONNECT, so the broker does not wait for the keep-alive.
-                    let _ = client.try_disconnect();
+                    goodbye(&mut eventloop, &client, &shared).await;
                 });
                 rt.shutdown_timeout(Duration::from_millis(200));
             })
@@ -216,10 +224,45 @@ fn tls_config(settings: &Settings, base: &Path) -> Result<rustls::ClientConfig, 
     }
 }
 
+/// The NDEATH will of the next connection.
+fn will(spb: &Spb) -> LastWill {
+    let bd_seq = u64::from(spb.bd_seq.load(Ordering::Acquire));
+    // QoS 1, not retained, as Sparkplug B requires of NDEATH.
+    LastWill::new(
+        spb.node.topic("NDEATH"),
+        sparkplug::death(bd_seq, crate::now_ms()),
+        QoS::AtLeastOnce,
+        false,
+    )
+}
+
+/// At a clean stop while connected: the NDEATH of a Sparkplug B node (the broker sends no
+/// will after a DISCONNECT), then a DISCONNECT so the broker does not wait for the
+/// keep-alive; the event loop is driven until it is sent, 2 s at most.
+async fn goodbye(eventloop: &mut EventLoop, client: &AsyncClient, shared: &Shared) {
+    if !shared.up.load(Ordering::Acquire) {
+        return;
+    }
+    if let Some(spb) = &shared.spb {
+        let w = will(spb);
+        let _ = client.try_publish(w.topic, w.qos, w.retain, w.message.to_vec());
+    }
+    let _ = client.try_disconnect();
+    let _ = tokio::time::timeout(Duration::from_secs(2), async {
+        loop {
+            match eventloop.poll().await {
+                Ok(Event::Outgoing(rumqttc::Outgoing::Disconnect)) | Err(_) => return,
+                Ok(_) => {}
+            }
+        }
+    })
+    .await;
+}
+
 /// Drives the connection: (re)connects with back-off, subscribes after each connection,
 /// hands received values to the inbox. `conn` counts connections (0: down).
 async fn drive(
-    mut eventloop: EventLoop,
+    eventloop: &mut EventLoop,
     client: AsyncClient,
     shared: Arc<Shared>,
     filters: Vec<SubscribeFilter>,
@@ -281,6 +324,30 @@ async fn drive(
                 }
                 shared.up.store(true, Ordering::Release);
             }
+            Ok(Event::Incoming(Packet::Publish(p)))
+                if shared
+                    .spb
+                    .as_ref()
+                    .is_some_and(|spb| p.topic == spb.node.topic("NCMD")) =>
+            {
+                let spb = shared.spb.as_ref().expect("matched above");
+                shared.received.fetch_add(1, Ordering::Relaxed);
+                match sparkplug::asks_rebirth(&p.payload) {
+                    Ok(true) => {
+                        log::info!("mqtt {name}: rebirth requested (NCMD)");
+                        spb.rebirth.store(true, Ordering::Release);
+                        shared.wake.notify_one();
+                    }
+                    Ok(false) => {}
+                    Err(why) => {
+                        shared.rejected.fetch_add(1, Ordering::Relaxed);
+                        if !complained.contains_key(p.topic.as_str()) {
+                            complained.insert(p.topic.clone(), true);
+                            log::warn!("mqtt {name}: {}: {why} (logged once)", p.topic);
+                        }
+                    }
+                }
+            }
             Ok(Event::Incoming(Packet::Publish(p))) => {
                 let Some(targets) = topics.get(p.topic.as_str()) else {
                     continue;
@@ -318,6 +385,13 @@ async fn drive(
             Err(e) => {
                 shared.up.store(false, Ordering::Release);
                 let _ = conn.send(0);
+                if let Some(spb) = &shared.spb {
+                    // Every CONNECT carries the next bdSeq in its will, and the NBIRTH after
+                    // it the same.
+                    let next = spb.bd_seq.load(Ordering::Acquire).wrapping_add(1);
+                    spb.bd_seq.store(next, Ordering::Release);
+                    eventloop.mqtt_options.set_last_will(will(spb));
+                }
                 let why = e.to_string();
                 if down_since.is_none() {
                     down_since = Some(Instant::now());
@@ -340,8 +414,9 @@ async fn drive(
     }
 }
 
-/// Sends the latest payload of every changed point while connected, and every point's after
-/// each (re)connection. Only this task waits for the broker; the scan never does.
+/// Sends the latest value of every changed point while connected, and every point's after
+/// each (re)connection (a Sparkplug B node: an NBIRTH, then NDATA). Only this task waits for
+/// the broker; the scan never does.
 async fn publish(
     client: AsyncClient,
     shared: Arc<Shared>,
@@ -349,7 +424,9 @@ async fn publish(
     mut conn: watch::Receiver<u64>,
 ) {
     let mut seen = 0u64;
-    let mut batch: Vec<(usize, Vec<u8>)> = Vec::new();
+    // The seq of the next NDATA (the NBIRTH is 0).
+    let mut seq = 0u8;
+    let mut batch: Vec<(usize, PointValue, u64)> = Vec::new();
     loop {
         tokio::select! {
             _ = shared.wake.notified() => {}
@@ -359,31 +436,86 @@ async fn publish(
         if now == 0 {
             continue;
         }
+        let mut birth = false;
         {
             let mut outbox = lock(&shared.outbox);
             let all = now != seen;
+            if let Some(spb) = &shared.spb {
+                if all || spb.rebirth.load(Ordering::Acquire) {
+                    // An NBIRTH carries every metric: wait for the first scan to fill them.
+                    if outbox.iter().any(|s| s.value.is_none()) {
+                        continue;
+                    }
+                    spb.rebirth.store(false, Ordering::Release);
+                    birth = true;
+                }
+            }
             seen = now;
             for (i, slot) in outbox.iter_mut().enumerate() {
-                if slot.dirty || all {
-                    if let Some(p) = &slot.payload {
-                        batch.push((i, p.clone()));
+                if slot.dirty || all || birth {
+                    if let Some((v, ts)) = slot.value {
+                        batch.push((i, v, ts));
                     }
                     slot.dirty = false;
                 }
             }
         }
-        for (i, payload) in batch.drain(..) {
-            if *conn.borrow() == 0 {
-                // Lost again: the next connection republishes everything.
-                break;
+        if *conn.borrow() == 0 {
+            // Lost again: the next connection republishes everything.
+            batch.clear();
+            continue;
+        }
+        let sent = match &shared.spb {
+            Some(spb) => {
+                let ts = crate::now_ms();
+                let (topic, payload) = if birth {
+                    seq = 1;
+                    let values: Vec<PointValue> = batch.iter().map(|b| b.1).collect();
+                    let bd_seq = u64::from(spb.bd_seq.load(Ordering::Acquire));
+                    (
+                        spb.node.topic("NBIRTH"),
+                        sparkplug::birth(bd_seq, ts, &spb.metrics, &values),
+                    )
+                } else if batch.is_empty() {
+                    continue;
+                } else {
+                    let changes: Vec<_> = batch
+                        .iter()
+                        .map(|&(i, v, at)| (&spb.metrics[i], v, at))
+                        .collect();
+                    let payload = sparkplug::data(seq, ts, &changes);
+                    seq = seq.wrapping_add(1);
+                    (spb.node.topic("NDATA"), payload)
+                };
+                batch.clear();
+                // NBIRTH and NDATA: QoS 0, not retained (Sparkplug B).
+                client
+                    .publish(topic, QoS::AtMostOnce, false, payload)
+                    .await
+                    .is_ok()
             }
-            if client
-                .publish(topics[i].clone(), QoS::AtLeastOnce, true, payload)
-                .await
-                .is_err()
-            {
-                return;
+            None => {
+                let mut ok = true;
+                for (i, v, ts) in batch.drain(..) {
+                    if *conn.borrow() == 0 {
+                        break;
+                    }
+                    let payload = payload::encode(v, shared.format, ts);
+                    if client
+                        .publish(topics[i].clone(), QoS::AtLeastOnce, true, payload)
+                        .await
+                        .is_err()
+                    {
+                        ok = false;
+                        break;
+                    }
+                }
+                batch.clear();
+                ok
             }
+        };
+        if !sent {
+            return;
         }
     }
 }

@@ -10,6 +10,7 @@ use petriplc_runtime::image::{Handle, ModuleMap};
 use petriplc_runtime::module::{InitContext, ModuleError};
 
 use crate::payload::{self, Format};
+use crate::sparkplug::Node;
 
 pub const KIND: &str = "mqtt";
 
@@ -27,6 +28,7 @@ pub const SETTINGS: &[&str] = &[
     "keep_alive",
     "backoff_max",
     "stale",
+    "sparkplug",
 ];
 
 /// The tables an `mqtt` section reads.
@@ -129,6 +131,8 @@ pub struct Settings {
     pub keep_alive: Duration,
     pub backoff_max: Duration,
     pub stale: Option<String>,
+    /// `sparkplug = GROUP/EDGE_NODE`: publish as a Sparkplug B edge node.
+    pub sparkplug: Option<Node>,
 }
 
 fn at(decl: &ModuleDecl, setting: &str) -> String {
@@ -264,6 +268,24 @@ impl Settings {
             ));
         }
         let stale = common::setting(decl, "stale").map(str::to_string);
+        let sparkplug = match common::setting(decl, "sparkplug") {
+            None => None,
+            Some(v) => Node::parse(v)
+                .map_err(|why| problems.push(format!("{}{why}", at(decl, "sparkplug"))))
+                .ok(),
+        };
+        if sparkplug.is_some() {
+            for s in ["topic_prefix", "payload"] {
+                if common::setting(decl, s).is_some() {
+                    problems.push(format!(
+                        "{}`{s}` does not apply with `sparkplug`: the published points are the \
+                         metrics of the edge node (topics spBv1.0/GROUP/NDATA/EDGE_NODE, protobuf \
+                         payloads); remove `{s}` or `sparkplug`",
+                        at(decl, s)
+                    ));
+                }
+            }
+        }
         if !problems.is_empty() {
             return Err(error(name, problems.join(&format!("\nmodule {name}: "))));
         }
@@ -278,6 +300,7 @@ impl Settings {
             keep_alive,
             backoff_max,
             stale,
+            sparkplug,
         })
     }
 }
@@ -422,6 +445,18 @@ pub fn plan(ctx: &InitContext<'_>, settings: &Settings, prefix: &str) -> Result<
         }
     }
     for s in &plan.subscribe {
+        if settings.sparkplug.is_some() {
+            if s.topic
+                .starts_with(&format!("{}/", crate::sparkplug::NAMESPACE))
+            {
+                problems.push(format!(
+                    "{}: `subscribe {}`: Sparkplug B topics carry protobuf payloads, not values; \
+                     subscribe to a plain topic",
+                    s.origin, s.topic
+                ));
+            }
+            continue;
+        }
         if let Some(p) = plan.publish.iter().find(|p| p.topic == s.topic) {
             problems.push(format!(
                 "{}: topic `{}` is both published (point {}) and subscribed (point {}): the \
