@@ -11,6 +11,7 @@
 mod check;
 mod consts;
 mod expr;
+mod il;
 pub mod ir;
 pub mod ops;
 mod stdlib;
