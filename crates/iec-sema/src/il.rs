@@ -56,6 +56,8 @@ struct Label {
     target: Option<ast::Expr>,
     /// The hidden variable that carries the current result to the label.
     var: Option<VarId>,
+    /// A way in had no current result (reported there): no more reports after the label.
+    poisoned: bool,
 }
 
 /// An open `OP(`.
@@ -178,6 +180,7 @@ impl Checker<'_> {
                         needs,
                         target,
                         var: None,
+                        poisoned: false,
                     },
                 );
             }
@@ -247,6 +250,7 @@ impl Checker<'_> {
                     span,
                 });
                 il.cr = match il.labels[&key].var {
+                    _ if needs && il.labels[&key].poisoned => Cr::Value(err(span)),
                     Some(v) if needs => {
                         let ty = il.cx.vars[v as usize].ty;
                         Cr::Value(load(var_place(v, ty, span)))
@@ -338,11 +342,16 @@ impl Checker<'_> {
                             let cr = self.expr(&e, il.cx, None);
                             self.il_join(il, &key, cr, span)
                         }
-                        Cr::None(why) => self.error(
-                            diag::IL_NO_RESULT,
-                            span,
-                            format!("the code after label `{}` uses the current result, but there is none at this jump ({why}); load one with LD", label.name),
-                        ),
+                        Cr::None(why) => {
+                            self.error(
+                                diag::IL_NO_RESULT,
+                                span,
+                                format!("the code after label `{}` uses the current result, but there is none at this jump ({why}); load one with LD", label.name),
+                            );
+                            if let Some(l) = il.labels.get_mut(&key) {
+                                l.poisoned = true;
+                            }
+                        }
                     }
                 }
                 if let Some(cond) = c {
@@ -837,6 +846,9 @@ impl Checker<'_> {
     /// Stores the current result for a label whose code uses it.
     fn il_join(&mut self, il: &mut Il<'_>, key: &str, x: Expr, span: Span) {
         if x.ty == ids::ERROR {
+            if let Some(l) = il.labels.get_mut(key) {
+                l.poisoned = true;
+            }
             return;
         }
         let var = match il.labels.get(key).and_then(|l| l.var) {

@@ -38,4 +38,6 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
 }
 
 #[cfg(test)]
+mod il_tests;
+#[cfg(test)]
 mod tests;
