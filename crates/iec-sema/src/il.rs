@@ -919,6 +919,19 @@ impl Checker<'_> {
         }
         let held = match &x.kind {
             ExprKind::Load(p) if p.path.is_empty() && matches!(p.root, Root::Var(_)) => x,
+            ExprKind::Const(_) => {
+                // A typed constant (BYTE#1): held like any other value.
+                let v = self.il_var(il, x.ty, span);
+                let p = var_place(v, x.ty, span);
+                il.out.push(Stmt {
+                    kind: StmtKind::Assign {
+                        target: p.clone(),
+                        value: x,
+                    },
+                    span,
+                });
+                load(p)
+            }
             _ => self.il_materialise(il, x, span),
         };
         let ExprKind::Load(Place {
