@@ -944,9 +944,7 @@ impl Checker<'_> {
             };
         };
         let name = il.cx.vars[v as usize].name.clone();
-        if !il.cx.names.contains_key(&name.to_ascii_uppercase()) {
-            il.cx.names.insert(name.to_ascii_uppercase(), v);
-        }
+        il.cx.names.entry(name.to_ascii_uppercase()).or_insert(v);
         ast::Expr {
             kind: ast::ExprKind::Name(ast::Ident::new(name, span)),
             span,

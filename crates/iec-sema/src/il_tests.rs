@@ -111,3 +111,22 @@ fn operands_are_typed_as_in_st() {
         ],
     );
 }
+
+proptest::proptest! {
+    /// No Instruction List body makes the parser or the checker panic.
+    #[test]
+    fn never_panics(lines in proptest::collection::vec(proptest::collection::vec(proptest::sample::select(vec![
+        "LD", "LDN", "ST", "STN", "S", "R", "AND", "ANDN", "OR", "XOR", "NOT", "ADD", "SUB",
+        "MUL", "DIV", "MOD", "GT", "EQ", "LT", "JMP", "JMPC", "JMPCN", "CAL", "CALC", "RET",
+        "RETCN", "PT", "CU", "MAX", "f", "l:", "m:", "l", "m", "x", "b", "n", "t", "c", "t.Q",
+        "(", ")", ",", ":=", "=>", "IN", "1", "2.5", "TRUE", "T#1s", "'s'", "&", "(* c *)",
+    ]), 0..5), 0..20)) {
+        let body: Vec<String> = lines.iter().map(|l| l.join(" ")).collect();
+        let src = format!(
+            "FUNCTION f : INT\nVAR_INPUT i : INT; END_VAR\n  LD i\n  ST f\nEND_FUNCTION\n\
+             PROGRAM p\nVAR x : INT; b : BOOL; n : REAL; t : TON; c : CTU; END_VAR\n{}\nEND_PROGRAM\n",
+            body.join("\n")
+        );
+        let _ = run(&src);
+    }
+}
