@@ -375,6 +375,7 @@ impl Checker<'_> {
                     args: args.clone(),
                     span,
                 };
+                self.il_protect(il, None, span);
                 self.il_conditional(il, *cond, "CAL", span, |ck, il| {
                     ck.call_stmt(&call, il.cx).into_iter().collect()
                 });
@@ -454,6 +455,7 @@ impl Checker<'_> {
                 let x = if reads(&x, &mut r) {
                     x
                 } else {
+                    self.il_protect(il, None, span);
                     self.il_materialise(il, x, span)
                 };
                 il.cr = Cr::Value(x);
@@ -515,6 +517,7 @@ impl Checker<'_> {
                 if cr.ty == ids::ERROR {
                     return;
                 }
+                self.il_protect(il, Some(p.root), span);
                 let value = if negated {
                     let x = if cr.ty == ids::INT_LIT {
                         self.coerce(cr.clone(), p.ty, "the operand of STN")
@@ -591,6 +594,7 @@ impl Checker<'_> {
                     );
                     return;
                 }
+                self.il_protect(il, Some(p.root), span);
                 let mut r = Vec::new();
                 let c = if !reads(&c, &mut r) || r.contains(&p.root) {
                     let held = self.il_materialise(il, c, span);
@@ -663,6 +667,7 @@ impl Checker<'_> {
             span: instance.span,
         };
         let place = self.place(&member, il.cx, true);
+        self.il_protect(il, None, span);
         let hint = place.as_ref().map(|p| p.ty);
         if let Some(cr) = self.il_take_as(il, &input.name, span, hint) {
             if let Some(p) = place {
@@ -802,6 +807,26 @@ impl Checker<'_> {
             },
             span,
         });
+    }
+
+    /// Before a store into `root` (or a call, `None`: anything may change), holds the current
+    /// results saved by open `OP(` that read what changes, so they keep their values.
+    fn il_protect(&mut self, il: &mut Il<'_>, root: Option<Root>, span: Span) {
+        for i in 0..il.open.len() {
+            let Cr::Value(e) = &il.open[i].saved else {
+                continue;
+            };
+            if matches!(e.kind, ExprKind::Const(_)) {
+                continue;
+            }
+            let mut r = Vec::new();
+            let pure = reads(e, &mut r);
+            if !pure || root.is_none_or(|x| r.contains(&x)) {
+                let e = e.clone();
+                let held = self.il_materialise(il, e, span);
+                il.open[i].saved = Cr::Value(held);
+            }
+        }
     }
 
     /// A new hidden variable of the POU.
