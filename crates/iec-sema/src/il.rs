@@ -142,6 +142,83 @@ fn cond_name(base: &str, cond: IlCond) -> String {
     }
 }
 
+/// Jumps over straight code become IF: `JMPCN l … l:` is `IF c THEN … END_IF` when nothing
+/// else jumps to `l` and no label or jump lies between, so structured IL compiles to exactly
+/// what the same logic in ST does (the VM's fused instructions apply alike).
+fn structure(mut v: Vec<Stmt>) -> Vec<Stmt> {
+    loop {
+        let mut refs: HashMap<u32, usize> = HashMap::new();
+        count_jumps(&v, &mut refs);
+        let mut out = Vec::with_capacity(v.len());
+        let mut changed = false;
+        let mut i = 0;
+        while i < v.len() {
+            if let StmtKind::Goto {
+                label,
+                cond: Some((c, flag)),
+            } = &v[i].kind
+            {
+                // The first label or jump after this one must be its label.
+                let end = (i + 1..v.len())
+                    .find(|&j| matches!(v[j].kind, StmtKind::Label(_) | StmtKind::Goto { .. }))
+                    .filter(|&j| {
+                        refs.get(label) == Some(&1)
+                            && matches!(v[j].kind, StmtKind::Label(l) if l == *label)
+                    });
+                if let Some(j) = end {
+                    // The body runs when the jump is not taken.
+                    let run = if let (true, ExprKind::Unary(UnaryOp::Not, inner)) = (*flag, &c.kind)
+                    {
+                        (**inner).clone()
+                    } else if *flag {
+                        Expr {
+                            kind: ExprKind::Unary(UnaryOp::Not, Box::new(c.clone())),
+                            ty: ids::BOOL,
+                            span: c.span,
+                        }
+                    } else {
+                        c.clone()
+                    };
+                    out.push(Stmt {
+                        kind: StmtKind::If {
+                            branches: vec![(run, v[i + 1..j].to_vec())],
+                            else_body: Vec::new(),
+                        },
+                        span: v[i].span,
+                    });
+                    changed = true;
+                    i = j + 1;
+                    continue;
+                }
+            }
+            out.push(v[i].clone());
+            i += 1;
+        }
+        v = out;
+        if !changed {
+            return v;
+        }
+    }
+}
+
+fn count_jumps(v: &[Stmt], refs: &mut HashMap<u32, usize>) {
+    for s in v {
+        match &s.kind {
+            StmtKind::Goto { label, .. } => *refs.entry(*label).or_default() += 1,
+            StmtKind::If {
+                branches,
+                else_body,
+            } => {
+                for (_, b) in branches {
+                    count_jumps(b, refs);
+                }
+                count_jumps(else_body, refs);
+            }
+            _ => {}
+        }
+    }
+}
+
 impl Checker<'_> {
     /// Lowers an IL body.
     pub fn il_body(&mut self, code: &[IlInstr], cx: &mut Cx) -> Vec<Stmt> {
@@ -207,7 +284,7 @@ impl Checker<'_> {
                 ),
             );
         }
-        il.out
+        structure(il.out)
     }
 
     fn il_instr(&mut self, ins: &IlInstr, il: &mut Il<'_>, seen: &mut Vec<String>) {
