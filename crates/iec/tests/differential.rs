@@ -5,10 +5,11 @@
 
 mod common;
 
-use common::random::{arb_desc, build, timeline_text};
+use common::random::{arb_desc, build, timeline_text, Desc};
 use common::{compare, example_timeline, modes, read, Figures, NETS};
 use petriplc_codegen::{Form, Language};
 use petriplc_sim::Timeline;
+use proptest::strategy::{Strategy, ValueTree};
 use proptest::test_runner::{Config, TestRng, TestRunner};
 
 const LANGUAGES: [(Language, Form); 4] = [
@@ -44,37 +45,50 @@ fn generated_code_of_the_examples_runs_as_the_nets_simulate() {
 
 #[test]
 fn generated_code_of_random_nets_runs_as_the_nets_simulate() {
-    let config = Config {
-        cases: 500,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    // A fixed seed: a failure reproduces on every run.
+    let config = Config::default();
+    // A fixed seed: the same 500 nets on every run, so a failure reproduces.
     let rng = TestRng::deterministic_rng(config.rng_algorithm);
     let mut runner = TestRunner::new_with_rng(config, rng);
+    let nets: Vec<Desc> = (0..500)
+        .map(|_| arb_desc().new_tree(&mut runner).unwrap().current())
+        .collect();
     let modes = modes();
-    let figures = std::cell::RefCell::new(Figures::default());
-    runner
-        .run(&arb_desc(), |d| {
-            let net = build(&d);
-            let timeline = Timeline::parse(&timeline_text(&d), "timeline.csv").unwrap();
-            let mut f = figures.borrow_mut();
-            f.nets += 1;
-            for &mode in &modes {
-                compare(
-                    "random",
-                    &net,
-                    Some(&timeline),
-                    None,
-                    mode,
-                    &[LANGUAGES[0], LANGUAGES[2]],
-                    &mut f,
-                );
-            }
-            Ok(())
-        })
-        .unwrap();
-    let figures = figures.into_inner();
+    // Both cores: the suite runs one test binary at a time.
+    let figures = std::thread::scope(|s| {
+        let workers: Vec<_> = nets
+            .chunks(nets.len().div_ceil(2))
+            .enumerate()
+            .map(|(half, chunk)| {
+                let modes = &modes;
+                s.spawn(move || {
+                    let mut f = Figures::default();
+                    for (i, d) in chunk.iter().enumerate() {
+                        let net = build(d);
+                        let timeline = Timeline::parse(&timeline_text(d), "timeline.csv").unwrap();
+                        let name = format!("random net {} {d:?}", half * 250 + i);
+                        f.nets += 1;
+                        for &mode in modes {
+                            compare(
+                                &name,
+                                &net,
+                                Some(&timeline),
+                                None,
+                                mode,
+                                &[LANGUAGES[0], LANGUAGES[2]],
+                                &mut f,
+                            );
+                        }
+                    }
+                    f
+                })
+            })
+            .collect();
+        let mut all = Figures::default();
+        for w in workers {
+            all.merge(w.join().expect("a worker panicked (its message is above)"));
+        }
+        all
+    });
     eprintln!("{}", figures.report("random nets", modes.len()));
     assert!(figures.nets >= 500);
 }

@@ -127,6 +127,18 @@ impl Figures {
         self.compared.values().map(|c| c.1).sum()
     }
 
+    pub fn merge(&mut self, other: Figures) {
+        self.nets += other.nets;
+        for (k, (runs, scans)) in other.compared {
+            let c = self.compared.entry(k).or_default();
+            c.0 += runs;
+            c.1 += scans;
+        }
+        for (k, n) in other.refused {
+            *self.refused.entry(k).or_default() += n;
+        }
+    }
+
     pub fn report(&self, what: &str, modes: usize) -> String {
         let mut s = format!(
             "differential ({what}): {} nets, {modes} modes, {} runs, {} scans compared",
