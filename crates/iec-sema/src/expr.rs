@@ -1236,7 +1236,7 @@ impl<'a> Checker<'a> {
             self.error(
                 diag::UNSUPPORTED,
                 span,
-                format!("{n} is not written in Structured Text and cannot be called yet"),
+                format!("{n} is not written in Structured Text or Instruction List and cannot be called yet"),
             );
             return err(span);
         }

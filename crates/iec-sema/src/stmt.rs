@@ -462,7 +462,7 @@ impl Checker<'_> {
                     self.error(
                         diag::UNSUPPORTED,
                         span,
-                        format!("{n} is not written in Structured Text and cannot be called yet"),
+                        format!("{n} is not written in Structured Text or Instruction List and cannot be called yet"),
                     );
                     return None;
                 }
@@ -709,7 +709,7 @@ impl Checker<'_> {
                 diag::UNSUPPORTED,
                 pc.type_name.span,
                 format!(
-                    "program {} is not written in Structured Text; the engine cannot run it yet",
+                    "program {} is not written in Structured Text or Instruction List; the engine cannot run it yet",
                     pc.type_name.name
                 ),
             );
