@@ -7,6 +7,8 @@
 # median wall-clock ns per scan, the CPU ns per scan (process CPU time / scans: what a scan
 # costs even when the machine is shared), and the ratios engine/C against the goal of 3. Then the compile time of
 # the 1000-copy program: `petriplc check --pou mixer` (read, parse, check, compile).
+# Then the IL `petriplc compile --lang il` writes for the same nets against that ST, both on
+# the engine (interleaved likewise; goal: IL within 1.2x of ST, one lowered form for both).
 #
 #   bash bench/iec_scan.sh            # 3 runs
 #   RUNS=5 bash bench/iec_scan.sh
@@ -27,6 +29,7 @@ engine="$target/release/examples/scan_time"
 for n in 1 100 1000; do
   python3 bench/iec/mixer_copies.py "$n" "$work/mixer-$n.pnml"
   "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang st --plain --out "$work/mixer-$n.st" 2>/dev/null
+  "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang il --plain --out "$work/mixer-$n.il" 2>/dev/null
   "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang c --out "$work/mixer-$n.c" 2>/dev/null
   cc -std=c99 -O2 -c -o "$work/mixer-$n.o" "$work/mixer-$n.c"
   cc -O2 -o "$work/c_scan-$n" bench/iec/c_scan.c "$work/mixer-$n.o"
@@ -59,3 +62,28 @@ for ((r = 0; r < RUNS; r++)); do
   ms+=("$(( ($(date +%s%N) - start) / 1000000 ))")
 done
 echo "compile of the 1000-copy program ($lines lines): median $(printf "%s\n" "${ms[@]}" | median) ms (petriplc check --pou mixer, goal < 1000 ms)"
+
+echo
+printf "%-6s %14s %14s %14s %14s %8s %8s\n" N "ST ns/scan" "IL ns/scan" "ST cpu ns" "IL cpu ns" "ratio" "cpu ratio"
+for n in 1 100 1000; do
+  scans=$((2000000 / n))
+  s_wall=(); i_wall=(); s_cpu=(); i_cpu=()
+  for ((r = 0; r < RUNS; r++)); do
+    read -r w c _ < <("$engine" "$work/mixer-$n.st" "$scans" 11)
+    s_wall+=("$w"); s_cpu+=("$c")
+    read -r w c _ < <("$engine" "$work/mixer-$n.il" "$scans" 11)
+    i_wall+=("$w"); i_cpu+=("$c")
+  done
+  sw=$(printf "%s\n" "${s_wall[@]}" | median); iw=$(printf "%s\n" "${i_wall[@]}" | median)
+  sc=$(printf "%s\n" "${s_cpu[@]}" | median); ic=$(printf "%s\n" "${i_cpu[@]}" | median)
+  printf "%-6s %14.1f %14.1f %14.1f %14.1f %8.2f %8.2f\n" "$n" "$sw" "$iw" "$sc" "$ic" \
+    "$(python3 -c "print($iw / $sw)")" "$(python3 -c "print($ic / $sc)")"
+done
+lines=$(wc -l < "$work/mixer-1000.il")
+ms=()
+for ((r = 0; r < RUNS; r++)); do
+  start=$(date +%s%N)
+  "$petriplc" check "$work/mixer-1000.il" --pou mixer 2>/dev/null
+  ms+=("$(( ($(date +%s%N) - start) / 1000000 ))")
+done
+echo "compile of the 1000-copy IL program ($lines lines): median $(printf "%s\n" "${ms[@]}" | median) ms (petriplc check --pou mixer)"

@@ -113,14 +113,15 @@ impl From<EvolveArg> for Evolution {
     petriplc sim examples/mixer/mixer.pnml --names sipn --step-through\n  \
     petriplc sim examples/chaser/chaser.st \\\n      \
         --inputs examples/chaser/timeline.csv --until 3s\n\n\
-    An IEC 61131-3 program (.st, or a PLCopen XML project) is simulated the same\n\
-    way: timeline columns and plant outputs drive its VAR_INPUTs by name (in:NAME\n\
-    columns), the trace has a column per VAR_OUTPUT (--vars: every variable);\n\
+    An IEC 61131-3 program (.st, .il, or a PLCopen XML project) is simulated\n\
+    the same way: timeline columns and plant outputs drive its VAR_INPUTs by\n\
+    name (in:NAME columns), the trace has a column per VAR_OUTPUT (--vars:\n\
+    every variable);\n\
     --pou picks a PROGRAM, else the CONFIGURATION's tasks or the only PROGRAM\n\
     run. A run-time fault in the program exits 1.\n\n",
     exit_codes!()))]
 pub struct SimArgs {
-    /// The controller: a net (PNML), or an IEC 61131-3 program (.st) or PLCopen XML project.
+    /// The controller: a net (PNML), or an IEC 61131-3 program (.st, .il) or PLCopen XML project.
     pub net: PathBuf,
     /// How names in the net are read.
     #[arg(long, value_enum, default_value = "plain")]

@@ -180,3 +180,49 @@ fn the_chaser_runs_on_the_soft_plc() {
     assert!(report.contains("chaser_iec   iec"), "{report}");
     assert!(report.contains("chaser.st (chaser):"), "{report}");
 }
+
+#[test]
+fn the_il_chaser_simulates_exactly_as_the_st_chaser() {
+    let sim = |file: &str| {
+        petriplc()
+            .args([
+                "sim",
+                &format!("{EXAMPLES}/chaser/{file}"),
+                "--inputs",
+                &format!("{EXAMPLES}/chaser/timeline.csv"),
+                "--until",
+                "6s",
+                "--vars",
+            ])
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone()
+    };
+    let (st, il) = (sim("chaser.st"), sim("chaser_il.il"));
+    assert_eq!(String::from_utf8_lossy(&il), String::from_utf8_lossy(&st));
+    assert!(String::from_utf8_lossy(&il).lines().count() > 20);
+}
+
+#[test]
+fn the_il_chaser_runs_on_the_soft_plc() {
+    let id = format!("test-chaser-il-{}", std::process::id());
+    let out = petriplc()
+        .args([
+            "run",
+            &format!("{EXAMPLES}/chaser/plc_il.conf"),
+            "--plc-id",
+            &id,
+            "--for",
+            "1s",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stderr
+        .clone();
+    let report = String::from_utf8_lossy(&out);
+    assert!(report.contains("chaser_il    iec"), "{report}");
+    assert!(report.contains("chaser_il.il (chaser):"), "{report}");
+}

@@ -224,7 +224,7 @@ impl<'a> Checker<'a> {
                         result: None,
                         body: Vec::new(),
                         span: p.name.span,
-                        runnable: matches!(p.body, ast::Body::St(_)),
+                        runnable: matches!(p.body, ast::Body::St(_) | ast::Body::Il { .. }),
                     });
                     self.pou_state.push(State::Todo);
                 }
@@ -1126,12 +1126,23 @@ impl<'a> Checker<'a> {
                 body.extend(self.stmts(stmts, &mut cx));
                 self.pous[p as usize].body = body;
             }
-            ast::Body::Il { span, .. } => {
-                self.diags.warning(
-                    diag::NOT_CHECKED,
-                    *span,
-                    format!("{} {} is written in IL, which the engine does not run yet (issue 17); it cannot be called or instantiated", ast.kind.keyword(), ast.name.name),
-                );
+            ast::Body::Il { code, .. } => {
+                let mut cx = Cx::global();
+                cx.pou = Some(p);
+                cx.kind = Some(ast.kind);
+                cx.vars = self.pous[p as usize].vars.clone();
+                cx.names = cx
+                    .vars
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| v.class != VarClass::Hidden)
+                    .map(|(i, v)| (v.name.to_ascii_uppercase(), i as VarId))
+                    .collect();
+                let mut body = self.edge_prologue(p, ast.name.span);
+                body.extend(self.il_body(code, &mut cx));
+                // The accumulator's temporaries are variables of the POU.
+                self.pous[p as usize].vars = cx.vars;
+                self.pous[p as usize].body = body;
             }
             ast::Body::Graphical { language, span, .. } => {
                 self.diags.warning(

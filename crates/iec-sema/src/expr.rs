@@ -12,7 +12,7 @@ use crate::stdlib;
 use crate::types::{ids, Elem, FbRef, Type, TypeId, TypeTable, MAX_STRING_LEN};
 use crate::value::{self, Value};
 
-fn err(span: Span) -> Expr {
+pub(crate) fn err(span: Span) -> Expr {
     Expr {
         kind: ExprKind::Const(Value::Int(0)),
         ty: ids::ERROR,
@@ -1236,7 +1236,7 @@ impl<'a> Checker<'a> {
             self.error(
                 diag::UNSUPPORTED,
                 span,
-                format!("{n} is not written in Structured Text and cannot be called yet"),
+                format!("{n} is not written in Structured Text or Instruction List and cannot be called yet"),
             );
             return err(span);
         }
@@ -2270,7 +2270,7 @@ impl<'a> Checker<'a> {
     }
 
     /// A literal-typed generic result gets the expected type when it fits, else DINT/LREAL.
-    fn settle_type(&self, t: TypeId, expected: Option<TypeId>) -> TypeId {
+    pub(crate) fn settle_type(&self, t: TypeId, expected: Option<TypeId>) -> TypeId {
         match self.types.get(t) {
             Type::IntLit => expected
                 .filter(|e| {

@@ -11,6 +11,7 @@
 mod check;
 mod consts;
 mod expr;
+mod il;
 pub mod ir;
 pub mod ops;
 mod stdlib;
@@ -36,5 +37,7 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
     check::Checker::new(lib, options).run()
 }
 
+#[cfg(test)]
+mod il_tests;
 #[cfg(test)]
 mod tests;

@@ -127,7 +127,7 @@ impl Checker<'_> {
     }
 
     /// The value stored by an assignment, converted to the target's type.
-    fn assign_value(
+    pub(crate) fn assign_value(
         &mut self,
         x: ir::Expr,
         to: crate::types::TypeId,
@@ -407,7 +407,7 @@ impl Checker<'_> {
     }
 
     /// `inst(IN := …, Q => …);` or a function called as a statement.
-    fn call_stmt(&mut self, call: &ast::Call, cx: &mut Cx) -> Option<Stmt> {
+    pub(crate) fn call_stmt(&mut self, call: &ast::Call, cx: &mut Cx) -> Option<Stmt> {
         let span = call.span;
         // A function (user or standard) called for its effects.
         if let ast::ExprKind::Name(n) = &call.callee.kind {
@@ -462,7 +462,7 @@ impl Checker<'_> {
                     self.error(
                         diag::UNSUPPORTED,
                         span,
-                        format!("{n} is not written in Structured Text and cannot be called yet"),
+                        format!("{n} is not written in Structured Text or Instruction List and cannot be called yet"),
                     );
                     return None;
                 }
@@ -709,7 +709,7 @@ impl Checker<'_> {
                 diag::UNSUPPORTED,
                 pc.type_name.span,
                 format!(
-                    "program {} is not written in Structured Text; the engine cannot run it yet",
+                    "program {} is not written in Structured Text or Instruction List; the engine cannot run it yet",
                     pc.type_name.name
                 ),
             );

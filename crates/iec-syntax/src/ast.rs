@@ -1,9 +1,9 @@
 //! The syntax tree of IEC 61131-3 library elements as written: data types, POUs,
 //! configurations. Names keep their spelling; the checker compares them case-insensitively.
 //!
-//! A POU's [`Body`] is Structured Text today; Instruction List text and graphical bodies (LD,
-//! FBD, SFC from PLCopen XML) are kept as read, for their front ends to lower into the same
-//! checked form (issue 17).
+//! A POU's [`Body`] is Structured Text or Instruction List (both lowered by the checker);
+//! graphical bodies (LD, FBD, SFC from PLCopen XML) are kept as read, for their front ends to
+//! lower into the same checked form (issue 17).
 
 use crate::source::Span;
 
@@ -176,9 +176,10 @@ pub struct Pou {
 #[derive(Clone, Debug)]
 pub enum Body {
     St(Vec<Stmt>),
-    /// Instruction List text (from a PLCopen `<IL>` body), kept for its front end.
+    /// Instruction List: the instructions as read (from a `.il` source or a PLCopen `<IL>`
+    /// body), lowered by the checker like any other body.
     Il {
-        text: String,
+        code: Vec<IlInstr>,
         span: Span,
     },
     /// A graphical body (`LD`, `FBD`, `SFC`) from a PLCopen file, kept as its XML for the
@@ -190,6 +191,126 @@ pub enum Body {
     },
     /// No body (a PLCopen POU without one).
     Missing(Span),
+}
+
+/// One line of Instruction List: an instruction, a label, or the `)` that closes a deferred
+/// operation.
+#[derive(Clone, Debug)]
+pub struct IlInstr {
+    pub kind: IlKind,
+    pub span: Span,
+}
+
+/// `C` or `CN` on JMP, CAL and RET: the instruction runs when the current result is TRUE
+/// (`C`) or FALSE (`CN`).
+pub type IlCond = Option<bool>;
+
+#[derive(Clone, Debug)]
+pub enum IlKind {
+    /// `name:`
+    Label(Ident),
+    /// An operator on the current result: `LD x`, `ANDN x`, `ADD( x`, `NOT`, `ST x`, `S x`.
+    Op {
+        op: IlOp,
+        /// The `N` modifier (`LDN`, `STN`, `ANDN`, `ORN`, `XORN`).
+        negated: bool,
+        /// `OP(`: the operand is computed by the instructions up to the matching `)`.
+        deferred: bool,
+        operand: Option<Expr>,
+    },
+    /// `)`
+    Close,
+    /// `JMP label`, `JMPC label`, `JMPCN label`.
+    Jump { cond: IlCond, label: Ident },
+    /// `CAL instance`, `CAL instance(args)` (formal `IN := x, Q => y` or informal `x, y`).
+    Call {
+        cond: IlCond,
+        instance: Expr,
+        args: Vec<Arg>,
+    },
+    /// An input operator of a standard function block: `PT timer`, `CU counter`, `S1 sr`
+    /// (the instance is called with that input set to the current result).
+    FbInput { input: Ident, instance: Expr },
+    /// `RET`, `RETC`, `RETCN`.
+    Return { cond: IlCond },
+    /// A function: `MAX b, c` (the current result is the first argument) or, with `formal`,
+    /// `LIMIT(MN := 0, IN := x, MX := 9)`.
+    Function {
+        name: Ident,
+        args: Vec<Arg>,
+        formal: bool,
+    },
+}
+
+/// The operators of the current result (modifiers apart).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IlOp {
+    Ld,
+    St,
+    S,
+    R,
+    And,
+    Or,
+    Xor,
+    Not,
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Mod,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+    Le,
+    Lt,
+}
+
+impl IlOp {
+    pub fn name(self) -> &'static str {
+        match self {
+            IlOp::Ld => "LD",
+            IlOp::St => "ST",
+            IlOp::S => "S",
+            IlOp::R => "R",
+            IlOp::And => "AND",
+            IlOp::Or => "OR",
+            IlOp::Xor => "XOR",
+            IlOp::Not => "NOT",
+            IlOp::Add => "ADD",
+            IlOp::Sub => "SUB",
+            IlOp::Mul => "MUL",
+            IlOp::Div => "DIV",
+            IlOp::Mod => "MOD",
+            IlOp::Gt => "GT",
+            IlOp::Ge => "GE",
+            IlOp::Eq => "EQ",
+            IlOp::Ne => "NE",
+            IlOp::Le => "LE",
+            IlOp::Lt => "LT",
+        }
+    }
+
+    /// The ST operator an operation with an operand is (LD, ST, S, R, NOT have none).
+    pub fn binary(self) -> Option<BinaryOp> {
+        Some(match self {
+            IlOp::And => BinaryOp::And,
+            IlOp::Or => BinaryOp::Or,
+            IlOp::Xor => BinaryOp::Xor,
+            IlOp::Add => BinaryOp::Add,
+            IlOp::Sub => BinaryOp::Sub,
+            IlOp::Mul => BinaryOp::Mul,
+            IlOp::Div => BinaryOp::Div,
+            IlOp::Mod => BinaryOp::Mod,
+            IlOp::Gt => BinaryOp::Gt,
+            IlOp::Ge => BinaryOp::Ge,
+            IlOp::Eq => BinaryOp::Eq,
+            IlOp::Ne => BinaryOp::Ne,
+            IlOp::Le => BinaryOp::Le,
+            IlOp::Lt => BinaryOp::Lt,
+            _ => return None,
+        })
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -14,5 +14,5 @@ pub mod source;
 pub mod xml;
 
 pub use diag::{Code, Diagnostic, Diagnostics, Severity};
-pub use parser::parse;
+pub use parser::{parse, parse_il};
 pub use source::{FileId, SourceMap, Span};

@@ -17,8 +17,19 @@ pub const MAX_DEPTH: usize = 100;
 /// Parses a Structured Text source (any number of TYPE blocks, POUs, configurations and
 /// global variable lists). Problems go to `diags`; the tree holds what could be read.
 pub fn parse(file: FileId, text: &str, diags: &mut Diagnostics) -> Library {
+    parse_source(file, text, false, diags)
+}
+
+/// Parses an Instruction List source (`.il`): declarations as in Structured Text, POU bodies
+/// in IL.
+pub fn parse_il(file: FileId, text: &str, diags: &mut Diagnostics) -> Library {
+    parse_source(file, text, true, diags)
+}
+
+fn parse_source(file: FileId, text: &str, il: bool, diags: &mut Diagnostics) -> Library {
     let tokens = lexer::lex(file, text, diags);
     let mut p = Parser::new(file, text, tokens, diags);
+    p.il = il;
     let lib = p.library();
     if lib.elements.is_empty() && !p.diags.has_errors() {
         p.diags.error(
@@ -98,6 +109,10 @@ struct Parser<'a, 'd> {
     /// The token at which the last missing-END error was reported, so the stray keyword
     /// found there is not reported again.
     reported_at: usize,
+    /// POU bodies are Instruction List (a `.il` source).
+    il: bool,
+    /// The 0-based line of every token (computed for IL bodies, which are line-oriented).
+    tok_lines: Vec<u32>,
     diags: &'d mut Diagnostics,
 }
 
@@ -110,6 +125,8 @@ impl<'a, 'd> Parser<'a, 'd> {
             pos: 0,
             depth: 0,
             reported_at: usize::MAX,
+            il: false,
+            tok_lines: Vec::new(),
             diags,
         }
     }
@@ -669,6 +686,15 @@ impl<'a, 'd> Parser<'a, 'd> {
                 }
             }
         }
+        if self.il {
+            let body_start = self.peek().span;
+            let code = self.il_instructions(end_kw);
+            let body = Body::Il {
+                code,
+                span: body_start.at_start(),
+            };
+            return self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw);
+        }
         let mut body = self.statements(&[end_kw]);
         // A stray END_WHILE, ELSE, UNTIL…: report it (unless a missing END_ was reported
         // there) and go on with the statements after it.
@@ -695,6 +721,29 @@ impl<'a, 'd> Parser<'a, 'd> {
             self.eat(&Tok::Semi);
             body.extend(self.statements(&[end_kw]));
         }
+        self.pou_end(
+            kind,
+            name,
+            return_type,
+            var_blocks,
+            Body::St(body),
+            start,
+            end_kw,
+        )
+    }
+
+    /// The `END_…` of a POU, and the POU.
+    #[allow(clippy::too_many_arguments)]
+    fn pou_end(
+        &mut self,
+        kind: PouKind,
+        name: Ident,
+        return_type: Option<TypeSpec>,
+        var_blocks: Vec<VarBlock>,
+        body: Body,
+        start: Span,
+        end_kw: Kw,
+    ) -> PResult<Pou> {
         let end = match self.eat_kw(end_kw) {
             Some(t) => t.span,
             None => {
@@ -719,7 +768,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             name,
             return_type,
             var_blocks,
-            body: Body::St(body),
+            body,
             span: start.to(end),
         })
     }
@@ -1750,6 +1799,9 @@ impl<'a, 'd> Parser<'a, 'd> {
         })
     }
 }
+
+mod il;
+pub use il::parse_il_body;
 
 #[cfg(test)]
 mod tests;

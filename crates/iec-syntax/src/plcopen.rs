@@ -471,10 +471,11 @@ impl Reader<'_> {
         match lang.name.as_str() {
             "ST" | "IL" => {
                 let (text, at) = text_of(lang);
-                if lang.name == "IL" {
-                    return Body::Il { text, span };
-                }
                 let f = self.embed(&text, at.unwrap_or(lang.start));
+                if lang.name == "IL" {
+                    let code = parser::parse_il_body(f, &text, self.diags);
+                    return Body::Il { code, span };
+                }
                 Body::St(parser::parse_body(f, &text, self.diags))
             }
             "LD" => Body::Graphical {

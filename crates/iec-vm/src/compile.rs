@@ -370,7 +370,7 @@ impl<'p> Compiler<'p> {
         }
         fx.stmts(&p.body)?;
         fx.emit(Op::Ret, p.span);
-        fx.finish();
+        fx.finish()?;
         if rel {
             let size = self.units[unit_id].size();
             self.sizes.fb[pou as usize] = Some(size);
@@ -416,7 +416,7 @@ impl<'p> Compiler<'p> {
             fx.copy_loc(src, ty, &dst, place.ty, place.span)?;
         }
         fx.emit(Op::Halt, span);
-        fx.finish();
+        fx.finish()?;
         Ok(unit_id)
     }
 
@@ -716,6 +716,10 @@ struct Fx<'c, 'p> {
     temp_top: u32,
     consts: HashMap<u64, u32>,
     loops: Vec<LoopCx>,
+    /// Where each label of the body is (IL, SFC).
+    labels: HashMap<u32, u32>,
+    /// Forward jumps waiting for their label: (instruction, label).
+    gotos: Vec<(usize, u32)>,
     line: u32,
     /// For configuration glue: the program instance's unit and layout.
     glue_of: Option<(usize, FrameLayout)>,
@@ -735,6 +739,8 @@ impl<'c, 'p> Fx<'c, 'p> {
             temp_top: 0,
             consts: HashMap::new(),
             loops: Vec::new(),
+            labels: HashMap::new(),
+            gotos: Vec::new(),
             line: 0,
             glue_of: None,
         }
@@ -748,8 +754,18 @@ impl<'c, 'p> Fx<'c, 'p> {
         self.c.p
     }
 
-    fn finish(&mut self) {
+    /// Points the forward jumps at their labels.
+    fn finish(&mut self) -> R<()> {
         let _ = self.pou;
+        for (at, label) in std::mem::take(&mut self.gotos) {
+            let Some(&t) = self.labels.get(&label) else {
+                return Err(CompileError::Unsupported(format!(
+                    "a jump to label {label}, which the body does not have"
+                )));
+            };
+            self.patch(at, t);
+        }
+        Ok(())
     }
 
     fn emit(&mut self, op: Op, span: Span) -> usize {
@@ -1088,11 +1104,11 @@ impl<'c, 'p> Fx<'c, 'p> {
             StmtKind::Return => {
                 self.emit(Op::Ret, span);
             }
-            StmtKind::Label(_) | StmtKind::Goto { .. } => {
-                return Err(CompileError::Unsupported(
-                    "labels and jumps (IL, SFC) are not compiled yet".into(),
-                ))
+            StmtKind::Label(l) => {
+                let here = self.pc();
+                self.labels.insert(*l, here);
             }
+            StmtKind::Goto { label, cond } => self.goto(*label, cond.as_ref(), span)?,
         }
         Ok(())
     }
@@ -1140,6 +1156,49 @@ impl<'c, 'p> Fx<'c, 'p> {
         let end = self.pc();
         for e in ends {
             self.patch(e, end);
+        }
+        Ok(())
+    }
+
+    /// A jump to a label. A jump back (a loop) spends the scan's iteration budget, so a body
+    /// that jumps back for ever faults like an endless WHILE.
+    fn goto(&mut self, label: u32, cond: Option<&(Expr, bool)>, span: Span) -> R<()> {
+        let back = self.labels.get(&label).copied();
+        let mark = self.temp_top;
+        let test = match cond {
+            Some((c, flag)) => {
+                let (slot, negated) = self.cond_operand(c)?;
+                Some((slot, *flag != negated))
+            }
+            None => None,
+        };
+        self.temp_top = mark;
+        match (back, test) {
+            (Some(t), None) => {
+                self.emit(Op::Loop { t }, span);
+            }
+            (Some(t), Some((c, when))) => {
+                let skip = if when {
+                    self.emit(Op::JmpF { c, t: 0 }, span)
+                } else {
+                    self.emit(Op::JmpT { c, t: 0 }, span)
+                };
+                self.emit(Op::Loop { t }, span);
+                let here = self.pc();
+                self.patch(skip, here);
+            }
+            (None, None) => {
+                let at = self.emit(Op::Jmp { t: 0 }, span);
+                self.gotos.push((at, label));
+            }
+            (None, Some((c, when))) => {
+                let at = if when {
+                    self.emit(Op::JmpT { c, t: 0 }, span)
+                } else {
+                    self.emit(Op::JmpF { c, t: 0 }, span)
+                };
+                self.gotos.push((at, label));
+            }
         }
         Ok(())
     }

@@ -1,4 +1,4 @@
-//! The engine on the ST `petriplc compile` writes for N copies of seed 002's mixer
+//! The engine on the ST (and the IL, `iec/scan-il`) `petriplc compile` writes for N copies of seed 002's mixer
 //! (examples/mixer/mixer.pnml with SIPN names, copy k's names suffixed _k): one scan with
 //! every input TRUE (each copy fires a transition every scan), and the compile time of the
 //! 1000-copy program (parse, check, compile). bench/iec_scan.sh runs the C that
@@ -62,6 +62,11 @@ fn mixer_copies(n: usize) -> String {
 
 /// The plain ST `petriplc compile --names sipn --lang st --plain` writes for N copies.
 fn st(n: usize) -> String {
+    text(n, Language::St)
+}
+
+/// The plain ST or IL `petriplc compile --names sipn --plain` writes for N copies.
+fn text(n: usize, language: Language) -> String {
     let net = petriplc_pnml::read_str(
         &mixer_copies(n),
         "mixer.pnml",
@@ -72,7 +77,7 @@ fn st(n: usize) -> String {
     .unwrap()
     .net;
     let request = Request {
-        language: Language::St,
+        language,
         form: Form::Plain,
         options: Options::of(&net),
         created: "2026-01-01T00:00:00".into(),
@@ -81,10 +86,21 @@ fn st(n: usize) -> String {
 }
 
 fn scan(c: &mut Criterion) {
-    let mut group = c.benchmark_group("iec/scan");
+    for (group_name, language, file) in [
+        ("iec/scan", Language::St, "mixer.st"),
+        ("iec/scan-il", Language::Il, "mixer.il"),
+    ] {
+        scan_group(c, group_name, language, file);
+    }
+    compile(c);
+}
+
+/// One scan of N copies in one language.
+fn scan_group(c: &mut Criterion, group_name: &str, language: Language, file: &str) {
+    let mut group = c.benchmark_group(group_name);
     for n in [1usize, 100, 1000] {
-        let text = st(n);
-        let build = build_text("mixer.st", &text, &Select::Auto).unwrap();
+        let text = text(n, language);
+        let build = build_text(file, &text, &Select::Auto).unwrap();
         let engine = build.engine.clone();
         let mut m = Machine::new(engine.clone());
         let inst = engine.instances()[0].name.clone();
@@ -103,6 +119,9 @@ fn scan(c: &mut Criterion) {
         });
     }
     group.finish();
+}
+
+fn compile(c: &mut Criterion) {
     let text = st(1000);
     let mut group = c.benchmark_group("iec/compile");
     group.sample_size(10);

@@ -1,4 +1,4 @@
-//! IEC 61131-3 programs in one call: read sources (Structured Text files, PLCopen XML
+//! IEC 61131-3 programs in one call: read sources (Structured Text and Instruction List files, PLCopen XML
 //! projects), check them, choose what runs (a configuration's tasks, or one PROGRAM) and
 //! compile it for the engine ([`build`]); simulate a program against a timeline and a plant
 //! with the trace format of `petriplc sim` ([`sim`]).
@@ -47,7 +47,8 @@ impl Sources {
         Sources::default()
     }
 
-    /// Adds a file: a PLCopen XML project when it looks like one, Structured Text otherwise.
+    /// Adds a file: a PLCopen XML project when it looks like one, Instruction List when its
+    /// name ends in `.il`, Structured Text otherwise.
     pub fn add_file(&mut self, path: &Path) -> Result<(), IecError> {
         let text = std::fs::read(path).map_err(|source| IecError::Io {
             path: path.display().to_string(),
@@ -66,7 +67,11 @@ impl Sources {
             syntax::plcopen::read(&mut self.map, name, text, &mut self.diags)
         } else {
             let f = self.map.add(name, text);
-            syntax::parse(f, text, &mut self.diags)
+            if name.to_ascii_lowercase().ends_with(".il") {
+                syntax::parse_il(f, text, &mut self.diags)
+            } else {
+                syntax::parse(f, text, &mut self.diags)
+            }
         };
         self.lib.elements.extend(lib.elements);
     }

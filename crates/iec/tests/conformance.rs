@@ -1,5 +1,6 @@
-//! The conformance corpus: small Structured Text programs (tests/corpus/*.st), each with the
-//! values its variables must have after given scans, written in its first comment:
+//! The conformance corpus: small Structured Text programs (tests/corpus/*.st) and Instruction
+//! List programs (tests/corpus-il/*.il), each with the values its variables must have after
+//! given scans, written in its first comment:
 //!
 //! ```text
 //! (* What the program shows.
@@ -14,7 +15,7 @@
 //! for a configuration. BOOL is 1/0 (TRUE/FALSE accepted), reals compare with a relative
 //! tolerance of 1e-6, everything else as the trace prints it.
 //!
-//! Every program must also parse with blark, a third-party IEC 61131-3 grammar (pinned;
+//! Every ST program must also parse with blark, a third-party IEC 61131-3 grammar (pinned;
 //! scripts/test-all.sh installs it): a program blark refuses is not standard. blark has no
 //! CONFIGURATION grammar (TwinCAT configures tasks outside the source), so the CONFIGURATION
 //! block of a corpus file is left out of what blark reads.
@@ -27,6 +28,8 @@ use petriplc_iec_sema::types::{Elem, Type};
 use petriplc_iec_vm::{display, Machine};
 
 const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus");
+/// Instruction List programs (`*.il`), with the same header format.
+const CORPUS_IL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus-il");
 
 #[derive(Debug, Default)]
 struct Spec {
@@ -253,10 +256,14 @@ fn run(path: &Path) -> Vec<String> {
 }
 
 fn corpus() -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(CORPUS)
+    files_of(CORPUS, "st")
+}
+
+fn files_of(dir: &str, ext: &str) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "st"))
+        .filter(|p| p.extension().is_some_and(|e| e == ext))
         .collect();
     files.sort();
     files
@@ -264,9 +271,17 @@ fn corpus() -> Vec<PathBuf> {
 
 #[test]
 fn every_corpus_program_gives_its_expected_values() {
-    let files = corpus();
+    check_corpus(&corpus(), 150);
+}
+
+#[test]
+fn every_il_corpus_program_gives_its_expected_values() {
+    check_corpus(&files_of(CORPUS_IL, "il"), 60);
+}
+
+fn check_corpus(files: &[PathBuf], at_least: usize) {
     let mut failures = Vec::new();
-    for f in &files {
+    for f in files {
         let t = std::time::Instant::now();
         let problems = run(f);
         if std::env::var_os("CORPUS_TIMES").is_some() {
@@ -282,8 +297,8 @@ fn every_corpus_program_gives_its_expected_values() {
     }
     eprintln!("conformance: {} programs", files.len());
     assert!(
-        files.len() >= 150,
-        "the corpus has {} programs; it needs at least 150",
+        files.len() >= at_least,
+        "the corpus has {} programs; it needs at least {at_least}",
         files.len()
     );
     assert!(

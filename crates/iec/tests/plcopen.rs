@@ -67,6 +67,9 @@ fn beremiz_projects_in_other_languages_are_refused_with_the_reason() {
         e.contains("exemples_first_steps.xml:1144:13: error[E190]: program plc_prg is not written in Structured Text"),
         "{e}"
     );
+    // Its IL function block (Beremiz's CounterIL) is checked like its ST: no report about it.
+    assert_eq!(e.matches("error[").count(), 1, "{e}");
+    assert!(!e.contains("CounterIL"), "{e}");
     // Every sample is read without a crash, whatever it holds.
     for entry in std::fs::read_dir(SAMPLES).unwrap() {
         let path = entry.unwrap().path();

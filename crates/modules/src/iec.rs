@@ -100,12 +100,12 @@ impl IecModule {
             (Some(f), None) => (f.to_string(), false),
             (None, Some(f)) => (f.to_string(), true),
             (Some(_), Some(_)) => {
-                return Err(error(&decl.name, "give either `program = FILE.st` or `project = FILE.xml`, not both"))
+                return Err(error(&decl.name, "give either `program = FILE.st|FILE.il` or `project = FILE.xml`, not both"))
             }
             (None, None) => {
                 return Err(error(
                     &decl.name,
-                    format!("no program: add `program = FILE.st` (Structured Text) or `project = FILE.xml` (PLCopen XML) to section [{}]", decl.name),
+                    format!("no program: add `program = FILE.st` (Structured Text; FILE.il: Instruction List) or `project = FILE.xml` (PLCopen XML) to section [{}]", decl.name),
                 ))
             }
         };

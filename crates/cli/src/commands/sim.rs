@@ -24,7 +24,7 @@ fn is_iec(path: &Path) -> bool {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if ext == "st" {
+    if ext == "st" || ext == "il" {
         return true;
     }
     if ext == "xml" {
@@ -41,7 +41,7 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     }
     if args.pou.is_some() || args.vars {
         return Err(anyhow!(
-            "--pou and --vars apply to IEC 61131-3 programs (.st or a PLCopen XML project), not to nets"
+            "--pou and --vars apply to IEC 61131-3 programs (.st, .il or a PLCopen XML project), not to nets"
         ))
         .bad_input();
     }
