@@ -241,8 +241,12 @@ fn sfc_net(d: &random::Desc) -> Net {
         match (arcs.len() + k) % 3 {
             0 => transition(&mut b, *g, &[&cur], &[&next]),
             1 => {
-                transition(&mut b, *g, &[&cur], &[&next]);
-                transition(&mut b, g2 + 1, &[&cur], &[&next]);
+                let a = place(&mut b, 0);
+                let c = place(&mut b, 0);
+                transition(&mut b, *g, &[&cur], &[&a]);
+                transition(&mut b, g2 + 1, &[&cur], &[&c]);
+                transition(&mut b, g2, &[&a], &[&next]);
+                transition(&mut b, *g + 1, &[&c], &[&next]);
             }
             _ => {
                 let a = place(&mut b, 0);
@@ -255,7 +259,8 @@ fn sfc_net(d: &random::Desc) -> Net {
     }
     let last = d.timeline.len() as u8;
     transition(&mut b, last, &[&cur], &[&first]);
-    b.build().expect("SFC-shaped nets are valid by construction")
+    b.build()
+        .expect("SFC-shaped nets are valid by construction")
 }
 
 /// The generator's timeline without the column of `N`.
@@ -297,9 +302,6 @@ fn compare(
     options.step = step;
     options.evolve = evolve;
     options.markings = Markings::Auto;
-    let Ok(lowered) = Program::lower(net, &options) else {
-        return Outcome::Refused;
-    };
     let request = Request {
         language: lang,
         form: Form::Project,
@@ -310,9 +312,11 @@ fn compare(
         return Outcome::Refused;
     };
     let xml = generated.text;
+    let lowered = Program::lower(net, &options).expect("what compile wrote lowers");
     let what = format!("{what} {lang:?} {step:?} {evolve:?}");
-    let build = build_text("net.xml", &xml, &Select::Auto)
-        .unwrap_or_else(|e| panic!("{what}: the engine refuses the generated project:\n{e}\n{xml}"));
+    let build = build_text("net.xml", &xml, &Select::Auto).unwrap_or_else(|e| {
+        panic!("{what}: the engine refuses the generated project:\n{e}\n{xml}")
+    });
     let engine = build.engine.clone();
     let mut m = Machine::new(engine.clone());
     let inst = engine.instances()[0].name.clone();
@@ -343,8 +347,18 @@ fn compare(
             } else {
                 p.ident.clone()
             };
-            (p.label.clone(), var(&path))
+            let id = net
+                .place_ids()
+                .find(|&q| net.place_label(q) == p.label)
+                .expect("the place is in the net");
+            (p.label.clone(), id, var(&path))
         })
+        .collect();
+    let signal = |n: &str| net.signal_by_name(n).map(|s| s.index());
+    let inputs: Vec<_> = inputs.into_iter().map(|(n, v)| (signal(&n), v)).collect();
+    let outputs: Vec<_> = outputs
+        .into_iter()
+        .map(|(n, v)| (n.clone(), signal(&n), v))
         .collect();
     let opts = SimOptions {
         period: Duration::from_millis(10),
@@ -365,7 +379,7 @@ fn compare(
             break;
         }
         for (n, v) in &inputs {
-            let value = sim.signal(n).unwrap_or(0);
+            let value = n.map_or(0, |i| sim.signals()[i]);
             m.set(*v, &Value::Int(value as i128)).unwrap();
         }
         let iec = m.scan(t.as_nanos() as i64, &mut || true);
@@ -374,20 +388,23 @@ fn compare(
             Err(e) => {
                 // A safe net cannot overflow or be unstable in one pass: the simulator stops
                 // only where the engine does.
-                assert!(iec.is_err(), "{what} at t={t:?}: sim failed ({e}) but the engine went on");
+                assert!(
+                    iec.is_err(),
+                    "{what} at t={t:?}: sim failed ({e}) but the engine went on"
+                );
                 return Outcome::Compared(scans);
             }
             Ok(_) => {
                 if let Err(f) = iec {
                     panic!("{what} at t={t:?}: the engine failed ({f}) but sim went on");
                 }
-                for (n, v) in &outputs {
-                    let want = sim.signal(n).unwrap_or(0);
+                for (n, i, v) in &outputs {
+                    let want = i.map_or(0, |i| sim.signals()[i]);
                     let got = as_int(m.get(*v));
                     assert_eq!(got, want, "{what} at t={t:?}: output {n}\n{xml}");
                 }
-                for (label, v) in &places {
-                    let want = sim.tokens(label).unwrap_or(0) as i64;
+                for (label, id, v) in &places {
+                    let want = sim.scanner().marking()[*id] as i64;
                     let got = as_int(m.get(*v));
                     assert_eq!(got, want, "{what} at t={t:?}: marking of {label}\n{xml}");
                 }
