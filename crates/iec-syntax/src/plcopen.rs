@@ -497,8 +497,8 @@ impl Reader<'_> {
                 let f = self.embed(&text, at.unwrap_or(lang.start));
                 Body::St(parser::parse_body(f, &text, self.diags))
             }
-            "LD" | "SFC" => {
-                let lowered = if lang.name == "LD" {
+            "LD" | "SFC" | "FBD" => {
+                let lowered = if lang.name != "SFC" {
                     graphical::ld(self, &name.name, lang)
                 } else {
                     graphical::sfc(self, &name.name, pou, lang)
@@ -507,11 +507,6 @@ impl Reader<'_> {
                 self.steps |= lowered.steps;
                 Body::St(lowered.stmts)
             }
-            "FBD" => Body::Graphical {
-                language: GraphicalLanguage::Fbd,
-                xml: lang.clone(),
-                span,
-            },
             other => {
                 self.diags.error(
                     diag::PLCOPEN_STRUCTURE,

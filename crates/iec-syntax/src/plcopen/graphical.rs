@@ -236,6 +236,8 @@ struct Lower<'r, 'a, 'x> {
     stmts: Vec<Stmt>,
     vars: Vec<VarDecl>,
     declared: HashSet<String>,
+    /// Prefix of hidden names (`__g`, or `__g_<action>_` for a nested body).
+    prefix: String,
 }
 
 /// The expression text an element holds (`<variable>`, `<expression>`) and where it starts.
@@ -271,6 +273,7 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
             stmts: Vec::new(),
             vars: Vec::new(),
             declared: HashSet::new(),
+            prefix: "__g".into(),
         };
         for i in 0..l.els.len() {
             let el = l.els[i];
@@ -401,7 +404,7 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
     fn materialize(&mut self, i: usize, e: Expr) -> Expr {
         let span = self.span(i);
         let id = local_id(self.els[i]).unwrap_or(i as u64);
-        let v = self.hidden(&format!("__g{id}"), "BOOL", None, span);
+        let v = self.hidden(&format!("{}{id}", self.prefix), "BOOL", None, span);
         self.stmts.push(assign(v.clone(), e));
         v
     }
@@ -482,8 +485,8 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
                 let term = match el.attr("edge") {
                     Some("rising") | Some("falling") => {
                         let id = local_id(el).unwrap_or(i as u64);
-                        let m = self.hidden(&format!("__g{id}_m"), "BOOL", None, span);
-                        let t = self.hidden(&format!("__g{id}_e"), "BOOL", None, span);
+                        let m = self.hidden(&format!("{}{id}_m", self.prefix), "BOOL", None, span);
+                        let t = self.hidden(&format!("{}{id}_e", self.prefix), "BOOL", None, span);
                         let edge = if el.attr("edge") == Some("rising") {
                             and(v.clone(), not(m.clone()))
                         } else {
@@ -651,6 +654,10 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
         let fp = fp.unwrap_or("");
         if let Some(inst) = Self::instance(el) {
             let inst = inst.to_string();
+            if self.visiting.contains(&i) && !fp.eq_ignore_ascii_case("ENO") && !fp.is_empty() {
+                // Feedback: the output of the instance's previous call (IEC 61131-3 FBD).
+                return Some(field(name(&inst, span), fp));
+            }
             self.call_block(i)?;
             if fp.eq_ignore_ascii_case("ENO") {
                 return self.memo.get(&(i, "ENO".into())).cloned();
@@ -785,7 +792,7 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
             (Some("reset"), _) => when(pw, vec![assign(v, boolean(false, span))]),
             (_, Some(e @ ("rising" | "falling"))) => {
                 let id = local_id(el).unwrap_or(i as u64);
-                let m = self.hidden(&format!("__g{id}_m"), "BOOL", None, span);
+                let m = self.hidden(&format!("{}{id}_m", self.prefix), "BOOL", None, span);
                 let edge = if e == "rising" {
                     and(pw.clone(), not(m.clone()))
                 } else {
@@ -810,11 +817,34 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
     }
 }
 
-/// Lowers an `<LD>` body.
+/// Lowers an `<LD>` (or `<FBD>`) body.
 pub(super) fn ld(r: &mut Reader, pou: &str, body: &X) -> Lowered {
-    let mut l = Lower::new(r, pou, "LD", body);
+    network_body(r, pou, body, "__g")
+}
+
+fn network_body(r: &mut Reader, pou: &str, body: &X, prefix: &str) -> Lowered {
+    let lang = if body.name == "FBD" { "FBD" } else { "LD" };
+    let mut l = Lower::new(r, pou, lang, body);
+    l.prefix = prefix.to_string();
     l.network(&HashSet::new());
     l.finish()
+}
+
+/// A nested LD/FBD body (an action's, a transition's) lowered into `l`'s statements.
+fn nested(l: &mut Lower, what: &str, body: &X) -> Vec<Stmt> {
+    let pou = format!("{}, {what}", l.pou);
+    let key: String = what
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let prefix = format!("__g_{key}_");
+    let inner = network_body(l.r, &pou, body, &prefix);
+    for v in inner.vars {
+        if l.declared.insert(v.names[0].key()) {
+            l.vars.push(v);
+        }
+    }
+    inner.stmts
 }
 
 /// One action association of an action block.
@@ -1051,6 +1081,9 @@ pub(super) fn sfc(r: &mut Reader, pou: &str, pou_el: &X, body: &X) -> Lowered {
         fire.insert(t, f);
         done.push(t);
     }
+    // Networks drawn in the chart (blocks, coils, output variables) not yet run for a
+    // condition run once per scan, here.
+    l.network(&HashSet::new());
     // Evolution: every cleared transition at once.
     for &s in &steps {
         let (_, _, act, deact) = svar[&s].clone();
@@ -1302,11 +1335,31 @@ fn condition(l: &mut Lower, pou_el: &X, t: usize) -> Option<Expr> {
                     .is_some_and(|n| n.trim().eq_ignore_ascii_case(&tn))
             })
             .and_then(|x| x.child("body"))
-            .and_then(|b| b.child("ST"));
+            .and_then(|b| b.children.iter().find(|c| c.name != "documentation"));
         let Some(st) = body else {
-            l.error(t, diag::GRAPHICAL, format!("the condition refers to transition {tn}, which the POU's <transitions> do not define in ST"));
+            l.error(t, diag::GRAPHICAL, format!("the condition refers to transition {tn}, which the POU's <transitions> do not define"));
             return None;
         };
+        if matches!(st.name.as_str(), "LD" | "FBD") {
+            // The body assigns the transition's name (a coil or an output variable).
+            let span = l.span(t);
+            let v = l.hidden(&tn, "BOOL", None, span);
+            l.stmts.push(assign(v.clone(), boolean(false, span)));
+            let body = nested(l, &format!("transition {tn}"), st);
+            l.stmts.extend(body);
+            return Some(v);
+        }
+        if st.name != "ST" {
+            l.error(
+                t,
+                diag::UNSUPPORTED,
+                format!(
+                    "transition {tn} is written in {}; transitions in ST, LD or FBD are supported",
+                    st.name
+                ),
+            );
+            return None;
+        }
         let (text, at) = super::text_of(st);
         let f = l.r.embed(&text, at.unwrap_or(st.start));
         // An expression (CODESYS), or statements assigning the transition's name.
@@ -1356,22 +1409,15 @@ fn named_action(l: &mut Lower, pou_el: &X, an: &str) -> Option<Target> {
             let f = l.r.embed(&text, at.unwrap_or(lang.start));
             Some(Target::Body(parser::parse_body(f, &text, l.r.diags)))
         }
-        "LD" => {
-            let pou = format!("{}, action {an}", l.pou);
-            let inner = ld(l.r, &pou, lang);
-            for v in inner.vars {
-                if l.declared.insert(v.names[0].key()) {
-                    l.vars.push(v);
-                }
-            }
-            Some(Target::Body(inner.stmts))
-        }
+        "LD" | "FBD" => Some(Target::Body(nested(l, &format!("action {an}"), lang))),
         other => {
             let span = l.r.span(lang);
             l.r.diags.error(
                 diag::UNSUPPORTED,
                 span,
-                format!("action {an} is written in {other}; actions in ST or LD are supported"),
+                format!(
+                    "action {an} is written in {other}; actions in ST, LD or FBD are supported"
+                ),
             );
             Some(Target::Body(Vec::new()))
         }
