@@ -784,6 +784,11 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
         let Some(pw) = self.value(i, None) else {
             return;
         };
+        // A type error in what the coil writes is the coil's.
+        let pw = Expr {
+            kind: ExprKind::Paren(Box::new(pw)),
+            span,
+        };
         let Some(v) = self.held(i) else {
             return;
         };
