@@ -306,6 +306,10 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
             }
         }
         for i in 0..l.els.len() {
+            // The right rail reads nothing: a coil wired to it is not read again.
+            if l.els[i].name == "rightPowerRail" {
+                continue;
+            }
             for (rf, fp, _) in all_inputs(l.els[i]) {
                 if let Some(j) = rf.and_then(|rf| l.by_id.get(&rf).copied()) {
                     let key = (j, l.out_key(j, fp.as_deref()));
@@ -504,7 +508,8 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
             "coil" => {
                 // Read before the coil writes: the coil's own statement uses the same value.
                 let pw = self.input(i, el.child("connectionPointIn"))?;
-                if matches!(pw.kind, ExprKind::Name(_) | ExprKind::Literal(_)) {
+                let read = self.uses.get(&(i, String::new())).copied().unwrap_or(0) > 0;
+                if !read || matches!(pw.kind, ExprKind::Name(_) | ExprKind::Literal(_)) {
                     Some(pw)
                 } else {
                     Some(self.materialize(i, pw))
