@@ -120,3 +120,36 @@ fn beremiz_traffic_light_sfc_is_checked() {
         "{e}"
     );
 }
+
+#[test]
+fn a_very_long_rung_is_refused_not_a_stack_overflow() {
+    let mut body =
+        String::from(r#"<leftPowerRail localId="1"><position x="0" y="0"/></leftPowerRail>"#);
+    for k in 2..5000 {
+        body.push_str(&format!(
+            r#"<contact localId="{k}"><position x="0" y="0"/><connectionPointIn><connection refLocalId="{}"/></connectionPointIn><variable>a</variable></contact>"#,
+            k - 1
+        ));
+    }
+    body.push_str(r#"<coil localId="5000"><position x="0" y="0"/><connectionPointIn><connection refLocalId="4999"/></connectionPointIn><variable>q</variable></coil>"#);
+    check_diag(
+        BOOLS,
+        "LD",
+        &body,
+        &["error[E054]: this element is more than 256 elements away from a rail"],
+    );
+}
+
+#[test]
+fn a_long_rung_within_the_limit_checks() {
+    let mut body =
+        String::from(r#"<leftPowerRail localId="1"><position x="0" y="0"/></leftPowerRail>"#);
+    for k in 2..250 {
+        body.push_str(&format!(
+            r#"<contact localId="{k}"><position x="0" y="0"/><connectionPointIn><connection refLocalId="{}"/></connectionPointIn><variable>a</variable></contact>"#,
+            k - 1
+        ));
+    }
+    body.push_str(r#"<coil localId="250"><position x="0" y="0"/><connectionPointIn><connection refLocalId="249"/></connectionPointIn><variable>q</variable></coil>"#);
+    assert_eq!(diagnostics(BOOLS, "LD", &body), "");
+}

@@ -32,6 +32,10 @@ use crate::parser;
 use crate::source::{FileId, Span};
 use crate::xml::Element as X;
 
+/// The longest chain of elements one value is built from (each link is a few stack frames
+/// here and a level of nesting in the checker).
+const MAX_CHAIN: usize = 256;
+
 /// The hidden structure type of SFC steps.
 pub(super) const STEP_TYPE: &str = "__SFC_STEP";
 
@@ -454,6 +458,14 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
             return Some(e.clone());
         }
         let block = self.els[i].name == "block";
+        if self.visiting.len() > MAX_CHAIN {
+            self.error(
+                i,
+                diag::GRAPHICAL,
+                format!("this element is more than {MAX_CHAIN} elements away from a rail or a variable; split the network with a variable"),
+            );
+            return None;
+        }
         if !block && !self.visiting.insert(i) {
             self.error(
                 i,
@@ -1238,7 +1250,6 @@ pub(super) fn sfc(r: &mut Reader, pou: &str, pou_el: &X, body: &X) -> Lowered {
         }
     }
     for (k, (_, target, span)) in targets.into_iter().enumerate() {
-        let span = span;
         let mut on = Vec::new();
         let mut set = Vec::new();
         let mut reset = Vec::new();
