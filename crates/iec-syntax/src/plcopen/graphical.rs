@@ -15,7 +15,7 @@
 //! SFC: every step is a variable of the hidden structure `__SFC_STEP` (`S.X`, `S.T`). A scan
 //! updates step times, clears every transition whose preceding steps are all active and whose
 //! condition is TRUE, judged on the steps active at the start of the scan (in a selection
-//! divergence the first by `priority`, then document order, wins), deactivates the steps
+//! divergence the first by `priority`, then left to right, then document order, wins), deactivates the steps
 //! before the cleared transitions and activates those after them, and then runs the actions
 //! of the active steps by their qualifiers (N, S, R, P, P1, P0, L, D).
 //!
@@ -1075,11 +1075,20 @@ pub(super) fn sfc(r: &mut Reader, pou: &str, pou_el: &X, body: &X) -> Lowered {
     }
     // Transition conditions, judged on the steps active now.
     let mut ordered = transitions.clone();
+    // In a selection divergence: by `priority`, else left to right (the standard's rule;
+    // Beremiz writes no priority), then document order.
     ordered.sort_by_key(|&t| {
-        l.els[t]
+        let el = l.els[t];
+        let priority = el
             .attr("priority")
             .and_then(|p| p.trim().parse::<u64>().ok())
-            .unwrap_or(0)
+            .unwrap_or(0);
+        let x = el
+            .child("position")
+            .and_then(|p| p.attr("x"))
+            .and_then(|x| x.trim().parse::<f64>().ok())
+            .unwrap_or(0.0);
+        (priority, (x * 1000.0) as i64)
     });
     let mut fire: HashMap<usize, Expr> = HashMap::new();
     let mut done: Vec<usize> = Vec::new();
