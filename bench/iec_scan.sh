@@ -9,6 +9,8 @@
 # the 1000-copy program: `petriplc check --pou mixer` (read, parse, check, compile).
 # Then the IL `petriplc compile --lang il` writes for the same nets against that ST, both on
 # the engine (interleaved likewise; goal: IL within 1.2x of ST, one lowered form for both).
+# Then the same logic as LD against ST (both PLCopen projects `petriplc compile` writes) on the
+# engine.
 #
 #   bash bench/iec_scan.sh            # 3 runs
 #   RUNS=5 bash bench/iec_scan.sh
@@ -31,6 +33,8 @@ for n in 1 100 1000; do
   "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang st --plain --out "$work/mixer-$n.st" 2>/dev/null
   "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang il --plain --out "$work/mixer-$n.il" 2>/dev/null
   "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang c --out "$work/mixer-$n.c" 2>/dev/null
+  "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang st --out "$work/mixer-$n-st.xml" 2>/dev/null
+  "$petriplc" compile "$work/mixer-$n.pnml" --names sipn --lang ld --out "$work/mixer-$n-ld.xml" 2>/dev/null
   cc -std=c99 -O2 -c -o "$work/mixer-$n.o" "$work/mixer-$n.c"
   cc -O2 -o "$work/c_scan-$n" bench/iec/c_scan.c "$work/mixer-$n.o"
 done
@@ -51,6 +55,26 @@ for n in 1 100 1000; do
   cc_=$(printf "%s\n" "${c_cpu[@]}" | median); ec=$(printf "%s\n" "${e_cpu[@]}" | median)
   printf "%-6s %14.1f %14.1f %14.1f %14.1f %8.2f %8.2f\n" "$n" "$cw" "$ew" "$cc_" "$ec" \
     "$(python3 -c "print($ew / $cw)")" "$(python3 -c "print($ec / $cc_)")"
+done
+
+# One logic, two languages: the LD project `compile --lang ld` writes against the ST project
+# `compile --lang st` writes, both PLCopen XML with the same configuration, on the engine
+# (issue 17: within 1.2x).
+echo
+printf "%-6s %14s %14s %14s %14s %8s %8s\n" N "ST ns/scan" "LD ns/scan" "ST cpu ns" "LD cpu ns" "ratio" "cpu ratio"
+for n in 1 100 1000; do
+  scans=$((2000000 / n))
+  s_wall=(); l_wall=(); s_cpu=(); l_cpu=()
+  for ((r = 0; r < RUNS; r++)); do
+    read -r w c _ < <("$engine" "$work/mixer-$n-st.xml" "$scans" 11)
+    s_wall+=("$w"); s_cpu+=("$c")
+    read -r w c _ < <("$engine" "$work/mixer-$n-ld.xml" "$scans" 11)
+    l_wall+=("$w"); l_cpu+=("$c")
+  done
+  sw=$(printf "%s\n" "${s_wall[@]}" | median); lw=$(printf "%s\n" "${l_wall[@]}" | median)
+  sc=$(printf "%s\n" "${s_cpu[@]}" | median); lc=$(printf "%s\n" "${l_cpu[@]}" | median)
+  printf "%-6s %14.1f %14.1f %14.1f %14.1f %8.2f %8.2f\n" "$n" "$sw" "$lw" "$sc" "$lc" \
+    "$(python3 -c "print($lw / $sw)")" "$(python3 -c "print($lc / $sc)")"
 done
 
 echo

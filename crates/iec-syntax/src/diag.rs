@@ -42,6 +42,7 @@ codes! {
     NOT_PLCOPEN = "E051": "an XML file that is not a PLCopen TC6 project",
     PLCOPEN_STRUCTURE = "E052": "a PLCopen element missing a required part or attribute",
     PLCOPEN_TYPE = "E053": "a PLCopen type element the reader does not know",
+    GRAPHICAL = "E054": "an LD or SFC element that is not connected as its language requires",
     UNDECLARED = "E100": "a name that is not declared",
     UNKNOWN_TYPE = "E101": "a type name that is not declared",
     UNKNOWN_POU = "E102": "a function or function block that is not declared",

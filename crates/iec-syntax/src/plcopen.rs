@@ -58,6 +58,8 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
         name: name.to_string(),
         file,
         diags,
+        hidden: Vec::new(),
+        steps: false,
     };
     if let Some(types) = root.child("types") {
         if let Some(dts) = types.child("dataTypes") {
@@ -77,6 +79,11 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
             }
         }
     }
+    if r.steps {
+        let span = Span::new(file, root.start, root.start);
+        lib.elements
+            .push(Element::Types(vec![graphical::step_type(span)]));
+    }
     if let Some(configs) = root
         .child("instances")
         .and_then(|i| i.child("configurations"))
@@ -95,6 +102,10 @@ struct Reader<'a> {
     name: String,
     file: FileId,
     diags: &'a mut Diagnostics,
+    /// Hidden variables of the graphical body just lowered, for its POU's interface.
+    hidden: Vec<VarDecl>,
+    /// Whether an SFC body needs the step structure type.
+    steps: bool,
 }
 
 impl Reader<'_> {
@@ -450,6 +461,15 @@ impl Reader<'_> {
             );
         }
         let body = self.body(el, &name);
+        if !self.hidden.is_empty() {
+            var_blocks.push(VarBlock {
+                kind: VarKind::Local,
+                constant: false,
+                retain: Retain::Unspecified,
+                vars: std::mem::take(&mut self.hidden),
+                span: name.span,
+            });
+        }
         Some(Pou {
             kind,
             span: name.span,
@@ -478,21 +498,16 @@ impl Reader<'_> {
                 }
                 Body::St(parser::parse_body(f, &text, self.diags))
             }
-            "LD" => Body::Graphical {
-                language: GraphicalLanguage::Ld,
-                xml: lang.clone(),
-                span,
-            },
-            "FBD" => Body::Graphical {
-                language: GraphicalLanguage::Fbd,
-                xml: lang.clone(),
-                span,
-            },
-            "SFC" => Body::Graphical {
-                language: GraphicalLanguage::Sfc,
-                xml: lang.clone(),
-                span,
-            },
+            "LD" | "SFC" | "FBD" => {
+                let lowered = if lang.name != "SFC" {
+                    graphical::ld(self, &name.name, lang)
+                } else {
+                    graphical::sfc(self, &name.name, pou, lang)
+                };
+                self.hidden = lowered.vars;
+                self.steps |= lowered.steps;
+                Body::St(lowered.stmts)
+            }
             other => {
                 self.diags.error(
                     diag::PLCOPEN_STRUCTURE,
@@ -592,5 +607,6 @@ fn text_of(lang: &X) -> (String, Option<usize>) {
     (lang.text.clone(), lang.text_start)
 }
 
+mod graphical;
 #[cfg(test)]
 mod tests;

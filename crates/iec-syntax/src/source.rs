@@ -58,6 +58,9 @@ pub struct SourceFile {
     pub line_base: u32,
     /// Columns before the text's first character on its first line.
     pub col_base: u32,
+    /// For a text taken from an element of a graphical body (LD, SFC): the element, printed
+    /// in messages instead of a line and column (`LD contact localId 3 (start)`).
+    pub element: Option<String>,
 }
 
 impl SourceFile {
@@ -75,6 +78,7 @@ impl SourceFile {
             line_starts,
             line_base,
             col_base,
+            element: None,
         }
     }
 
@@ -141,6 +145,21 @@ impl SourceMap {
         id
     }
 
+    /// Adds a text held by an element of a graphical body (at 1-based `line`, `col` of file
+    /// `name`); messages name the element instead of the line and column.
+    pub fn add_element(
+        &mut self,
+        name: impl Into<String>,
+        text: impl Into<String>,
+        line_base: u32,
+        col_base: u32,
+        element: String,
+    ) -> FileId {
+        let id = self.add_embedded(name, text, line_base, col_base);
+        self.files[id.0 as usize].element = Some(element);
+        id
+    }
+
     pub fn file(&self, id: FileId) -> &SourceFile {
         &self.files[id.0 as usize]
     }
@@ -165,12 +184,14 @@ impl SourceMap {
                     file: f.name.clone(),
                     line,
                     column,
+                    element: f.element.clone(),
                 }
             }
             None => Position {
                 file: "?".into(),
                 line: 0,
                 column: 0,
+                element: None,
             },
         }
     }
@@ -192,11 +213,16 @@ pub struct Position {
     pub file: String,
     pub line: u32,
     pub column: u32,
+    /// The element of a graphical body, printed instead of the line and column.
+    pub element: Option<String>,
 }
 
 impl fmt::Display for Position {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}:{}:{}", self.file, self.line, self.column)
+        match &self.element {
+            Some(e) => write!(f, "{}: {e}", self.file),
+            None => write!(f, "{}:{}:{}", self.file, self.line, self.column),
+        }
     }
 }
 

@@ -248,7 +248,17 @@ impl<'p> IecSimulation<'p> {
         let mut others: Vec<Var> = Vec::new();
         for (k, inst) in engine.instances().iter().enumerate() {
             for (name, class, ty) in engine.instance_vars(k) {
-                if !traceable(&engine, ty) {
+                // What the LD/SFC lowering adds (`__…`) is not the program's; an SFC step is
+                // shown by its flag `S.X`.
+                if name.starts_with("__") {
+                    continue;
+                }
+                let step = matches!(
+                    engine.project.types.get(ty),
+                    petriplc_iec_sema::types::Type::Struct { name, .. } if name == "__SFC_STEP"
+                );
+                let name = if step { format!("{name}.X") } else { name };
+                if !step && !traceable(&engine, ty) {
                     continue;
                 }
                 let Some(var) = engine.lookup(&format!("{}.{name}", inst.name)) else {

@@ -405,3 +405,67 @@ fn blark_parses_every_corpus_program() {
     );
     eprintln!("blark parsed {} corpus programs", paths.len());
 }
+
+/// The LD and SFC corpus: PLCopen XML projects (tests/corpus-graphical/*.xml), each with its
+/// expected values in the same header, inside an XML comment (`<!-- (* … *) -->`).
+fn graphical_corpus() -> Vec<PathBuf> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus-graphical");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn every_graphical_corpus_project_gives_its_expected_values() {
+    let files = graphical_corpus();
+    let failures: Vec<String> = files
+        .iter()
+        .filter_map(|f| {
+            let problems = run(f);
+            (!problems.is_empty()).then(|| format!("{}:\n  {}", f.display(), problems.join("\n  ")))
+        })
+        .collect();
+    let count = |prefix: &str| {
+        files
+            .iter()
+            .filter(|f| f.file_name().unwrap().to_string_lossy().starts_with(prefix))
+            .count()
+    };
+    eprintln!(
+        "conformance: {} LD and {} SFC projects",
+        count("ld"),
+        count("sfc")
+    );
+    assert!(
+        files.len() >= 20,
+        "the LD/SFC corpus has {} projects; it needs at least 20",
+        files.len()
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Every LD/SFC corpus project is valid TC6 v2.01 XML (xmllint against the schema).
+#[test]
+fn graphical_corpus_projects_are_valid_tc6_xml() {
+    let schema = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/schemas/plcopen/tc6_xml_v201.xsd"
+    );
+    let files = graphical_corpus();
+    let out = Command::new("xmllint")
+        .args(["--noout", "--schema", schema])
+        .args(&files)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("cannot run xmllint ({e}); the corpus is validated with it: apt-get install libxml2-utils")
+        });
+    assert!(
+        out.status.success(),
+        "xmllint --schema {schema}:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

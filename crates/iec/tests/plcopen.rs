@@ -62,9 +62,10 @@ fn beremiz_libraries_load() {
 
 #[test]
 fn beremiz_projects_in_other_languages_are_refused_with_the_reason() {
+    // plc_prg is FBD (lowered like LD); the block it calls is written in IL.
     let e = checked(&format!("{SAMPLES}/exemples_first_steps.xml")).unwrap_err();
     assert!(
-        e.contains("exemples_first_steps.xml:1144:13: error[E190]: program plc_prg is not written in Structured Text"),
+        e.contains("exemples_first_steps.xml: POU plc_prg, FBD block localId 9 (CounterIL CounterIL0): error[E190]: CounterIL is not written in Structured Text"),
         "{e}"
     );
     // Its IL function block (Beremiz's CounterIL) is checked like its ST: no report about it.

@@ -192,3 +192,26 @@ fn the_chaser_runs_on_the_plc() {
     assert_eq!(lamps.join(" "), "L2 L3 L4 L1 L2");
     assert_eq!(plc.value("laps"), 1);
 }
+
+#[test]
+fn a_ladder_project_runs_as_a_module() {
+    // The LD corpus project: a contact on `a` drives a coil on `q`.
+    let ld = include_str!("../../iec/tests/corpus-graphical/ld01_contact_coil.xml");
+    let dir = dir_with(&[
+        ("ld.xml", ld),
+        ("drive.csv", "time,a\n0,0\n0.02,1\n0.04,0\n"),
+    ]);
+    let mut plc = start(
+        "[PLC]\nmodule drive timeline\nmodule ctl iec\n\
+         point a \"\" drive\npoint q \"\" ctl\n\
+         [drive]\nfile = drive.csv\n[ctl]\nproject = ld.xml\n",
+        dir.path(),
+    )
+    .unwrap();
+    let mut seen = Vec::new();
+    for k in 0..6 {
+        plc.tick(ms(10 * k)).unwrap();
+        seen.push(plc.value("q").to_string());
+    }
+    assert_eq!(seen.join(""), "001100");
+}
