@@ -47,6 +47,45 @@ pub struct Engine {
     pou_files: Vec<String>,
     /// Tasks by priority, then declaration order.
     task_order: Vec<usize>,
+    /// Whether some program instance runs in a task (else every instance runs every scan).
+    tasked: bool,
+    /// Machine code for the instances, when it was made ([`Engine::set_compiled`]).
+    compiled: Option<Box<dyn Compiled>>,
+}
+
+/// Machine code for an engine's program instances (the `petriplc-iec-jit` crate makes it),
+/// run in place of the instruction loop with the same memory, faults and budget.
+pub trait Compiled: Send + Sync {
+    /// Runs program instance `instance` once at `now` on `mem` (the machine's memory),
+    /// spending `budget`; [`Ran::NotCompiled`] when that instance has no compiled form (the
+    /// VM runs it). A panic inside (a bug) may unwind out of it: the caller catches it as
+    /// the VM's.
+    fn run(
+        &self,
+        engine: &Engine,
+        instance: usize,
+        mem: &mut [u64],
+        now: i64,
+        budget: &mut Budget<'_>,
+    ) -> Ran;
+}
+
+/// How a run of compiled code ended (small, so the scan's fast path stays in registers).
+#[derive(Debug)]
+pub enum Ran {
+    Done,
+    Fault(Box<RawFault>),
+    NotCompiled,
+}
+
+/// What runs a machine's programs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// The engine's machine code where it has some ([`Engine::set_compiled`]), else the VM.
+    #[default]
+    Compiled,
+    /// The bytecode VM only.
+    Vm,
 }
 
 impl fmt::Debug for Engine {
@@ -98,13 +137,32 @@ impl Engine {
         if let Some(c) = &project.configuration {
             task_order.sort_by_key(|&t| (c.tasks[t].priority, t));
         }
+        let tasked =
+            code.instances.iter().any(|i| i.task.is_some()) && project.configuration.is_some();
         Ok(Arc::new(Engine {
             project,
             code,
             natives,
             pou_files,
             task_order,
+            tasked,
+            compiled: None,
         }))
+    }
+
+    /// Attaches machine code for the instances (before machines are made: `Arc::get_mut`).
+    pub fn set_compiled(&mut self, compiled: Box<dyn Compiled>) {
+        self.compiled = Some(compiled);
+    }
+
+    /// Whether machine code is attached.
+    pub fn is_compiled(&self) -> bool {
+        self.compiled.is_some()
+    }
+
+    /// The native function blocks, in the order of `project.natives`.
+    pub fn natives(&self) -> &[Box<dyn NativeFb>] {
+        &self.natives
     }
 
     /// The program instances: those of the configuration, or one of `pou` named after it.
@@ -338,8 +396,11 @@ impl Engine {
 }
 
 /// Runs one program instance; a panic inside (a bug in the engine) becomes a fault.
+#[allow(clippy::too_many_arguments)]
+#[inline]
 fn run_one(
     engine: &Engine,
+    backend: Backend,
     mem: &mut [u64],
     stack: &mut Vec<(u32, u32)>,
     iterations: u64,
@@ -355,6 +416,13 @@ fn run_one(
         check,
     };
     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        if let (Backend::Compiled, Some(c)) = (backend, &engine.compiled) {
+            match c.run(engine, instance, mem, now, &mut budget) {
+                Ran::Done => return Ok(()),
+                Ran::Fault(f) => return Err(f),
+                Ran::NotCompiled => {}
+            }
+        }
         exec::run(
             &engine.code,
             &engine.natives,
@@ -364,10 +432,11 @@ fn run_one(
             &mut budget,
             stack,
         )
+        .map_err(Box::new)
     }));
     match r {
         Ok(Ok(())) => Ok(()),
-        Ok(Err(f)) => Err(engine.locate(f)),
+        Ok(Err(f)) => Err(engine.locate(*f)),
         Err(_) => Err(Fault {
             pou: format!("PROGRAM instance {}", inst.name),
             file: String::new(),
@@ -440,6 +509,7 @@ fn split_path(path: &str) -> Option<Vec<Segment>> {
 /// A running copy of an engine: its memory and task clocks.
 pub struct Machine {
     engine: Arc<Engine>,
+    backend: Backend,
     mem: Vec<u64>,
     stack: Vec<(u32, u32)>,
     /// Loop iterations one scan may make before it fails as endless.
@@ -464,6 +534,7 @@ impl Machine {
             .as_ref()
             .map_or(0, |c| c.tasks.len());
         Machine {
+            backend: Backend::default(),
             mem: engine.code.init.clone(),
             engine,
             stack: Vec::with_capacity(16),
@@ -476,6 +547,20 @@ impl Machine {
         &self.engine
     }
 
+    /// Chooses what runs the programs (the engine's machine code by default).
+    pub fn set_backend(&mut self, backend: Backend) {
+        self.backend = backend;
+    }
+
+    /// What runs the programs: [`Backend::Vm`] when asked for, or when the engine has no
+    /// machine code.
+    pub fn backend(&self) -> Backend {
+        match self.backend {
+            Backend::Compiled if self.engine.is_compiled() => Backend::Compiled,
+            _ => Backend::Vm,
+        }
+    }
+
     /// Back to the initial values (retained ones included: restore them afterwards).
     pub fn reset(&mut self) {
         self.mem.copy_from_slice(&self.engine.code.init);
@@ -486,12 +571,22 @@ impl Machine {
     pub fn run_instance(&mut self, instance: usize, now: i64) -> Result<(), Fault> {
         let Machine {
             engine,
+            backend,
             mem,
             stack,
             iterations,
             ..
         } = self;
-        run_one(engine, mem, stack, *iterations, instance, now, &mut || true)
+        run_one(
+            engine,
+            *backend,
+            mem,
+            stack,
+            *iterations,
+            instance,
+            now,
+            &mut || true,
+        )
     }
 
     /// One scan at `now` (nanoseconds): every task whose interval has come, by priority (then
@@ -501,18 +596,29 @@ impl Machine {
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
         let Machine {
             engine,
+            backend,
             mem,
             stack,
             iterations,
             next_due,
         } = self;
         let engine: &Engine = engine;
+        let backend = *backend;
         let instances = &engine.code.instances;
         let tasks = match engine.project.configuration.as_ref() {
-            Some(c) if instances.iter().any(|i| i.task.is_some()) => &c.tasks,
+            Some(c) if engine.tasked => &c.tasks,
             _ => {
                 for i in 0..instances.len() {
-                    run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                    run_one(
+                        engine,
+                        backend,
+                        mem,
+                        stack,
+                        *iterations,
+                        i,
+                        now,
+                        &mut *check,
+                    )?;
                 }
                 return Ok(());
             }
@@ -537,13 +643,31 @@ impl Machine {
             }
             for (i, inst) in instances.iter().enumerate() {
                 if inst.task == Some(t as u32) {
-                    run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                    run_one(
+                        engine,
+                        backend,
+                        mem,
+                        stack,
+                        *iterations,
+                        i,
+                        now,
+                        &mut *check,
+                    )?;
                 }
             }
         }
         for (i, inst) in instances.iter().enumerate() {
             if inst.task.is_none() {
-                run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                run_one(
+                    engine,
+                    backend,
+                    mem,
+                    stack,
+                    *iterations,
+                    i,
+                    now,
+                    &mut *check,
+                )?;
             }
         }
         Ok(())

@@ -2,19 +2,20 @@
 //! `cargo run --release -p petriplc-iec --example scan_time -- FILE.st SCANS REPEATS`
 //! prints the median wall-clock ns per scan, the process CPU ns per scan over all runs
 //! (from /proc, 10 ms resolution) and the compile time in seconds (bench/iec_scan.sh
-//! compares it with the generated C).
+//! compares it with the generated C). A fourth argument `vm` runs the bytecode VM instead
+//! of the machine code.
 
 use std::time::Instant;
 
 use petriplc_iec::{build_file, Select};
 use petriplc_iec_sema::ir::VarClass;
 use petriplc_iec_sema::value::Value;
-use petriplc_iec_vm::Machine;
+use petriplc_iec_vm::{Backend, Machine};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    if args.len() != 4 {
-        eprintln!("usage: scan_time FILE.st SCANS REPEATS");
+    if args.len() != 4 && args.len() != 5 {
+        eprintln!("usage: scan_time FILE.st SCANS REPEATS [vm]");
         std::process::exit(2);
     }
     let t0 = Instant::now();
@@ -30,6 +31,9 @@ fn main() {
     let repeats: usize = args[3].parse().unwrap_or(11);
     let engine = build.engine.clone();
     let mut m = Machine::new(engine.clone());
+    if args.get(4).map(String::as_str) == Some("vm") {
+        m.set_backend(Backend::Vm);
+    }
     let inst = &engine.instances()[0];
     for (name, class, _) in engine.instance_vars(0) {
         if class == VarClass::Input {

@@ -9,7 +9,7 @@ use std::time::Duration;
 use petriplc_codegen::{generate, Form, Language, Markings, Options, Program, Request};
 use petriplc_iec::{build_text, Select};
 use petriplc_iec_sema::value::Value;
-use petriplc_iec_vm::Machine;
+use petriplc_iec_vm::{Backend, Machine};
 use petriplc_net::{Evolution, Net, ScanOptions, StepRule};
 use petriplc_pnml::{Naming, ReadOptions};
 use petriplc_sim::{SimOptions, Simulation, Timeline};
@@ -117,7 +117,13 @@ fn compare(
     let build = build_text(&format!("{name}.st"), &st, &Select::Auto)
         .unwrap_or_else(|e| panic!("{what}: the engine refuses the generated ST:\n{e}\n{st}"));
     let engine = build.engine.clone();
+    assert!(engine.is_compiled(), "{what}: no machine code for the ST");
     let mut m = Machine::new(engine.clone());
+    // The bytecode VM runs the same program in step with the machine code: same memory
+    // after every scan, same faults.
+    let mut mv = Machine::new(engine.clone());
+    mv.set_backend(Backend::Vm);
+    let slots = engine.code.init.len() as u32;
     // The PLCopen XML project `petriplc compile --lang st` writes (the POU, and a
     // configuration whose task runs it every 10 ms) runs in step with the bare ST.
     let xml = generate(
@@ -198,10 +204,24 @@ fn compare(
         for ((n, v), xv) in inputs.iter().zip(&xml_inputs) {
             let value = sim.signal(n).unwrap_or(0);
             m.set(*v, &Value::Int(value as i128)).unwrap();
+            mv.set(*v, &Value::Int(value as i128)).unwrap();
             mx.set(*xv, &Value::Int(value as i128)).unwrap();
         }
         let iec = m.scan(t.as_nanos() as i64, &mut || true);
         let iec_xml = mx.scan(t.as_nanos() as i64, &mut || true);
+        let iec_vm = mv.scan(t.as_nanos() as i64, &mut || true);
+        assert_eq!(
+            iec.as_ref().map_err(|f| f.to_string()),
+            iec_vm.as_ref().map_err(|f| f.to_string()),
+            "{what} at t={t:?}: machine code and VM end the scan differently"
+        );
+        if let Some(a) = (0..slots).find(|&a| m.slot(a) != mv.slot(a)) {
+            panic!(
+                "{what} at t={t:?}: machine code and VM differ at slot {a}: {} vs {}",
+                m.slot(a),
+                mv.slot(a)
+            );
+        }
         assert_eq!(
             iec.is_ok(),
             iec_xml.is_ok(),
