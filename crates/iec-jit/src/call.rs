@@ -6,18 +6,16 @@
 //! - while it runs, the memory is reached only through the one raw pointer taken from the
 //!   caller's `&mut [u64]`: by the generated code, and by the helpers, which make a slice of
 //!   it for the duration of one instruction;
-//! - a helper never unwinds into the generated code: it catches a panic, keeps it, and
-//!   [`Jit::run`] resumes it once the generated code has returned;
+//! - a helper never unwinds into the generated code: it catches a panic and returns
+//!   [`PANIC`], which [`Jit::run`] reports as [`Ran::Panic`] (the VM's internal fault);
 //! - the code memory lives as long as the [`Jit`] (owned by the engine), and is only read.
 
-use std::any::Any;
-use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
+use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use cranelift_jit::JITModule;
-use petriplc_iec_vm::compile::Code;
 use petriplc_iec_vm::exec::{self, Budget, Control, FaultKind, RawFault};
 use petriplc_iec_vm::op::Op;
-use petriplc_iec_vm::{Compiled, Engine, NativeFb, Ran};
+use petriplc_iec_vm::{Compiled, Engine, Ran};
 
 /// Status words returned by generated functions and helpers.
 pub(crate) const OK: u32 = 0;
@@ -33,30 +31,30 @@ type Entry = extern "C" fn(*mut u64, u64, *mut u8) -> u32;
 /// What one run of generated code shares with its helpers. The generated code reads and
 /// writes the first two fields (offsets 0 and 8) and passes the rest through.
 #[repr(C)]
-pub(crate) struct Ctx<'a> {
+pub(crate) struct Ctx<'a, 'b> {
     pub iterations: u64,
     pub depth: u64,
     mem: *mut u64,
     len: usize,
-    code: &'a Code,
-    natives: &'a [Box<dyn NativeFb>],
+    engine: &'a Engine,
     now: i64,
-    check: &'a mut dyn FnMut() -> bool,
-    fault: Option<RawFault>,
-    panic: Option<Box<dyn Any + Send>>,
+    /// The caller's budget, by a thin pointer: copying its `check` (a wide pointer the
+    /// caller has just written as two words) would stall on store forwarding every scan.
+    budget: &'a mut Budget<'b>,
+    fault: Option<Box<RawFault>>,
 }
 
 pub(crate) const ITERATIONS_AT: i32 = 0;
 pub(crate) const DEPTH_AT: i32 = 8;
 
 /// The context behind the pointer the generated code passes.
-fn ctx<'x>(p: *mut u8) -> &'x mut Ctx<'x> {
+fn ctx<'x>(p: *mut u8) -> &'x mut Ctx<'x, 'x> {
     // SAFETY: `p` is the `&mut Ctx` that `Jit::run` passed to the generated code, which
     // hands it on unchanged; `Jit::run` does not touch the context until the code returns.
-    unsafe { &mut *(p as *mut Ctx<'x>) }
+    unsafe { &mut *(p as *mut Ctx<'x, 'x>) }
 }
 
-impl Ctx<'_> {
+impl Ctx<'_, '_> {
     fn mem<'m>(&self) -> &'m mut [u64] {
         // SAFETY: `mem`/`len` come from the `&mut [u64]` given to `Jit::run`, alive and
         // not otherwise borrowed while the generated code runs; the generated code does
@@ -65,17 +63,12 @@ impl Ctx<'_> {
     }
 
     fn catch(&mut self, f: impl FnOnce(&mut Self) -> u32) -> u32 {
-        match catch_unwind(AssertUnwindSafe(|| f(self))) {
-            Ok(s) => s,
-            Err(p) => {
-                self.panic = Some(p);
-                PANIC
-            }
-        }
+        // The payload is dropped: the machine reports an internal error, as for the VM.
+        catch_unwind(AssertUnwindSafe(|| f(self))).unwrap_or(PANIC)
     }
 
     fn fault(&mut self, f: RawFault) -> u32 {
-        self.fault = Some(f);
+        self.fault = Some(Box::new(f));
         FAULT
     }
 }
@@ -84,7 +77,7 @@ impl Ctx<'_> {
 pub(crate) extern "C" fn h_step(c: *mut u8, pc: u32, base: u64) -> u32 {
     let c = ctx(c);
     c.catch(|c| {
-        let (code, natives, now) = (c.code, c.natives, c.now);
+        let (code, natives, now) = (&c.engine.code, c.engine.natives(), c.now);
         match exec::exec_one(code, natives, c.mem(), pc, base as usize, now) {
             Ok(()) => OK,
             Err(f) => c.fault(f),
@@ -107,7 +100,7 @@ pub(crate) extern "C" fn h_fault(c: *mut u8, pc: u32, what: u32) -> u32 {
 pub(crate) extern "C" fn h_check(c: *mut u8, pc: u32) -> u32 {
     let c = ctx(c);
     c.catch(|c| {
-        if (c.check)() {
+        if (c.budget.check)() {
             OK
         } else {
             c.fault(exec::control_fault(pc, Control::Check))
@@ -121,7 +114,7 @@ pub(crate) extern "C" fn h_for(c: *mut u8, pc: u32, base: u64) -> u32 {
     c.catch(|c| {
         let Some(&Op::ForNext {
             v, to, by, r, u, ..
-        }) = c.code.ops.get(pc as usize)
+        }) = c.engine.code.ops.get(pc as usize)
         else {
             return c.fault(RawFault {
                 pc,
@@ -130,12 +123,9 @@ pub(crate) extern "C" fn h_for(c: *mut u8, pc: u32, base: u64) -> u32 {
             });
         };
         let mem = c.mem();
-        let mut budget = Budget {
-            iterations: c.iterations,
-            check: &mut *c.check,
-        };
-        let r = exec::for_next(mem, base as usize, v, to, by, r, u, &mut budget);
-        c.iterations = budget.iterations;
+        c.budget.iterations = c.iterations;
+        let r = exec::for_next(mem, base as usize, v, to, by, r, u, c.budget);
+        c.iterations = c.budget.iterations;
         match r {
             Ok(true) => AGAIN,
             Ok(false) => OK,
@@ -154,9 +144,9 @@ pub(crate) extern "C" fn h_oob(c: *mut u8, pc: u32) -> u32 {
 /// Machine code owned with its entry points.
 pub struct Jit {
     module: Option<JITModule>,
-    /// Per program instance: its generated entry.
-    entries: Vec<Option<*const u8>>,
-    ops: usize,
+    /// Per program instance: its generated entry, and the call depth it starts at (1 when
+    /// it is the program itself, its instance's glue being only the call).
+    entries: Vec<Option<(*const u8, u64)>>,
     slots: usize,
 }
 
@@ -179,14 +169,12 @@ impl Drop for Jit {
 impl Jit {
     pub(crate) fn new(
         module: JITModule,
-        entries: Vec<Option<*const u8>>,
-        ops: usize,
+        entries: Vec<Option<(*const u8, u64)>>,
         slots: usize,
     ) -> Self {
         Jit {
             module: Some(module),
             entries,
-            ops,
             slots,
         }
     }
@@ -206,46 +194,42 @@ impl Compiled for Jit {
         now: i64,
         budget: &mut Budget<'_>,
     ) -> Ran {
-        let Some(&Some(entry)) = self.entries.get(instance) else {
+        let Some(&Some((entry, depth))) = self.entries.get(instance) else {
             return Ran::NotCompiled;
         };
-        if mem.len() != self.slots
-            || engine.code.init.len() != self.slots
-            || engine.code.ops.len() != self.ops
-        {
+        // The length is what the generated code's accesses were checked against (the code
+        // itself is only read by the helpers, by safe indexing).
+        if mem.len() != self.slots {
             return Ran::NotCompiled;
         }
         let mut c = Ctx {
             iterations: budget.iterations,
-            depth: 0,
+            depth,
             mem: mem.as_mut_ptr(),
             len: mem.len(),
-            code: &engine.code,
-            natives: engine.natives(),
+            engine,
             now,
-            check: &mut *budget.check,
+            budget,
             fault: None,
-            panic: None,
         };
         // SAFETY: `entry` is a finalized function of `self.module` with the `Entry`
         // signature, compiled for memories of `self.slots` slots (checked above); see the
         // module's comment for why its memory accesses are in bounds.
         let f: Entry = unsafe { std::mem::transmute::<*const u8, Entry>(entry) };
         let status = f(c.mem, 0, &mut c as *mut Ctx as *mut u8);
-        budget.iterations = c.iterations;
+        c.budget.iterations = c.iterations;
         match status {
             OK | HALT => Ran::Done,
-            _ => stopped(status, c.fault.take(), c.panic.take()),
+            _ => stopped(status, c.fault.take()),
         }
     }
 }
 
 /// A run that stopped on a fault or a panic.
 #[cold]
-fn stopped(status: u32, fault: Option<RawFault>, panic: Option<Box<dyn Any + Send>>) -> Ran {
-    match (status, fault, panic) {
-        (FAULT, Some(f), _) => Ran::Fault(Box::new(f)),
-        (_, _, Some(p)) => resume_unwind(p),
-        _ => panic!("machine code returned status {status} without its cause"),
+fn stopped(status: u32, fault: Option<Box<RawFault>>) -> Ran {
+    match (status, fault) {
+        (FAULT, Some(f)) => Ran::Fault(f),
+        _ => Ran::Panic,
     }
 }

@@ -58,8 +58,8 @@ pub struct Engine {
 pub trait Compiled: Send + Sync {
     /// Runs program instance `instance` once at `now` on `mem` (the machine's memory),
     /// spending `budget`; [`Ran::NotCompiled`] when that instance has no compiled form (the
-    /// VM runs it). A panic inside (a bug) may unwind out of it: the caller catches it as
-    /// the VM's.
+    /// VM runs it). It must not unwind: a panic inside (a bug) is [`Ran::Panic`], reported
+    /// as the VM reports its own.
     fn run(
         &self,
         engine: &Engine,
@@ -75,6 +75,7 @@ pub trait Compiled: Send + Sync {
 pub enum Ran {
     Done,
     Fault(Box<RawFault>),
+    Panic,
     NotCompiled,
 }
 
@@ -170,6 +171,7 @@ impl Engine {
         &self.code.instances
     }
 
+    #[cold]
     fn locate(&self, f: RawFault) -> Fault {
         let i = self.code.lines.partition_point(|(pc, _, _)| *pc <= f.pc);
         let (pou, line) = match i.checked_sub(1).map(|k| self.code.lines[k]) {
@@ -397,7 +399,7 @@ impl Engine {
 
 /// Runs one program instance; a panic inside (a bug in the engine) becomes a fault.
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn run_one(
     engine: &Engine,
     backend: Backend,
@@ -415,21 +417,36 @@ fn run_one(
         iterations: iterations.max(1),
         check,
     };
-    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        if let (Backend::Compiled, Some(c)) = (backend, &engine.compiled) {
-            match c.run(engine, instance, mem, now, &mut budget) {
-                Ran::Done => return Ok(()),
-                Ran::Fault(f) => return Err(f),
-                Ran::NotCompiled => {}
-            }
+    if let (Backend::Compiled, Some(c)) = (backend, &engine.compiled) {
+        // Compiled code catches its own panics: no unwinding boundary on the fast path.
+        match c.run(engine, instance, mem, now, &mut budget) {
+            Ran::Done => return Ok(()),
+            Ran::Fault(f) => return Err(engine.locate(*f)),
+            Ran::Panic => return Err(internal(inst)),
+            Ran::NotCompiled => {}
         }
+    }
+    run_vm(engine, inst, mem, stack, now, &mut budget)
+}
+
+/// Runs one program instance on the VM.
+#[inline(never)]
+fn run_vm(
+    engine: &Engine,
+    inst: &compile::InstanceRt,
+    mem: &mut [u64],
+    stack: &mut Vec<(u32, u32)>,
+    now: i64,
+    budget: &mut Budget<'_>,
+) -> Result<(), Fault> {
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         exec::run(
             &engine.code,
             &engine.natives,
             mem,
             inst.entry,
             now,
-            &mut budget,
+            budget,
             stack,
         )
         .map_err(Box::new)
@@ -437,13 +454,19 @@ fn run_one(
     match r {
         Ok(Ok(())) => Ok(()),
         Ok(Err(f)) => Err(engine.locate(*f)),
-        Err(_) => Err(Fault {
-            pou: format!("PROGRAM instance {}", inst.name),
-            file: String::new(),
-            line: 0,
-            kind: FaultKind::Internal,
-            message: "internal error in the IEC engine (please report it)".into(),
-        }),
+        Err(_) => Err(internal(inst)),
+    }
+}
+
+/// The fault of a bug in the engine (a panic caught).
+#[cold]
+fn internal(inst: &compile::InstanceRt) -> Fault {
+    Fault {
+        pou: format!("PROGRAM instance {}", inst.name),
+        file: String::new(),
+        line: 0,
+        kind: FaultKind::Internal,
+        message: "internal error in the IEC engine (please report it)".into(),
     }
 }
 
@@ -594,6 +617,40 @@ impl Machine {
     /// scan, after the tasks. `check` is called every 65 536 loop iterations and stops the
     /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
+        // The fast path: machine code, no tasks (every instance every scan), kept small so
+        // that a scan of a small program is not dominated by the call's own cost.
+        if let (Backend::Compiled, Some(c), false) =
+            (self.backend, &self.engine.compiled, self.engine.tasked)
+        {
+            let Machine {
+                ref engine,
+                ref mut mem,
+                ref mut stack,
+                iterations,
+                ..
+            } = *self;
+            let engine: &Engine = engine;
+            for i in 0..engine.code.instances.len() {
+                let mut budget = Budget {
+                    iterations: iterations.max(1),
+                    check: &mut *check,
+                };
+                match c.run(engine, i, mem, now, &mut budget) {
+                    Ran::Done => {}
+                    Ran::Fault(f) => return Err(engine.locate(*f)),
+                    Ran::Panic => return Err(internal(&engine.code.instances[i])),
+                    Ran::NotCompiled => run_vm(
+                        engine,
+                        &engine.code.instances[i],
+                        mem,
+                        stack,
+                        now,
+                        &mut budget,
+                    )?,
+                }
+            }
+            return Ok(());
+        }
         let Machine {
             engine,
             backend,
