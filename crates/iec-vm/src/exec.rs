@@ -87,6 +87,84 @@ fn range_text(r: u8) -> String {
     format!("{lo}..{hi}")
 }
 
+/// The instructions generated code is mostly made of, in one `match` with the caller's
+/// other arms (`$rest`): the instruction loop dispatches once, and [`exec_one`] runs the
+/// same text.
+macro_rules! hot {
+    ($op:expr, $code:ident, $mem:ident, $base:ident, { $($rest:tt)* }) => {
+        match $op {
+            Op::Mov { d, s } => $mem[$base + d as usize] = $mem[$base + s as usize],
+            Op::MovK { d, k } => $mem[$base + d as usize] = k,
+            Op::CondMovK { c, d, k } => {
+                if $mem[$base + c as usize] != 0 {
+                    $mem[$base + d as usize] = k
+                }
+            }
+            Op::CondNotMovK { c, d, k } => {
+                if $mem[$base + c as usize] == 0 {
+                    $mem[$base + d as usize] = k
+                }
+            }
+            Op::AndLits { d, start, len } => {
+                let mut v = 1;
+                for &(s, neg) in &$code.lits[start as usize..(start + len) as usize] {
+                    if $mem[$base + s as usize] ^ neg == 0 {
+                        v = 0;
+                        break;
+                    }
+                }
+                $mem[$base + d as usize] = v;
+            }
+            Op::OrLits { d, start, len } => {
+                let mut v = 0;
+                for &(s, neg) in &$code.lits[start as usize..(start + len) as usize] {
+                    if $mem[$base + s as usize] ^ neg != 0 {
+                        v = 1;
+                        break;
+                    }
+                }
+                $mem[$base + d as usize] = v;
+            }
+            Op::CondStore { c, neg, start, len } => {
+                if ($mem[$base + c as usize] != 0) != neg {
+                    for &(s, k) in &$code.stores[start as usize..(start + len) as usize] {
+                        $mem[$base + s as usize] = k;
+                    }
+                }
+            }
+            Op::MovN { d, s, n } => {
+                let (d, s, n) = ($base + d as usize, $base + s as usize, n as usize);
+                if n <= 16 {
+                    for k in 0..n {
+                        $mem[d + k] = $mem[s + k];
+                    }
+                } else {
+                    $mem.copy_within(s..s + n, d);
+                }
+            }
+            Op::And { d, a, b } => {
+                $mem[$base + d as usize] = $mem[$base + a as usize] & $mem[$base + b as usize]
+            }
+            Op::AndN { d, a, b } => {
+                $mem[$base + d as usize] =
+                    $mem[$base + a as usize] & ($mem[$base + b as usize] ^ 1)
+            }
+            Op::Or { d, a, b } => {
+                $mem[$base + d as usize] = $mem[$base + a as usize] | $mem[$base + b as usize]
+            }
+            Op::OrN { d, a, b } => {
+                $mem[$base + d as usize] =
+                    $mem[$base + a as usize] | ($mem[$base + b as usize] ^ 1)
+            }
+            Op::Xor { d, a, b } => {
+                $mem[$base + d as usize] = $mem[$base + a as usize] ^ $mem[$base + b as usize]
+            }
+            Op::Not { d, s } => $mem[$base + d as usize] = $mem[$base + s as usize] ^ 1,
+            $($rest)*
+        }
+    };
+}
+
 /// Runs from `entry` until its `Halt` (or the final `Ret`).
 pub fn run(
     code: &Code,
@@ -109,7 +187,7 @@ pub fn run(
     loop {
         let op = ops[pc];
         pc += 1;
-        match op {
+        hot!(op, code, mem, base, {
             Op::JmpF { c, t } => {
                 if m!(c) == 0 {
                     pc = t as usize
@@ -168,7 +246,7 @@ pub fn run(
             },
             Op::Halt => return Ok(()),
             op => data(op, code, natives, mem, base, now, pc - 1)?,
-        }
+        });
     }
 }
 
@@ -331,62 +409,7 @@ fn data(
             })
         };
     }
-    match op {
-        Op::Mov { d, s } => m!(d) = m!(s),
-        Op::MovK { d, k } => m!(d) = k,
-        Op::CondMovK { c, d, k } => {
-            if m!(c) != 0 {
-                m!(d) = k
-            }
-        }
-        Op::CondNotMovK { c, d, k } => {
-            if m!(c) == 0 {
-                m!(d) = k
-            }
-        }
-        Op::AndLits { d, start, len } => {
-            let mut v = 1;
-            for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
-                if m!(s) ^ neg == 0 {
-                    v = 0;
-                    break;
-                }
-            }
-            m!(d) = v;
-        }
-        Op::OrLits { d, start, len } => {
-            let mut v = 0;
-            for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
-                if m!(s) ^ neg != 0 {
-                    v = 1;
-                    break;
-                }
-            }
-            m!(d) = v;
-        }
-        Op::CondStore { c, neg, start, len } => {
-            if (m!(c) != 0) != neg {
-                for &(s, k) in &code.stores[start as usize..(start + len) as usize] {
-                    m!(s) = k;
-                }
-            }
-        }
-        Op::MovN { d, s, n } => {
-            let (d, s, n) = (base + d as usize, base + s as usize, n as usize);
-            if n <= 16 {
-                for k in 0..n {
-                    mem[d + k] = mem[s + k];
-                }
-            } else {
-                mem.copy_within(s..s + n, d);
-            }
-        }
-        Op::And { d, a, b } => m!(d) = m!(a) & m!(b),
-        Op::AndN { d, a, b } => m!(d) = m!(a) & (m!(b) ^ 1),
-        Op::Or { d, a, b } => m!(d) = m!(a) | m!(b),
-        Op::OrN { d, a, b } => m!(d) = m!(a) | (m!(b) ^ 1),
-        Op::Xor { d, a, b } => m!(d) = m!(a) ^ m!(b),
-        Op::Not { d, s } => m!(d) = m!(s) ^ 1,
+    hot!(op, code, mem, base, {
         Op::CmpI { op, d, a, b } => m!(d) = cmp_i(op, m!(a) as i64, m!(b) as i64) as u64,
         Op::CmpU { op, d, a, b } => m!(d) = cmp_u(op, m!(a), m!(b)) as u64,
         Op::CmpF { op, d, a, b } => {
@@ -620,11 +643,7 @@ fn data(
                 fail!(FaultKind::Op(error), detail);
             }
         }
-
-        _ => fail!(
-            FaultKind::Internal,
-            "a control instruction out of place".into()
-        ),
-    }
+        _ => fail!(FaultKind::Internal, "a control instruction out of place".into()),
+    });
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! snapshot and restore of retentive variables.
 
 use std::fmt;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use petriplc_iec_sema::ir::{PouKind, Project, VarClass};
 use petriplc_iec_sema::ops;
@@ -49,9 +49,14 @@ pub struct Engine {
     task_order: Vec<usize>,
     /// Whether some program instance runs in a task (else every instance runs every scan).
     tasked: bool,
-    /// Machine code for the instances, when it was made ([`Engine::set_compiled`]).
-    compiled: Option<Box<dyn Compiled>>,
+    /// Machine code for the instances, made when the first machine is ([`Engine::compiled`]),
+    /// so that checking a program does not pay for it.
+    compiled: OnceLock<Option<Box<dyn Compiled>>>,
+    compiler: Option<Compiler>,
 }
+
+/// Makes machine code for an engine (`None` when it cannot).
+pub type Compiler = Box<dyn Fn(&Engine) -> Option<Box<dyn Compiled>> + Send + Sync>;
 
 /// Machine code for an engine's program instances (the `petriplc-iec-jit` crate makes it),
 /// run in place of the instruction loop with the same memory, faults and budget.
@@ -147,18 +152,27 @@ impl Engine {
             pou_files,
             task_order,
             tasked,
-            compiled: None,
+            compiled: OnceLock::new(),
+            compiler: None,
         }))
     }
 
-    /// Attaches machine code for the instances (before machines are made: `Arc::get_mut`).
-    pub fn set_compiled(&mut self, compiled: Box<dyn Compiled>) {
-        self.compiled = Some(compiled);
+    /// Sets what makes the machine code, run once when the first machine is made (before
+    /// machines are made: `Arc::get_mut`).
+    pub fn set_compiler(&mut self, compiler: Compiler) {
+        self.compiler = Some(compiler);
     }
 
-    /// Whether machine code is attached.
+    /// The machine code, made now if it was not yet.
+    pub fn compiled(&self) -> Option<&dyn Compiled> {
+        self.compiled
+            .get_or_init(|| self.compiler.as_ref().and_then(|c| c(self)))
+            .as_deref()
+    }
+
+    /// Whether there is machine code (made now if it was not yet).
     pub fn is_compiled(&self) -> bool {
-        self.compiled.is_some()
+        self.compiled().is_some()
     }
 
     /// The native function blocks, in the order of `project.natives`.
@@ -417,7 +431,7 @@ fn run_one(
         iterations: iterations.max(1),
         check,
     };
-    if let (Backend::Compiled, Some(c)) = (backend, &engine.compiled) {
+    if let (Backend::Compiled, Some(c)) = (backend, engine.compiled()) {
         // Compiled code catches its own panics: no unwinding boundary on the fast path.
         match c.run(engine, instance, mem, now, &mut budget) {
             Ran::Done => return Ok(()),
@@ -556,6 +570,8 @@ impl Machine {
             .configuration
             .as_ref()
             .map_or(0, |c| c.tasks.len());
+        // Machine code is made now, not in the first scan.
+        let _ = engine.compiled();
         Machine {
             backend: Backend::default(),
             mem: engine.code.init.clone(),
@@ -619,9 +635,11 @@ impl Machine {
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
         // The fast path: machine code, no tasks (every instance every scan), kept small so
         // that a scan of a small program is not dominated by the call's own cost.
-        if let (Backend::Compiled, Some(c), false) =
-            (self.backend, &self.engine.compiled, self.engine.tasked)
-        {
+        if let (Backend::Compiled, false, Some(Some(c))) = (
+            self.backend,
+            self.engine.tasked,
+            self.engine.compiled.get().map(Option::as_deref),
+        ) {
             let Machine {
                 ref engine,
                 ref mut mem,

@@ -252,12 +252,14 @@ pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Bui
     let checked = check(sources, &natives)?;
     let specs = instances(&checked.project, select, &sources.map)?;
     let mut engine = Engine::new(checked.project, &specs, natives.fbs, &sources.map)?;
-    // Machine code for the programs (docs/iec.md, "Speed"); the VM runs them when it
-    // cannot be made.
+    // Machine code for the programs (docs/iec.md, "Speed"), made when the first machine is;
+    // the VM runs them when it cannot be made.
     if let Some(e) = Arc::get_mut(&mut engine) {
-        if let Ok(jit) = petriplc_iec_jit::compile(e) {
-            e.set_compiled(Box::new(jit));
-        }
+        e.set_compiler(Box::new(|e| {
+            petriplc_iec_jit::compile(e)
+                .ok()
+                .map(|j| Box::new(j) as Box<dyn petriplc_iec_vm::Compiled>)
+        }));
     }
     Ok(Build {
         engine,
