@@ -15,7 +15,8 @@
 //!   VM's, with its messages ([`exec::control_fault`], [`exec::for_next`]).
 //!
 //! Code the translator does not understand (a jump out of the code) makes [`compile`] fail;
-//! the engine then runs on the VM alone.
+//! the engine then runs on the VM alone. `PETRIPLC_JIT_DUMP=DIR` writes each function's
+//! machine code to `DIR/iec_ENTRY.bin` (for `objdump -D -b binary -m i386:x86-64`).
 
 #[allow(unsafe_code)] // the one module that enters generated code: see its comment
 mod call;
@@ -58,8 +59,9 @@ fn err(e: impl std::fmt::Display) -> JitError {
 pub fn compile(engine: &Engine) -> Result<Jit, JitError> {
     let code = &engine.code;
     let mut flags = settings::builder();
-    let opt = std::env::var("JIT_OPT").unwrap_or_else(|_| "none".into());
-    flags.set("opt_level", &opt).map_err(err)?;
+    // Cranelift's optimiser gains nothing measurable on this code (loads and stores of
+    // slots, short branches) and costs a quarter of the compile time (docs/iec.md, Speed).
+    flags.set("opt_level", "none").map_err(err)?;
     // The translator makes well-formed functions (the tests run with the verifier on, in
     // debug builds); in release it would cost a tenth of the compile time.
     let verify = if cfg!(debug_assertions) {
@@ -174,6 +176,14 @@ pub fn compile(engine: &Engine) -> Result<Jit, JitError> {
             b.finalize();
         }
         module.define_function(*id, &mut ctx).map_err(err)?;
+        if let Some(dir) = std::env::var_os("PETRIPLC_JIT_DUMP") {
+            if let Some(cc) = ctx.compiled_code() {
+                let _ = std::fs::write(
+                    std::path::Path::new(&dir).join(format!("iec_{entry}.bin")),
+                    cc.code_buffer(),
+                );
+            }
+        }
         module.clear_context(&mut ctx);
     }
     module.finalize_definitions().map_err(err)?;
