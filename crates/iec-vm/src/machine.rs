@@ -632,43 +632,64 @@ impl Machine {
     /// declaration order), runs its program instances; instances without a task run every
     /// scan, after the tasks. `check` is called every 65 536 loop iterations and stops the
     /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
+    #[inline]
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
-        // The fast path: machine code, no tasks (every instance every scan), kept small so
-        // that a scan of a small program is not dominated by the call's own cost.
+        // The fast path: machine code, no tasks (every instance every scan), in a function
+        // of its own so that a scan of a small program does not pay the prologue of this one.
         if let (Backend::Compiled, false, Some(Some(c))) = (
             self.backend,
             self.engine.tasked,
             self.engine.compiled.get().map(Option::as_deref),
         ) {
-            let Machine {
-                ref engine,
-                ref mut mem,
-                ref mut stack,
-                iterations,
-                ..
-            } = *self;
-            let engine: &Engine = engine;
-            for i in 0..engine.code.instances.len() {
-                let mut budget = Budget {
-                    iterations: iterations.max(1),
-                    check: &mut *check,
-                };
-                match c.run(engine, i, mem, now, &mut budget) {
-                    Ran::Done => {}
-                    Ran::Fault(f) => return Err(engine.locate(*f)),
-                    Ran::Panic => return Err(internal(&engine.code.instances[i])),
-                    Ran::NotCompiled => run_vm(
-                        engine,
-                        &engine.code.instances[i],
-                        mem,
-                        stack,
-                        now,
-                        &mut budget,
-                    )?,
-                }
-            }
-            return Ok(());
+            return Self::scan_compiled(
+                &self.engine,
+                c,
+                &mut self.mem,
+                &mut self.stack,
+                self.iterations,
+                now,
+                check,
+            );
         }
+        self.scan_tasks(now, check)
+    }
+
+    /// Every instance once, on machine code.
+    #[inline(never)]
+    fn scan_compiled(
+        engine: &Engine,
+        c: &dyn Compiled,
+        mem: &mut [u64],
+        stack: &mut Vec<(u32, u32)>,
+        iterations: u64,
+        now: i64,
+        check: &mut dyn FnMut() -> bool,
+    ) -> Result<(), Fault> {
+        for i in 0..engine.code.instances.len() {
+            let mut budget = Budget {
+                iterations: iterations.max(1),
+                check: &mut *check,
+            };
+            match c.run(engine, i, mem, now, &mut budget) {
+                Ran::Done => {}
+                Ran::Fault(f) => return Err(engine.locate(*f)),
+                Ran::Panic => return Err(internal(&engine.code.instances[i])),
+                Ran::NotCompiled => run_vm(
+                    engine,
+                    &engine.code.instances[i],
+                    mem,
+                    stack,
+                    now,
+                    &mut budget,
+                )?,
+            }
+        }
+        Ok(())
+    }
+
+    /// A scan with tasks, or on the VM.
+    #[inline(never)]
+    fn scan_tasks(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
         let Machine {
             engine,
             backend,
