@@ -157,6 +157,15 @@ pub struct Jit {
 unsafe impl Send for Jit {}
 unsafe impl Sync for Jit {}
 
+impl std::fmt::Debug for Jit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Jit")
+            .field("instances", &self.compiled_instances())
+            .field("slots", &self.slots)
+            .finish()
+    }
+}
+
 impl Drop for Jit {
     fn drop(&mut self) {
         if let Some(m) = self.module.take() {
