@@ -34,8 +34,8 @@ pub struct Budget<'a> {
     pub check: &'a mut dyn FnMut() -> bool,
 }
 
-const CHECK_EVERY: u64 = 65_536;
-const MAX_DEPTH: usize = 4096;
+pub const CHECK_EVERY: u64 = 65_536;
+pub const MAX_DEPTH: usize = 4096;
 
 #[inline(always)]
 fn cmp_i(op: Cmp, a: i64, b: i64) -> bool {
@@ -87,6 +87,84 @@ fn range_text(r: u8) -> String {
     format!("{lo}..{hi}")
 }
 
+/// The instructions generated code is mostly made of, in one `match` with the caller's
+/// other arms (`$rest`): the instruction loop dispatches once, and [`exec_one`] runs the
+/// same text.
+macro_rules! hot {
+    ($op:expr, $code:ident, $mem:ident, $base:ident, { $($rest:tt)* }) => {
+        match $op {
+            Op::Mov { d, s } => $mem[$base + d as usize] = $mem[$base + s as usize],
+            Op::MovK { d, k } => $mem[$base + d as usize] = k,
+            Op::CondMovK { c, d, k } => {
+                if $mem[$base + c as usize] != 0 {
+                    $mem[$base + d as usize] = k
+                }
+            }
+            Op::CondNotMovK { c, d, k } => {
+                if $mem[$base + c as usize] == 0 {
+                    $mem[$base + d as usize] = k
+                }
+            }
+            Op::AndLits { d, start, len } => {
+                let mut v = 1;
+                for &(s, neg) in &$code.lits[start as usize..(start + len) as usize] {
+                    if $mem[$base + s as usize] ^ neg == 0 {
+                        v = 0;
+                        break;
+                    }
+                }
+                $mem[$base + d as usize] = v;
+            }
+            Op::OrLits { d, start, len } => {
+                let mut v = 0;
+                for &(s, neg) in &$code.lits[start as usize..(start + len) as usize] {
+                    if $mem[$base + s as usize] ^ neg != 0 {
+                        v = 1;
+                        break;
+                    }
+                }
+                $mem[$base + d as usize] = v;
+            }
+            Op::CondStore { c, neg, start, len } => {
+                if ($mem[$base + c as usize] != 0) != neg {
+                    for &(s, k) in &$code.stores[start as usize..(start + len) as usize] {
+                        $mem[$base + s as usize] = k;
+                    }
+                }
+            }
+            Op::MovN { d, s, n } => {
+                let (d, s, n) = ($base + d as usize, $base + s as usize, n as usize);
+                if n <= 16 {
+                    for k in 0..n {
+                        $mem[d + k] = $mem[s + k];
+                    }
+                } else {
+                    $mem.copy_within(s..s + n, d);
+                }
+            }
+            Op::And { d, a, b } => {
+                $mem[$base + d as usize] = $mem[$base + a as usize] & $mem[$base + b as usize]
+            }
+            Op::AndN { d, a, b } => {
+                $mem[$base + d as usize] =
+                    $mem[$base + a as usize] & ($mem[$base + b as usize] ^ 1)
+            }
+            Op::Or { d, a, b } => {
+                $mem[$base + d as usize] = $mem[$base + a as usize] | $mem[$base + b as usize]
+            }
+            Op::OrN { d, a, b } => {
+                $mem[$base + d as usize] =
+                    $mem[$base + a as usize] | ($mem[$base + b as usize] ^ 1)
+            }
+            Op::Xor { d, a, b } => {
+                $mem[$base + d as usize] = $mem[$base + a as usize] ^ $mem[$base + b as usize]
+            }
+            Op::Not { d, s } => $mem[$base + d as usize] = $mem[$base + s as usize] ^ 1,
+            $($rest)*
+        }
+    };
+}
+
 /// Runs from `entry` until its `Halt` (or the final `Ret`).
 pub fn run(
     code: &Code,
@@ -106,74 +184,10 @@ pub fn run(
             mem[base + $x as usize]
         };
     }
-    macro_rules! fail {
-        ($kind:expr, $detail:expr) => {
-            return Err(RawFault {
-                pc: (pc - 1) as u32,
-                error: $kind,
-                detail: $detail,
-            })
-        };
-    }
     loop {
         let op = ops[pc];
         pc += 1;
-        match op {
-            Op::Mov { d, s } => m!(d) = m!(s),
-            Op::MovK { d, k } => m!(d) = k,
-            Op::CondMovK { c, d, k } => {
-                if m!(c) != 0 {
-                    m!(d) = k
-                }
-            }
-            Op::CondNotMovK { c, d, k } => {
-                if m!(c) == 0 {
-                    m!(d) = k
-                }
-            }
-            Op::AndLits { d, start, len } => {
-                let mut v = 1;
-                for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
-                    if m!(s) ^ neg == 0 {
-                        v = 0;
-                        break;
-                    }
-                }
-                m!(d) = v;
-            }
-            Op::OrLits { d, start, len } => {
-                let mut v = 0;
-                for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
-                    if m!(s) ^ neg != 0 {
-                        v = 1;
-                        break;
-                    }
-                }
-                m!(d) = v;
-            }
-            Op::CondStore { c, neg, start, len } => {
-                if (m!(c) != 0) != neg {
-                    for &(s, k) in &code.stores[start as usize..(start + len) as usize] {
-                        m!(s) = k;
-                    }
-                }
-            }
-            Op::MovN { d, s, n } => {
-                let (d, s, n) = (base + d as usize, base + s as usize, n as usize);
-                if n <= 16 {
-                    for k in 0..n {
-                        mem[d + k] = mem[s + k];
-                    }
-                } else {
-                    mem.copy_within(s..s + n, d);
-                }
-            }
-            Op::And { d, a, b } => m!(d) = m!(a) & m!(b),
-            Op::AndN { d, a, b } => m!(d) = m!(a) & (m!(b) ^ 1),
-            Op::Or { d, a, b } => m!(d) = m!(a) | m!(b),
-            Op::OrN { d, a, b } => m!(d) = m!(a) | (m!(b) ^ 1),
-            Op::Xor { d, a, b } => m!(d) = m!(a) ^ m!(b),
-            Op::Not { d, s } => m!(d) = m!(s) ^ 1,
+        hot!(op, code, mem, base, {
             Op::JmpF { c, t } => {
                 if m!(c) == 0 {
                     pc = t as usize
@@ -185,279 +199,22 @@ pub fn run(
                 }
             }
             Op::Jmp { t } => pc = t as usize,
-            Op::CmpI { op, d, a, b } => m!(d) = cmp_i(op, m!(a) as i64, m!(b) as i64) as u64,
-            Op::CmpU { op, d, a, b } => m!(d) = cmp_u(op, m!(a), m!(b)) as u64,
-            Op::CmpF { op, d, a, b } => {
-                m!(d) = cmp_f(op, f64::from_bits(m!(a)), f64::from_bits(m!(b))) as u64
-            }
-            Op::CmpS { op, d, a, b } => {
-                let x = read_str(mem, m!(a) as usize);
-                let y = read_str(mem, m!(b) as usize);
-                let r = match op {
-                    Cmp::Eq => x == y,
-                    Cmp::Ne => x != y,
-                    Cmp::Lt => x < y,
-                    Cmp::Le => x <= y,
-                    Cmp::Gt => x > y,
-                    Cmp::Ge => x >= y,
-                };
-                m!(d) = r as u64;
-            }
-            Op::ArN { op, d, a, b, r } => {
-                let (x, y) = (m!(a) as i64, m!(b) as i64);
-                let v = match op {
-                    Arith::Add => x + y,
-                    Arith::Sub => x - y,
-                    Arith::Mul => match x.checked_mul(y) {
-                        Some(v) => v,
-                        None => fail!(
-                            FaultKind::Op(OpError::Overflow),
-                            format!("{x} * {y} leaves {}", range_text(r))
-                        ),
-                    },
-                    Arith::Div => {
-                        if y == 0 {
-                            fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
-                        }
-                        x / y
-                    }
-                    Arith::Mod => {
-                        if y == 0 {
-                            0
-                        } else {
-                            x % y
-                        }
-                    }
-                };
-                let (lo, hi) = RANGES[r as usize];
-                if v < lo || v > hi {
-                    fail!(
-                        FaultKind::Op(OpError::Overflow),
-                        format!("{x} {} {y} = {v} leaves {}", sym(op), range_text(r))
-                    );
-                }
-                m!(d) = v as u64;
-            }
-            Op::ArL { op, d, a, b } => {
-                let (x, y) = (m!(a) as i64, m!(b) as i64);
-                let v = match op {
-                    Arith::Add => x.checked_add(y),
-                    Arith::Sub => x.checked_sub(y),
-                    Arith::Mul => x.checked_mul(y),
-                    Arith::Div => {
-                        if y == 0 {
-                            fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
-                        }
-                        x.checked_div(y)
-                    }
-                    Arith::Mod => Some(if y == 0 { 0 } else { x.wrapping_rem(y) }),
-                };
-                match v {
-                    Some(v) => m!(d) = v as u64,
-                    None => fail!(
-                        FaultKind::Op(OpError::Overflow),
-                        format!("{x} {} {y} leaves the 64-bit range", sym(op))
-                    ),
-                }
-            }
-            Op::ArU { op, d, a, b } => {
-                let (x, y) = (m!(a), m!(b));
-                let v = match op {
-                    Arith::Add => x.checked_add(y),
-                    Arith::Sub => x.checked_sub(y),
-                    Arith::Mul => x.checked_mul(y),
-                    Arith::Div => {
-                        if y == 0 {
-                            fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
-                        }
-                        Some(x / y)
-                    }
-                    Arith::Mod => Some(if y == 0 { 0 } else { x % y }),
-                };
-                match v {
-                    Some(v) => m!(d) = v,
-                    None => fail!(
-                        FaultKind::Op(OpError::Overflow),
-                        format!("{x} {} {y} leaves 0..18446744073709551615", sym(op))
-                    ),
-                }
-            }
-            Op::ArF {
-                op,
-                d,
-                a,
-                b,
-                single,
-            } => {
-                let (x, y) = (f64::from_bits(m!(a)), f64::from_bits(m!(b)));
-                let v = match op {
-                    Arith::Add => x + y,
-                    Arith::Sub => x - y,
-                    Arith::Mul => x * y,
-                    Arith::Div => {
-                        if y == 0.0 {
-                            fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0.0"));
-                        }
-                        x / y
-                    }
-                    Arith::Mod => 0.0,
-                };
-                let v = if single { v as f32 as f64 } else { v };
-                if !v.is_finite() {
-                    fail!(
-                        FaultKind::Op(OpError::Overflow),
-                        format!(
-                            "{x} {} {y} leaves the range of {}",
-                            sym(op),
-                            if single { "REAL" } else { "LREAL" }
-                        )
-                    );
-                }
-                m!(d) = v.to_bits();
-            }
-            Op::NegN { d, s, r } => {
-                let v = -(m!(s) as i64);
-                let (lo, hi) = RANGES[r as usize];
-                if v < lo || v > hi {
-                    fail!(
-                        FaultKind::Op(OpError::Overflow),
-                        format!("-({}) leaves {}", -v, range_text(r))
-                    );
-                }
-                m!(d) = v as u64;
-            }
-            Op::NegL { d, s } => match (m!(s) as i64).checked_neg() {
-                Some(v) => m!(d) = v as u64,
-                None => fail!(
-                    FaultKind::Op(OpError::Overflow),
-                    format!("-({}) leaves the 64-bit range", m!(s) as i64)
-                ),
-            },
-            Op::NegF { d, s } => m!(d) = (-f64::from_bits(m!(s))).to_bits(),
-            Op::BNot { d, s, bits } => {
-                let mask = if bits >= 64 {
-                    u64::MAX
-                } else {
-                    (1u64 << bits) - 1
-                };
-                m!(d) = !m!(s) & mask;
-            }
-            Op::GetBit { d, s, n } => m!(d) = (m!(s) >> n) & 1,
-            Op::SetBit { d, s, n, v } => {
-                let w = m!(s);
-                m!(d) = if m!(v) != 0 {
-                    w | (1 << n)
-                } else {
-                    w & !(1 << n)
-                };
-            }
-            Op::LdG { d, g } => m!(d) = mem[g as usize],
-            Op::StG { g, s } => mem[g as usize] = m!(s),
-            Op::Lea { d, s } => m!(d) = (base + s as usize) as u64,
-            Op::LeaG { d, g } => m!(d) = g as u64,
-            Op::LdI { d, p, off } => {
-                let at = m!(p) as usize + off as usize;
-                m!(d) = mem[at];
-            }
-            Op::StI { p, off, s } => {
-                let at = m!(p) as usize + off as usize;
-                mem[at] = m!(s);
-            }
-            Op::AddrK { d, p, off } => m!(d) = m!(p) + off as u64,
-            Op::Index { d, p, i, a } => {
-                let info = code.arrays[a as usize];
-                let idx = m!(i) as i64;
-                if idx < info.lo || idx > info.hi {
-                    fail!(
-                        FaultKind::IndexOutOfRange,
-                        format!(
-                            "index {idx} is outside the array's bounds {}..{}",
-                            info.lo, info.hi
-                        )
-                    );
-                }
-                m!(d) = m!(p) + ((idx - info.lo) as u64) * info.stride as u64;
-            }
-            Op::CopyI { dp, sp, n } => {
-                let (to, from) = (m!(dp) as usize, m!(sp) as usize);
-                if to != from {
-                    mem.copy_within(from..from + n as usize, to);
-                }
-            }
-            Op::StrCopyI { dp, sp, cap } => {
-                let (to, from) = (m!(dp) as usize, m!(sp) as usize);
-                let len = mem[from].min(cap as u64);
-                let words = (len as usize).div_ceil(8);
-                if to != from {
-                    mem.copy_within(from + 1..from + 1 + words, to + 1);
-                }
-                mem[to] = len;
-            }
-            Op::Init { s, n } => {
-                let at = base + s as usize;
-                mem[at..at + n as usize].copy_from_slice(&code.init[at..at + n as usize]);
-            }
             Op::Loop { t } => {
-                budget.iterations = budget.iterations.saturating_sub(1);
-                if budget.iterations == 0 {
-                    fail!(
-                        FaultKind::Watchdog,
-                        "a loop ran out of the scan's iteration budget".into()
-                    );
-                }
-                if budget.iterations % CHECK_EVERY == 0 && !(budget.check)() {
-                    fail!(
-                        FaultKind::Watchdog,
-                        "a loop ran past the watchdog time".into()
-                    );
+                if let Err(k) = spend(budget, Control::Loop) {
+                    return Err(control_fault((pc - 1) as u32, k));
                 }
                 pc = t as usize;
             }
             Op::ForNext { v, to, by, t, r, u } => {
-                let next_ok = if u {
-                    match m!(v).checked_add(m!(by)) {
-                        Some(n) => {
-                            m!(v) = n;
-                            n <= m!(to)
-                        }
-                        None => false,
-                    }
-                } else {
-                    let step = m!(by) as i64 as i128;
-                    let n = m!(v) as i64 as i128 + step;
-                    let (lo, hi) = RANGES[r as usize];
-                    if n < lo as i128 || n > hi as i128 {
-                        false
-                    } else {
-                        m!(v) = n as i64 as u64;
-                        let lim = m!(to) as i64 as i128;
-                        if step > 0 {
-                            n <= lim
-                        } else {
-                            n >= lim
-                        }
-                    }
-                };
-                if next_ok {
-                    budget.iterations = budget.iterations.saturating_sub(1);
-                    if budget.iterations == 0 {
-                        fail!(
-                            FaultKind::Watchdog,
-                            "a FOR loop ran out of the scan's iteration budget".into()
-                        );
-                    }
-                    if budget.iterations % CHECK_EVERY == 0 && !(budget.check)() {
-                        fail!(
-                            FaultKind::Watchdog,
-                            "a loop ran past the watchdog time".into()
-                        );
-                    }
-                    pc = t as usize;
+                match for_next(mem, base, v, to, by, r, u, budget) {
+                    Ok(true) => pc = t as usize,
+                    Ok(false) => {}
+                    Err(k) => return Err(control_fault((pc - 1) as u32, k)),
                 }
             }
             Op::CallFb { entry, inst } => {
                 if stack.len() >= MAX_DEPTH {
-                    fail!(FaultKind::Internal, "calls nested too deeply".into());
+                    return Err(control_fault((pc - 1) as u32, Control::Depth));
                 }
                 stack.push((pc as u32, base as u32));
                 base += inst as usize;
@@ -465,7 +222,7 @@ pub fn run(
             }
             Op::CallFbI { entry, p } => {
                 if stack.len() >= MAX_DEPTH {
-                    fail!(FaultKind::Internal, "calls nested too deeply".into());
+                    return Err(control_fault((pc - 1) as u32, Control::Depth));
                 }
                 let at = m!(p) as usize;
                 stack.push((pc as u32, base as u32));
@@ -474,27 +231,11 @@ pub fn run(
             }
             Op::CallAbs { entry } => {
                 if stack.len() >= MAX_DEPTH {
-                    fail!(FaultKind::Internal, "calls nested too deeply".into());
+                    return Err(control_fault((pc - 1) as u32, Control::Depth));
                 }
                 stack.push((pc as u32, base as u32));
                 base = 0;
                 pc = entry as usize;
-            }
-            Op::CallNative { k, inst } => {
-                let at = base + inst as usize;
-                let nat = &natives[k as usize];
-                let n = code.native_sizes[k as usize] as usize;
-                if let Err(msg) = nat.call(&mut mem[at..at + n], &NativeCtx { now }) {
-                    fail!(FaultKind::Native, msg);
-                }
-            }
-            Op::CallNativeI { k, p } => {
-                let at = m!(p) as usize;
-                let nat = &natives[k as usize];
-                let n = code.native_sizes[k as usize] as usize;
-                if let Err(msg) = nat.call(&mut mem[at..at + n], &NativeCtx { now }) {
-                    fail!(FaultKind::Native, msg);
-                }
             }
             Op::Ret => match stack.pop() {
                 Some((p, b)) => {
@@ -504,12 +245,405 @@ pub fn run(
                 None => return Ok(()),
             },
             Op::Halt => return Ok(()),
-            Op::Ext { x } => {
-                if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base)
-                {
-                    fail!(FaultKind::Op(error), detail);
-                }
+            op => data(op, code, natives, mem, base, now, pc - 1)?,
+        });
+    }
+}
+
+/// Whether an instruction changes the flow (jumps, loops, calls, returns): those the
+/// instruction loop runs itself; every other one is a data instruction ([`exec_one`]).
+pub fn is_control(op: &Op) -> bool {
+    matches!(
+        op,
+        Op::Jmp { .. }
+            | Op::JmpF { .. }
+            | Op::JmpT { .. }
+            | Op::Loop { .. }
+            | Op::ForNext { .. }
+            | Op::CallFb { .. }
+            | Op::CallFbI { .. }
+            | Op::CallAbs { .. }
+            | Op::Ret
+            | Op::Halt
+    )
+}
+
+/// Runs the one data instruction at `pc` with `base`, exactly as the instruction loop does
+/// (compiled code calls it for what it does not compile itself, and to report a fault with
+/// the VM's own message). A control instruction is an internal fault.
+pub fn exec_one(
+    code: &Code,
+    natives: &[Box<dyn NativeFb>],
+    mem: &mut [u64],
+    pc: u32,
+    base: usize,
+    now: i64,
+) -> Result<(), RawFault> {
+    match code.ops.get(pc as usize) {
+        Some(op) => data(*op, code, natives, mem, base, now, pc as usize),
+        None => Err(RawFault {
+            pc,
+            error: FaultKind::Internal,
+            detail: "no instruction there".into(),
+        }),
+    }
+}
+
+/// What stopped a control instruction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    /// A backward jump (WHILE, REPEAT) past the iteration budget.
+    Loop,
+    /// A FOR loop past the iteration budget.
+    For,
+    /// The watchdog check said stop.
+    Check,
+    /// Calls nested deeper than the VM allows.
+    Depth,
+}
+
+/// The fault of a control instruction at `pc`.
+pub fn control_fault(pc: u32, what: Control) -> RawFault {
+    let (error, detail) = match what {
+        Control::Loop => (
+            FaultKind::Watchdog,
+            "a loop ran out of the scan's iteration budget",
+        ),
+        Control::For => (
+            FaultKind::Watchdog,
+            "a FOR loop ran out of the scan's iteration budget",
+        ),
+        Control::Check => (FaultKind::Watchdog, "a loop ran past the watchdog time"),
+        Control::Depth => (FaultKind::Internal, "calls nested too deeply"),
+    };
+    RawFault {
+        pc,
+        error,
+        detail: detail.into(),
+    }
+}
+
+/// Spends one loop iteration (`what`: Loop or For, for the message).
+#[inline(always)]
+pub fn spend(budget: &mut Budget<'_>, what: Control) -> Result<(), Control> {
+    budget.iterations = budget.iterations.saturating_sub(1);
+    if budget.iterations == 0 {
+        return Err(what);
+    }
+    if budget.iterations % CHECK_EVERY == 0 && !(budget.check)() {
+        return Err(Control::Check);
+    }
+    Ok(())
+}
+
+/// The end of a FOR iteration ([`Op::ForNext`]): whether to go round again.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn for_next(
+    mem: &mut [u64],
+    base: usize,
+    v: u32,
+    to: u32,
+    by: u32,
+    r: u8,
+    u: bool,
+    budget: &mut Budget<'_>,
+) -> Result<bool, Control> {
+    macro_rules! m {
+        ($x:expr) => {
+            mem[base + $x as usize]
+        };
+    }
+    let next_ok = if u {
+        match m!(v).checked_add(m!(by)) {
+            Some(n) => {
+                m!(v) = n;
+                n <= m!(to)
+            }
+            None => false,
+        }
+    } else {
+        let step = m!(by) as i64 as i128;
+        let n = m!(v) as i64 as i128 + step;
+        let (lo, hi) = RANGES[r as usize];
+        if n < lo as i128 || n > hi as i128 {
+            false
+        } else {
+            m!(v) = n as i64 as u64;
+            let lim = m!(to) as i64 as i128;
+            if step > 0 {
+                n <= lim
+            } else {
+                n >= lim
             }
         }
+    };
+    if next_ok {
+        spend(budget, Control::For)?;
     }
+    Ok(next_ok)
+}
+
+/// One data instruction (`op_pc`: its pc, for faults).
+#[inline(always)]
+fn data(
+    op: Op,
+    code: &Code,
+    natives: &[Box<dyn NativeFb>],
+    mem: &mut [u64],
+    base: usize,
+    now: i64,
+    op_pc: usize,
+) -> Result<(), RawFault> {
+    macro_rules! m {
+        ($x:expr) => {
+            mem[base + $x as usize]
+        };
+    }
+    macro_rules! fail {
+        ($kind:expr, $detail:expr) => {
+            return Err(RawFault {
+                pc: op_pc as u32,
+                error: $kind,
+                detail: $detail,
+            })
+        };
+    }
+    hot!(op, code, mem, base, {
+        Op::CmpI { op, d, a, b } => m!(d) = cmp_i(op, m!(a) as i64, m!(b) as i64) as u64,
+        Op::CmpU { op, d, a, b } => m!(d) = cmp_u(op, m!(a), m!(b)) as u64,
+        Op::CmpF { op, d, a, b } => {
+            m!(d) = cmp_f(op, f64::from_bits(m!(a)), f64::from_bits(m!(b))) as u64
+        }
+        Op::CmpS { op, d, a, b } => {
+            let x = read_str(mem, m!(a) as usize);
+            let y = read_str(mem, m!(b) as usize);
+            let r = match op {
+                Cmp::Eq => x == y,
+                Cmp::Ne => x != y,
+                Cmp::Lt => x < y,
+                Cmp::Le => x <= y,
+                Cmp::Gt => x > y,
+                Cmp::Ge => x >= y,
+            };
+            m!(d) = r as u64;
+        }
+        Op::ArN { op, d, a, b, r } => {
+            let (x, y) = (m!(a) as i64, m!(b) as i64);
+            let v = match op {
+                Arith::Add => x + y,
+                Arith::Sub => x - y,
+                Arith::Mul => match x.checked_mul(y) {
+                    Some(v) => v,
+                    None => fail!(
+                        FaultKind::Op(OpError::Overflow),
+                        format!("{x} * {y} leaves {}", range_text(r))
+                    ),
+                },
+                Arith::Div => {
+                    if y == 0 {
+                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
+                    }
+                    x / y
+                }
+                Arith::Mod => {
+                    if y == 0 {
+                        0
+                    } else {
+                        x % y
+                    }
+                }
+            };
+            let (lo, hi) = RANGES[r as usize];
+            if v < lo || v > hi {
+                fail!(
+                    FaultKind::Op(OpError::Overflow),
+                    format!("{x} {} {y} = {v} leaves {}", sym(op), range_text(r))
+                );
+            }
+            m!(d) = v as u64;
+        }
+        Op::ArL { op, d, a, b } => {
+            let (x, y) = (m!(a) as i64, m!(b) as i64);
+            let v = match op {
+                Arith::Add => x.checked_add(y),
+                Arith::Sub => x.checked_sub(y),
+                Arith::Mul => x.checked_mul(y),
+                Arith::Div => {
+                    if y == 0 {
+                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
+                    }
+                    x.checked_div(y)
+                }
+                Arith::Mod => Some(if y == 0 { 0 } else { x.wrapping_rem(y) }),
+            };
+            match v {
+                Some(v) => m!(d) = v as u64,
+                None => fail!(
+                    FaultKind::Op(OpError::Overflow),
+                    format!("{x} {} {y} leaves the 64-bit range", sym(op))
+                ),
+            }
+        }
+        Op::ArU { op, d, a, b } => {
+            let (x, y) = (m!(a), m!(b));
+            let v = match op {
+                Arith::Add => x.checked_add(y),
+                Arith::Sub => x.checked_sub(y),
+                Arith::Mul => x.checked_mul(y),
+                Arith::Div => {
+                    if y == 0 {
+                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
+                    }
+                    Some(x / y)
+                }
+                Arith::Mod => Some(if y == 0 { 0 } else { x % y }),
+            };
+            match v {
+                Some(v) => m!(d) = v,
+                None => fail!(
+                    FaultKind::Op(OpError::Overflow),
+                    format!("{x} {} {y} leaves 0..18446744073709551615", sym(op))
+                ),
+            }
+        }
+        Op::ArF {
+            op,
+            d,
+            a,
+            b,
+            single,
+        } => {
+            let (x, y) = (f64::from_bits(m!(a)), f64::from_bits(m!(b)));
+            let v = match op {
+                Arith::Add => x + y,
+                Arith::Sub => x - y,
+                Arith::Mul => x * y,
+                Arith::Div => {
+                    if y == 0.0 {
+                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0.0"));
+                    }
+                    x / y
+                }
+                Arith::Mod => 0.0,
+            };
+            let v = if single { v as f32 as f64 } else { v };
+            if !v.is_finite() {
+                fail!(
+                    FaultKind::Op(OpError::Overflow),
+                    format!(
+                        "{x} {} {y} leaves the range of {}",
+                        sym(op),
+                        if single { "REAL" } else { "LREAL" }
+                    )
+                );
+            }
+            m!(d) = v.to_bits();
+        }
+        Op::NegN { d, s, r } => {
+            let v = -(m!(s) as i64);
+            let (lo, hi) = RANGES[r as usize];
+            if v < lo || v > hi {
+                fail!(
+                    FaultKind::Op(OpError::Overflow),
+                    format!("-({}) leaves {}", -v, range_text(r))
+                );
+            }
+            m!(d) = v as u64;
+        }
+        Op::NegL { d, s } => match (m!(s) as i64).checked_neg() {
+            Some(v) => m!(d) = v as u64,
+            None => fail!(
+                FaultKind::Op(OpError::Overflow),
+                format!("-({}) leaves the 64-bit range", m!(s) as i64)
+            ),
+        },
+        Op::NegF { d, s } => m!(d) = (-f64::from_bits(m!(s))).to_bits(),
+        Op::BNot { d, s, bits } => {
+            let mask = if bits >= 64 {
+                u64::MAX
+            } else {
+                (1u64 << bits) - 1
+            };
+            m!(d) = !m!(s) & mask;
+        }
+        Op::GetBit { d, s, n } => m!(d) = (m!(s) >> n) & 1,
+        Op::SetBit { d, s, n, v } => {
+            let w = m!(s);
+            m!(d) = if m!(v) != 0 {
+                w | (1 << n)
+            } else {
+                w & !(1 << n)
+            };
+        }
+        Op::LdG { d, g } => m!(d) = mem[g as usize],
+        Op::StG { g, s } => mem[g as usize] = m!(s),
+        Op::Lea { d, s } => m!(d) = (base + s as usize) as u64,
+        Op::LeaG { d, g } => m!(d) = g as u64,
+        Op::LdI { d, p, off } => {
+            let at = m!(p) as usize + off as usize;
+            m!(d) = mem[at];
+        }
+        Op::StI { p, off, s } => {
+            let at = m!(p) as usize + off as usize;
+            mem[at] = m!(s);
+        }
+        Op::AddrK { d, p, off } => m!(d) = m!(p) + off as u64,
+        Op::Index { d, p, i, a } => {
+            let info = code.arrays[a as usize];
+            let idx = m!(i) as i64;
+            if idx < info.lo || idx > info.hi {
+                fail!(
+                    FaultKind::IndexOutOfRange,
+                    format!(
+                        "index {idx} is outside the array's bounds {}..{}",
+                        info.lo, info.hi
+                    )
+                );
+            }
+            m!(d) = m!(p) + ((idx - info.lo) as u64) * info.stride as u64;
+        }
+        Op::CopyI { dp, sp, n } => {
+            let (to, from) = (m!(dp) as usize, m!(sp) as usize);
+            if to != from {
+                mem.copy_within(from..from + n as usize, to);
+            }
+        }
+        Op::StrCopyI { dp, sp, cap } => {
+            let (to, from) = (m!(dp) as usize, m!(sp) as usize);
+            let len = mem[from].min(cap as u64);
+            let words = (len as usize).div_ceil(8);
+            if to != from {
+                mem.copy_within(from + 1..from + 1 + words, to + 1);
+            }
+            mem[to] = len;
+        }
+        Op::Init { s, n } => {
+            let at = base + s as usize;
+            mem[at..at + n as usize].copy_from_slice(&code.init[at..at + n as usize]);
+        }
+        Op::CallNative { k, inst } => {
+            let at = base + inst as usize;
+            let nat = &natives[k as usize];
+            let n = code.native_sizes[k as usize] as usize;
+            if let Err(msg) = nat.call(&mut mem[at..at + n], &NativeCtx { now }) {
+                fail!(FaultKind::Native, msg);
+            }
+        }
+        Op::CallNativeI { k, p } => {
+            let at = m!(p) as usize;
+            let nat = &natives[k as usize];
+            let n = code.native_sizes[k as usize] as usize;
+            if let Err(msg) = nat.call(&mut mem[at..at + n], &NativeCtx { now }) {
+                fail!(FaultKind::Native, msg);
+            }
+        }
+        Op::Ext { x } => {
+            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base) {
+                fail!(FaultKind::Op(error), detail);
+            }
+        }
+        _ => fail!(FaultKind::Internal, "a control instruction out of place".into()),
+    });
+    Ok(())
 }

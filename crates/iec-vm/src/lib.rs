@@ -20,7 +20,7 @@ pub mod op;
 pub use compile::{CompileError, InstanceSpec};
 pub use exec::FaultKind;
 pub use machine::{
-    display, string_literal, Engine, Fault, Machine, RetainImage, Retained, VarRef,
-    DEFAULT_ITERATIONS,
+    display, string_literal, Backend, Compiled, Compiler, Engine, Fault, Machine, Ran, RetainImage,
+    Retained, VarRef, DEFAULT_ITERATIONS,
 };
 pub use native::{NativeCtx, NativeFb};

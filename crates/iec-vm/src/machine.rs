@@ -3,7 +3,7 @@
 //! snapshot and restore of retentive variables.
 
 use std::fmt;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use petriplc_iec_sema::ir::{PouKind, Project, VarClass};
 use petriplc_iec_sema::ops;
@@ -47,6 +47,51 @@ pub struct Engine {
     pou_files: Vec<String>,
     /// Tasks by priority, then declaration order.
     task_order: Vec<usize>,
+    /// Whether some program instance runs in a task (else every instance runs every scan).
+    tasked: bool,
+    /// Machine code for the instances, made when the first machine is ([`Engine::compiled`]),
+    /// so that checking a program does not pay for it.
+    compiled: OnceLock<Option<Box<dyn Compiled>>>,
+    compiler: Option<Compiler>,
+}
+
+/// Makes machine code for an engine (`None` when it cannot).
+pub type Compiler = Box<dyn Fn(&Engine) -> Option<Box<dyn Compiled>> + Send + Sync>;
+
+/// Machine code for an engine's program instances (the `petriplc-iec-jit` crate makes it),
+/// run in place of the instruction loop with the same memory, faults and budget.
+pub trait Compiled: Send + Sync {
+    /// Runs program instance `instance` once at `now` on `mem` (the machine's memory),
+    /// spending `budget`; [`Ran::NotCompiled`] when that instance has no compiled form (the
+    /// VM runs it). It must not unwind: a panic inside (a bug) is [`Ran::Panic`], reported
+    /// as the VM reports its own.
+    fn run(
+        &self,
+        engine: &Engine,
+        instance: usize,
+        mem: &mut [u64],
+        now: i64,
+        budget: &mut Budget<'_>,
+    ) -> Ran;
+}
+
+/// How a run of compiled code ended (small, so the scan's fast path stays in registers).
+#[derive(Debug)]
+pub enum Ran {
+    Done,
+    Fault(Box<RawFault>),
+    Panic,
+    NotCompiled,
+}
+
+/// What runs a machine's programs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// The engine's machine code where it has some ([`Engine::set_compiled`]), else the VM.
+    #[default]
+    Compiled,
+    /// The bytecode VM only.
+    Vm,
 }
 
 impl fmt::Debug for Engine {
@@ -98,13 +143,41 @@ impl Engine {
         if let Some(c) = &project.configuration {
             task_order.sort_by_key(|&t| (c.tasks[t].priority, t));
         }
+        let tasked =
+            code.instances.iter().any(|i| i.task.is_some()) && project.configuration.is_some();
         Ok(Arc::new(Engine {
             project,
             code,
             natives,
             pou_files,
             task_order,
+            tasked,
+            compiled: OnceLock::new(),
+            compiler: None,
         }))
+    }
+
+    /// Sets what makes the machine code, run once when the first machine is made (before
+    /// machines are made: `Arc::get_mut`).
+    pub fn set_compiler(&mut self, compiler: Compiler) {
+        self.compiler = Some(compiler);
+    }
+
+    /// The machine code, made now if it was not yet.
+    pub fn compiled(&self) -> Option<&dyn Compiled> {
+        self.compiled
+            .get_or_init(|| self.compiler.as_ref().and_then(|c| c(self)))
+            .as_deref()
+    }
+
+    /// Whether there is machine code (made now if it was not yet).
+    pub fn is_compiled(&self) -> bool {
+        self.compiled().is_some()
+    }
+
+    /// The native function blocks, in the order of `project.natives`.
+    pub fn natives(&self) -> &[Box<dyn NativeFb>] {
+        &self.natives
     }
 
     /// The program instances: those of the configuration, or one of `pou` named after it.
@@ -112,6 +185,7 @@ impl Engine {
         &self.code.instances
     }
 
+    #[cold]
     fn locate(&self, f: RawFault) -> Fault {
         let i = self.code.lines.partition_point(|(pc, _, _)| *pc <= f.pc);
         let (pou, line) = match i.checked_sub(1).map(|k| self.code.lines[k]) {
@@ -338,8 +412,11 @@ impl Engine {
 }
 
 /// Runs one program instance; a panic inside (a bug in the engine) becomes a fault.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn run_one(
     engine: &Engine,
+    backend: Backend,
     mem: &mut [u64],
     stack: &mut Vec<(u32, u32)>,
     iterations: u64,
@@ -354,6 +431,28 @@ fn run_one(
         iterations: iterations.max(1),
         check,
     };
+    if let (Backend::Compiled, Some(c)) = (backend, engine.compiled()) {
+        // Compiled code catches its own panics: no unwinding boundary on the fast path.
+        match c.run(engine, instance, mem, now, &mut budget) {
+            Ran::Done => return Ok(()),
+            Ran::Fault(f) => return Err(engine.locate(*f)),
+            Ran::Panic => return Err(internal(inst)),
+            Ran::NotCompiled => {}
+        }
+    }
+    run_vm(engine, inst, mem, stack, now, &mut budget)
+}
+
+/// Runs one program instance on the VM.
+#[inline(never)]
+fn run_vm(
+    engine: &Engine,
+    inst: &compile::InstanceRt,
+    mem: &mut [u64],
+    stack: &mut Vec<(u32, u32)>,
+    now: i64,
+    budget: &mut Budget<'_>,
+) -> Result<(), Fault> {
     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         exec::run(
             &engine.code,
@@ -361,20 +460,27 @@ fn run_one(
             mem,
             inst.entry,
             now,
-            &mut budget,
+            budget,
             stack,
         )
+        .map_err(Box::new)
     }));
     match r {
         Ok(Ok(())) => Ok(()),
-        Ok(Err(f)) => Err(engine.locate(f)),
-        Err(_) => Err(Fault {
-            pou: format!("PROGRAM instance {}", inst.name),
-            file: String::new(),
-            line: 0,
-            kind: FaultKind::Internal,
-            message: "internal error in the IEC engine (please report it)".into(),
-        }),
+        Ok(Err(f)) => Err(engine.locate(*f)),
+        Err(_) => Err(internal(inst)),
+    }
+}
+
+/// The fault of a bug in the engine (a panic caught).
+#[cold]
+fn internal(inst: &compile::InstanceRt) -> Fault {
+    Fault {
+        pou: format!("PROGRAM instance {}", inst.name),
+        file: String::new(),
+        line: 0,
+        kind: FaultKind::Internal,
+        message: "internal error in the IEC engine (please report it)".into(),
     }
 }
 
@@ -440,6 +546,7 @@ fn split_path(path: &str) -> Option<Vec<Segment>> {
 /// A running copy of an engine: its memory and task clocks.
 pub struct Machine {
     engine: Arc<Engine>,
+    backend: Backend,
     mem: Vec<u64>,
     stack: Vec<(u32, u32)>,
     /// Loop iterations one scan may make before it fails as endless.
@@ -463,7 +570,10 @@ impl Machine {
             .configuration
             .as_ref()
             .map_or(0, |c| c.tasks.len());
+        // Machine code is made now, not in the first scan.
+        let _ = engine.compiled();
         Machine {
+            backend: Backend::default(),
             mem: engine.code.init.clone(),
             engine,
             stack: Vec::with_capacity(16),
@@ -476,6 +586,20 @@ impl Machine {
         &self.engine
     }
 
+    /// Chooses what runs the programs (the engine's machine code by default).
+    pub fn set_backend(&mut self, backend: Backend) {
+        self.backend = backend;
+    }
+
+    /// What runs the programs: [`Backend::Vm`] when asked for, or when the engine has no
+    /// machine code.
+    pub fn backend(&self) -> Backend {
+        match self.backend {
+            Backend::Compiled if self.engine.is_compiled() => Backend::Compiled,
+            _ => Backend::Vm,
+        }
+    }
+
     /// Back to the initial values (retained ones included: restore them afterwards).
     pub fn reset(&mut self) {
         self.mem.copy_from_slice(&self.engine.code.init);
@@ -486,33 +610,111 @@ impl Machine {
     pub fn run_instance(&mut self, instance: usize, now: i64) -> Result<(), Fault> {
         let Machine {
             engine,
+            backend,
             mem,
             stack,
             iterations,
             ..
         } = self;
-        run_one(engine, mem, stack, *iterations, instance, now, &mut || true)
+        run_one(
+            engine,
+            *backend,
+            mem,
+            stack,
+            *iterations,
+            instance,
+            now,
+            &mut || true,
+        )
     }
 
     /// One scan at `now` (nanoseconds): every task whose interval has come, by priority (then
     /// declaration order), runs its program instances; instances without a task run every
     /// scan, after the tasks. `check` is called every 65 536 loop iterations and stops the
     /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
+    #[inline]
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
+        // The fast path: machine code, no tasks (every instance every scan), in a function
+        // of its own so that a scan of a small program does not pay the prologue of this one.
+        if let (Backend::Compiled, false, Some(Some(c))) = (
+            self.backend,
+            self.engine.tasked,
+            self.engine.compiled.get().map(Option::as_deref),
+        ) {
+            return Self::scan_compiled(
+                &self.engine,
+                c,
+                &mut self.mem,
+                &mut self.stack,
+                self.iterations,
+                now,
+                check,
+            );
+        }
+        self.scan_tasks(now, check)
+    }
+
+    /// Every instance once, on machine code.
+    #[inline(never)]
+    fn scan_compiled(
+        engine: &Engine,
+        c: &dyn Compiled,
+        mem: &mut [u64],
+        stack: &mut Vec<(u32, u32)>,
+        iterations: u64,
+        now: i64,
+        check: &mut dyn FnMut() -> bool,
+    ) -> Result<(), Fault> {
+        for i in 0..engine.code.instances.len() {
+            let mut budget = Budget {
+                iterations: iterations.max(1),
+                check: &mut *check,
+            };
+            match c.run(engine, i, mem, now, &mut budget) {
+                Ran::Done => {}
+                Ran::Fault(f) => return Err(engine.locate(*f)),
+                Ran::Panic => return Err(internal(&engine.code.instances[i])),
+                Ran::NotCompiled => run_vm(
+                    engine,
+                    &engine.code.instances[i],
+                    mem,
+                    stack,
+                    now,
+                    &mut budget,
+                )?,
+            }
+        }
+        Ok(())
+    }
+
+    /// A scan with tasks, or on the VM.
+    #[inline(never)]
+    fn scan_tasks(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
         let Machine {
             engine,
+            backend,
             mem,
             stack,
             iterations,
             next_due,
         } = self;
         let engine: &Engine = engine;
+        let backend = *backend;
         let instances = &engine.code.instances;
         let tasks = match engine.project.configuration.as_ref() {
-            Some(c) if instances.iter().any(|i| i.task.is_some()) => &c.tasks,
+            Some(c) if engine.tasked => &c.tasks,
             _ => {
                 for i in 0..instances.len() {
-                    run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                    run_one(
+                        engine,
+                        backend,
+                        mem,
+                        stack,
+                        *iterations,
+                        i,
+                        now,
+                        &mut *check,
+                    )?;
                 }
                 return Ok(());
             }
@@ -537,13 +739,31 @@ impl Machine {
             }
             for (i, inst) in instances.iter().enumerate() {
                 if inst.task == Some(t as u32) {
-                    run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                    run_one(
+                        engine,
+                        backend,
+                        mem,
+                        stack,
+                        *iterations,
+                        i,
+                        now,
+                        &mut *check,
+                    )?;
                 }
             }
         }
         for (i, inst) in instances.iter().enumerate() {
             if inst.task.is_none() {
-                run_one(engine, mem, stack, *iterations, i, now, &mut *check)?;
+                run_one(
+                    engine,
+                    backend,
+                    mem,
+                    stack,
+                    *iterations,
+                    i,
+                    now,
+                    &mut *check,
+                )?;
             }
         }
         Ok(())

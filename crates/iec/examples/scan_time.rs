@@ -1,20 +1,22 @@
 //! Times one scan of a Structured Text program on the engine, every BOOL input TRUE:
 //! `cargo run --release -p petriplc-iec --example scan_time -- FILE.st SCANS REPEATS`
 //! prints the median wall-clock ns per scan, the process CPU ns per scan over all runs
-//! (from /proc, 10 ms resolution) and the compile time in seconds (bench/iec_scan.sh
-//! compares it with the generated C).
+//! (from /proc, 10 ms resolution), the compile time in seconds (read, parse, check,
+//! bytecode) and the time its machine code takes to make, even past the size limit of
+//! petriplc-iec-jit (bench/iec_scan.sh compares the scan with the generated C). A fourth argument `vm` runs the bytecode VM instead
+//! of the machine code.
 
 use std::time::Instant;
 
 use petriplc_iec::{build_file, Select};
 use petriplc_iec_sema::ir::VarClass;
 use petriplc_iec_sema::value::Value;
-use petriplc_iec_vm::Machine;
+use petriplc_iec_vm::{Backend, Machine};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    if args.len() != 4 {
-        eprintln!("usage: scan_time FILE.st SCANS REPEATS");
+    if args.len() != 4 && args.len() != 5 {
+        eprintln!("usage: scan_time FILE.st SCANS REPEATS [vm]");
         std::process::exit(2);
     }
     let t0 = Instant::now();
@@ -26,10 +28,17 @@ fn main() {
         }
     };
     let compile = t0.elapsed();
+    // What its machine code takes to make (whatever its size).
+    let t1 = Instant::now();
+    let jit_ok = petriplc_iec::jit::compile_limited(&build.engine, usize::MAX).is_ok();
+    let jit = t1.elapsed();
     let scans: u64 = args[2].parse().unwrap_or(1000);
     let repeats: usize = args[3].parse().unwrap_or(11);
     let engine = build.engine.clone();
     let mut m = Machine::new(engine.clone());
+    if args.get(4).map(String::as_str) == Some("vm") {
+        m.set_backend(Backend::Vm);
+    }
     let inst = &engine.instances()[0];
     for (name, class, _) in engine.instance_vars(0) {
         if class == VarClass::Input {
@@ -51,9 +60,10 @@ fn main() {
     let cpu = (cpu_ticks() - cpu0) as f64 * 1e7 / (scans as f64 * repeats as f64);
     times.sort_by(|a, b| a.total_cmp(b));
     println!(
-        "{:.1} {cpu:.1} {:.3}",
+        "{:.1} {cpu:.1} {:.3} {:.3}",
         times[repeats / 2],
-        compile.as_secs_f64()
+        compile.as_secs_f64(),
+        if jit_ok { jit.as_secs_f64() } else { f64::NAN }
     );
     if std::env::var_os("SCAN_TIME_OPS").is_some() {
         eprintln!(

@@ -25,7 +25,7 @@ use std::process::Command;
 
 use petriplc_iec::{build_file, Select};
 use petriplc_iec_sema::types::{Elem, Type};
-use petriplc_iec_vm::{display, Machine};
+use petriplc_iec_vm::{display, Backend, Machine};
 
 const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus");
 /// Instruction List programs (`*.il`), with the same header format.
@@ -180,9 +180,18 @@ fn run(path: &Path) -> Vec<String> {
         Err(e) => return vec![format!("does not compile:\n{e}")],
     };
     let engine = build.engine.clone();
+    if !engine.is_compiled() {
+        return vec!["no machine code was made for it".into()];
+    }
     let mut m = Machine::new(engine.clone());
     // Endless loops are caught after 100 000 iterations (the default budget is larger).
     m.iterations = 100_000;
+    // The bytecode VM runs it in step with the machine code: the same memory after every
+    // scan, the same faults with the same messages.
+    let mut vm = Machine::new(engine.clone());
+    vm.set_backend(Backend::Vm);
+    vm.iterations = 100_000;
+    let slots = engine.code.init.len() as u32;
     let only = (engine.instances().len() == 1).then(|| engine.instances()[0].name.clone());
     let lookup = |name: &str| {
         only.as_ref()
@@ -212,9 +221,25 @@ fn run(path: &Path) -> Vec<String> {
             if let Err(e) = m.set(v, &val) {
                 problems.push(format!("set {k}: {name} = {value}: {e}"));
             }
+            let _ = vm.set(v, &val);
         }
         let now = (k as i64 - 1) * spec.period_ns;
         let r = m.scan(now, &mut || true);
+        let rv = vm.scan(now, &mut || true);
+        let (a, b) = (
+            r.as_ref().map_err(|f| f.to_string()),
+            rv.as_ref().map_err(|f| f.to_string()),
+        );
+        if a != b {
+            problems.push(format!("scan {k}: machine code gave {a:?}, the VM {b:?}"));
+        }
+        if let Some(a) = (0..slots).find(|&a| m.slot(a) != vm.slot(a)) {
+            problems.push(format!(
+                "scan {k}: machine code and VM differ at slot {a}: {} vs {}",
+                m.slot(a),
+                vm.slot(a)
+            ));
+        }
         match (&spec.fault, r) {
             (Some((n, text)), Err(f)) if *n == k => {
                 let msg = f.to_string();

@@ -53,3 +53,26 @@ END_PROGRAM",
         ]
     );
 }
+
+/// Machine code is made for small programs and left to the VM past the size limit; either
+/// way the machine runs.
+#[test]
+fn machine_code_or_the_vm_past_the_size_limit() {
+    let b = build_text(
+        "t.st",
+        "PROGRAM main\nVAR x : INT; END_VAR\nx := x + 1;\nEND_PROGRAM",
+        &Select::Auto,
+    )
+    .unwrap();
+    assert!(petriplc_iec::jit::compile(&b.engine).is_ok());
+    let e = petriplc_iec::jit::compile_limited(&b.engine, 1).unwrap_err();
+    assert!(e.to_string().contains("the VM runs faster"), "{e}");
+    let mut m = Machine::new(b.engine.clone());
+    assert_eq!(m.backend(), petriplc_iec_vm::Backend::Compiled);
+    m.scan(0, &mut || true).unwrap();
+    m.set_backend(petriplc_iec_vm::Backend::Vm);
+    assert_eq!(m.backend(), petriplc_iec_vm::Backend::Vm);
+    m.scan(0, &mut || true).unwrap();
+    let x = b.engine.lookup("main.x").unwrap();
+    assert_eq!(m.get(x), Some(petriplc_iec_sema::value::Value::Int(2)));
+}

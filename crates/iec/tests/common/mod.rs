@@ -15,7 +15,7 @@ use std::time::Duration;
 use petriplc_codegen::{generate, Form, Language, Markings, Options, Program, Request};
 use petriplc_iec::{build_text, Select};
 use petriplc_iec_sema::value::Value;
-use petriplc_iec_vm::{Engine, Machine, VarRef};
+use petriplc_iec_vm::{Backend, Engine, Machine, VarRef};
 use petriplc_net::{Evolution, Net, PlaceId, ScanOptions, SignalId, StepRule};
 use petriplc_pnml::{Naming, ReadOptions};
 use petriplc_sim::{SimOptions, Simulation, Timeline};
@@ -168,6 +168,10 @@ fn as_int(v: Option<Value>) -> i64 {
 struct Runner {
     what: String,
     machine: Machine,
+    /// The same program on the bytecode VM alone, in step with `machine` (machine code where
+    /// petriplc-iec-jit compiles it): same memory after every scan, same faults.
+    vm: Machine,
+    slots: u32,
     inputs: Vec<(Option<SignalId>, VarRef)>,
     outputs: Vec<(String, Option<SignalId>, VarRef)>,
     places: Vec<(String, PlaceId, VarRef)>,
@@ -214,9 +218,14 @@ impl Runner {
             })
             .collect();
         let unstable = engine.lookup(&format!("{prefix}.{}", lowered.helpers.unstable));
+        let mut vm = Machine::new(engine.clone());
+        vm.set_backend(Backend::Vm);
+        let slots = engine.code.init.len() as u32;
         Runner {
             what,
             machine: Machine::new(engine),
+            vm,
+            slots,
             inputs,
             outputs,
             places,
@@ -317,9 +326,23 @@ pub fn compare(
             for (n, v) in &run.inputs {
                 let value = n.map_or(0, |n| sim.signals()[n.index()]);
                 run.machine.set(*v, &Value::Int(value as i128)).unwrap();
+                run.vm.set(*v, &Value::Int(value as i128)).unwrap();
             }
             let iec = run.machine.scan(t.as_nanos() as i64, &mut || true);
+            let iec_vm = run.vm.scan(t.as_nanos() as i64, &mut || true);
             let what = &run.what;
+            assert_eq!(
+                iec.as_ref().map_err(|f| f.to_string()),
+                iec_vm.as_ref().map_err(|f| f.to_string()),
+                "{what} at t={t:?}: machine code and VM end the scan differently"
+            );
+            if let Some(a) = (0..run.slots).find(|&a| run.machine.slot(a) != run.vm.slot(a)) {
+                panic!(
+                    "{what} at t={t:?}: machine code and VM differ at slot {a}: {} vs {}",
+                    run.machine.slot(a),
+                    run.vm.slot(a)
+                );
+            }
             match &r {
                 Err(e) => {
                     // The simulator stops (unstable scan, token overflow): the engine reports it.
