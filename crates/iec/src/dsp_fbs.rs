@@ -1,0 +1,119 @@
+//! petriplc-dsp's blocks as native function blocks of the IEC engine, so that ST programs
+//! call them like any function block: `PID` (the `pid` block of the `dsp` module).
+//!
+//! A native block keeps its state in the instance's slots (see `petriplc_iec_vm::native`):
+//! each call rebuilds the Rust block from the instance's inputs and state, steps it once and
+//! stores the state back, so instances are copied, retained and restored like any other
+//! variables. `dt` is the time since the instance's previous call (0 at the first), from
+//! the scan time the engine passes in, as the `dsp` module takes it from its measured period.
+//!
+//! ```text
+//! PID  VAR_INPUT  SP, PV : REAL          setpoint and process value
+//!                 KP : REAL := 1.0       gain (ideal form: u = KP·(e + 1/TI·∫e + TD·de/dt))
+//!                 TI : REAL := 0.0       integral time in s (0: no integral action)
+//!                 TD : REAL := 0.0       derivative time in s (on the measurement)
+//!                 TF : REAL := 0.0       derivative filter time constant in s
+//!                 XMIN, XMAX : REAL      output limits (default: none, ±1e38)
+//!                 MANUAL : BOOL          manual mode (bumpless both ways)
+//!                 XMAN : REAL            the output in manual mode
+//!      VAR_OUTPUT XOUT : REAL            the controller output
+//! ```
+
+use petriplc_dsp::block::pid::{AntiWindup, Pid, PidConfig, PidForm, PidInput};
+use petriplc_iec_sema::ir::{NativeSig, NativeVar, NativeVarKind};
+use petriplc_iec_sema::types::Elem;
+use petriplc_iec_sema::value::Value;
+use petriplc_iec_vm::native::{NativeCtx, NativeFb, Vars};
+
+fn var(name: &str, ty: Elem, kind: NativeVarKind, init: Value) -> NativeVar {
+    NativeVar {
+        name: name.to_string(),
+        ty,
+        kind,
+        init,
+    }
+}
+
+/// Every DSP function block.
+pub fn blocks() -> Vec<Box<dyn NativeFb>> {
+    vec![Box::new(PidFb)]
+}
+
+/// `PID`: petriplc-dsp's PID in the ideal form, derivative on the measurement, anti-windup
+/// by clamping.
+pub struct PidFb;
+
+const PID_INPUTS: usize = 10;
+const PID_STATE: usize = PID_INPUTS + 1;
+
+impl NativeFb for PidFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O, State as S};
+        let r = |n: &str, k, v: f64| var(n, Elem::Real, k, Value::Real(v));
+        let mut vars = vec![
+            r("SP", I, 0.0),
+            r("PV", I, 0.0),
+            r("KP", I, 1.0),
+            r("TI", I, 0.0),
+            r("TD", I, 0.0),
+            r("TF", I, 0.0),
+            r("XMIN", I, -1e38),
+            r("XMAX", I, 1e38),
+            var("MANUAL", Elem::Bool, I, Value::Int(0)),
+            r("XMAN", I, 0.0),
+            r("XOUT", O, 0.0),
+        ];
+        for n in ["i", "d", "x", "u", "v", "started", "bad"] {
+            vars.push(var(n, Elem::Lreal, S, Value::Real(0.0)));
+        }
+        vars.push(var("last", Elem::Time, S, Value::Int(0)));
+        NativeSig {
+            name: "PID".into(),
+            vars,
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let config = PidConfig {
+            form: PidForm::Ideal,
+            p: v.real(2),
+            i: v.real(3),
+            d: v.real(4),
+            min_out: v.real(6),
+            max_out: v.real(7),
+            d_on_measurement: true,
+            d_filter: v.real(5),
+            anti_windup: AntiWindup::Clamp,
+            rate: f64::INFINITY,
+        };
+        let mut pid = Pid::new(config);
+        let mut state = [0.0; 7];
+        for (k, s) in state.iter_mut().enumerate() {
+            *s = v.real(PID_STATE + k);
+        }
+        pid.set_state(state);
+        let last = PID_STATE + 7;
+        let dt = if state[5] != 0.0 {
+            (ctx.now - v.int(last)) as f64 * 1e-9
+        } else {
+            0.0
+        };
+        let out = pid.step(
+            PidInput {
+                sp: v.real(0),
+                pv: v.real(1),
+                error_input: false,
+                auto: !v.bool(8),
+                manual: v.real(9),
+            },
+            dt,
+        );
+        v.set_real(PID_INPUTS, out);
+        for (k, s) in pid.state().iter().enumerate() {
+            v.set_real(PID_STATE + k, *s);
+        }
+        v.set_int(last, ctx.now);
+        Ok(())
+    }
+}
