@@ -17,8 +17,17 @@
 //!                 MANUAL : BOOL          manual mode (bumpless both ways)
 //!                 XMAN : REAL            the output in manual mode
 //!      VAR_OUTPUT XOUT : REAL            the controller output
+//!
+//! FILTER_IIR VAR_INPUT X : REAL          the input sample (one call per sampling period)
+//!                 C : REAL := 1.0        gain
+//!                 A1_1, A2_1, B1_1, B2_1 … A1_4, A2_4, B1_4, B2_4 : REAL
+//!                                        up to 4 second-order sections, unused ones 0:
+//!                                        C·Π(1 + A1·z⁻¹ + A2·z⁻²)/(1 + B1·z⁻¹ + B2·z⁻²),
+//!                                        the dsp module's `fblock filter IN OUT iir …`
+//!      VAR_OUTPUT Y : REAL               the output (held while X is not finite)
 //! ```
 
+use petriplc_dsp::block::filter::Iir;
 use petriplc_dsp::block::pid::{AntiWindup, Pid, PidConfig, PidForm, PidInput};
 use petriplc_iec_sema::ir::{NativeSig, NativeVar, NativeVarKind};
 use petriplc_iec_sema::types::Elem;
@@ -36,7 +45,7 @@ fn var(name: &str, ty: Elem, kind: NativeVarKind, init: Value) -> NativeVar {
 
 /// Every DSP function block.
 pub fn blocks() -> Vec<Box<dyn NativeFb>> {
-    vec![Box::new(PidFb)]
+    vec![Box::new(PidFb), Box::new(FilterIirFb)]
 }
 
 /// `PID`: petriplc-dsp's PID in the ideal form, derivative on the measurement, anti-windup
@@ -114,6 +123,67 @@ impl NativeFb for PidFb {
             v.set_real(PID_STATE + k, *s);
         }
         v.set_int(last, ctx.now);
+        Ok(())
+    }
+}
+
+/// `FILTER_IIR`: petriplc-dsp's IIR filter with explicit coefficients, MatPLC's `iir` form.
+pub struct FilterIirFb;
+
+const SECTIONS: usize = 4;
+/// X, C, then four coefficients per section.
+const IIR_INPUTS: usize = 2 + 4 * SECTIONS;
+const IIR_Y: usize = IIR_INPUTS;
+const IIR_STATE: usize = IIR_Y + 1;
+
+impl NativeFb for FilterIirFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O, State as S};
+        let r = |n: &str, k, v: f64| var(n, Elem::Real, k, Value::Real(v));
+        let mut vars = vec![r("X", I, 0.0), r("C", I, 1.0)];
+        for k in 1..=SECTIONS {
+            for c in ["A1", "A2", "B1", "B2"] {
+                vars.push(r(&format!("{c}_{k}"), I, 0.0));
+            }
+        }
+        vars.push(r("Y", O, 0.0));
+        for k in 0..2 * SECTIONS {
+            vars.push(var(&format!("z{k}"), Elem::Lreal, S, Value::Real(0.0)));
+        }
+        vars.push(var("started", Elem::Bool, S, Value::Int(0)));
+        NativeSig {
+            name: "FILTER_IIR".into(),
+            vars,
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], _ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let mut sections: Vec<[f64; 6]> = (0..SECTIONS)
+            .map(|k| {
+                let c = |i: usize| v.real(2 + 4 * k + i);
+                [1.0, c(0), c(1), 1.0, c(2), c(3)]
+            })
+            .collect();
+        let gain = v.real(1);
+        for c in &mut sections[0][..3] {
+            *c *= gain;
+        }
+        let mut iir = Iir::new(sections, false);
+        let state: Vec<[f64; 2]> = (0..SECTIONS)
+            .map(|k| [v.real(IIR_STATE + 2 * k), v.real(IIR_STATE + 2 * k + 1)])
+            .collect();
+        let started = IIR_STATE + 2 * SECTIONS;
+        iir.set_state(&state, v.bool(started));
+        if let Some(y) = iir.step(v.real(0)) {
+            v.set_real(IIR_Y, y);
+        }
+        let (state, now_started) = iir.state();
+        for (k, z) in state.iter().enumerate() {
+            v.set_real(IIR_STATE + 2 * k, z[0]);
+            v.set_real(IIR_STATE + 2 * k + 1, z[1]);
+        }
+        v.set_bool(started, now_started);
         Ok(())
     }
 }
