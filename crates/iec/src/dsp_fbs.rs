@@ -25,10 +25,22 @@
 //!                                        C·Π(1 + A1·z⁻¹ + A2·z⁻²)/(1 + B1·z⁻¹ + B2·z⁻²),
 //!                                        the dsp module's `fblock filter IN OUT iir …`
 //!      VAR_OUTPUT Y : REAL               the output (held while X is not finite)
+//!
+//! RAMP  VAR_INPUT X : REAL               the target
+//!                 POS_DXDT, NEG_DXDT, POS_D2XDT2, NEG_D2XDT2 : REAL := 1e38
+//!                                        rate and acceleration limits (≥ 1e38: none)
+//!      VAR_OUTPUT Y : REAL
+//!
+//! NONLINEAR VAR_INPUT X : REAL; GAIN : REAL := 1.0;
+//!                 DB_BOT, DB_TOP, DB_OUT : REAL := 0.0   dead band and its output
+//!                 CUT_BOT, CUT_TOP : REAL := ∓3.4e38     cut-offs
+//!      VAR_OUTPUT Y : REAL
 //! ```
 
 use petriplc_dsp::block::filter::Iir;
 use petriplc_dsp::block::pid::{AntiWindup, Pid, PidConfig, PidForm, PidInput};
+use petriplc_dsp::block::ramp::{Ramp, RampConfig};
+use petriplc_dsp::block::select::Nonlinear;
 use petriplc_iec_sema::ir::{NativeSig, NativeVar, NativeVarKind};
 use petriplc_iec_sema::types::Elem;
 use petriplc_iec_sema::value::Value;
@@ -45,7 +57,12 @@ fn var(name: &str, ty: Elem, kind: NativeVarKind, init: Value) -> NativeVar {
 
 /// Every DSP function block.
 pub fn blocks() -> Vec<Box<dyn NativeFb>> {
-    vec![Box::new(PidFb), Box::new(FilterIirFb)]
+    vec![
+        Box::new(PidFb),
+        Box::new(FilterIirFb),
+        Box::new(RampFb),
+        Box::new(NonlinearFb),
+    ]
 }
 
 /// `PID`: petriplc-dsp's PID in the ideal form, derivative on the measurement, anti-windup
@@ -184,6 +201,104 @@ impl NativeFb for FilterIirFb {
             v.set_real(IIR_STATE + 2 * k + 1, z[1]);
         }
         v.set_bool(started, now_started);
+        Ok(())
+    }
+}
+
+/// A limit input: 1e38 and above (REAL cannot spell ∞) is no limit.
+fn unlimited(x: f64) -> f64 {
+    if x >= 1e38 {
+        f64::INFINITY
+    } else {
+        x
+    }
+}
+
+/// `RAMP`: petriplc-dsp's rate- and acceleration-limited follower.
+pub struct RampFb;
+
+impl NativeFb for RampFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O, State as S};
+        let r = |n: &str, k, v: f64| var(n, Elem::Real, k, Value::Real(v));
+        let mut vars = vec![
+            r("X", I, 0.0),
+            r("POS_DXDT", I, 1e38),
+            r("NEG_DXDT", I, 1e38),
+            r("POS_D2XDT2", I, 1e38),
+            r("NEG_D2XDT2", I, 1e38),
+            r("Y", O, 0.0),
+        ];
+        for n in ["x", "v", "started"] {
+            vars.push(var(n, Elem::Lreal, S, Value::Real(0.0)));
+        }
+        vars.push(var("last", Elem::Time, S, Value::Int(0)));
+        NativeSig {
+            name: "RAMP".into(),
+            vars,
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let mut ramp = Ramp::new(RampConfig {
+            pos_dxdt: unlimited(v.real(1)),
+            neg_dxdt: unlimited(v.real(2)),
+            pos_d2xdt2: unlimited(v.real(3)),
+            neg_d2xdt2: unlimited(v.real(4)),
+        });
+        let state = [v.real(6), v.real(7), v.real(8)];
+        ramp.set_state(state);
+        let dt = if state[2] != 0.0 {
+            (ctx.now - v.int(9)) as f64 * 1e-9
+        } else {
+            0.0
+        };
+        let y = ramp.step(v.real(0), dt);
+        v.set_real(5, y);
+        for (k, s) in ramp.state().iter().enumerate() {
+            v.set_real(6 + k, *s);
+        }
+        v.set_int(9, ctx.now);
+        Ok(())
+    }
+}
+
+/// `NONLINEAR`: petriplc-dsp's dead band and cut-offs (no state).
+pub struct NonlinearFb;
+
+impl NativeFb for NonlinearFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O};
+        let r = |n: &str, k, v: f64| var(n, Elem::Real, k, Value::Real(v));
+        let max = f64::from(f32::MAX);
+        NativeSig {
+            name: "NONLINEAR".into(),
+            vars: vec![
+                r("X", I, 0.0),
+                r("GAIN", I, 1.0),
+                r("DB_BOT", I, 0.0),
+                r("DB_TOP", I, 0.0),
+                r("DB_OUT", I, 0.0),
+                r("CUT_BOT", I, -max),
+                r("CUT_TOP", I, max),
+                r("Y", O, 0.0),
+            ],
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], _ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let block = Nonlinear {
+            gain: v.real(1),
+            deadband_bot: v.real(2),
+            deadband_top: v.real(3),
+            deadband_out: v.real(4),
+            cutoff_bot: v.real(5),
+            cutoff_top: v.real(6),
+        };
+        let y = block.step(v.real(0));
+        v.set_real(7, y);
         Ok(())
     }
 }

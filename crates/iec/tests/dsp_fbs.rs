@@ -152,3 +152,61 @@ fn filter_iir_in_st_equals_the_rust_filter_sample_by_sample() {
         assert_eq!(got as f32, held as f32, "sample {k}");
     }
 }
+
+#[test]
+fn ramp_and_nonlinear_in_st_equal_the_rust_blocks() {
+    let program =
+        "PROGRAM r\nVAR_INPUT x : REAL; END_VAR\nVAR_OUTPUT y : REAL; d : REAL; END_VAR\n\
+        VAR rp : RAMP; nl : NONLINEAR; END_VAR\n\
+        rp(X := x, POS_DXDT := 2.0, NEG_DXDT := 4.0, POS_D2XDT2 := 8.0);\ny := rp.Y;\n\
+        nl(X := x, GAIN := 2.0, DB_BOT := -1.0, DB_TOP := 1.0, DB_OUT := 0.5, CUT_TOP := 6.0);\n\
+        d := nl.Y;\nEND_PROGRAM\n";
+    let mut s = Sources::new();
+    s.add_text("r.st", program);
+    let engine = build(&s, &Select::Auto, Natives::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .engine;
+    let var = |n: &str| engine.lookup(&format!("r.{n}")).unwrap();
+    let mut m = Machine::new(engine.clone());
+    let mut ramp = petriplc_dsp::block::ramp::Ramp::new(petriplc_dsp::block::ramp::RampConfig {
+        pos_dxdt: 2.0,
+        neg_dxdt: 4.0,
+        pos_d2xdt2: 8.0,
+        neg_d2xdt2: f64::INFINITY,
+    });
+    let nl = petriplc_dsp::block::select::Nonlinear {
+        gain: 2.0,
+        deadband_bot: -1.0,
+        deadband_top: 1.0,
+        deadband_out: 0.5,
+        cutoff_bot: -f64::from(f32::MAX),
+        cutoff_top: 6.0,
+    };
+    let mut previous = None;
+    for k in 0..600i64 {
+        let x: f32 = match k {
+            0..100 => 0.25,
+            100..300 => 5.0,
+            _ => -3.0 + (k as f32 * 0.05).sin(),
+        };
+        let now = k * 5_000_000;
+        m.set(var("x"), &Value::Real(f64::from(x))).unwrap();
+        m.scan(now, &mut || true).unwrap();
+        let (Some(Value::Real(y)), Some(Value::Real(d))) = (m.get(var("y")), m.get(var("d")))
+        else {
+            panic!("not reals")
+        };
+        let dt = previous.map_or(0.0, |p: i64| (now - p) as f64 * 1e-9);
+        previous = Some(now);
+        assert_eq!(
+            y as f32,
+            ramp.step(f64::from(x), dt) as f32,
+            "ramp, scan {k}"
+        );
+        assert_eq!(
+            d as f32,
+            nl.step(f64::from(x)) as f32,
+            "nonlinear, scan {k}"
+        );
+    }
+}
