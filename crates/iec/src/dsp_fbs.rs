@@ -31,6 +31,25 @@
 //!                                        rate and acceleration limits (≥ 1e38: none)
 //!      VAR_OUTPUT Y : REAL
 //!
+//! FILTER_DESIGN VAR_INPUT X : REAL      the input sample (one call per TS)
+//!                 KIND : INT := 1        1 Butterworth, 2 Chebyshev I, 3 Chebyshev II,
+//!                                        4 elliptic, 5 Bessel
+//!                 FPASS, FSTOP : REAL    passband and stopband edges in Hz (FPASS < FSTOP:
+//!                                        lowpass, else highpass)
+//!                 FPASS2, FSTOP2 : REAL := 0   second edges: a band filter (bandpass when
+//!                                        the passband lies inside the stopband)
+//!                 GPASS : REAL := 1.0    most attenuation in the passband, dB
+//!                 GSTOP : REAL := 40.0   least attenuation in the stopband, dB
+//!                 GAIN : REAL := 1.0
+//!                 TS : TIME := T#10ms    the sampling period the filter is designed for
+//!      VAR_OUTPUT Y : REAL; ORDER : INT  the output and the order the design chose
+//!
+//! ALARM VAR_INPUT X : REAL; LIMIT : REAL; HYST : REAL := 0.0
+//!                 LOW : BOOL             below the limit (default: above)
+//!                 ABSOLUTE : BOOL        compare |X|
+//!      VAR_OUTPUT Q : BOOL               with hysteresis: set beyond LIMIT, cleared only
+//!                                        back past LIMIT ∓ HYST; NaN sets it
+//!
 //! NONLINEAR VAR_INPUT X : REAL; GAIN : REAL := 1.0;
 //!                 DB_BOT, DB_TOP, DB_OUT : REAL := 0.0   dead band and its output
 //!                 CUT_BOT, CUT_TOP : REAL := ∓3.4e38     cut-offs
@@ -39,6 +58,9 @@
 
 use petriplc_dsp::block::filter::Iir;
 use petriplc_dsp::block::pid::{AntiWindup, Pid, PidConfig, PidForm, PidInput};
+use std::sync::Mutex;
+
+use petriplc_dsp::block::alarm::{Alarm, Compare, Limit};
 use petriplc_dsp::block::ramp::{Ramp, RampConfig};
 use petriplc_dsp::block::select::Nonlinear;
 use petriplc_iec_sema::ir::{NativeSig, NativeVar, NativeVarKind};
@@ -62,6 +84,8 @@ pub fn blocks() -> Vec<Box<dyn NativeFb>> {
         Box::new(FilterIirFb),
         Box::new(RampFb),
         Box::new(NonlinearFb),
+        Box::new(FilterDesignFb::default()),
+        Box::new(AlarmFb),
     ]
 }
 
@@ -299,6 +323,173 @@ impl NativeFb for NonlinearFb {
         };
         let y = block.step(v.real(0));
         v.set_real(7, y);
+        Ok(())
+    }
+}
+
+/// `FILTER_DESIGN`: a filter designed from its specification as the dsp module's
+/// `fblock filter IN OUT TYPE SHAPE …` row is (SciPy's `iirdesign`), run as cascaded
+/// sections. The design is made at the first call with a specification and kept (by
+/// specification) for the other calls and instances; an impossible specification fails the
+/// program with the design's message.
+#[derive(Default)]
+pub struct FilterDesignFb {
+    /// Designs by specification (the inputs' bits): sections, or why there are none.
+    designs: Mutex<Vec<([u64; 9], Designed)>>,
+}
+
+/// A design's sections, or why there are none.
+type Designed = Result<Vec<[f64; 6]>, String>;
+
+/// The most sections a designed filter may have (order 16).
+const DESIGN_SECTIONS: usize = 8;
+const FD_INPUTS: usize = 10;
+const FD_Y: usize = FD_INPUTS;
+const FD_ORDER: usize = FD_INPUTS + 1;
+const FD_STATE: usize = FD_INPUTS + 2;
+
+impl FilterDesignFb {
+    fn design(&self, v: &Vars) -> Result<Vec<[f64; 6]>, String> {
+        use petriplc_dsp::design::{iirdesign, BesselNorm, Family};
+        let mut key = [0u64; 9];
+        for (k, slot) in key.iter_mut().enumerate() {
+            *slot = v.0[1 + k];
+        }
+        let mut cache = self.designs.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, d)) = cache.iter().find(|(k, _)| *k == key) {
+            return d.clone();
+        }
+        let made = (|| {
+            let family = match v.int(1) {
+                1 => Family::Butterworth,
+                2 => Family::Chebyshev1,
+                3 => Family::Chebyshev2,
+                4 => Family::Elliptic,
+                5 => Family::Bessel(BesselNorm::Mag),
+                k => {
+                    return Err(format!(
+                        "FILTER_DESIGN: KIND = {k}; give 1 (Butterworth), 2 (Chebyshev I), 3 \
+                         (Chebyshev II), 4 (elliptic) or 5 (Bessel)"
+                    ))
+                }
+            };
+            let ts = v.int(9) as f64 * 1e-9;
+            if ts <= 0.0 {
+                return Err("FILTER_DESIGN: TS must be a positive sampling period".into());
+            }
+            let (fp2, fs2) = (v.real(4), v.real(5));
+            let (wp, ws) = if fp2 == 0.0 && fs2 == 0.0 {
+                (vec![v.real(2)], vec![v.real(3)])
+            } else {
+                (vec![v.real(2), fp2], vec![v.real(3), fs2])
+            };
+            let d = iirdesign(&wp, &ws, v.real(6), v.real(7), family, 1.0 / ts)
+                .map_err(|e| format!("FILTER_DESIGN: {e}"))?;
+            if d.sos.len() > DESIGN_SECTIONS {
+                return Err(format!(
+                    "FILTER_DESIGN: the specification needs order {}, above the {} this block \
+                     runs; widen the transition band or loosen the tolerances",
+                    d.order,
+                    2 * DESIGN_SECTIONS
+                ));
+            }
+            let mut sos = d.sos;
+            for c in &mut sos[0][..3] {
+                *c *= v.real(8);
+            }
+            Ok(sos)
+        })();
+        cache.push((key, made.clone()));
+        made
+    }
+}
+
+impl NativeFb for FilterDesignFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O, State as S};
+        let r = |n: &str, k, v: f64| var(n, Elem::Real, k, Value::Real(v));
+        let mut vars = vec![
+            r("X", I, 0.0),
+            var("KIND", Elem::Int, I, Value::Int(1)),
+            r("FPASS", I, 0.0),
+            r("FSTOP", I, 0.0),
+            r("FPASS2", I, 0.0),
+            r("FSTOP2", I, 0.0),
+            r("GPASS", I, 1.0),
+            r("GSTOP", I, 40.0),
+            r("GAIN", I, 1.0),
+            var("TS", Elem::Time, I, Value::Int(10_000_000)),
+            r("Y", O, 0.0),
+            var("ORDER", Elem::Int, O, Value::Int(0)),
+        ];
+        for k in 0..2 * DESIGN_SECTIONS {
+            vars.push(var(&format!("z{k}"), Elem::Lreal, S, Value::Real(0.0)));
+        }
+        vars.push(var("started", Elem::Bool, S, Value::Int(0)));
+        NativeSig {
+            name: "FILTER_DESIGN".into(),
+            vars,
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], _ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let sos = self.design(&v)?;
+        let n = sos.len();
+        let mut iir = Iir::new(sos, false);
+        let state: Vec<[f64; 2]> = (0..n)
+            .map(|k| [v.real(FD_STATE + 2 * k), v.real(FD_STATE + 2 * k + 1)])
+            .collect();
+        let started = FD_STATE + 2 * DESIGN_SECTIONS;
+        iir.set_state(&state, v.bool(started));
+        if let Some(y) = iir.step(v.real(0)) {
+            v.set_real(FD_Y, y);
+        }
+        let (state, now_started) = iir.state();
+        for (k, z) in state.iter().enumerate() {
+            v.set_real(FD_STATE + 2 * k, z[0]);
+            v.set_real(FD_STATE + 2 * k + 1, z[1]);
+        }
+        v.set_bool(started, now_started);
+        v.set_int(FD_ORDER, 2 * n as i64);
+        Ok(())
+    }
+}
+
+/// `ALARM`: one limit of petriplc-dsp's `alarm` block, with its hysteresis.
+pub struct AlarmFb;
+
+impl NativeFb for AlarmFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O};
+        let b = |n: &str, k| var(n, Elem::Bool, k, Value::Int(0));
+        NativeSig {
+            name: "ALARM".into(),
+            vars: vec![
+                var("X", Elem::Real, I, Value::Real(0.0)),
+                var("LIMIT", Elem::Real, I, Value::Real(0.0)),
+                var("HYST", Elem::Real, I, Value::Real(0.0)),
+                b("LOW", I),
+                b("ABSOLUTE", I),
+                b("Q", O),
+            ],
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], _ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let compare = if v.bool(3) { Compare::Lt } else { Compare::Gt };
+        let mut alarm = Alarm::new(
+            v.bool(4),
+            v.real(2),
+            vec![Limit {
+                compare,
+                limit: v.real(1),
+            }],
+        );
+        alarm.states[0] = v.bool(5);
+        let q = alarm.step(v.real(0))[0];
+        v.set_bool(5, q);
         Ok(())
     }
 }

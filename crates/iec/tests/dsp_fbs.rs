@@ -210,3 +210,90 @@ fn ramp_and_nonlinear_in_st_equal_the_rust_blocks() {
         );
     }
 }
+
+#[test]
+fn filter_design_in_st_equals_the_designed_rust_filter_and_alarm_keeps_its_hysteresis() {
+    // An elliptic lowpass, 5 Hz pass / 12 Hz stop, 1 dB / 50 dB, at 100 Hz; and a band-pass.
+    let program = "PROGRAM d\nVAR_INPUT x : REAL; END_VAR\nVAR_OUTPUT y : REAL; b : REAL; n : INT; hi : BOOL; END_VAR\n\
+        VAR lp : FILTER_DESIGN; bp : FILTER_DESIGN; al : ALARM; END_VAR\n\
+        lp(X := x, KIND := 4, FPASS := 5.0, FSTOP := 12.0, GPASS := 1.0, GSTOP := 50.0, GAIN := 2.0, TS := T#10ms);\n\
+        y := lp.Y; n := lp.ORDER;\n\
+        bp(X := x, KIND := 1, FPASS := 8.0, FPASS2 := 12.0, FSTOP := 4.0, FSTOP2 := 20.0, TS := T#10ms);\n\
+        b := bp.Y;\n\
+        al(X := x, LIMIT := 0.5, HYST := 0.25);\nhi := al.Q;\nEND_PROGRAM\n";
+    let mut s = Sources::new();
+    s.add_text("d.st", program);
+    let engine = build(&s, &Select::Auto, Natives::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .engine;
+    let var = |n: &str| engine.lookup(&format!("d.{n}")).unwrap();
+    let mut m = Machine::new(engine.clone());
+    use petriplc_dsp::design::{iirdesign, Family};
+    let d = iirdesign(&[5.0], &[12.0], 1.0, 50.0, Family::Elliptic, 100.0).unwrap();
+    let order = d.order;
+    let mut sos = d.sos;
+    for c in &mut sos[0][..3] {
+        *c *= 2.0;
+    }
+    let mut lp = petriplc_dsp::block::filter::Iir::new(sos, false);
+    let band = iirdesign(
+        &[8.0, 12.0],
+        &[4.0, 20.0],
+        1.0,
+        40.0,
+        Family::Butterworth,
+        100.0,
+    )
+    .unwrap();
+    let mut bp = petriplc_dsp::block::filter::Iir::new(band.sos, false);
+    let mut on = false;
+    let mut switches = 0;
+    for k in 0..500i64 {
+        let x = if k == 0 {
+            1.0f32
+        } else {
+            ((k * k) as f32 * 0.0005).sin()
+        };
+        m.set(var("x"), &Value::Real(f64::from(x))).unwrap();
+        m.scan(k * 10_000_000, &mut || true).unwrap();
+        let get = |n: &str| match m.get(var(n)) {
+            Some(Value::Real(r)) => r,
+            Some(Value::Int(i)) => i as f64,
+            v => panic!("{n}: {v:?}"),
+        };
+        let xf = f64::from(x);
+        assert_eq!(
+            get("y") as f32,
+            lp.step(xf).unwrap() as f32,
+            "lowpass, scan {k}"
+        );
+        assert_eq!(
+            get("b") as f32,
+            bp.step(xf).unwrap() as f32,
+            "bandpass, scan {k}"
+        );
+        assert_eq!(get("n") as usize, order);
+        let was = on;
+        on = xf > 0.5 || (on && xf > 0.25);
+        switches += usize::from(was != on);
+        assert_eq!(get("hi") != 0.0, on, "alarm, scan {k}");
+    }
+    assert!(switches > 4, "{switches}");
+}
+
+#[test]
+fn an_impossible_design_fails_the_program_with_the_limit() {
+    let program = "PROGRAM d\nVAR lp : FILTER_DESIGN; y : REAL; END_VAR\n\
+        lp(X := 1.0, FPASS := 5.0, FSTOP := 80.0, TS := T#10ms);\ny := lp.Y;\nEND_PROGRAM\n";
+    let mut s = Sources::new();
+    s.add_text("d.st", program);
+    let engine = build(&s, &Select::Auto, Natives::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .engine;
+    let mut m = Machine::new(engine);
+    let fault = m.scan(0, &mut || true).unwrap_err().to_string();
+    assert!(
+        fault.contains("FILTER_DESIGN: ") && fault.contains("Nyquist"),
+        "{fault}"
+    );
+}
