@@ -3,6 +3,7 @@
 //! compile it for the engine ([`build`]); simulate a program against a timeline and a plant
 //! with the trace format of `petriplc sim` ([`sim`]).
 
+pub mod dsp_fbs;
 pub mod sim;
 
 use std::path::Path;
@@ -101,9 +102,9 @@ pub struct Natives {
 
 impl Default for Natives {
     fn default() -> Self {
-        Natives {
-            fbs: petriplc_iec_vm::native::standard(),
-        }
+        let mut fbs = petriplc_iec_vm::native::standard();
+        fbs.extend(dsp_fbs::blocks());
+        Natives { fbs }
     }
 }
 

@@ -33,6 +33,7 @@ use petriplc_runtime::image::Handle;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
 
 use crate::common::{self, error};
+use crate::iec_retain;
 
 const KIND: &str = "iec";
 const SETTINGS: &[&str] = &[
@@ -77,6 +78,8 @@ pub struct IecModule {
     task: Option<String>,
     iterations: u64,
     watchdog: Option<Duration>,
+    /// The program declares RETAIN variables (see [`iec_retain::declares_retain`]).
+    retains: bool,
     run: Option<Run>,
 }
 
@@ -87,6 +90,7 @@ struct Run {
     outputs: Vec<Binding>,
     period: Option<Duration>,
     scans: u64,
+    kept: Vec<iec_retain::Kept>,
 }
 
 fn parse_time(text: &str) -> Option<Duration> {
@@ -143,6 +147,10 @@ impl IecModule {
             task,
             iterations,
             watchdog,
+            retains: decl
+                .settings
+                .get(if project { "project" } else { "program" })
+                .is_some_and(|s| iec_retain::declares_retain(&s.origin.file, &s.value)),
             run: None,
         })
     }
@@ -284,6 +292,7 @@ impl Module for IecModule {
         .map_err(|e| error(&self.name, e))?;
         let mut machine = Machine::new(engine.clone());
         machine.iterations = self.iterations;
+        let kept = iec_retain::restore(&self.name, ctx, &engine, &mut machine)?;
 
         // Bindings: map rows, located globals, and a lone program's inputs and outputs.
         let mut problems = Vec::new();
@@ -366,6 +375,7 @@ impl Module for IecModule {
             outputs,
             period,
             scans: 0,
+            kept,
         });
         Ok(())
     }
@@ -426,6 +436,7 @@ impl Module for IecModule {
                 )
             })?;
         }
+        iec_retain::stage(&mut run.kept, &run.machine);
         run.scans += 1;
         Ok(Control::Continue)
     }
@@ -450,6 +461,10 @@ impl Module for IecModule {
             }
             None => String::new(),
         }
+    }
+
+    fn retains_data(&self) -> bool {
+        self.retains
     }
 
     fn default_scan_period(&self) -> Option<Duration> {

@@ -11,6 +11,7 @@
 pub mod common;
 mod dsp;
 mod iec;
+mod iec_retain;
 mod logger;
 mod petrinet;
 mod plant;

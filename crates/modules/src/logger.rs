@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! [log]
-//! file = out/mixer-log.csv  # relative to the configuration file; created or truncated
+//! file = out/mixer-log.csv  # relative to the configuration file; created (with its folders) or truncated
 //! points = B1 V1 V2 V3      # default: every point of the configuration
 //! log N1                    # rows add points too
 //! plot = out/mixer.svg      # optional: a trend of the f32 points, drawn when the PLC stops
@@ -118,6 +118,7 @@ impl Module for Logger {
             None => None,
             Some(p) => {
                 let p = ctx.path(p);
+                make_folder(&self.name, &p, "plot")?;
                 // Created now (and drawn at close), so a bad path stops the PLC at start.
                 File::create(&p).map_err(|e| {
                     error(
@@ -146,20 +147,11 @@ impl Module for Logger {
         } else {
             Vec::new()
         };
+        make_folder(&self.name, &path, "log file")?;
         let file = File::create(&path).map_err(|e| {
-            let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
-            let hint = match dir {
-                Some(d) if !d.is_dir() => {
-                    format!(
-                        "; the directory `{}` does not exist: create it first",
-                        d.display()
-                    )
-                }
-                _ => String::new(),
-            };
             error(
                 &self.name,
-                format!("cannot create log file `{}`: {e}{hint}", path.display()),
+                format!("cannot create log file `{}`: {e}", path.display()),
             )
         })?;
         let mut out = BufWriter::new(file);
@@ -260,5 +252,23 @@ impl Module for Logger {
                 r.path.display()
             )
         })
+    }
+}
+
+/// Creates the missing folders of `file` (as every `--out` does), or says which one cannot be
+/// made and why.
+fn make_folder(module: &str, file: &Path, what: &str) -> Result<(), ModuleError> {
+    match file.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(dir) if !dir.is_dir() => std::fs::create_dir_all(dir).map_err(|e| {
+            error(
+                module,
+                format!(
+                    "cannot create the folder `{}` for the {what} `{}`: {e}",
+                    dir.display(),
+                    file.display()
+                ),
+            )
+        }),
+        _ => Ok(()),
     }
 }

@@ -31,6 +31,20 @@ impl Iir {
         &self.sections
     }
 
+    /// The state between steps (per section, and whether it started), for hosts that keep
+    /// a block's state in their own memory (the IEC engine's native function blocks).
+    pub fn state(&self) -> (&[[f64; 2]], bool) {
+        (&self.state, self.started)
+    }
+
+    /// Sets the state [`Iir::state`] gave (sections beyond this filter's are ignored).
+    pub fn set_state(&mut self, state: &[[f64; 2]], started: bool) {
+        for (z, s) in self.state.iter_mut().zip(state) {
+            *z = *s;
+        }
+        self.started = started;
+    }
+
     /// The gain at DC (z = 1): ∞ or NaN when a pole sits on z = 1.
     pub fn dc_gain(&self) -> f64 {
         self.sections

@@ -182,6 +182,32 @@ impl Pid {
         self.bad_inputs
     }
 
+    /// The state that evolves between steps, as numbers (for hosts that keep a block's
+    /// state in their own memory, such as the IEC engine's native function blocks):
+    /// integral, derivative, previous x, output, unlimited output, started (0/1), bad inputs.
+    pub fn state(&self) -> [f64; 7] {
+        [
+            self.integral,
+            self.derivative,
+            self.x_prev,
+            self.u,
+            self.v,
+            f64::from(u8::from(self.started)),
+            self.bad_inputs as f64,
+        ]
+    }
+
+    /// Sets the state [`Pid::state`] gave.
+    pub fn set_state(&mut self, s: [f64; 7]) {
+        self.integral = s[0];
+        self.derivative = s[1];
+        self.x_prev = s[2];
+        self.u = s[3];
+        self.v = s[4];
+        self.started = s[5] != 0.0;
+        self.bad_inputs = s[6] as u64;
+    }
+
     fn limit(&self, v: f64, dt: f64, started: bool) -> f64 {
         let mut u = super::limit(v, self.config.min_out, self.config.max_out);
         if started && self.config.rate.is_finite() && dt > 0.0 {

@@ -72,6 +72,19 @@ impl Ramp {
         }
     }
 
+    /// The state between steps (output, its rate, started 0/1), for hosts that keep a
+    /// block's state in their own memory (the IEC engine's native function blocks).
+    pub fn state(&self) -> [f64; 3] {
+        [self.x, self.v, f64::from(u8::from(self.started))]
+    }
+
+    /// Sets the state [`Ramp::state`] gave.
+    pub fn set_state(&mut self, s: [f64; 3]) {
+        self.x = s[0];
+        self.v = s[1];
+        self.started = s[2] != 0.0;
+    }
+
     pub fn config(&self) -> &RampConfig {
         &self.config
     }
