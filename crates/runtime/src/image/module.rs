@@ -48,22 +48,34 @@ impl Handle {
     }
 }
 
-/// How `update()` writes the owned bits out; chosen once from the mask's shape.
-#[derive(Debug)]
-enum Plan {
-    /// Owned words scattered thinly: one masked pass over the span that holds them beats a
-    /// loop over many tiny runs.
-    Span { start: usize, end: usize },
-    /// Owned words in runs: whole words are copied, words shared with other owners merged.
-    Runs(Vec<Run>),
+/// How `update()` exchanges the words, precomputed from the mask once. The image is cut into
+/// blocks of [`BLOCK`] words (a cache line: the words start line-aligned in both maps), and
+/// runs of consecutive blocks alike become one step: owned by others (copied in), owned by
+/// the module (copied out), or owned in the same pattern (merged under that pattern, held in
+/// registers, so no mask is streamed from memory). Interleaved ownership, the worst case for
+/// runs of words, is then one merge over the whole image.
+#[derive(Debug, Default)]
+struct Plan {
+    steps: Vec<Step>,
+    /// The masks of [`Step::Merge`], [`BLOCK`] words each.
+    patterns: Vec<[u32; BLOCK]>,
 }
 
-#[derive(Debug)]
-struct Run {
-    start: usize,
-    end: usize,
-    /// Every bit of every word in the run is owned.
-    full: bool,
+/// Words per block of the plan.
+const BLOCK: usize = 16;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Step {
+    /// `words` words from `start` owned by other modules: global to private.
+    In { start: u32, words: u32 },
+    /// Owned by this module: private to global.
+    Out { start: u32, words: u32 },
+    /// Owned in part, every block as `patterns[pattern]` says.
+    Merge {
+        start: u32,
+        words: u32,
+        pattern: u32,
+    },
 }
 
 /// One module's map of the image (MatPLC's private map and map mask).
@@ -518,7 +530,7 @@ struct Shape {
 fn exchange(plan: &Plan, m: &[u32], guard: &mut ImageGuard<'_>, p: &mut [u32]) {
     let forced = guard.any_forced();
     let parts = guard.parts_mut();
-    merge(plan, m, parts.words, p);
+    merge(plan, parts.words, p);
     if forced {
         for (w, &fm) in parts.force_mask.iter().enumerate() {
             let others = fm & !m[w];
@@ -531,60 +543,129 @@ fn exchange(plan: &Plan, m: &[u32], guard: &mut ImageGuard<'_>, p: &mut [u32]) {
 
 /// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in. `g` must
 /// be locked.
-fn merge(plan: &Plan, m: &[u32], g: &mut [u32], p: &mut [u32]) {
-    match plan {
-        Plan::Span { start, end } => {
-            let (s, e) = (*start, *end);
-            for ((g, p), m) in g[s..e].iter_mut().zip(&mut p[s..e]).zip(&m[s..e]) {
-                let v = (*g & !*m) | (*p & *m);
-                *g = v;
-                *p = v;
+fn merge(plan: &Plan, g: &mut [u32], p: &mut [u32]) {
+    for &step in &plan.steps {
+        match step {
+            Step::In { start, words } => {
+                let r = start as usize..(start + words) as usize;
+                p[r.clone()].copy_from_slice(&g[r]);
             }
-            p[..s].copy_from_slice(&g[..s]);
-            p[e..].copy_from_slice(&g[e..]);
-        }
-        Plan::Runs(runs) => {
-            for r in runs {
-                let (g, p) = (&mut g[r.start..r.end], &p[r.start..r.end]);
-                if r.full {
-                    g.copy_from_slice(p);
-                } else {
-                    for ((g, p), m) in g.iter_mut().zip(p).zip(&m[r.start..r.end]) {
-                        *g = (*g & !*m) | (*p & *m);
+            Step::Out { start, words } => {
+                let r = start as usize..(start + words) as usize;
+                g[r.clone()].copy_from_slice(&p[r]);
+            }
+            Step::Merge {
+                start,
+                words,
+                pattern,
+            } => {
+                let r = start as usize..(start + words) as usize;
+                let m = plan.patterns[pattern as usize];
+                let (g, p) = (&mut g[r.clone()], &mut p[r]);
+                let mut gc = g.chunks_exact_mut(BLOCK);
+                let mut pc = p.chunks_exact_mut(BLOCK);
+                for (g, p) in (&mut gc).zip(&mut pc) {
+                    let g: &mut [u32; BLOCK] = g.try_into().expect("a whole block");
+                    let p: &mut [u32; BLOCK] = p.try_into().expect("a whole block");
+                    for i in 0..BLOCK {
+                        let v = (g[i] & !m[i]) | (p[i] & m[i]);
+                        g[i] = v;
+                        p[i] = v;
                     }
                 }
+                for ((g, p), m) in gc
+                    .into_remainder()
+                    .iter_mut()
+                    .zip(pc.into_remainder())
+                    .zip(&m)
+                {
+                    let v = (*g & !*m) | (*p & *m);
+                    *g = v;
+                    *p = v;
+                }
             }
-            p.copy_from_slice(g);
         }
     }
 }
 
-/// Picks how `update()` writes out the owned words described by `mask`.
+/// Precomputes how `update()` exchanges the words of a module owning the bits of `mask`.
 fn plan(mask: &[u32]) -> Plan {
-    let mut runs: Vec<Run> = Vec::new();
-    for (i, &m) in mask.iter().enumerate() {
-        if m == 0 {
-            continue;
-        }
-        let full = m == u32::MAX;
-        match runs.last_mut() {
-            Some(r) if r.end == i && r.full == full => r.end = i + 1,
-            _ => runs.push(Run {
-                start: i,
-                end: i + 1,
-                full,
-            }),
+    let mut plan = Plan::default();
+    for (b, block) in mask.chunks(BLOCK).enumerate() {
+        let start = (b * BLOCK) as u32;
+        let words = block.len() as u32;
+        let step = if block.iter().all(|&m| m == 0) {
+            Step::In { start, words }
+        } else if block.iter().all(|&m| m == u32::MAX) {
+            Step::Out { start, words }
+        } else {
+            let mut pattern = [0u32; BLOCK];
+            pattern[..block.len()].copy_from_slice(block);
+            let same = matches!(plan.steps.last(), Some(Step::Merge { pattern: k, .. })
+                if plan.patterns[*k as usize] == pattern);
+            if !same {
+                plan.patterns.push(pattern);
+            }
+            Step::Merge {
+                start,
+                words,
+                pattern: (plan.patterns.len() - 1) as u32,
+            }
+        };
+        // Extend the previous step when this block continues it.
+        match (plan.steps.last_mut(), step) {
+            (Some(Step::In { words: w, .. }), Step::In { words, .. })
+            | (Some(Step::Out { words: w, .. }), Step::Out { words, .. }) => *w += words,
+            (
+                Some(Step::Merge {
+                    words: w,
+                    pattern: a,
+                    ..
+                }),
+                Step::Merge {
+                    words, pattern: b, ..
+                },
+            ) if *a == b => *w += words,
+            _ => plan.steps.push(step),
         }
     }
-    let owned: usize = runs.iter().map(|r| r.end - r.start).sum();
-    // Below a few words per run the per-run overhead dominates; the span pass streams the
-    // mask instead, at about the cost of a copy.
-    if runs.len() > 1 && owned < 8 * runs.len() {
-        Plan::Span {
-            start: runs[0].start,
-            end: runs[runs.len() - 1].end,
-        }
-    } else {
-        Plan::Runs(runs)
+    plan
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{merge, plan};
+
+    /// Runs `merge` with the plan of `mask` and compares it with the definition: owned bits
+    /// from the private words, every other bit from the global ones, in both.
+    fn check(mask: &[u32]) {
+        let g0: Vec<u32> = (0..mask.len() as u32)
+            .map(|i| i.wrapping_mul(0x9E37_79B9))
+            .collect();
+        let p0: Vec<u32> = (0..mask.len() as u32)
+            .map(|i| !i.wrapping_mul(0x85EB_CA6B))
+            .collect();
+        let want: Vec<u32> = (0..mask.len())
+            .map(|i| (g0[i] & !mask[i]) | (p0[i] & mask[i]))
+            .collect();
+        let (mut g, mut p) = (g0.clone(), p0.clone());
+        merge(&plan(mask), &mut g, &mut p);
+        assert_eq!(g, want, "global words, mask {mask:x?}");
+        assert_eq!(p, want, "private words, mask {mask:x?}");
+    }
+
+    #[test]
+    fn every_shape_of_ownership_merges_as_the_masks_say() {
+        check(&[]);
+        check(&[0; 5]);
+        check(&[u32::MAX; 20]);
+        // Interleaved single words, a long run, a short run, partial words at the ends.
+        let mut mask: Vec<u32> = (0..64)
+            .map(|i| if i % 4 == 1 { u32::MAX } else { 0 })
+            .collect();
+        mask.extend([u32::MAX; 9]);
+        mask.extend([0, u32::MAX, u32::MAX, 0x0000_FF00, 0x8000_0001]);
+        check(&mask);
+        check(&[0x0F, u32::MAX, 0xF0]);
     }
 }
