@@ -134,9 +134,15 @@ pub struct Simulation<'n> {
     cursor: CursorState,
     /// Timeline column → controller input it drives.
     timeline_inputs: Vec<(usize, SignalId)>,
+    /// Per timeline column: the controller input it drives.
+    column_input: Vec<Option<SignalId>>,
     plant: Option<PlantWiring<'n>>,
     /// Per controller signal: a value set by hand, overriding timeline and plant.
     forced: Vec<Option<i64>>,
+    /// The signals in `forced`, in the order they were first set.
+    forced_list: Vec<SignalId>,
+    /// An input was set by hand since the last scan.
+    set_by_hand: bool,
     input_ids: Vec<SignalId>,
     output_ids: Vec<SignalId>,
     warnings: Vec<String>,
@@ -322,10 +328,17 @@ impl<'n> Simulation<'n> {
             .collect();
 
         let cursor = timeline.as_ref().map(CursorState::new).unwrap_or_default();
+        let mut column_input = vec![None; timeline.as_ref().map_or(0, |t| t.columns().len())];
+        for &(c, s) in &timeline_inputs {
+            column_input[c] = Some(s);
+        }
         Ok(Simulation {
             net,
             opts,
-            scanner: Scanner::new(net, opts.scan),
+            scanner: Scanner::incremental(net, opts.scan),
+            column_input,
+            forced_list: Vec::new(),
+            set_by_hand: false,
             signals: vec![0; net.signals().len()],
             timeline,
             cursor,
@@ -341,6 +354,14 @@ impl<'n> Simulation<'n> {
             current: TraceRow::default(),
             trace,
         })
+    }
+
+    /// Scans the controller with the reference evaluator ([`Scanner::new`], every transition
+    /// every pass) instead of the incremental one, which gives the same scans: for tests that
+    /// hold the two to each other. Call it before the first step.
+    pub fn use_reference_evaluator(&mut self) {
+        debug_assert_eq!(self.next, 0, "switch evaluators before the first scan");
+        self.scanner = Scanner::new(self.net, self.opts.scan);
     }
 
     /// Wiring remarks that do not stop the run, e.g. inputs nothing drives.
@@ -386,14 +407,18 @@ impl<'n> Simulation<'n> {
     }
 
     fn scan_at(&mut self, t: Duration) -> Result<(), SimError> {
-        // (1) The timeline's values at t.
-        let values: &[Option<i64>] = match &self.timeline {
-            Some(tl) => self.cursor.seek(tl, t),
-            None => &[],
-        };
-        for &(col, s) in &self.timeline_inputs {
-            if let Some(v) = values[col] {
-                self.signals[s.index()] = v;
+        // (1) The timeline's values at t: only the columns that changed are written (the
+        // others hold their values from earlier scans).
+        let mut inputs_changed = self.next == 0 || std::mem::take(&mut self.set_by_hand);
+        if let Some(tl) = &self.timeline {
+            self.cursor.seek(tl, t);
+        }
+        let values = self.cursor.values();
+        for &col in &self.cursor.changed {
+            if let (Some(s), Some(v)) = (self.column_input[col], values[col]) {
+                let slot = &mut self.signals[s.index()];
+                inputs_changed |= *slot != v;
+                *slot = v;
             }
         }
         // (2) The plant, seeing the controller's outputs from the previous scan.
@@ -412,21 +437,36 @@ impl<'n> Simulation<'n> {
                 .step(t, &pw.inputs, &mut pw.outputs)
                 .map_err(|source| SimError::Plant { time: t, source })?;
             for &(i, s) in &pw.drives {
-                self.signals[s.index()] = pw.outputs[i];
+                let slot = &mut self.signals[s.index()];
+                inputs_changed |= *slot != pw.outputs[i];
+                *slot = pw.outputs[i];
             }
         }
-        for (v, f) in self.signals.iter_mut().zip(&self.forced) {
-            if let Some(f) = f {
-                *v = *f;
+        for &s in &self.forced_list {
+            if let Some(f) = self.forced[s.index()] {
+                let slot = &mut self.signals[s.index()];
+                inputs_changed |= *slot != f;
+                *slot = f;
             }
         }
         // (3) The controller.
         self.scanner
             .scan(t, &mut self.signals)
             .map_err(|source| SimError::Scan { time: t, source })?;
-        // (4) The record.
+        // (4) The record. A scan where nothing changed and nothing fired repeats the last
+        // row kept (every scan's row equals the last kept one or is kept), so it is only
+        // counted.
         let row = &mut self.current;
         row.time = t;
+        if !inputs_changed
+            && self.scanner.fired().is_empty()
+            && !self.scanner.marking_changed()
+            && !self.scanner.outputs_changed()
+        {
+            row.fired.clear();
+            self.trace.count(t);
+            return Ok(());
+        }
         row.inputs.clear();
         row.inputs
             .extend(self.input_ids.iter().map(|s| self.signals[s.index()]));
@@ -465,8 +505,12 @@ impl<'n> Simulation<'n> {
                     value,
                 });
             }
+            if self.forced[s.index()].is_none() {
+                self.forced_list.push(s);
+            }
             self.forced[s.index()] = Some(value);
             self.signals[s.index()] = value;
+            self.set_by_hand = true;
             found = true;
         }
         if let Some(pw) = &mut self.plant {

@@ -131,6 +131,14 @@ impl Trace {
         keep
     }
 
+    /// Notes a scan at `time` whose row would equal the last one kept (nothing changed and
+    /// nothing fired): what [`Trace::record`] does with such a row, without the row.
+    pub fn count(&mut self, time: Duration) {
+        debug_assert!(!self.rows.is_empty(), "the first scan is always recorded");
+        self.scans += 1;
+        self.end = self.end.max(time);
+    }
+
     /// How many data lines [`Trace::write_csv`] writes: one per kept row.
     pub fn csv_rows(&self) -> usize {
         self.rows.len()
