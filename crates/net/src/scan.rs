@@ -269,6 +269,17 @@ impl<'n> Scanner<'n> {
         }
         self.last_time = Some(now);
         if let Some(mut inc) = self.incr.take() {
+            self.marking_changed = false;
+            self.outputs_changed = false;
+            self.fired.clear();
+            self.read_changes(&mut inc, signals);
+            if self.quiet(&inc, now) {
+                // Nothing changed, no delay ran out, nothing is enabled: the scan is one
+                // pass that fires nothing (most scans of a controller waiting for inputs).
+                self.passes = 1;
+                self.incr = Some(inc);
+                return Ok(());
+            }
             let r = self.scan_incremental(&mut inc, now, signals);
             if r.is_err() {
                 // Whatever the error left half done is rebuilt by the next scan.
@@ -758,15 +769,9 @@ impl Incremental {
 }
 
 impl Scanner<'_> {
-    /// [`Scanner::scan`] for an incremental scanner (`self.incr` taken out as `inc`).
-    fn scan_incremental(
-        &mut self,
-        inc: &mut Incremental,
-        now: Duration,
-        signals: &mut [i64],
-    ) -> Result<(), ScanError> {
-        self.marking_changed = false;
-        self.outputs_changed = false;
+    /// The first part of an incremental scan: what changed since the last one (signals that
+    /// guards read, input places), or everything after a reset.
+    fn read_changes(&mut self, inc: &mut Incremental, signals: &[i64]) {
         if !inc.valid {
             inc.valid = true;
             inc.moved.take();
@@ -784,12 +789,19 @@ impl Scanner<'_> {
                 inc.last[k] = signals[s as usize];
             }
         } else {
-            for k in 0..inc.watched.len() {
-                let s = inc.watched[k] as usize;
-                if signals[s] != inc.last[k] {
-                    inc.last[k] = signals[s];
-                    for &t in inc.guard_readers.get(s) {
-                        inc.dirty.add(t);
+            let Incremental {
+                watched,
+                last,
+                guard_readers,
+                dirty,
+                ..
+            } = inc;
+            for (&s, last) in watched.iter().zip(last.iter_mut()) {
+                let v = signals[s as usize];
+                if v != *last {
+                    *last = v;
+                    for &t in guard_readers.get(s as usize) {
+                        dirty.add(t);
                     }
                 }
             }
@@ -803,7 +815,28 @@ impl Scanner<'_> {
                 self.avail[p.index()] = v;
             }
         }
-        self.fired.clear();
+    }
+
+    /// Whether the scan has nothing to do: nothing to ask again, no timer to sample or
+    /// running out, nothing enabled, and no place moved by the inputs.
+    #[inline]
+    fn quiet(&self, inc: &Incremental, now: Duration) -> bool {
+        inc.dirty.list.is_empty()
+            && inc.timers.list.is_empty()
+            && inc.moved.list.is_empty()
+            && inc.outputs.list.is_empty()
+            && inc.due.peek().is_none_or(|d| d.0 .0 > now)
+            && inc.enabled.iter().all(|&w| w == 0)
+            && !(self.options.evolve == Evolution::UntilStable && self.options.max_passes == 0)
+    }
+
+    /// The passes of an incremental scan, after [`Scanner::read_changes`].
+    fn scan_incremental(
+        &mut self,
+        inc: &mut Incremental,
+        now: Duration,
+        signals: &mut [i64],
+    ) -> Result<(), ScanError> {
         self.passes = 0;
         let mut second_half = 0;
         loop {
@@ -909,7 +942,9 @@ impl Scanner<'_> {
         signals: &[i64],
     ) -> Result<(), ScanError> {
         let net = self.net;
-        inc.visit.copy_from_slice(&inc.enabled);
+        for (v, &e) in inc.visit.iter_mut().zip(&inc.enabled) {
+            *v = e;
+        }
         let mut from = 0;
         while let Some(i) = next_bit(&inc.visit, from) {
             from = i + 1;

@@ -148,6 +148,8 @@ pub struct Simulation<'n> {
     warnings: Vec<String>,
     /// Index of the next scan.
     next: u64,
+    /// Its time, `next`·period (kept by adding the period: exact, and no division per scan).
+    next_at: Duration,
     now: Duration,
     finished: bool,
     current: TraceRow,
@@ -349,6 +351,7 @@ impl<'n> Simulation<'n> {
             output_ids: net.outputs().collect(),
             warnings,
             next: 0,
+            next_at: Duration::ZERO,
             now: Duration::ZERO,
             finished: false,
             current: TraceRow::default(),
@@ -380,7 +383,8 @@ impl<'n> Simulation<'n> {
 
     /// The time of the next scan (past `until` once the run is over).
     pub fn next_time(&self) -> Duration {
-        self.time_of(self.next)
+        debug_assert_eq!(self.next_at, self.time_of(self.next));
+        self.next_at
     }
 
     /// Whether the run is over: past `until`, or stopped by an error.
@@ -402,6 +406,10 @@ impl<'n> Simulation<'n> {
             return Err(e);
         }
         self.next += 1;
+        self.next_at = self
+            .next_at
+            .checked_add(self.opts.period)
+            .unwrap_or(Duration::MAX);
         self.now = t;
         Ok(Some(&self.current))
     }
