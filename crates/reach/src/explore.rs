@@ -30,7 +30,7 @@ use petriplc_net::{Marking, Net, TransitionId};
 use crate::layout::{hash, Dyn, Fixed, Layout, Stride};
 use crate::shard::Shard;
 use crate::space::StateSpace;
-use crate::{ExploreOptions, Progress, ReachError};
+use crate::{ExploreOptions, Limit, Progress, ReachError};
 
 /// Number of hash shards (a power of two: the top bits of a hash pick one).
 pub(crate) const SHARDS: usize = 64;
@@ -292,6 +292,8 @@ struct Ctl {
     /// A stop came in the middle of a level with successors still stashed: that level counts
     /// as not expanded.
     partial: bool,
+    /// The limit that stopped the exploration, if one did.
+    limit: Option<Limit>,
     last_progress: Instant,
 }
 
@@ -415,6 +417,7 @@ impl<'a> Engine<'a> {
                 stash: Vec::new(),
                 stash_seen: HashSet::new(),
                 partial: false,
+                limit: None,
                 last_progress: Instant::now(),
             },
             stats,
@@ -482,6 +485,7 @@ impl<'a> Engine<'a> {
             complete,
             expanded,
             self.started.elapsed(),
+            self.ctl.limit.filter(|_| !complete),
         ))
     }
 
@@ -994,7 +998,16 @@ fn next_step<S: Stride>(
             .into_iter()
             .chain(cancel)
             .any(|c| c.load(Ordering::Relaxed));
-        if cancelled || opts.max_states.is_some_and(|m| states >= m) {
+        if cancelled {
+            ctl.limit = Some(Limit::Cancelled);
+            return Err(Exit::Stopped);
+        }
+        if let Some(m) = opts.max_states.filter(|&m| states >= m) {
+            ctl.limit = Some(Limit::States(m));
+            return Err(Exit::Stopped);
+        }
+        if let Some(m) = opts.max_memory.filter(|&m| memory(sh.parts) as u64 >= m) {
+            ctl.limit = Some(Limit::Memory(m));
             return Err(Exit::Stopped);
         }
         if let Some(p) = &opts.progress {
@@ -1004,6 +1017,7 @@ fn next_step<S: Stride>(
                     states,
                     edges: sh.edges.load(Ordering::Relaxed),
                     elapsed: started.elapsed(),
+                    bytes: memory(sh.parts) as u64,
                 });
             }
         }
@@ -1017,6 +1031,17 @@ fn next_step<S: Stride>(
         let part = std::mem::take(&mut w.stash);
         add_stash(ctl, sh.layout.base.len(), &part);
     }
+}
+
+/// Bytes the tables and the frontier hold.
+fn memory(parts: &[RwLock<Part>]) -> usize {
+    parts
+        .iter()
+        .map(|p| {
+            let p = read(p);
+            p.table.bytes() + (p.cur.capacity() + p.next.capacity()) * 8
+        })
+        .sum()
 }
 
 fn round_of(sh: &Shared, ctl: &Ctl, start: u64, end: u64) -> Round {
