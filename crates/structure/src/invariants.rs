@@ -307,6 +307,9 @@ fn inv_work(inv: &Invariants) -> u64 {
     inv.vectors.iter().map(|v| v.len() as u64).sum()
 }
 
+/// A sparse integer vector: (index, value) sorted by index, no zeros.
+type SparseRow = Vec<(u32, i64)>;
+
 /// A basis of {y ∈ ℤⁿ : Σ y_i rows[i] = 0} (sparse vectors sorted by index, gcd 1), and the
 /// work spent. Fraction-free elimination: each constraint column in turn, cheapest first
 /// (the rows it touches have the fewest entries), is cancelled from every row that has it by
@@ -318,7 +321,7 @@ fn kernel_basis(
     ncols: usize,
     limits: Limits,
     what: &'static str,
-) -> Result<(Vec<Vec<(u32, i64)>>, u64), Stop> {
+) -> Result<(Vec<SparseRow>, u64), Stop> {
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
 
