@@ -33,6 +33,9 @@ pub(crate) struct SccSummary {
 
 const NONE: u32 = u32::MAX;
 
+/// States whose predecessors are looked up together in the backward search.
+const BATCH: usize = 8;
+
 /// States per unit of work in a parallel sweep.
 const SWEEP_CHUNK: u64 = 2048;
 
@@ -241,28 +244,42 @@ impl<S: Stride> Graph<'_, S> {
                 let mut m = sp.layout.base.clone();
                 let mut cand: Vec<u64> = Vec::new();
                 let mut hashes: Vec<u64> = Vec::new();
-                let mut by: Vec<usize> = Vec::new();
                 let mut mine: Vec<u64> = Vec::new();
-                for y in frontier[lo as usize * k..hi as usize * k].chunks_exact(k) {
+                let part = &frontier[lo as usize * k..hi as usize * k];
+                // The predecessors of BATCH states at a time: every candidate's table slot
+                // is touched before the first is probed, so that the cache misses overlap.
+                for batch in part.chunks(BATCH * k) {
                     if reached.load(Ordering::Relaxed) == n as u64 {
                         break;
                     }
-                    sp.decode(y, &mut m);
                     cand.clear();
                     hashes.clear();
-                    by.clear();
-                    for (t, ch) in changes.iter().enumerate() {
-                        // Undoing t must leave every place within its field.
-                        let fits = ch.iter().all(|&(p, c)| {
-                            let v = i64::from(m[p]) - c;
-                            v >= 0 && v <= i64::from(sp.layout.fields[p].max)
-                        });
-                        if fits {
-                            let d = &sp.deltas[t * k..t * k + k];
-                            let at = cand.len();
-                            cand.extend(y.iter().zip(d).map(|(a, b)| a.wrapping_sub(*b)));
-                            hashes.push(hash(&cand[at..]));
-                            by.push(t);
+                    for y in batch.chunks_exact(k) {
+                        sp.decode(y, &mut m);
+                        for (t, ch) in changes.iter().enumerate() {
+                            // Undoing t must leave every place within its field, and t must
+                            // be enabled in the result for it to be an edge to y; both are
+                            // asked before any look-up.
+                            let fits = ch.iter().all(|&(p, c)| {
+                                let v = i64::from(m[p]) - c;
+                                v >= 0 && v <= i64::from(sp.layout.fields[p].max)
+                            });
+                            if !fits {
+                                continue;
+                            }
+                            for &(p, c) in ch {
+                                m[p] = (i64::from(m[p]) - c) as u32;
+                            }
+                            let enabled = sp.rules.enabled(t, &m);
+                            for &(p, c) in ch {
+                                m[p] = (i64::from(m[p]) + c) as u32;
+                            }
+                            if enabled {
+                                let d = &sp.deltas[t * k..t * k + k];
+                                let at = cand.len();
+                                cand.extend(y.iter().zip(d).map(|(a, b)| a.wrapping_sub(*b)));
+                                hashes.push(hash(&cand[at..]));
+                            }
                         }
                     }
                     let mut sink = 0u64;
@@ -275,20 +292,7 @@ impl<S: Stride> Graph<'_, S> {
                         let Some(at) = sp.find_slot(self.s, x, h) else {
                             continue;
                         };
-                        if is_in(at) {
-                            continue;
-                        }
-                        // A stored marking that t leads from to y: an edge if t is enabled
-                        // there (asked only now, once per state reached).
-                        let ch = &changes[by[j]];
-                        for &(p, c) in ch {
-                            m[p] = (i64::from(m[p]) - c) as u32;
-                        }
-                        let enabled = sp.rules.enabled(by[j], &m);
-                        for &(p, c) in ch {
-                            m[p] = (i64::from(m[p]) + c) as u32;
-                        }
-                        if enabled && join(at) {
+                        if !is_in(at) && join(at) {
                             mine.extend_from_slice(x);
                             reached.fetch_add(1, Ordering::Relaxed);
                         }

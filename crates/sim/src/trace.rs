@@ -2,6 +2,7 @@
 //! form, which is byte-for-byte deterministic so runs can be diffed and golden-tested.
 
 use std::borrow::Cow;
+use std::fmt::Write as _;
 use std::io::{self, Write};
 use std::time::Duration;
 
@@ -175,12 +176,11 @@ impl Trace {
                     SignalType::Bool => i64::from(*v != 0),
                     SignalType::Int => *v,
                 };
-                line.push(',');
-                line.push_str(&v.to_string());
+                // Into the line's buffer: no string per field.
+                let _ = write!(line, ",{v}");
             }
             for m in &row.marking {
-                line.push(',');
-                line.push_str(&m.to_string());
+                let _ = write!(line, ",{m}");
             }
             push_field(&mut line, &row.fired.join(" "));
             line.push('\n');

@@ -151,3 +151,56 @@ fn philosophers() {
         10.0,
     );
 }
+
+/// The examples checked above with their own inputs and plants, by net file.
+const CHECKED: &[&str] = &[
+    "examples/blink/blink.pnml",
+    "examples/busy-beaver/busy-beaver.pnml",
+    "examples/keyboard/keyboard.pnml",
+    "examples/mixer/mixer.pnml",
+    "examples/philosophers/philosophers.pnml",
+];
+
+/// Every other net under `examples/` (plant nets, examples added later) is checked too, as a
+/// controller driven by the `timeline.csv` beside it when that fits its inputs, else alone.
+#[test]
+fn every_other_example_net() {
+    let mut nets = Vec::new();
+    for dir in std::fs::read_dir(root().join("examples")).unwrap() {
+        let dir = dir.unwrap().path();
+        if !dir.is_dir() {
+            continue;
+        }
+        for f in std::fs::read_dir(&dir).unwrap() {
+            let f = f.unwrap().path();
+            if f.extension().is_some_and(|e| e == "pnml") {
+                let rel = f
+                    .strip_prefix(root())
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
+                if !CHECKED.contains(&rel.as_str()) {
+                    nets.push(rel);
+                }
+            }
+        }
+    }
+    nets.sort();
+    assert!(!nets.is_empty(), "no other example nets found");
+    for rel in &nets {
+        let dir = Path::new(rel).parent().unwrap();
+        let timeline = dir.join("timeline.csv");
+        let net = read(rel, Naming::Plain);
+        let fits = root().join(&timeline).exists() && {
+            let t = Timeline::read_file(root().join(&timeline)).unwrap();
+            let opts = SimOptions {
+                period: Duration::from_millis(10),
+                until: Duration::from_secs(1),
+                scan: ScanOptions::of(&net),
+            };
+            Simulation::new(&net, opts, Some(t), None).is_ok()
+        };
+        let timeline = fits.then(|| timeline.to_string_lossy().into_owned());
+        check(rel, Naming::Plain, timeline.as_deref(), None, 10.0);
+    }
+}
