@@ -10,6 +10,7 @@ use std::time::Duration;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
+use tokio::runtime::Handle;
 use tokio::time::Instant;
 
 use super::pdu;
@@ -23,7 +24,10 @@ const MAX_ADU: usize = 260;
 /// the unfinished one is moved to the front.
 const BUFFER: usize = 4096;
 
-pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>) {
+/// Accepts connections and hands them to the `runtimes` in turn (each a single thread), where
+/// each is served by one task for its whole life.
+pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>, runtimes: Vec<Handle>) {
+    let mut turn = 0usize;
     loop {
         let (stream, peer) = match listener.accept().await {
             Ok(c) => c,
@@ -48,17 +52,30 @@ pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>) {
         shared.clients.fetch_add(1, Ordering::Relaxed);
         log::debug!("modbus_server {}: client {peer} connected", shared.name);
         let shared = shared.clone();
-        tokio::spawn(async move {
-            let guard = ClientGuard(&shared);
-            connection(stream, peer, guard.0).await;
+        let guard = ClientGuard(shared);
+        // The socket is registered again with the reactor of the runtime that serves it, so
+        // its readiness wakes that thread only.
+        let stream = match stream.into_std() {
+            Ok(s) => s,
+            Err(e) => {
+                log::warn!("modbus_server {}: {peer}: {e}", guard.0.name);
+                continue;
+            }
+        };
+        runtimes[turn % runtimes.len()].spawn(async move {
+            match TcpStream::from_std(stream) {
+                Ok(stream) => connection(stream, peer, &guard.0).await,
+                Err(e) => log::warn!("modbus_server {}: {peer}: {e}", guard.0.name),
+            }
         });
+        turn = turn.wrapping_add(1);
     }
 }
 
 /// Counts the connection down however its task ends.
-struct ClientGuard<'a>(&'a Shared);
+struct ClientGuard(Arc<Shared>);
 
-impl Drop for ClientGuard<'_> {
+impl Drop for ClientGuard {
     fn drop(&mut self) {
         self.0.clients.fetch_sub(1, Ordering::Relaxed);
     }
