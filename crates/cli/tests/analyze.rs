@@ -292,3 +292,22 @@ fn max_memory_reads_sizes() {
     .code(2)
     .stderr(predicate::str::contains("write a size such as 512M"));
 }
+
+/// The progress bar is for terminals: piped, an exploration long enough for the bar to show
+/// on a terminal (over a second in a debug build) writes nothing to standard error.
+#[test]
+fn no_progress_bar_when_piped() {
+    let net = format!("{MCC}/Kanban-PT-00005/model.pnml");
+    let out = petriplc(&["analyze", &net, "--json", "--max-states", "200000"])
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let r: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(r["complete"], serde_json::json!(false));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("states/s") && !err.contains('\u{1b}'),
+        "progress written to a pipe: {err}"
+    );
+}

@@ -14,11 +14,12 @@
 //! holding   10  temp  f32  low_first
 //! ```
 //!
-//! The network runs on single-threaded tokio runtimes (one per `threads`), started by `init` and stopped by
-//! `close`. It answers from a register image under a mutex (never held across an await):
-//! `scan` applies the client writes received since the last scan to the points, in order, and
-//! then copies every mapped point into the image, one consistent snapshot per scan. A write
-//! is shown in the image at once, so a client reads back what it wrote.
+//! The network runs on single-threaded tokio runtimes (`threads`, default one), started by
+//! `init` and stopped by `close`. It answers from a register image under a mutex (never held
+//! across an await): `scan` applies the client writes received since the last scan to the
+//! points, in order, and then copies every mapped point into the image, one consistent
+//! snapshot per scan. A write is shown in the image at once, so a client reads back what it
+//! wrote.
 
 mod map;
 mod pdu;
