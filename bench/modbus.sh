@@ -5,7 +5,8 @@
 # (crates/modbus/examples/modbus_load.rs: one blocking connection per client, requests back to
 # back) reads 10 holding registers with 1 and with 16 concurrent clients. Runs are interleaved
 # (anchor, petriplc, anchor, ...) so machine noise hits both; the table shows medians over RUNS
-# runs and the throughput ratio petriplc/anchor against the goal of >= 1.
+# runs, and the ratios petriplc/anchor of throughput and p99 latency against the goals (16
+# clients: throughput >= 1.2x, p99 <= 1x).
 #
 #   bash bench/modbus.sh            # 3 runs x 5 s per server and client count (about 2 min)
 #   bash bench/modbus.sh --quick    # 3 runs x 1 s
@@ -104,7 +105,11 @@ done
 echo
 for c in $CLIENTS; do
   a=$(cut -d' ' -f1 "$work/a$c" | median); p=$(cut -d' ' -f1 "$work/p$c" | median)
-  awk -v a="$a" -v p="$p" -v c="$c" 'BEGIN {
-    r = (a > 0) ? p / a : 0
-    printf "%s client(s): throughput ratio petriplc/libmodbus **%.2f** (goal >= 1: %s)\n", c, r, (r >= 1 ? "met" : "NOT met") }'
+  a99=$(cut -d' ' -f3 "$work/a$c" | median); p99=$(cut -d' ' -f3 "$work/p$c" | median)
+  awk -v a="$a" -v p="$p" -v a99="$a99" -v p99="$p99" -v c="$c" 'BEGIN {
+    r = (a > 0) ? p / a : 0; q = (a99 > 0) ? p99 / a99 : 0
+    # The issue'"'"'s goals are for 16 clients; with fewer, petriplc should not be slower.
+    g = (c >= 16) ? 1.2 : 1
+    printf "%s client(s): throughput ratio petriplc/libmodbus **%.2f** (goal >= %g: %s), p99 ratio **%.2f** (goal <= 1: %s)\n",
+      c, r, g, (r >= g ? "met" : "NOT met"), q, (q <= 1 ? "met" : "NOT met") }'
 done

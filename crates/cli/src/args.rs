@@ -245,6 +245,11 @@ pub struct AnalyzeArgs {
     /// Stop exploring after this many states (the report is then marked incomplete).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     pub max_states: Option<u64>,
+    /// Stop exploring when the state space holds this much memory (`512M`, `2G`, bytes), and
+    /// skip the liveness checks that would need more; the report is then marked incomplete.
+    /// Default: half the machine's physical memory.
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    pub max_memory: Option<u64>,
     /// A plant net whose outputs feed the controller's inputs by name (closed loop).
     #[arg(long, value_name = "PNML")]
     pub plant: Option<PathBuf>,
@@ -389,6 +394,34 @@ fn parse_setting(s: &str) -> Result<(String, String), String> {
         Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
         _ => Err(format!("`{s}` is not NAME=VALUE (e.g. `K_alpha=45`)")),
     }
+}
+
+/// A size in bytes: a whole or decimal number with an optional unit K, M, G or T (powers of
+/// 1024; `KB`, `MiB` and lower case also accepted).
+pub(crate) fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let shift = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kb" | "kib" => 10,
+        "m" | "mb" | "mib" => 20,
+        "g" | "gb" | "gib" => 30,
+        "t" | "tb" | "tib" => 40,
+        _ => return Err(format!("`{s}`: write a size such as 512M, 2G or 1.5G")),
+    };
+    let v: f64 = num
+        .parse()
+        .map_err(|_| format!("`{s}`: write a size such as 512M, 2G or 1.5G"))?;
+    let bytes = v * (1u64 << shift) as f64;
+    if !(1.0..1.8e19).contains(&bytes) {
+        return Err(format!(
+            "`{s}`: a size of at least 1 byte, such as 512M or 2G"
+        ));
+    }
+    Ok(bytes as u64)
 }
 
 fn parse_period(s: &str) -> Result<Duration, String> {

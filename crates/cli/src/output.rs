@@ -7,11 +7,12 @@ use anyhow::Context;
 
 use crate::failure::{Failure, RunExt};
 
-/// Writes `produce`'s output to standard output; a closed pipe is not an error.
+/// Writes `produce`'s output to standard output, buffered (standard output alone flushes at
+/// every line: a long trace would cost a system call per row); a closed pipe is not an error.
 pub fn to_stdout(produce: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> Result<(), Failure> {
     let stdout = io::stdout();
-    let mut lock = stdout.lock();
-    match produce(&mut lock).and_then(|()| lock.flush()) {
+    let mut out = io::BufWriter::with_capacity(64 * 1024, stdout.lock());
+    match produce(&mut out).and_then(|()| out.flush()) {
         Err(e) if e.kind() == io::ErrorKind::BrokenPipe => Ok(()),
         other => other
             .context("cannot write to standard output")

@@ -377,3 +377,58 @@ fn never_words_the_start_and_names_its_abstraction() {
         "{out}"
     );
 }
+
+#[test]
+fn max_memory_gives_a_partial_report_with_the_limit() {
+    use serde_json::json;
+    // Philosophers-PT-000010 has 59 049 states; 256 KiB of states holds far fewer.
+    let r = check(
+        &mcc("Philosophers-PT-000010"),
+        &["--max-memory", "256K"],
+        &[
+            ("complete", json!(false)),
+            // Nothing found yet decides these: they are not claimed.
+            ("deadlock", Value::Null),
+            ("dead_transitions", Value::Null),
+            ("live", Value::Null),
+            ("reversible", Value::Null),
+        ],
+    );
+    assert!(r["states"].as_u64().unwrap() < 59049);
+    let why = r["incomplete"].to_string();
+    assert!(why.contains("--max-memory 256K"), "{why}");
+    // What the part explored shows holds: every transition fired somewhere.
+    assert_eq!(r["quasi_live"], json!(true));
+}
+
+#[test]
+fn max_memory_reads_sizes() {
+    petriplc(&[
+        "analyze",
+        "examples/mixer/mixer.pnml",
+        "--max-memory",
+        "lots",
+    ])
+    .assert()
+    .code(2)
+    .stderr(predicate::str::contains("write a size such as 512M"));
+}
+
+/// The progress bar is for terminals: piped, an exploration long enough for the bar to show
+/// on a terminal (over a second in a debug build) writes nothing to standard error.
+#[test]
+fn no_progress_bar_when_piped() {
+    let net = format!("{MCC}/Kanban-PT-00005/model.pnml");
+    let out = petriplc(&["analyze", &net, "--json", "--max-states", "200000"])
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let r: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(r["complete"], serde_json::json!(false));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("states/s") && !err.contains('\u{1b}'),
+        "progress written to a pipe: {err}"
+    );
+}

@@ -495,6 +495,30 @@ fn at_max_clients_the_longest_idle_connection_makes_room() {
 }
 
 #[test]
+fn several_network_threads_share_the_connections() {
+    let mut srv = Server::start(&CONF.replace(
+        "listen = 127.0.0.1:0",
+        "listen = 127.0.0.1:0\nthreads = 3\nmax_clients = 4",
+    ));
+    // Connections are handed to the threads in turn; every one is answered, the count of
+    // clients is shared, and one closing frees a place on any thread.
+    let mut clients: Vec<_> = (0..4).map(|_| srv.raw()).collect();
+    for round in 0..3 {
+        for c in clients.iter_mut() {
+            assert_eq!(c.request(round, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+        }
+    }
+    let mut refused = srv.raw();
+    refused.send(&adu(1, 1, &[0x03, 0, 9, 0, 1]));
+    assert!(refused.closed(), "a fifth client is closed");
+    clients.pop();
+    eventually(&mut srv, "one client gone", |s| s.counts().0 == 3);
+    let mut again = srv.raw();
+    assert_eq!(again.request(7, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+    assert_eq!(srv.counts().1, 13);
+}
+
+#[test]
 fn idle_connections_time_out() {
     let srv = Server::start(&CONF.replace(
         "listen = 127.0.0.1:0",
@@ -689,6 +713,11 @@ fn bad_settings_are_refused() {
         ("unit = 248\n", "1 to 247"),
         ("idle_timeout = soon\n", "`idle_timeout = soon`"),
         ("max_clients = 0\n", "`max_clients = 0`"),
+        (
+            "threads = 0\n",
+            "`threads = 0`: write a whole number from 1 to 64",
+        ),
+        ("threads = many\n", "`threads = many`"),
         ("word_order = big\n", "write high_first or low_first"),
         ("serial = /dev/ttyS0:9600:9Z1\n", "frame `9Z1`"),
         ("port = 502\n", "unknown setting `port`"),

@@ -39,6 +39,8 @@ struct Run {
     outputs: Vec<(SignalId, Bound)>,
     /// How often each transition has fired since the start, for `status`.
     fired: Vec<u64>,
+    /// Whether the outputs were written once (later scans write them when they change).
+    written: bool,
 }
 
 impl Petrinet {
@@ -78,11 +80,13 @@ impl Module for Petrinet {
             &ports(out_ids.clone()),
         )?;
         self.run = Some(Run {
-            scanner: Scanner::new(net, self.settings.options(net)),
+            // Only what changed is evaluated; the scans are those of the reference evaluator.
+            scanner: Scanner::incremental(net, self.settings.options(net)),
             signals: vec![0; net.signals().len()],
             inputs: in_ids.into_iter().zip(ins).collect(),
             outputs: out_ids.into_iter().zip(outs).collect(),
             fired: vec![0; net.transitions().len()],
+            written: false,
         });
         Ok(())
     }
@@ -100,6 +104,10 @@ impl Module for Petrinet {
         for t in run.scanner.fired() {
             run.fired[t.index()] += 1;
         }
+        if run.written && !run.scanner.outputs_changed() {
+            return Ok(Control::Continue);
+        }
+        run.written = true;
         for (s, b) in &run.outputs {
             let v = run.signals[s.index()];
             b.write(ctx.map, v).map_err(|e| {

@@ -107,6 +107,128 @@ impl Guard {
     }
 }
 
+/// A guard compiled once into postfix form over a stack of bits, for the scans that evaluate
+/// it every cycle: no boxes to follow and no recursion. It means exactly what
+/// [`Guard::eval`] means (tested against it on random guards).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FlatGuard {
+    ops: Vec<FlatOp>,
+    /// Kept for the rare guard whose evaluation stack would not fit in 64 bits.
+    deep: Option<Expr<SignalId>>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum FlatOp {
+    Const(bool),
+    Signal(u32),
+    NotSignal(u32),
+    Not,
+    And,
+    Or,
+    Xor,
+    Cmp(FlatOperand, CmpOp, FlatOperand),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum FlatOperand {
+    Signal(u32),
+    Literal(i64),
+}
+
+impl FlatGuard {
+    /// Compiles `guard`.
+    pub fn new(guard: &Guard) -> FlatGuard {
+        let mut ops = Vec::new();
+        let mut depth = 0usize;
+        let mut most = 0usize;
+        flatten(&guard.0, &mut ops, &mut depth, &mut most);
+        FlatGuard {
+            deep: (most > 64).then(|| guard.0.clone()),
+            ops,
+        }
+    }
+
+    /// Evaluates the guard; `values` is indexed by [`SignalId`].
+    #[inline]
+    pub fn eval(&self, values: &[i64]) -> bool {
+        let operand = |o: FlatOperand| match o {
+            FlatOperand::Signal(s) => values[s as usize],
+            FlatOperand::Literal(v) => v,
+        };
+        match self.ops.as_slice() {
+            [FlatOp::Const(b)] => return *b,
+            [FlatOp::Signal(s)] => return values[*s as usize] != 0,
+            [FlatOp::NotSignal(s)] => return values[*s as usize] == 0,
+            _ => {}
+        }
+        if let Some(e) = &self.deep {
+            return e.eval(&|s: &SignalId| values[s.index()]);
+        }
+        // Bit 0 is the top of the stack.
+        let mut st: u64 = 0;
+        for &op in &self.ops {
+            match op {
+                FlatOp::Const(b) => st = (st << 1) | u64::from(b),
+                FlatOp::Signal(s) => st = (st << 1) | u64::from(values[s as usize] != 0),
+                FlatOp::NotSignal(s) => st = (st << 1) | u64::from(values[s as usize] == 0),
+                FlatOp::Cmp(a, c, b) => st = (st << 1) | u64::from(c.apply(operand(a), operand(b))),
+                FlatOp::Not => st ^= 1,
+                FlatOp::And => {
+                    let b = st & 1;
+                    st >>= 1;
+                    st &= !1 | b;
+                }
+                FlatOp::Or => {
+                    let b = st & 1;
+                    st >>= 1;
+                    st |= b;
+                }
+                FlatOp::Xor => {
+                    let b = st & 1;
+                    st >>= 1;
+                    st ^= b;
+                }
+            }
+        }
+        st & 1 == 1
+    }
+}
+
+/// Appends `e` in postfix form, tracking the evaluation stack's depth.
+fn flatten(e: &Expr<SignalId>, ops: &mut Vec<FlatOp>, depth: &mut usize, most: &mut usize) {
+    let operand = |o: &Operand<SignalId>| match o {
+        Operand::Signal(s) => FlatOperand::Signal(s.0),
+        Operand::Literal(v) => FlatOperand::Literal(*v),
+    };
+    let mut push = |ops: &mut Vec<FlatOp>, op: FlatOp| {
+        ops.push(op);
+        *depth += 1;
+        *most = (*most).max(*depth);
+    };
+    match e {
+        Expr::Const(b) => push(ops, FlatOp::Const(*b)),
+        Expr::Signal(s) => push(ops, FlatOp::Signal(s.0)),
+        Expr::Cmp(a, c, b) => push(ops, FlatOp::Cmp(operand(a), *c, operand(b))),
+        Expr::Not(inner) => match inner.as_ref() {
+            Expr::Signal(s) => push(ops, FlatOp::NotSignal(s.0)),
+            _ => {
+                flatten(inner, ops, depth, most);
+                ops.push(FlatOp::Not);
+            }
+        },
+        Expr::And(a, b) | Expr::Or(a, b) | Expr::Xor(a, b) => {
+            flatten(a, ops, depth, most);
+            flatten(b, ops, depth, most);
+            ops.push(match e {
+                Expr::And(..) => FlatOp::And,
+                Expr::Or(..) => FlatOp::Or,
+                _ => FlatOp::Xor,
+            });
+            *depth -= 1;
+        }
+    }
+}
+
 impl<S> Expr<S> {
     /// Evaluates with `value` giving each signal's value.
     pub fn eval(&self, value: &impl Fn(&S) -> i64) -> bool {

@@ -10,7 +10,7 @@ pub mod model;
 pub mod scan;
 pub mod time;
 
-pub use guard::{Guard, GuardError};
+pub use guard::{FlatGuard, Guard, GuardError};
 pub use ids::{ArcId, PlaceId, SignalId, TransitionId};
 pub use model::{
     is_signal_name, Arc, ArcDirection, ArcKind, ArcSpec, Evolution, Marking, ModelError, Net,

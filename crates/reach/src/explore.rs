@@ -25,12 +25,12 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Barrier, Mutex, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::Instant;
 
-use petriplc_net::{Marking, Net, TransitionId};
+use petriplc_net::{Marking, Net, PlaceId, TransitionId};
 
 use crate::layout::{hash, Dyn, Fixed, Layout, Stride};
 use crate::shard::Shard;
 use crate::space::StateSpace;
-use crate::{ExploreOptions, Progress, ReachError};
+use crate::{ExploreOptions, Limit, Progress, ReachError};
 
 /// Number of hash shards (a power of two: the top bits of a hash pick one).
 pub(crate) const SHARDS: usize = 64;
@@ -60,44 +60,59 @@ pub(crate) struct Rules {
 
 impl Rules {
     pub fn new(net: &Net) -> Rules {
-        let gain = net
+        // Per transition, the places its firing changes, with C(p, t) (from its own arcs:
+        // nothing here may cost places × transitions, nets have 100 000 of each).
+        let changes: Vec<Vec<(PlaceId, i64)>> = net
             .transition_ids()
             .map(|t| {
-                net.place_ids()
-                    .filter_map(|p| {
-                        let c = net.incidence(p, t);
-                        (c > 0).then(|| (p.0, u32::try_from(c).unwrap_or(u32::MAX)))
-                    })
-                    .collect()
-            })
-            .collect();
-        // Places each transition's enabling looks at: every arc but an output arc to a place
-        // without capacity.
-        let reads: Vec<Vec<bool>> = net
-            .transition_ids()
-            .map(|u| {
-                let a = net.arcs_of(u);
-                let mut r = vec![false; net.places().len()];
-                for &(p, _) in a.consume.iter().chain(&a.read).chain(&a.inhibit) {
-                    r[p.index()] = true;
-                }
-                for &(p, _) in &a.produce {
-                    r[p.index()] |= net.bound(p).is_some();
-                }
-                r
-            })
-            .collect();
-        let affected = net
-            .transition_ids()
-            .map(|t| {
-                let changed: Vec<usize> = net
-                    .place_ids()
-                    .filter(|&p| net.incidence(p, t) != 0)
-                    .map(|p| p.index())
+                let a = net.arcs_of(t);
+                let mut ps: Vec<PlaceId> = a
+                    .consume
+                    .iter()
+                    .chain(&a.produce)
+                    .map(|&(p, _)| p)
                     .collect();
-                (0..reads.len() as u32)
-                    .filter(|&u| changed.iter().any(|&p| reads[u as usize][p]))
+                ps.sort_unstable();
+                ps.dedup();
+                ps.into_iter()
+                    .map(|p| (p, net.incidence(p, t)))
+                    .filter(|&(_, c)| c != 0)
                     .collect()
+            })
+            .collect();
+        let gain = changes
+            .iter()
+            .map(|ch| {
+                ch.iter()
+                    .filter(|&&(_, c)| c > 0)
+                    .map(|&(p, c)| (p.0, u32::try_from(c).unwrap_or(u32::MAX)))
+                    .collect()
+            })
+            .collect();
+        // Per place, the transitions whose enabling looks at it: every arc but an output arc
+        // to a place without capacity.
+        let mut readers: Vec<Vec<u32>> = vec![Vec::new(); net.places().len()];
+        for u in net.transition_ids() {
+            let a = net.arcs_of(u);
+            for &(p, _) in a.consume.iter().chain(&a.read).chain(&a.inhibit) {
+                readers[p.index()].push(u.0);
+            }
+            for &(p, _) in &a.produce {
+                if net.bound(p).is_some() {
+                    readers[p.index()].push(u.0);
+                }
+            }
+        }
+        let affected = changes
+            .iter()
+            .map(|ch| {
+                let mut us: Vec<u32> = ch
+                    .iter()
+                    .flat_map(|&(p, _)| readers[p.index()].iter().copied())
+                    .collect();
+                us.sort_unstable();
+                us.dedup();
+                us
             })
             .collect();
         Rules {
@@ -292,6 +307,8 @@ struct Ctl {
     /// A stop came in the middle of a level with successors still stashed: that level counts
     /// as not expanded.
     partial: bool,
+    /// The limit that stopped the exploration, if one did.
+    limit: Option<Limit>,
     last_progress: Instant,
 }
 
@@ -415,6 +432,7 @@ impl<'a> Engine<'a> {
                 stash: Vec::new(),
                 stash_seen: HashSet::new(),
                 partial: false,
+                limit: None,
                 last_progress: Instant::now(),
             },
             stats,
@@ -482,6 +500,7 @@ impl<'a> Engine<'a> {
             complete,
             expanded,
             self.started.elapsed(),
+            self.ctl.limit.filter(|_| !complete),
         ))
     }
 
@@ -997,7 +1016,16 @@ fn next_step<S: Stride>(
             .into_iter()
             .chain(cancel)
             .any(|c| c.load(Ordering::Relaxed));
-        if cancelled || opts.max_states.is_some_and(|m| states >= m) {
+        if cancelled {
+            ctl.limit = Some(Limit::Cancelled);
+            return Err(Exit::Stopped);
+        }
+        if let Some(m) = opts.max_states.filter(|&m| states >= m) {
+            ctl.limit = Some(Limit::States(m));
+            return Err(Exit::Stopped);
+        }
+        if let Some(m) = opts.max_memory.filter(|&m| memory(sh.parts) as u64 >= m) {
+            ctl.limit = Some(Limit::Memory(m));
             return Err(Exit::Stopped);
         }
         if let Some(p) = &opts.progress {
@@ -1007,6 +1035,7 @@ fn next_step<S: Stride>(
                     states,
                     edges: sh.edges.load(Ordering::Relaxed),
                     elapsed: started.elapsed(),
+                    bytes: memory(sh.parts) as u64,
                 });
             }
         }
@@ -1020,6 +1049,17 @@ fn next_step<S: Stride>(
         let part = std::mem::take(&mut w.stash);
         add_stash(ctl, sh.layout.base.len(), &part);
     }
+}
+
+/// Bytes the tables and the frontier hold.
+fn memory(parts: &[RwLock<Part>]) -> usize {
+    parts
+        .iter()
+        .map(|p| {
+            let p = read(p);
+            p.table.bytes() + (p.cur.capacity() + p.next.capacity()) * 8
+        })
+        .sum()
 }
 
 fn round_of(sh: &Shared, ctl: &Ctl, start: u64, end: u64) -> Round {

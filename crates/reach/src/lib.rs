@@ -27,7 +27,7 @@ use std::time::Duration;
 use petriplc_net::Net;
 
 pub use cover::{coverability, Coverability};
-pub use props::{properties, Properties};
+pub use props::{properties, properties_with, Properties, PropertyOptions};
 pub use space::{StateId, StateSpace};
 
 /// How [`explore`] runs.
@@ -36,6 +36,10 @@ pub struct ExploreOptions {
     /// Stop (with [`StateSpace::complete`] false) once this many states are stored. The check
     /// runs between rounds of at most 16 384 expanded states, so a few more may be stored.
     pub max_states: Option<u64>,
+    /// Stop (with [`StateSpace::complete`] false) once the states and the frontier take this
+    /// many bytes, checked between rounds like `max_states`; and skip the liveness
+    /// computations of [`properties_with`] that would need more.
+    pub max_memory: Option<u64>,
     /// Threads to use; 0 means one per core.
     pub threads: usize,
     /// Keep the reachability graph: needed for [`StateSpace::successors`] and for liveness,
@@ -51,6 +55,7 @@ impl std::fmt::Debug for ExploreOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ExploreOptions")
             .field("max_states", &self.max_states)
+            .field("max_memory", &self.max_memory)
             .field("threads", &self.threads)
             .field("keep_graph", &self.keep_graph)
             .field("cancel", &self.cancel)
@@ -65,6 +70,19 @@ pub struct Progress {
     pub states: u64,
     pub edges: u64,
     pub elapsed: Duration,
+    /// Bytes the states and the frontier hold.
+    pub bytes: u64,
+}
+
+/// What stopped an exploration before its end ([`StateSpace::limit`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Limit {
+    /// [`ExploreOptions::max_states`].
+    States(u64),
+    /// [`ExploreOptions::max_memory`], in bytes.
+    Memory(u64),
+    /// [`ExploreOptions::cancel`] was set.
+    Cancelled,
 }
 
 /// Why an exploration failed.

@@ -1,8 +1,10 @@
 //! Behavioural properties of an explored state space, as the Model Checking Contest defines
 //! them: bounds, safeness, deadlocks (with a shortest trace), quasi-liveness, and, from the
-//! strongly connected components of the kept graph, liveness, reversibility and home markings.
+//! strongly connected components of the graph, liveness, reversibility and home markings.
 
 use std::collections::HashSet;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 use petriplc_net::{Net, TransitionId};
 
@@ -30,8 +32,8 @@ pub struct Properties {
     pub quasi_live: bool,
     /// Transitions enabled in no reachable marking, in order.
     pub dead_transitions: Vec<TransitionId>,
-    /// From every reachable marking every transition can fire again (L4). `None` without the
-    /// graph or when incomplete.
+    /// From every reachable marking every transition can fire again (L4). `None` when the
+    /// exploration is incomplete or [`Properties::unknown`] says why.
     pub live: Option<bool>,
     /// The initial marking is reachable from every reachable marking.
     pub reversible: Option<bool>,
@@ -40,10 +42,33 @@ pub struct Properties {
     /// The state space was explored to the end. When false, the figures describe the explored
     /// part: a deadlock found is real, the absence of one proves nothing.
     pub complete: bool,
+    /// Why liveness, reversibility and home markings are unknown although the exploration is
+    /// complete (a memory budget, an interruption).
+    pub unknown: Option<String>,
 }
 
-/// Computes the properties of `space`, the state space of `net`.
+/// How [`properties_with`] may work.
+#[derive(Clone, Debug, Default)]
+pub struct PropertyOptions {
+    /// Threads to use; 0 means one per core.
+    pub threads: usize,
+    /// Skip liveness, reversibility and home markings (with the reason in
+    /// [`Properties::unknown`]) rather than hold more than this many bytes with the states.
+    pub max_memory: Option<u64>,
+    /// Set to stop early (the same three are then unknown).
+    pub cancel: Option<Arc<AtomicBool>>,
+}
+
+/// Computes the properties of `space`, the state space of `net`, on all cores and without a
+/// memory bound.
 pub fn properties(net: &Net, space: &StateSpace) -> Properties {
+    properties_with(net, space, &PropertyOptions::default())
+}
+
+/// Computes the properties of `space`, the state space of `net`. Liveness, reversibility and
+/// home markings come from the graph's strongly connected components, computed from the
+/// explored states without storing the graph.
+pub fn properties_with(net: &Net, space: &StateSpace, opts: &PropertyOptions) -> Properties {
     assert_eq!(
         net.transitions().len(),
         space.rules.transitions(),
@@ -58,7 +83,23 @@ pub fn properties(net: &Net, space: &StateSpace) -> Properties {
         .filter(|(_, f)| !**f)
         .map(|(t, _)| TransitionId(t as u32))
         .collect();
-    let scc = (space.has_graph() && space.complete()).then(|| crate::scc::analyse(space));
+    let threads = match opts.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    };
+    let bounds = crate::scc::Bounds {
+        threads,
+        max_memory: opts.max_memory,
+        cancel: opts.cancel.as_deref(),
+    };
+    let (scc, unknown) = if space.complete() {
+        match crate::scc::analyse(space, &bounds) {
+            Ok(s) => (Some(s), None),
+            Err(why) => (None, Some(why)),
+        }
+    } else {
+        (None, None)
+    };
     Properties {
         states: space.states(),
         edges: space.edges(),
@@ -74,6 +115,7 @@ pub fn properties(net: &Net, space: &StateSpace) -> Properties {
         reversible: scc.as_ref().map(|s| s.sccs == 1),
         home_marking: scc.as_ref().map(|s| s.bottoms == 1),
         complete: space.complete(),
+        unknown,
     }
 }
 
@@ -245,10 +287,21 @@ mod tests {
     }
 
     #[test]
-    fn without_the_graph_liveness_is_unknown() {
+    fn liveness_needs_no_kept_graph_and_is_unknown_when_incomplete() {
         let net = parse("a=1 b ; t: a -> b ; u: b -> a");
         let p = properties(&net, &explore(&net, &ExploreOptions::default()).unwrap());
+        assert_eq!(
+            (p.live, p.reversible, p.home_marking),
+            (Some(true), Some(true), Some(true))
+        );
+        assert!(p.complete && !p.deadlock && p.unknown.is_none());
+        let net = parse("a=3 b ; t: a -> b ; u: b -> a");
+        let opts = ExploreOptions {
+            max_states: Some(1),
+            ..Default::default()
+        };
+        let p = properties(&net, &explore(&net, &opts).unwrap());
         assert_eq!((p.live, p.reversible, p.home_marking), (None, None, None));
-        assert!(p.complete && !p.deadlock);
+        assert!(!p.complete);
     }
 }

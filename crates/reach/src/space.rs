@@ -10,6 +10,7 @@ use petriplc_net::{Marking, TransitionId};
 use crate::explore::{shard_of, Rules, Stats};
 use crate::layout::{hash, Dyn, Fixed, Layout, Stride};
 use crate::shard::Shard;
+use crate::Limit;
 
 /// A state, numbered breadth-first from the initial marking (state 0). The numbering is the
 /// same for every thread count.
@@ -84,6 +85,7 @@ pub struct StateSpace {
     complete: bool,
     expanded: u64,
     elapsed: Duration,
+    limit: Option<Limit>,
     pub(crate) graph: Option<Graph>,
 }
 
@@ -99,6 +101,7 @@ impl StateSpace {
         complete: bool,
         expanded: u64,
         elapsed: Duration,
+        limit: Option<Limit>,
     ) -> StateSpace {
         let mut segs = Vec::new();
         let mut level_first = Vec::new();
@@ -132,6 +135,7 @@ impl StateSpace {
             complete,
             expanded,
             elapsed,
+            limit,
             graph: None,
         }
     }
@@ -151,6 +155,11 @@ impl StateSpace {
     /// those of the part explored.
     pub fn complete(&self) -> bool {
         self.complete
+    }
+
+    /// The limit that stopped an incomplete exploration.
+    pub fn limit(&self) -> Option<Limit> {
+        self.limit
     }
 
     /// States whose successors were all computed: every state when complete; a prefix of the
@@ -288,15 +297,14 @@ impl StateSpace {
         ts.into_iter().zip(targets.iter().map(|&x| StateId(x)))
     }
 
-    /// The successor state numbers of `s` (graph kept).
-    pub(crate) fn targets(&self, s: usize) -> &[u32] {
-        self.graph.as_ref().expect("graph").targets(s)
+    /// Bytes [`StateSpace::slot_ids`] takes.
+    pub(crate) fn slot_ids_bytes(&self) -> usize {
+        self.shards.iter().map(|s| s.capacity() * 4).sum()
     }
 
-    /// Builds the graph of the expanded states on `threads` threads, which take blocks of
-    /// states in turn and look every successor up.
-    pub(crate) fn build_graph(&mut self, threads: usize) {
-        // Slot → state number, per shard.
+    /// Per shard, slot → state number (`u32::MAX` for an empty slot): with it a look-up in
+    /// the tables gives a state's number.
+    pub(crate) fn slot_ids(&self) -> Vec<Vec<u32>> {
         let mut ids: Vec<Vec<u32>> = self
             .shards
             .iter()
@@ -309,6 +317,53 @@ impl StateSpace {
                     (s.first + u64::from(j)) as u32;
             }
         }
+        ids
+    }
+
+    /// Starts the cache miss of looking `h` up (see [`Shard::touch`]).
+    #[inline]
+    pub(crate) fn touch<S: Stride>(&self, s: S, h: u64) -> u64 {
+        self.shards[shard_of(h)].touch(s, h)
+    }
+
+    /// The capacity of each shard's table, in shard order.
+    pub(crate) fn shard_capacities(&self) -> impl Iterator<Item = usize> + Clone + '_ {
+        self.shards.iter().map(Shard::capacity)
+    }
+
+    /// The (shard, slot) holding `key` (hash `h`), if stored.
+    #[inline]
+    pub(crate) fn find_slot<S: Stride>(&self, s: S, key: &[u64], h: u64) -> Option<(usize, usize)> {
+        let g = shard_of(h);
+        self.shards[g].find(s, key, h).map(|slot| (g, slot))
+    }
+
+    /// The number of the state with key `key` (hash `h`), if stored.
+    #[inline]
+    pub(crate) fn find_id<S: Stride>(
+        &self,
+        s: S,
+        ids: &[Vec<u32>],
+        key: &[u64],
+        h: u64,
+    ) -> Option<u32> {
+        let g = shard_of(h);
+        self.shards[g].find(s, key, h).map(|slot| ids[g][slot])
+    }
+
+    /// Builds the reachability graph after the exploration (as
+    /// [`crate::ExploreOptions::keep_graph`] does), for [`StateSpace::successors`]: 4 bytes
+    /// per edge.
+    pub fn keep_graph(&mut self, threads: usize) {
+        if self.graph.is_none() {
+            self.build_graph(threads.max(1));
+        }
+    }
+
+    /// Builds the graph of the expanded states on `threads` threads, which take blocks of
+    /// states in turn and look every successor up.
+    pub(crate) fn build_graph(&mut self, threads: usize) {
+        let ids = self.slot_ids();
         let len = (u32::MAX as usize / self.rules.transitions().max(1)).clamp(1, BLOCK);
         let blocks = match self.layout.words {
             1 => self.blocks(Fixed::<1>, &ids, threads, len),

@@ -1,5 +1,4 @@
-//! The five big Model Checking Contest models (0.7 to 6.1 million states), with the graph kept
-//! for liveness, and the two unbounded models whose coverability analysis is slow in a debug
+//! The five big Model Checking Contest models (0.7 to 6.1 million states), with liveness, and the two unbounded models whose coverability analysis is slow in a debug
 //! build. Release builds only: `cargo test --release -p petriplc-reach --test mcc_big`.
 #![cfg(not(debug_assertions))]
 

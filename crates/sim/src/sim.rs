@@ -144,14 +144,22 @@ pub struct Simulation<'n> {
     cursor: CursorState,
     /// Timeline column → controller input it drives.
     timeline_inputs: Vec<(usize, SignalId)>,
+    /// Per timeline column: the controller input it drives.
+    column_input: Vec<Option<SignalId>>,
     plant: Option<PlantWiring<'n>>,
     /// Per controller signal: a value set by hand, overriding timeline and plant.
     forced: Vec<Option<i64>>,
+    /// The signals in `forced`, in the order they were first set.
+    forced_list: Vec<SignalId>,
+    /// An input was set by hand since the last scan.
+    set_by_hand: bool,
     input_ids: Vec<SignalId>,
     output_ids: Vec<SignalId>,
     warnings: Vec<String>,
     /// Index of the next scan.
     next: u64,
+    /// Its time, `next`·period (kept by adding the period: exact, and no division per scan).
+    next_at: Duration,
     now: Duration,
     finished: bool,
     current: TraceRow,
@@ -340,10 +348,17 @@ impl<'n> Simulation<'n> {
             let names = pw.plant.outputs();
             trace.plant = pw.observed.iter().map(|&i| names[i].clone()).collect();
         }
+        let mut column_input = vec![None; timeline.as_ref().map_or(0, |t| t.columns().len())];
+        for &(c, s) in &timeline_inputs {
+            column_input[c] = Some(s);
+        }
         Ok(Simulation {
             net,
             opts,
-            scanner: Scanner::new(net, opts.scan),
+            scanner: Scanner::incremental(net, opts.scan),
+            column_input,
+            forced_list: Vec::new(),
+            set_by_hand: false,
             signals: vec![0; net.signals().len()],
             timeline,
             cursor,
@@ -354,11 +369,20 @@ impl<'n> Simulation<'n> {
             output_ids: net.outputs().collect(),
             warnings,
             next: 0,
+            next_at: Duration::ZERO,
             now: Duration::ZERO,
             finished: false,
             current: TraceRow::default(),
             trace,
         })
+    }
+
+    /// Scans the controller with the reference evaluator ([`Scanner::new`], every transition
+    /// every pass) instead of the incremental one, which gives the same scans: for tests that
+    /// hold the two to each other. Call it before the first step.
+    pub fn use_reference_evaluator(&mut self) {
+        debug_assert_eq!(self.next, 0, "switch evaluators before the first scan");
+        self.scanner = Scanner::new(self.net, self.opts.scan);
     }
 
     /// Wiring remarks that do not stop the run, e.g. inputs nothing drives.
@@ -377,7 +401,8 @@ impl<'n> Simulation<'n> {
 
     /// The time of the next scan (past `until` once the run is over).
     pub fn next_time(&self) -> Duration {
-        self.time_of(self.next)
+        debug_assert_eq!(self.next_at, self.time_of(self.next));
+        self.next_at
     }
 
     /// Whether the run is over: past `until`, or stopped by an error.
@@ -399,19 +424,27 @@ impl<'n> Simulation<'n> {
             return Err(e);
         }
         self.next += 1;
+        self.next_at = self
+            .next_at
+            .checked_add(self.opts.period)
+            .unwrap_or(Duration::MAX);
         self.now = t;
         Ok(Some(&self.current))
     }
 
     fn scan_at(&mut self, t: Duration) -> Result<(), SimError> {
-        // (1) The timeline's values at t.
-        let values: &[Option<i64>] = match &self.timeline {
-            Some(tl) => self.cursor.seek(tl, t),
-            None => &[],
-        };
-        for &(col, s) in &self.timeline_inputs {
-            if let Some(v) = values[col] {
-                self.signals[s.index()] = v;
+        // (1) The timeline's values at t: only the columns that changed are written (the
+        // others hold their values from earlier scans).
+        let mut inputs_changed = self.next == 0 || std::mem::take(&mut self.set_by_hand);
+        if let Some(tl) = &self.timeline {
+            self.cursor.seek(tl, t);
+        }
+        let values = self.cursor.values();
+        for &col in &self.cursor.changed {
+            if let (Some(s), Some(v)) = (self.column_input[col], values[col]) {
+                let slot = &mut self.signals[s.index()];
+                inputs_changed |= *slot != v;
+                *slot = v;
             }
         }
         // (2) The plant, seeing the controller's outputs from the previous scan.
@@ -430,21 +463,47 @@ impl<'n> Simulation<'n> {
                 .step(t, &pw.inputs, &mut pw.outputs)
                 .map_err(|source| SimError::Plant { time: t, source })?;
             for &(i, s) in &pw.drives {
-                self.signals[s.index()] = pw.outputs[i];
+                let slot = &mut self.signals[s.index()];
+                inputs_changed |= *slot != pw.outputs[i];
+                *slot = pw.outputs[i];
             }
         }
-        for (v, f) in self.signals.iter_mut().zip(&self.forced) {
-            if let Some(f) = f {
-                *v = *f;
+        for &s in &self.forced_list {
+            if let Some(f) = self.forced[s.index()] {
+                let slot = &mut self.signals[s.index()];
+                inputs_changed |= *slot != f;
+                *slot = f;
             }
         }
         // (3) The controller.
         self.scanner
             .scan(t, &mut self.signals)
             .map_err(|source| SimError::Scan { time: t, source })?;
-        // (4) The record.
+        // (4) The record. A scan where nothing changed and nothing fired repeats the last
+        // row kept (every scan's row equals the last kept one or is kept), so it is only
+        // counted.
+        // Plant outputs the controller does not read (kept for the plot) count as changes too:
+        // `current` holds the last row built, which equals the last row kept.
+        let plant_changed = self.plant.as_ref().is_some_and(|pw| {
+            pw.observed.len() != self.current.plant.len()
+                || pw
+                    .observed
+                    .iter()
+                    .zip(&self.current.plant)
+                    .any(|(&i, &v)| pw.outputs[i] != v)
+        });
         let row = &mut self.current;
         row.time = t;
+        if !inputs_changed
+            && !plant_changed
+            && self.scanner.fired().is_empty()
+            && !self.scanner.marking_changed()
+            && !self.scanner.outputs_changed()
+        {
+            row.fired.clear();
+            self.trace.count(t);
+            return Ok(());
+        }
         row.inputs.clear();
         row.inputs
             .extend(self.input_ids.iter().map(|s| self.signals[s.index()]));
@@ -487,8 +546,12 @@ impl<'n> Simulation<'n> {
                     value,
                 });
             }
+            if self.forced[s.index()].is_none() {
+                self.forced_list.push(s);
+            }
             self.forced[s.index()] = Some(value);
             self.signals[s.index()] = value;
+            self.set_by_hand = true;
             found = true;
         }
         if let Some(pw) = &mut self.plant {

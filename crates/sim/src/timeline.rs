@@ -420,6 +420,10 @@ pub(crate) struct CursorState {
     next: Vec<usize>,
     values: Vec<Option<i64>>,
     at: Option<Duration>,
+    /// The earliest time a column changes after `at` (`None`: no change left).
+    due: Option<Duration>,
+    /// The columns the last seek set (in column order).
+    pub(crate) changed: Vec<usize>,
 }
 
 impl CursorState {
@@ -428,7 +432,19 @@ impl CursorState {
             next: vec![0; timeline.columns.len()],
             values: vec![None; timeline.columns.len()],
             at: None,
+            due: timeline
+                .changes
+                .iter()
+                .filter_map(|c| c.first())
+                .map(|c| c.0)
+                .min(),
+            changed: Vec::new(),
         }
+    }
+
+    /// Every column's value as of the last seek.
+    pub(crate) fn values(&self) -> &[Option<i64>] {
+        &self.values
     }
 
     pub(crate) fn seek(&mut self, timeline: &Timeline, t: Duration) -> &[Option<i64>] {
@@ -436,20 +452,33 @@ impl CursorState {
             *self = CursorState::new(timeline);
         }
         self.at = Some(t);
-        for ((ch, next), value) in timeline
+        self.changed.clear();
+        // Between changes (most scans) nothing is to be read.
+        if self.due.is_none_or(|due| t < due) {
+            return &self.values;
+        }
+        let mut due = None::<Duration>;
+        for (c, ((ch, next), value)) in timeline
             .changes
             .iter()
             .zip(&mut self.next)
             .zip(&mut self.values)
+            .enumerate()
         {
+            let before = *next;
             while let Some(&(time, v)) = ch.get(*next) {
                 if time > t {
+                    due = Some(due.map_or(time, |d| d.min(time)));
                     break;
                 }
                 *value = Some(v);
                 *next += 1;
             }
+            if *next != before {
+                self.changed.push(c);
+            }
         }
+        self.due = due;
         &self.values
     }
 }

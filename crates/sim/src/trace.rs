@@ -2,6 +2,7 @@
 //! form, which is byte-for-byte deterministic so runs can be diffed and golden-tested.
 
 use std::borrow::Cow;
+use std::fmt::Write as _;
 use std::io::{self, Write};
 use std::time::Duration;
 
@@ -155,6 +156,14 @@ impl Trace {
         })
     }
 
+    /// Notes a scan at `time` whose row would equal the last one kept (nothing changed and
+    /// nothing fired): what [`Trace::record`] does with such a row, without the row.
+    pub fn count(&mut self, time: Duration) {
+        debug_assert!(!self.rows.is_empty(), "the first scan is always recorded");
+        self.scans += 1;
+        self.end = self.end.max(time);
+    }
+
     /// How many data lines [`Trace::write_csv`] writes.
     pub fn csv_rows(&self) -> usize {
         self.csv_row_iter().count()
@@ -191,12 +200,11 @@ impl Trace {
                     SignalType::Bool => i64::from(*v != 0),
                     SignalType::Int => *v,
                 };
-                line.push(',');
-                line.push_str(&v.to_string());
+                // Into the line's buffer: no string per field.
+                let _ = write!(line, ",{v}");
             }
             for m in &row.marking {
-                line.push(',');
-                line.push_str(&m.to_string());
+                let _ = write!(line, ",{m}");
             }
             push_field(&mut line, &row.fired.join(" "));
             line.push('\n');

@@ -38,14 +38,14 @@ const UNBOUNDED: [&str; 4] = [
 /// (model, P-invariants complete, T-invariants complete) for the models that hit `LIMITS`.
 /// The work count is deterministic, so this list is the same in debug and release builds.
 /// With `Limits::default()` only IBM319 (P), Peterson, Anderson and DoubleLock (T) stay
-/// incomplete.
-const EXPECT_INCOMPLETE: [(&str, bool, bool); 6] = [
+/// incomplete. (TokenRing-PT-005's T-invariants used to hit the limit too; split into the
+/// groups of its kernel basis they no longer do.)
+const EXPECT_INCOMPLETE: [(&str, bool, bool); 5] = [
     ("Anderson-PT-05", true, false),
     ("DoubleLock-PT-p1s1", true, false),
     ("IBM319-PT-none", false, true),
     ("Peterson-PT-2", true, false),
     ("Railroad-PT-010", false, true),
-    ("TokenRing-PT-005", true, false),
 ];
 
 fn models() -> Vec<(String, Net)> {

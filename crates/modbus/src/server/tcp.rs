@@ -16,6 +16,7 @@ use std::time::Duration;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
+use tokio::runtime::Handle;
 use tokio::sync::Notify;
 use tokio::time::Instant;
 
@@ -44,7 +45,10 @@ struct Conn {
     evict: Notify,
 }
 
-pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>) {
+/// Accepts connections and hands them to the `runtimes` in turn (each a single thread), where
+/// each is served by one task for its whole life.
+pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>, runtimes: Vec<Handle>) {
+    let mut turn = 0usize;
     let start = Instant::now();
     let now_ms = move || start.elapsed().as_millis() as u64;
     let evict_after = shared.idle.map_or(EVICT_IDLE, |i| i.min(EVICT_IDLE));
@@ -94,11 +98,23 @@ pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>) {
             evict: Notify::new(),
         });
         conns.push(conn.clone());
-        let shared = shared.clone();
-        tokio::spawn(async move {
-            let guard = ClientGuard(&shared, &conn);
-            connection(stream, peer, guard.0, guard.1, now_ms).await;
+        let guard = ClientGuard(shared.clone(), conn);
+        // The socket is registered again with the reactor of the runtime that serves it, so
+        // its readiness wakes that thread only.
+        let stream = match stream.into_std() {
+            Ok(s) => s,
+            Err(e) => {
+                log::warn!("modbus_server {}: {peer}: {e}", guard.0.name);
+                continue;
+            }
+        };
+        runtimes[turn % runtimes.len()].spawn(async move {
+            match TcpStream::from_std(stream) {
+                Ok(stream) => connection(stream, peer, &guard.0, &guard.1, now_ms).await,
+                Err(e) => log::warn!("modbus_server {}: {peer}: {e}", guard.0.name),
+            }
         });
+        turn = turn.wrapping_add(1);
     }
 }
 
@@ -152,9 +168,9 @@ impl Refusals {
 }
 
 /// Counts the connection down however its task ends.
-struct ClientGuard<'a>(&'a Shared, &'a Conn);
+struct ClientGuard(Arc<Shared>, Arc<Conn>);
 
-impl Drop for ClientGuard<'_> {
+impl Drop for ClientGuard {
     fn drop(&mut self) {
         self.1.closed.store(true, Ordering::Relaxed);
         self.0.clients.fetch_sub(1, Ordering::Relaxed);

@@ -28,7 +28,7 @@ impl<'n> NetPlant<'n> {
             .to_string();
         NetPlant {
             name,
-            scanner: Scanner::new(net, options),
+            scanner: Scanner::incremental(net, options),
             signals: vec![0; net.signals().len()],
             inputs: net.inputs().collect(),
             outputs: net.outputs().collect(),

@@ -13,7 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use petriplc_closedloop::{self as closedloop, NeverResult, PlcOptions};
 use petriplc_net::{Marking, Net, PlaceId, SignalId, TransitionId};
 use petriplc_pnml::ReadOptions;
-use petriplc_reach::{self as reach, ExploreOptions, StateId};
+use petriplc_reach::{self as reach, ExploreOptions, Limit, PropertyOptions, StateId};
 use petriplc_structure::{self as structure, Limits};
 
 use self::report::{
@@ -136,14 +136,17 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
     };
 
     // 3. The reachability graph, for a net not known to be unbounded.
+    let max_memory = args.max_memory.or_else(default_max_memory);
+    let drawing = args.dot.is_some() || args.svg.is_some();
     let mut space = None;
     if report.bounded != Some(false) {
         let progress = Progress::new();
         let opts = ExploreOptions {
             max_states: max_states
                 .or((report.bounded.is_none()).then_some(DEFAULT_UNDECIDED_STATES)),
+            max_memory,
             threads: 0,
-            keep_graph: true,
+            keep_graph: false,
             cancel: Some(cancel.clone()),
             progress: Some(progress.callback()),
         };
@@ -161,18 +164,41 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             }
             explored => Some(explored.run_failure()?),
         };
-        if let Some(explored) = explored {
-            let props = reach::properties(&net, &explored);
-            if !explored.complete() {
+        if let Some(mut explored) = explored {
+            progress.phase(&explored, "liveness, reversibility, home markings");
+            let props = reach::properties_with(
+                &net,
+                &explored,
+                &PropertyOptions {
+                    threads: 0,
+                    max_memory,
+                    cancel: Some(cancel.clone()),
+                },
+            );
+            progress.finish();
+            let complete = explored.complete();
+            if !complete {
                 report.complete = false;
-                report.incomplete.push(if cancel.load(Ordering::SeqCst) {
-                    format!("interrupted after {} states", explored.states())
-                } else {
-                    format!(
-                        "stopped at --max-states ({} states explored)",
-                        explored.states()
-                    )
+                let (n, e) = (explored.states(), explored.edges());
+                report.incomplete.push(match explored.limit() {
+                    Some(Limit::Memory(m)) => format!(
+                        "stopped at --max-memory {} ({n} states, {e} edges explored; raise it, e.g. --max-memory {})",
+                        size(m),
+                        size(m.saturating_mul(4))
+                    ),
+                    Some(Limit::States(m)) => format!(
+                        "stopped at --max-states {m} ({n} states, {e} edges explored)"
+                    ),
+                    Some(Limit::Cancelled) | None => {
+                        format!("interrupted after {n} states, {e} edges")
+                    }
                 });
+            }
+            if let Some(why) = &props.unknown {
+                report.complete = false;
+                report
+                    .incomplete
+                    .push(format!("liveness, reversibility and home markings: {why}"));
             }
             if report.place_bounds.is_empty() {
                 report.place_bounds = net
@@ -180,22 +206,28 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
                     .map(|p| (label(p), Some(props.place_bounds[p.index()])))
                     .collect();
             }
+            // What a partial exploration found holds; what it did not find is undecided.
+            let found = |yes: bool, holds: bool| (yes || complete).then_some(holds);
             report.space = Some(SpaceFacts {
                 states: props.states,
                 edges: props.edges,
                 max_tokens_place: props.max_tokens_place,
                 max_tokens_marking: props.max_tokens_marking,
-                safe: props.safe,
-                deadlock: props.deadlock,
+                safe: found(!props.safe, props.safe),
+                deadlock: found(props.deadlock, props.deadlock),
                 deadlock_trace: props
                     .deadlock_trace
                     .map(|ts| ts.into_iter().map(tlabel).collect()),
-                quasi_live: props.quasi_live,
-                dead_transitions: props.dead_transitions.into_iter().map(tlabel).collect(),
+                quasi_live: found(props.quasi_live, props.quasi_live),
+                dead_transitions: complete
+                    .then(|| props.dead_transitions.into_iter().map(tlabel).collect()),
                 live: props.live,
                 reversible: props.reversible,
                 home_marking: props.home_marking,
             });
+            if drawing && explored.states() <= args.graph_limit {
+                explored.keep_graph(0);
+            }
             space = Some(explored);
         }
     }
@@ -443,8 +475,48 @@ fn signal_values(net: &Net, values: &[(SignalId, i64)]) -> Vec<(String, i64)> {
         .collect()
 }
 
+/// Half the machine's physical memory (`MemTotal` in /proc/meminfo): the default
+/// `--max-memory`, so that a net too big to finish gets a partial report instead of the
+/// kernel's out-of-memory killer.
+fn default_max_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kb: u64 = info
+        .lines()
+        .find_map(|l| l.strip_prefix("MemTotal:"))?
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kb * 1024 / 2)
+}
+
+/// This process's resident memory in bytes (Linux), for the progress bar.
+fn resident_bytes() -> Option<u64> {
+    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: u64 = statm.split_whitespace().nth(1)?.parse().ok()?;
+    Some(pages * 4096)
+}
+
+/// A size as `--max-memory` reads it: 512K, 64M, 1.5G.
+fn size(b: u64) -> String {
+    let (v, unit) = match b {
+        b if b >= 1 << 30 => (b as f64 / (1u64 << 30) as f64, "G"),
+        b if b >= 1 << 20 => (b as f64 / (1u64 << 20) as f64, "M"),
+        b if b >= 1 << 10 => (b as f64 / (1u64 << 10) as f64, "K"),
+        b => (b as f64, ""),
+    };
+    let text = format!("{v:.1}");
+    format!("{}{unit}", text.trim_end_matches(".0"))
+}
+
+fn megabytes(b: u64) -> String {
+    format!("{} MB", b.div_ceil(1 << 20))
+}
+
 /// A progress bar on standard error, shown only once an exploration has run for a second
-/// (and only on a terminal: indicatif hides it otherwise).
+/// and only on a terminal (indicatif draws nothing otherwise): states, edges, states per
+/// second and memory.
 struct Progress {
     bar: Arc<Mutex<Option<ProgressBar>>>,
 }
@@ -456,6 +528,17 @@ impl Progress {
         }
     }
 
+    fn bar(slot: &mut Option<ProgressBar>) -> &ProgressBar {
+        slot.get_or_insert_with(|| {
+            let b = ProgressBar::new_spinner();
+            b.set_style(
+                ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+            );
+            b
+        })
+    }
+
     fn callback(&self) -> Arc<dyn Fn(reach::Progress) + Send + Sync> {
         let bar = self.bar.clone();
         Arc::new(move |p: reach::Progress| {
@@ -463,21 +546,32 @@ impl Progress {
                 return;
             }
             let mut guard = bar.lock().unwrap_or_else(|e| e.into_inner());
-            let bar = guard.get_or_insert_with(|| {
-                let b = ProgressBar::new_spinner();
-                b.set_style(
-                    ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-                        .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-                );
-                b
-            });
+            let bar = Self::bar(&mut guard);
             let rate = p.states as f64 / p.elapsed.as_secs_f64();
             bar.set_message(format!(
-                "{} states, {} edges, {:.0} states/s (Ctrl-C stops)",
-                p.states, p.edges, rate
+                "{} states, {} edges, {:.0} states/s, {} (Ctrl-C stops)",
+                p.states,
+                p.edges,
+                rate,
+                megabytes(resident_bytes().unwrap_or(p.bytes))
             ));
             bar.tick();
         })
+    }
+
+    /// A spinner for a phase after a long exploration (none after a short one).
+    fn phase(&self, space: &reach::StateSpace, what: &str) {
+        if space.elapsed() < Duration::from_secs(1) {
+            return;
+        }
+        let mut guard = self.bar.lock().unwrap_or_else(|e| e.into_inner());
+        let bar = Self::bar(&mut guard);
+        bar.set_message(format!(
+            "{} states explored; {what}, {}",
+            space.states(),
+            megabytes(resident_bytes().unwrap_or(0))
+        ));
+        bar.enable_steady_tick(Duration::from_millis(200));
     }
 
     fn finish(&self) {

@@ -31,11 +31,13 @@ pub struct SpaceFacts {
     pub edges: u64,
     pub max_tokens_place: u64,
     pub max_tokens_marking: u64,
-    pub safe: bool,
-    pub deadlock: bool,
+    /// `None` (here and below) when a partial exploration does not decide it: what it found
+    /// holds (a deadlock found is real), the absence of something found proves nothing.
+    pub safe: Option<bool>,
+    pub deadlock: Option<bool>,
     pub deadlock_trace: Option<Vec<String>>,
-    pub quasi_live: bool,
-    pub dead_transitions: Vec<String>,
+    pub quasi_live: Option<bool>,
+    pub dead_transitions: Option<Vec<String>>,
     pub live: Option<bool>,
     pub reversible: Option<bool>,
     pub home_marking: Option<bool>,
@@ -182,16 +184,16 @@ impl Report {
         put("max_tokens_place", opt(s.map(|s| s.max_tokens_place)));
         put("max_tokens_marking", opt(s.map(|s| s.max_tokens_marking)));
         put("place_bounds", map(&bounds));
-        put("safe", opt(s.map(|s| s.safe)));
-        put("deadlock", opt(s.map(|s| s.deadlock)));
+        put("safe", opt(s.and_then(|s| s.safe)));
+        put("deadlock", opt(s.and_then(|s| s.deadlock)));
         put(
             "deadlock_trace",
             opt(s.and_then(|s| s.deadlock_trace.clone())),
         );
-        put("quasi_live", opt(s.map(|s| s.quasi_live)));
+        put("quasi_live", opt(s.and_then(|s| s.quasi_live)));
         put(
             "dead_transitions",
-            opt(s.map(|s| s.dead_transitions.clone())),
+            opt(s.and_then(|s| s.dead_transitions.clone())),
         );
         put("live", opt(s.and_then(|s| s.live)));
         put("reversible", opt(s.and_then(|s| s.reversible)));
@@ -319,9 +321,9 @@ impl Report {
                 let _ = writeln!(o, "  bounded:            {}", maybe(self.bounded));
                 let _ = writeln!(o, "  max tokens/place:   {}", s.max_tokens_place);
                 let _ = writeln!(o, "  max tokens/marking: {}", s.max_tokens_marking);
-                let _ = writeln!(o, "  safe (1-bounded):   {}", yes_no(s.safe));
+                let _ = writeln!(o, "  safe (1-bounded):   {}", maybe(s.safe));
                 let _ = match &s.deadlock_trace {
-                    Some(t) if s.deadlock => writeln!(
+                    Some(t) if s.deadlock == Some(true) => writeln!(
                         o,
                         "  deadlock:           yes, after {}",
                         if t.is_empty() {
@@ -330,11 +332,11 @@ impl Report {
                             t.join(" ")
                         }
                     ),
-                    _ => writeln!(o, "  deadlock:           {}", yes_no(s.deadlock)),
+                    _ => writeln!(o, "  deadlock:           {}", maybe(s.deadlock)),
                 };
-                let _ = writeln!(o, "  quasi-live:         {}", yes_no(s.quasi_live));
-                if !s.dead_transitions.is_empty() {
-                    let _ = writeln!(o, "    never fire:       {}", s.dead_transitions.join(", "));
+                let _ = writeln!(o, "  quasi-live:         {}", maybe(s.quasi_live));
+                if let Some(dead) = s.dead_transitions.as_ref().filter(|d| !d.is_empty()) {
+                    let _ = writeln!(o, "    never fire:       {}", dead.join(", "));
                 }
                 let _ = writeln!(o, "  live (L4):          {}", maybe(s.live));
                 let _ = writeln!(o, "  reversible:         {}", maybe(s.reversible));
