@@ -50,14 +50,33 @@
 //!      VAR_OUTPUT Q : BOOL               with hysteresis: set beyond LIMIT, cleared only
 //!                                        back past LIMIT ∓ HYST; NaN sets it
 //!
+//! FILTER_FIR VAR_INPUT X : REAL         the input sample (one call per sampling period)
+//!                 B0 … B15 : REAL := 0.0 the taps: y[n] = Σ Bk·x[n−k] (the dsp module's
+//!                                        `fblock filter IN OUT fir B0 B1 …`)
+//!      VAR_OUTPUT Y : REAL               the output (held while X is not finite)
+//!
+//! FIR_DESIGN VAR_INPUT X : REAL
+//!                 SHAPE : INT := 1       1 lowpass, 2 highpass, 3 bandpass, 4 bandstop
+//!                 TAPS : INT := 31       1 … 64 (odd when the filter passes Nyquist)
+//!                 F1, F2 : REAL          cut-offs in Hz at −6 dB (F2 for band shapes only)
+//!                 TS : TIME := T#10ms    the sampling period the filter is designed for
+//!                 WINDOW : INT := 5      1 boxcar, 2 triang, 3 bartlett, 4 hann, 5 hamming,
+//!                                        6 blackman, 7 kaiser with β = BETA
+//!                 BETA : REAL := 5.0
+//!      VAR_OUTPUT Y : REAL               SciPy's firwin taps run as FILTER_FIR runs them
+//!
+//! HYSTERESIS VAR_INPUT X, XON, XOFF : REAL  Q set when X reaches XON, cleared when it reaches
+//!      VAR_OUTPUT Q : BOOL               XOFF (XON < XOFF: the other way round); NaN holds Q
+//!
 //! NONLINEAR VAR_INPUT X : REAL; GAIN : REAL := 1.0;
 //!                 DB_BOT, DB_TOP, DB_OUT : REAL := 0.0   dead band and its output
 //!                 CUT_BOT, CUT_TOP : REAL := ∓3.4e38     cut-offs
 //!      VAR_OUTPUT Y : REAL
 //! ```
 
-use petriplc_dsp::block::filter::Iir;
+use petriplc_dsp::block::filter::{Fir, Iir};
 use petriplc_dsp::block::pid::{AntiWindup, Pid, PidConfig, PidForm, PidInput};
+use petriplc_dsp::block::Hysteresis;
 use std::sync::Mutex;
 
 use petriplc_dsp::block::alarm::{Alarm, Compare, Limit};
@@ -86,6 +105,9 @@ pub fn blocks() -> Vec<Box<dyn NativeFb>> {
         Box::new(NonlinearFb),
         Box::new(FilterDesignFb::default()),
         Box::new(AlarmFb),
+        Box::new(FilterFirFb),
+        Box::new(FirDesignFb::default()),
+        Box::new(HysteresisFb),
     ]
 }
 
@@ -490,6 +512,214 @@ impl NativeFb for AlarmFb {
         alarm.states[0] = v.bool(5);
         let q = alarm.step(v.real(0))[0];
         v.set_bool(5, q);
+        Ok(())
+    }
+}
+
+/// One sample of a FIR filter whose past inputs live in the instance: `past[k]` holds
+/// x[n−1−k] (0 before the first input). Replaying them through a fresh [`Fir`] refills its
+/// ring exactly, so the output is the Rust block's, bit for bit. A non-finite `X` holds `Y`
+/// and leaves the past alone, as [`Fir::step`] skips it.
+fn fir_step(v: &mut Vars, taps: Vec<f64>, x: usize, y: usize, past: usize, room: usize) {
+    let n = taps.len();
+    let mut fir = Fir::new(taps);
+    for k in (0..n - 1).rev() {
+        fir.step(v.real(past + k));
+    }
+    let input = v.real(x);
+    if let Some(out) = fir.step(input) {
+        v.set_real(y, out);
+        for k in (1..room).rev() {
+            let older = v.real(past + k - 1);
+            v.set_real(past + k, older);
+        }
+        v.set_real(past, input);
+    }
+}
+
+/// `FILTER_FIR`: petriplc-dsp's FIR filter with explicit taps.
+pub struct FilterFirFb;
+
+const FIR_TAPS: usize = 16;
+const FIR_Y: usize = 1 + FIR_TAPS;
+const FIR_PAST: usize = FIR_Y + 1;
+
+impl NativeFb for FilterFirFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O, State as S};
+        let r = |n: &str, k, v: f64| var(n, Elem::Real, k, Value::Real(v));
+        let mut vars = vec![r("X", I, 0.0)];
+        for k in 0..FIR_TAPS {
+            vars.push(r(&format!("B{k}"), I, 0.0));
+        }
+        vars.push(r("Y", O, 0.0));
+        for k in 0..FIR_TAPS - 1 {
+            vars.push(var(&format!("x{k}"), Elem::Lreal, S, Value::Real(0.0)));
+        }
+        NativeSig {
+            name: "FILTER_FIR".into(),
+            vars,
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], _ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let mut taps: Vec<f64> = (0..FIR_TAPS).map(|k| v.real(1 + k)).collect();
+        // Unused trailing taps would only add zeros; the filter is the one the taps given make.
+        while taps.len() > 1 && taps[taps.len() - 1] == 0.0 {
+            taps.pop();
+        }
+        fir_step(&mut v, taps, 0, FIR_Y, FIR_PAST, FIR_TAPS - 1);
+        Ok(())
+    }
+}
+
+/// `FIR_DESIGN`: a windowed-sinc FIR filter designed as the dsp module's
+/// `fblock filter IN OUT fir SHAPE TAPS F1 [F2] [WINDOW]` row is (SciPy's `firwin`), designed
+/// at the first call with a specification and kept, like `FILTER_DESIGN`.
+#[derive(Default)]
+pub struct FirDesignFb {
+    designs: Mutex<Vec<([u64; 7], FirDesigned)>>,
+}
+
+/// A design's taps, or why there are none.
+type FirDesigned = Result<Vec<f64>, String>;
+
+const FIRD_MAX_TAPS: usize = 64;
+const FIRD_Y: usize = 8;
+const FIRD_PAST: usize = 9;
+
+impl FirDesignFb {
+    fn design(&self, v: &Vars) -> FirDesigned {
+        use petriplc_dsp::design::Band;
+        use petriplc_dsp::design::{firwin, Window};
+        let mut key = [0u64; 7];
+        for (k, slot) in key.iter_mut().enumerate() {
+            *slot = v.0[1 + k];
+        }
+        let mut cache = self.designs.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, d)) = cache.iter().find(|(k, _)| *k == key) {
+            return d.clone();
+        }
+        let made = (|| {
+            let band = match v.int(1) {
+                1 => Band::Lowpass,
+                2 => Band::Highpass,
+                3 => Band::Bandpass,
+                4 => Band::Bandstop,
+                k => {
+                    return Err(format!(
+                        "FIR_DESIGN: SHAPE = {k}; give 1 (lowpass), 2 (highpass), 3 (bandpass) \
+                         or 4 (bandstop)"
+                    ))
+                }
+            };
+            let taps = v.int(2);
+            if !(1..=FIRD_MAX_TAPS as i64).contains(&taps) {
+                return Err(format!(
+                    "FIR_DESIGN: TAPS = {taps}; give 1 to {FIRD_MAX_TAPS}"
+                ));
+            }
+            let ts = v.int(5) as f64 * 1e-9;
+            if ts <= 0.0 {
+                return Err("FIR_DESIGN: TS must be a positive sampling period".into());
+            }
+            let window = match v.int(6) {
+                1 => Window::Boxcar,
+                2 => Window::Triang,
+                3 => Window::Bartlett,
+                4 => Window::Hann,
+                5 => Window::Hamming,
+                6 => Window::Blackman,
+                7 => Window::Kaiser(v.real(7)),
+                k => {
+                    return Err(format!(
+                        "FIR_DESIGN: WINDOW = {k}; give 1 (boxcar), 2 (triang), 3 (bartlett), \
+                         4 (hann), 5 (hamming), 6 (blackman) or 7 (kaiser, β = BETA)"
+                    ))
+                }
+            };
+            let cutoff = [v.real(3), v.real(4)];
+            firwin(
+                taps as usize,
+                &cutoff[..band.edges()],
+                window,
+                band,
+                1.0 / ts,
+            )
+            .map_err(|e| format!("FIR_DESIGN: {e}"))
+        })();
+        cache.push((key, made.clone()));
+        made
+    }
+}
+
+impl NativeFb for FirDesignFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O, State as S};
+        let r = |n: &str, k, v: f64| var(n, Elem::Real, k, Value::Real(v));
+        let mut vars = vec![
+            r("X", I, 0.0),
+            var("SHAPE", Elem::Int, I, Value::Int(1)),
+            var("TAPS", Elem::Int, I, Value::Int(31)),
+            r("F1", I, 0.0),
+            r("F2", I, 0.0),
+            var("TS", Elem::Time, I, Value::Int(10_000_000)),
+            var("WINDOW", Elem::Int, I, Value::Int(5)),
+            r("BETA", I, 5.0),
+            r("Y", O, 0.0),
+        ];
+        for k in 0..FIRD_MAX_TAPS - 1 {
+            vars.push(var(&format!("x{k}"), Elem::Lreal, S, Value::Real(0.0)));
+        }
+        NativeSig {
+            name: "FIR_DESIGN".into(),
+            vars,
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], _ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let taps = self.design(&v)?;
+        fir_step(&mut v, taps, 0, FIRD_Y, FIRD_PAST, FIRD_MAX_TAPS - 1);
+        Ok(())
+    }
+}
+
+/// `HYSTERESIS`: petriplc-dsp's two-threshold switch.
+pub struct HysteresisFb;
+
+impl NativeFb for HysteresisFb {
+    fn signature(&self) -> NativeSig {
+        use NativeVarKind::{Input as I, Output as O};
+        let r = |n: &str| var(n, Elem::Real, I, Value::Real(0.0));
+        NativeSig {
+            name: "HYSTERESIS".into(),
+            vars: vec![
+                r("X"),
+                r("XON"),
+                r("XOFF"),
+                var("Q", Elem::Bool, O, Value::Int(0)),
+            ],
+        }
+    }
+
+    fn call(&self, slots: &mut [u64], _ctx: &NativeCtx) -> Result<(), String> {
+        let mut v = Vars(slots);
+        let (on, off) = (v.real(1), v.real(2));
+        if on == off {
+            return Err(format!(
+                "HYSTERESIS: XON and XOFF are both {on}; set them apart (the band between \
+                 them is the hysteresis)"
+            ));
+        }
+        let mut h = Hysteresis {
+            on,
+            off,
+            state: v.bool(3),
+        };
+        let q = h.step(v.real(0));
+        v.set_bool(3, q);
         Ok(())
     }
 }

@@ -305,3 +305,112 @@ fn an_impossible_design_fails_the_program_with_the_limit() {
         "{fault}"
     );
 }
+
+#[test]
+fn fir_filters_in_st_equal_the_rust_fir_and_hysteresis_switches_at_its_thresholds() {
+    use petriplc_dsp::block::filter::Fir;
+    use petriplc_dsp::design::{firwin, Band, Window};
+    // Explicit taps (5 of the 16), a designed Hamming lowpass (31 taps, 10 Hz at 100 Hz) and a
+    // designed Kaiser bandpass (41 taps, 10–20 Hz).
+    let b = [0.5f32, -0.25, 0.125, 1.5, -0.75];
+    let program = format!(
+        "PROGRAM f\nVAR_INPUT x : REAL; END_VAR\n\
+         VAR_OUTPUT y : REAL; lo : REAL; bp : REAL; q : BOOL; END_VAR\n\
+         VAR ex : FILTER_FIR; lp : FIR_DESIGN; bd : FIR_DESIGN; hy : HYSTERESIS; END_VAR\n\
+         ex(X := x, B0 := {:?}, B1 := {:?}, B2 := {:?}, B3 := {:?}, B4 := {:?});\ny := ex.Y;\n\
+         lp(X := x, F1 := 10.0, TS := T#10ms);\nlo := lp.Y;\n\
+         bd(X := x, SHAPE := 3, TAPS := 41, F1 := 10.0, F2 := 20.0, WINDOW := 7, BETA := 6.0, TS := T#10ms);\n\
+         bp := bd.Y;\n\
+         hy(X := x, XON := 0.5, XOFF := -0.25);\nq := hy.Q;\nEND_PROGRAM\n",
+        b[0], b[1], b[2], b[3], b[4]
+    );
+    let mut s = Sources::new();
+    s.add_text("f.st", &program);
+    let engine = build(&s, &Select::Auto, Natives::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .engine;
+    let var = |n: &str| engine.lookup(&format!("f.{n}")).unwrap();
+    let mut m = Machine::new(engine.clone());
+    let mut ex = Fir::new(b.iter().map(|&t| f64::from(t)).collect());
+    let mut lp = Fir::new(firwin(31, &[10.0], Window::Hamming, Band::Lowpass, 100.0).unwrap());
+    let mut bd = Fir::new(
+        firwin(
+            41,
+            &[10.0, 20.0],
+            Window::Kaiser(6.0),
+            Band::Bandpass,
+            100.0,
+        )
+        .unwrap(),
+    );
+    let mut held = [0.0f64; 3];
+    let mut on = false;
+    let mut switches = 0;
+    for k in 0..400usize {
+        let x: f32 = match k {
+            0 => 1.0,
+            1..60 => 0.75,
+            90 => f32::NAN,
+            _ => ((k * k) as f32 * 0.0007).sin(),
+        };
+        m.set_slot(var("x").addr, f64::from(x).to_bits());
+        m.scan(k as i64 * 10_000_000, &mut || true).unwrap();
+        let get = |n: &str| match m.get(var(n)) {
+            Some(Value::Real(r)) => r,
+            Some(Value::Int(i)) => i as f64,
+            v => panic!("{n}: {v:?}"),
+        };
+        let xf = f64::from(x);
+        for (h, f) in held.iter_mut().zip([&mut ex, &mut lp, &mut bd]) {
+            if let Some(y) = f.step(xf) {
+                *h = y;
+            }
+        }
+        assert_eq!(get("y") as f32, held[0] as f32, "FILTER_FIR, sample {k}");
+        assert_eq!(
+            get("lo") as f32,
+            held[1] as f32,
+            "FIR_DESIGN lowpass, sample {k}"
+        );
+        assert_eq!(
+            get("bp") as f32,
+            held[2] as f32,
+            "FIR_DESIGN bandpass, sample {k}"
+        );
+        let was = on;
+        if xf >= 0.5 {
+            on = true;
+        } else if xf <= -0.25 {
+            on = false;
+        }
+        switches += usize::from(was != on);
+        assert_eq!(get("q") != 0.0, on, "HYSTERESIS, sample {k}");
+    }
+    assert!(switches > 4, "{switches}");
+}
+
+#[test]
+fn an_impossible_fir_design_fails_the_program_with_the_reason() {
+    for (call, want) in [
+        ("F1 := 80.0", "Nyquist"),
+        ("SHAPE := 2, TAPS := 30, F1 := 10.0", "odd number of taps"),
+        ("F1 := 10.0, WINDOW := 9", "WINDOW = 9"),
+        ("F1 := 10.0, TAPS := 65", "TAPS = 65"),
+    ] {
+        let program = format!(
+            "PROGRAM d\nVAR lp : FIR_DESIGN; y : REAL; END_VAR\n\
+             lp(X := 1.0, {call}, TS := T#10ms);\ny := lp.Y;\nEND_PROGRAM\n"
+        );
+        let mut s = Sources::new();
+        s.add_text("d.st", &program);
+        let engine = build(&s, &Select::Auto, Natives::default())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .engine;
+        let mut m = Machine::new(engine);
+        let fault = m.scan(0, &mut || true).unwrap_err().to_string();
+        assert!(
+            fault.contains("FIR_DESIGN: ") && fault.contains(want),
+            "{call}: {fault}"
+        );
+    }
+}
