@@ -126,7 +126,18 @@ async def mixer(url, plc_id, user, password, seconds):
         await sub.subscribe_data_change([nodes[n] for n in watched.values()],
                                         sampling_interval=0, queuesize=100)
         started = time.time()
-        await asyncio.sleep(seconds)
+        # At least `seconds`, then until every point changed twice: a loaded machine (a CI
+        # runner building beside the test) may run the mixer's cycle slower than planned.
+        deadline = started + max(10 * seconds, 30)
+        while True:
+            await asyncio.sleep(0.1)
+            counts = {}
+            for c in changes.seen:
+                if c[3] >= started - 0.001:
+                    counts[c[1]] = counts.get(c[1], 0) + 1
+            done = all(counts.get(n, 0) >= 2 for n in watched.values())
+            if (done and time.time() - started >= seconds) or time.time() > deadline:
+                break
         await sub.delete()
         seen = [c for c in changes.seen if c[3] >= started - 0.001]
         by_point = {}
