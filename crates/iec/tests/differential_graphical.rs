@@ -6,13 +6,11 @@
 //! integer output, not an SFC shape, a mode the language cannot express) is counted and
 //! skipped; the figures are printed and quoted in docs/codegen.md.
 
-#[path = "../../codegen/tests/common/random.rs"]
-#[allow(dead_code)]
-mod random;
+mod common;
 
-use std::path::Path;
 use std::time::Duration;
 
+use common::{as_int, example_timeline, random, read, NETS};
 use petriplc_codegen::{generate, Form, Language, Markings, Options, Program, Request};
 use petriplc_iec::{build_text, Select};
 use petriplc_iec_sema::value::Value;
@@ -22,60 +20,9 @@ use petriplc_net::{
     ArcKind, ArcSpec, Evolution, Net, NetBuilder, PlaceSpec, ScanOptions, SignalDirection,
     SignalType, StepRule, TransitionSpec,
 };
-use petriplc_pnml::{Naming, ReadOptions};
 use petriplc_sim::{SimOptions, Simulation, Timeline};
 use proptest::strategy::{Strategy, ValueTree};
 use proptest::test_runner::TestRunner;
-
-const EXAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
-
-/// (name, net, SIPN naming, timeline, built-in plant), as the examples' READMEs run them.
-type Example = (
-    &'static str,
-    &'static str,
-    bool,
-    Option<&'static str>,
-    Option<&'static str>,
-);
-
-const NETS: &[Example] = &[
-    (
-        "mixer",
-        "mixer/mixer.pnml",
-        true,
-        Some("mixer/timeline.csv"),
-        None,
-    ),
-    ("tank", "mixer/tank.pnml", false, None, None),
-    (
-        "blink",
-        "blink/blink.pnml",
-        false,
-        Some("blink/timeline.csv"),
-        None,
-    ),
-    (
-        "philosophers",
-        "philosophers/philosophers.pnml",
-        false,
-        Some("philosophers/timeline.csv"),
-        None,
-    ),
-    (
-        "keyboard",
-        "keyboard/keyboard.pnml",
-        false,
-        Some("keyboard/timeline.csv"),
-        Some("keyboard"),
-    ),
-    (
-        "busy-beaver",
-        "busy-beaver/busy-beaver.pnml",
-        false,
-        None,
-        Some("tape"),
-    ),
-];
 
 const RULES: [(StepRule, Evolution); 4] = [
     (StepRule::MaximalStep, Evolution::OnePass),
@@ -85,15 +32,6 @@ const RULES: [(StepRule, Evolution); 4] = [
 ];
 
 const LANGUAGES: [Language; 2] = [Language::Ld, Language::Sfc];
-
-fn read(path: &str, sipn: bool) -> Net {
-    let options = ReadOptions {
-        naming: if sipn { Naming::Sipn } else { Naming::Plain },
-    };
-    petriplc_pnml::read_file(Path::new(&format!("{EXAMPLES}/{path}")), &options)
-        .unwrap_or_else(|e| panic!("{path}: {e}"))
-        .net
-}
 
 /// The generator's safe net over its boolean signals only: LD and SFC are relay logic over
 /// BOOL signals, so the integer input `N` (and its input place of capacity 4), the integer
@@ -272,13 +210,6 @@ fn timeline(d: &random::Desc) -> Timeline {
     Timeline::parse(&s, "timeline.csv").unwrap()
 }
 
-fn as_int(v: Option<Value>) -> i64 {
-    match v {
-        Some(Value::Int(i)) => i as i64,
-        other => panic!("not an integer: {other:?}"),
-    }
-}
-
 /// What one language did with one net in one mode.
 enum Outcome {
     /// `compile` refuses the net (or the mode) for this language.
@@ -446,8 +377,7 @@ fn generated_ld_and_sfc_run_as_the_net_simulates() {
     // The example nets.
     for &(name, path, sipn, timeline, plant) in NETS {
         let net = read(path, sipn);
-        let timeline =
-            timeline.map(|t| Timeline::read_file(Path::new(&format!("{EXAMPLES}/{t}"))).unwrap());
+        let timeline = example_timeline(timeline);
         for (k, &lang) in LANGUAGES.iter().enumerate() {
             let mut any = false;
             for (step, evolve) in RULES {

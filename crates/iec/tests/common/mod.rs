@@ -156,7 +156,7 @@ impl Figures {
     }
 }
 
-fn as_int(v: Option<Value>) -> i64 {
+pub fn as_int(v: Option<Value>) -> i64 {
     match v {
         Some(Value::Int(i)) => i as i64,
         other => panic!("not an integer: {other:?}"),
