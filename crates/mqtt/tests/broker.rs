@@ -4,54 +4,16 @@
 //! bad payloads are refused, a broker outage raises the stale flag and the safe values and
 //! its end clears them and republishes; TLS with a password; every setting checked at start.
 
-use std::collections::HashMap;
+mod common;
+
 use std::path::Path;
 use std::process::Command;
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use petriplc_config::{ModuleDecl, PointValue};
+use common::{registry, set};
+use petriplc_config::PointValue;
 use petriplc_mqtt::testing::Broker;
 use petriplc_runtime::harness::{self, Plc};
-use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
-
-/// Values the test sets on the points the `probe` module owns (point name → value).
-static PROBE: Mutex<Option<HashMap<String, PointValue>>> = Mutex::new(None);
-
-fn set(point: &str, v: PointValue) {
-    PROBE
-        .lock()
-        .unwrap()
-        .get_or_insert_with(HashMap::new)
-        .insert(point.to_string(), v);
-}
-
-/// Writes what the test set into the points it owns.
-struct Probe;
-
-impl Module for Probe {
-    fn init(&mut self, _: &mut InitContext<'_>) -> Result<(), ModuleError> {
-        Ok(())
-    }
-    fn scan(&mut self, ctx: &mut ScanContext<'_>) -> Result<Control, ModuleError> {
-        let values = PROBE.lock().unwrap().clone().unwrap_or_default();
-        for (p, v) in values {
-            if let Ok(h) = ctx.map.handle(&p) {
-                if ctx.map.owns(&h) {
-                    ctx.map.set(&h, v).unwrap();
-                }
-            }
-        }
-        Ok(Control::Continue)
-    }
-}
-
-fn registry(kind: &str) -> Option<Factory> {
-    match kind {
-        "probe" => Some(|_: &ModuleDecl| Ok(Box::new(Probe) as Box<dyn Module>)),
-        k => petriplc_mqtt::builtin(k),
-    }
-}
 
 const PATIENCE: Duration = Duration::from_secs(10);
 

@@ -5,56 +5,19 @@
 //! alias with consecutive sequence numbers through the wrap from 255 to 0, a rebirth on
 //! NCMD, a broker outage (new bdSeq, new NBIRTH), the will, and NDEATH at a clean stop.
 
-use std::collections::HashMap;
+mod common;
+
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::mpsc::{self, Receiver};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use petriplc_config::{ModuleDecl, PointValue};
+use common::{registry, set};
+use petriplc_config::PointValue;
 use petriplc_mqtt::testing::Broker;
 use petriplc_runtime::harness::{self, Plc};
-use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use serde_json::Value;
-
-static PROBE: Mutex<Option<HashMap<String, PointValue>>> = Mutex::new(None);
-
-fn set(point: &str, v: PointValue) {
-    PROBE
-        .lock()
-        .unwrap()
-        .get_or_insert_with(HashMap::new)
-        .insert(point.to_string(), v);
-}
-
-/// Writes what the test set into the points it owns.
-struct Probe;
-
-impl Module for Probe {
-    fn init(&mut self, _: &mut InitContext<'_>) -> Result<(), ModuleError> {
-        Ok(())
-    }
-    fn scan(&mut self, ctx: &mut ScanContext<'_>) -> Result<Control, ModuleError> {
-        let values = PROBE.lock().unwrap().clone().unwrap_or_default();
-        for (p, v) in values {
-            if let Ok(h) = ctx.map.handle(&p) {
-                if ctx.map.owns(&h) {
-                    ctx.map.set(&h, v).unwrap();
-                }
-            }
-        }
-        Ok(Control::Continue)
-    }
-}
-
-fn registry(kind: &str) -> Option<Factory> {
-    match kind {
-        "probe" => Some(|_: &ModuleDecl| Ok(Box::new(Probe) as Box<dyn Module>)),
-        k => petriplc_mqtt::builtin(k),
-    }
-}
 
 const PATIENCE: Duration = Duration::from_secs(15);
 
