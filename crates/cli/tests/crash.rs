@@ -8,6 +8,8 @@
 //!
 //! No timing assertions: waits poll for a state with a generous safety limit.
 
+mod common;
+
 use std::fs;
 use std::os::unix::fs::PermissionsExt;
 use std::os::unix::process::ExitStatusExt;
@@ -249,15 +251,11 @@ fn the_plc_comes_back_after_kill_9_at_any_moment() {
 /// Builds the victim module in `dir` against a copy of the `libpetriplc.so` built with this
 /// test (it sits beside the test binary: petriplc-capi is a dev-dependency for it).
 fn victim_program(dir: &Path) -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    let lib = exe.parent().unwrap().join("libpetriplc.so");
-    assert!(lib.exists(), "{} is missing", lib.display());
-    fs::copy(&lib, dir.join("libpetriplc.so")).unwrap();
-    let source = dir.join("victim.c");
     // Writes a = b = its scan count every scan: a reader that ever sees a != b has seen
     // half an update.
-    fs::write(
-        &source,
+    common::c_module(
+        dir,
+        "victim",
         r#"#include <stdio.h>
 #include "petriplc.h"
 int main(int argc, char **argv) {
@@ -278,23 +276,8 @@ int main(int argc, char **argv) {
     return 0;
 }
 "#,
+        &[],
     )
-    .unwrap();
-    let program = dir.join("victim");
-    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../capi/include");
-    let out = Process::new("cc")
-        .args(["-std=c99", "-Wall", "-Werror", "-I"])
-        .arg(&include)
-        .arg(&source)
-        .arg("-L")
-        .arg(dir)
-        .arg(format!("-Wl,-rpath,{}", dir.display()))
-        .args(["-lpetriplc", "-o"])
-        .arg(&program)
-        .output()
-        .expect("a C compiler `cc` is needed");
-    assert!(out.status.success(), "cc failed:\n{}", text(&out.stderr));
-    program
 }
 
 #[test]

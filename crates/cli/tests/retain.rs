@@ -9,6 +9,8 @@
 //!
 //! No timing assertions: waits poll for a state with a generous safety limit.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command as Process, Stdio};
@@ -32,13 +34,9 @@ fn text(bytes: &[u8]) -> String {
 /// every scan it adds one to `count`, logging the new value to its first argument before
 /// the scan commits it.
 fn counter_program(dir: &Path) -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    let lib = exe.parent().unwrap().join("libpetriplc.so");
-    assert!(lib.exists(), "{} is missing", lib.display());
-    fs::copy(&lib, dir.join("libpetriplc.so")).unwrap();
-    let source = dir.join("counter.c");
-    fs::write(
-        &source,
+    common::c_module(
+        dir,
+        "counter",
         r#"#include <stdio.h>
 #include "petriplc.h"
 int main(int argc, char **argv) {
@@ -60,23 +58,8 @@ int main(int argc, char **argv) {
     return 0;
 }
 "#,
+        &[],
     )
-    .unwrap();
-    let program = dir.join("counter");
-    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../capi/include");
-    let out = Process::new("cc")
-        .args(["-std=c99", "-Wall", "-Werror", "-I"])
-        .arg(&include)
-        .arg(&source)
-        .arg("-L")
-        .arg(dir)
-        .arg(format!("-Wl,-rpath,{}", dir.display()))
-        .args(["-lpetriplc", "-o"])
-        .arg(&program)
-        .output()
-        .expect("a C compiler `cc` is needed");
-    assert!(out.status.success(), "cc failed:\n{}", text(&out.stderr));
-    program
 }
 
 fn config(dir: &Path, name: &str, write: &str, extra: &str) -> PathBuf {

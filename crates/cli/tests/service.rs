@@ -8,6 +8,8 @@
 //!
 //! No timing assertions: waits poll for a state with a generous safety limit.
 
+mod common;
+
 use std::fs;
 use std::os::unix::fs::MetadataExt;
 use std::os::unix::net::UnixDatagram;
@@ -262,13 +264,10 @@ fn out_pid(lines: &[String]) -> String {
 #[test]
 fn a_c_module_sleeping_ten_periods_is_killed_by_its_watchdog() {
     let dir = TempDir::new().unwrap();
-    let exe = std::env::current_exe().unwrap();
-    let lib = exe.parent().unwrap().join("libpetriplc.so");
-    fs::copy(&lib, dir.path().join("libpetriplc.so")).unwrap();
-    let source = dir.path().join("sleeper.c");
     // Writes busy = 1 every scan; its 4th scan sleeps ten periods, then writes 2.
-    fs::write(
-        &source,
+    common::c_module(
+        dir.path(),
+        "sleeper",
         r#"#include <stdio.h>
 #include <time.h>
 #include "petriplc.h"
@@ -293,27 +292,8 @@ int main(int argc, char **argv) {
     return 0;
 }
 "#,
-    )
-    .unwrap();
-    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../capi/include");
-    let out = Process::new("cc")
-        .args([
-            "-std=c99",
-            "-D_POSIX_C_SOURCE=199309L",
-            "-Wall",
-            "-Werror",
-            "-I",
-        ])
-        .arg(&include)
-        .arg(&source)
-        .arg("-L")
-        .arg(dir.path())
-        .arg(format!("-Wl,-rpath,{}", dir.path().display()))
-        .args(["-lpetriplc", "-o"])
-        .arg(dir.path().join("sleeper"))
-        .output()
-        .expect("a C compiler `cc` is needed");
-    assert!(out.status.success(), "cc failed:\n{}", text(&out.stderr));
+        &["-D_POSIX_C_SOURCE=199309L"],
+    );
     let conf = dir.path().join("plc.conf");
     fs::write(
         &conf,
