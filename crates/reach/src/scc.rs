@@ -442,7 +442,7 @@ impl<S: Stride> Graph<'_, S> {
 }
 
 /// Runs `f(lo, hi)` over `a..b` in chunks on `threads` threads.
-fn parallel(threads: usize, a: u64, b: u64, f: impl Fn(u64, u64) + Sync) {
+pub(crate) fn parallel(threads: usize, a: u64, b: u64, f: impl Fn(u64, u64) + Sync) {
     if b <= a {
         return;
     }

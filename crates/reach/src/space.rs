@@ -3,6 +3,7 @@
 //! of `u32` targets. Edge labels are not stored: the k-th edge of a state is its k-th enabled
 //! transition, recomputed from the marking when asked for.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use petriplc_net::{Marking, TransitionId};
@@ -246,6 +247,45 @@ impl StateSpace {
                 (StateId((s.first + u64::from(j)) as u32), Marking(m))
             })
         })
+    }
+
+    /// For each of `n` properties of single markings, the first state (in state order) that
+    /// has it, found on `threads` cores (0: all) without keeping markings: `f(m, open, hit)`
+    /// calls `hit(i)` for the properties `i` that marking `m` has, and may skip those for
+    /// which `open(i)` is false (found in an earlier state already). Deterministic: the
+    /// answer is the smallest such state whatever the timing.
+    pub fn first_states<F>(&self, threads: usize, n: usize, f: F) -> Vec<Option<StateId>>
+    where
+        F: Fn(&Marking, &dyn Fn(usize) -> bool, &mut dyn FnMut(usize)) + Sync,
+    {
+        let first: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(u64::MAX)).collect();
+        let threads = match threads {
+            0 => std::thread::available_parallelism().map_or(1, |c| c.get()),
+            t => t,
+        };
+        if n > 0 {
+            crate::scc::parallel(threads, 0, self.states(), |lo, hi| {
+                // Nothing left to find from here on.
+                if first.iter().all(|x| x.load(Ordering::Relaxed) < lo) {
+                    return;
+                }
+                let mut m = Marking(self.layout.base.clone());
+                self.for_range(lo, hi, |id, key| {
+                    self.layout.decode(key, &mut m.0);
+                    let open = |i: usize| first[i].load(Ordering::Relaxed) > id;
+                    f(&m, &open, &mut |i| {
+                        first[i].fetch_min(id, Ordering::Relaxed);
+                    });
+                });
+            });
+        }
+        first
+            .into_iter()
+            .map(|x| {
+                let x = x.into_inner();
+                (x != u64::MAX).then_some(StateId(x as u32))
+            })
+            .collect()
     }
 
     /// Calls `f(id, key)` for states `a..b` in order.
@@ -501,5 +541,39 @@ mod tests {
             1,
             "0 [1, 0] d0 t>1,u>1 | 1 [0, 1] d1 ",
         );
+    }
+
+    #[test]
+    fn first_states_are_the_sequential_sweeps_for_any_thread_count() {
+        // 3003 states: more than one parallel chunk.
+        let net = parse("a=10 b c d e f ; t: a -> b ; u: b -> c ; v: c -> d ; w: d -> e ; x: e -> f ; y: f -> a");
+        let space = explore(&net, &ExploreOptions::default()).unwrap();
+        let props = |m: &petriplc_net::Marking| -> Vec<bool> {
+            vec![
+                m.0[1] >= 5,
+                m.0[5] == 10,
+                m.0[0] > 10,
+                m.0[2] == 3 && m.0[4] == 2,
+            ]
+        };
+        let mut expect = vec![None; 4];
+        for (id, m) in space.iter_markings() {
+            for (i, has) in props(&m).into_iter().enumerate() {
+                if has && expect[i].is_none() {
+                    expect[i] = Some(id);
+                }
+            }
+        }
+        assert!(expect[1].is_some_and(|s| s.0 > 2048), "{expect:?}");
+        for threads in [1, 2, 3] {
+            let got = space.first_states(threads, 4, |m, open, hit| {
+                for (i, has) in props(m).into_iter().enumerate() {
+                    if has && open(i) {
+                        hit(i);
+                    }
+                }
+            });
+            assert_eq!(got, expect, "{threads} threads");
+        }
     }
 }

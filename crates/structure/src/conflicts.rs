@@ -79,77 +79,131 @@ pub struct EffectiveConflict {
 /// ([`input_condition`], decided exactly by [`satisfiable`]).
 ///
 /// One conflict per pair, with the first witness marking in iteration order, in order of
-/// (a, b). Stops reading `markings` once every candidate pair is found.
+/// (a, b). Stops reading `markings` once every candidate pair is found. A caller with many
+/// markings in memory can test them in parallel with [`ConflictCheck`] instead.
 pub fn effective_conflicts<M: Borrow<Marking>>(
     net: &Net,
     markings: impl IntoIterator<Item = M>,
 ) -> Vec<EffectiveConflict> {
-    struct Candidate {
-        conflict: StructuralConflict,
-        /// Tokens each shared place must hold for both: W(p,a) + W(p,b).
-        need: Vec<u64>,
-        inputs: Vec<(SignalId, i64)>,
-    }
-    let mut open: Vec<Candidate> = structural_conflicts(net)
-        .into_iter()
-        .filter_map(|c| {
-            let both = and(input_condition(net, c.a), input_condition(net, c.b));
-            let inputs = satisfiable(&both, net)?;
-            let (wa, wb) = (net.arcs_of(c.a), net.arcs_of(c.b));
-            let need = c
-                .places
-                .iter()
-                .map(|&p| u64::from(wa.consumed_from(p)) + u64::from(wb.consumed_from(p)))
-                .collect();
-            Some(Candidate {
-                conflict: c,
-                need,
-                inputs,
-            })
-        })
-        .collect();
-
-    let mut found = Vec::new();
-    // Per marking, whether each transition is enabled, computed when first asked.
-    let mut enabled: Vec<Option<bool>> = vec![None; net.transitions().len()];
+    let check = ConflictCheck::new(net);
+    let mut witnesses: Vec<Option<Marking>> = vec![None; check.len()];
+    let mut left = check.len();
+    let mut hits = Vec::new();
     for m in markings {
-        if open.is_empty() {
+        if left == 0 {
             break;
         }
         let m: &Marking = m.borrow();
-        enabled.fill(None);
-        let mut is_enabled =
-            |t: TransitionId| *enabled[t.index()].get_or_insert_with(|| net.is_enabled(m, t));
-        let mut k = 0;
-        while k < open.len() {
-            let c = &open[k];
-            let lacking = |(&p, &need): (&PlaceId, &u64)| u64::from(m[p]) < need;
-            let mut shared = c.conflict.places.iter().zip(&c.need);
-            if shared.any(lacking) && is_enabled(c.conflict.a) && is_enabled(c.conflict.b) {
-                let c = open.remove(k);
+        check.effective_in(net, m, |i| witnesses[i].is_none(), |i| hits.push(i));
+        for i in hits.drain(..) {
+            witnesses[i] = Some(m.clone());
+            left -= 1;
+        }
+    }
+    check.conflicts(witnesses)
+}
+
+/// The structural conflicts that can be effective, prepared once (guards and input arcs
+/// decided, the tokens each shared place must hold for both) so that each marking costs a
+/// few comparisons: [`effective_conflicts`] one marking at a time, or a caller's own parallel
+/// sweep that keeps, per candidate, its first witness.
+pub struct ConflictCheck {
+    candidates: Vec<Candidate>,
+}
+
+struct Candidate {
+    conflict: StructuralConflict,
+    /// Tokens each shared place must hold for both: W(p,a) + W(p,b).
+    need: Vec<u64>,
+    inputs: Vec<(SignalId, i64)>,
+}
+
+impl ConflictCheck {
+    pub fn new(net: &Net) -> ConflictCheck {
+        let candidates = structural_conflicts(net)
+            .into_iter()
+            .filter_map(|c| {
+                let both = and(input_condition(net, c.a), input_condition(net, c.b));
+                let inputs = satisfiable(&both, net)?;
+                let (wa, wb) = (net.arcs_of(c.a), net.arcs_of(c.b));
+                let need = c
+                    .places
+                    .iter()
+                    .map(|&p| u64::from(wa.consumed_from(p)) + u64::from(wb.consumed_from(p)))
+                    .collect();
+                Some(Candidate {
+                    conflict: c,
+                    need,
+                    inputs,
+                })
+            })
+            .collect();
+        ConflictCheck { candidates }
+    }
+
+    /// Number of candidate pairs.
+    pub fn len(&self) -> usize {
+        self.candidates.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.candidates.is_empty()
+    }
+
+    /// Calls `hit(i)` for every candidate `i` with `open(i)` that is effective in `m`.
+    pub fn effective_in(
+        &self,
+        net: &Net,
+        m: &Marking,
+        open: impl Fn(usize) -> bool,
+        mut hit: impl FnMut(usize),
+    ) {
+        for (i, c) in self.candidates.iter().enumerate() {
+            if !open(i) {
+                continue;
+            }
+            let lacking = c
+                .conflict
+                .places
+                .iter()
+                .zip(&c.need)
+                .any(|(&p, &need)| u64::from(m[p]) < need);
+            if lacking && net.is_enabled(m, c.conflict.a) && net.is_enabled(m, c.conflict.b) {
+                hit(i);
+            }
+        }
+    }
+
+    /// The effective conflicts, given each candidate's witness marking (`None`: never
+    /// effective), in order of (a, b).
+    pub fn conflicts(self, witnesses: Vec<Option<Marking>>) -> Vec<EffectiveConflict> {
+        let mut found: Vec<EffectiveConflict> = self
+            .candidates
+            .into_iter()
+            .zip(witnesses)
+            .filter_map(|(c, m)| {
+                let m = m?;
                 let short = c
                     .conflict
                     .places
                     .iter()
                     .zip(&c.need)
-                    .filter(|&x| lacking(x))
+                    .filter(|&(&p, &need)| u64::from(m[p]) < need)
                     .map(|(&p, _)| p)
                     .collect();
-                found.push(EffectiveConflict {
+                Some(EffectiveConflict {
                     a: c.conflict.a,
                     b: c.conflict.b,
                     places: short,
-                    witness_marking: m.clone(),
+                    witness_marking: m,
                     witness_inputs: c.inputs,
                     winner: c.conflict.a,
-                });
-            } else {
-                k += 1;
-            }
-        }
+                })
+            })
+            .collect();
+        found.sort_by_key(|c| (c.a, c.b));
+        found
     }
-    found.sort_by_key(|c| (c.a, c.b));
-    found
 }
 
 #[cfg(test)]

@@ -13,7 +13,7 @@ pub mod satisfy;
 mod testnet;
 
 pub use conflicts::{
-    effective_conflicts, structural_conflicts, EffectiveConflict, StructuralConflict,
+    effective_conflicts, structural_conflicts, ConflictCheck, EffectiveConflict, StructuralConflict,
 };
 pub use invariants::{
     conservation_laws, covered_places, p_invariants, structural_bounds, structurally_bounded,

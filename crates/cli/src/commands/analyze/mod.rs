@@ -243,7 +243,18 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             })
             .collect(),
         effective: space.as_ref().map(|s| {
-            structure::effective_conflicts(&net, s.iter_markings().map(|(_, m)| m))
+            // On all cores, with the first witness in state order (as a sequential sweep).
+            let check = structure::ConflictCheck::new(&net);
+            let first = s.first_states(0, check.len(), |m, open, hit| {
+                check.effective_in(&net, m, open, hit)
+            });
+            check
+                .conflicts(
+                    first
+                        .into_iter()
+                        .map(|x| x.map(|id| s.marking(id)))
+                        .collect(),
+                )
                 .into_iter()
                 .map(|c| EffectiveConflict {
                     a: tlabel(c.a),
