@@ -176,6 +176,65 @@ impl Rules {
         }
     }
 
+    /// Per transition `t`, what a marking `y` must hold for `y` to have a predecessor by
+    /// `t` in `layout`: undoing `t` gives `x = y - C(·, t)`, which must fit its fields and
+    /// enable `t`. Every arc's condition on `x` is a bound on one place of `y`, so the whole
+    /// test is `lo ≤ y(p) ≤ hi` for a few places: `None` when no `y` can pass.
+    pub fn back_intervals(&self, layout: &Layout) -> Vec<Option<Vec<(u32, u32, u32)>>> {
+        let net = &self.net;
+        net.transition_ids()
+            .map(|t| {
+                let a = net.arcs_of(t);
+                // (place, lo, hi) on y, as i64 so that negative bounds can be written.
+                let mut b: Vec<(usize, i64, i64)> = Vec::new();
+                let c = |p: PlaceId| net.incidence(p, t);
+                // x(p) = y(p) - C(p, t) fits its field: C ≤ y ≤ max + C.
+                for &(p, _) in a.consume.iter().chain(&a.produce) {
+                    let cp = c(p);
+                    b.push((p.index(), cp, i64::from(layout.fields[p.index()].max) + cp));
+                }
+                for &(p, w) in &a.consume {
+                    b.push((p.index(), i64::from(w) + c(p), i64::MAX));
+                }
+                for &(p, w) in &a.read {
+                    if !self.free[p.index()] {
+                        b.push((p.index(), i64::from(w) + c(p), i64::MAX));
+                    }
+                }
+                for &(p, w) in &a.inhibit {
+                    if !self.free[p.index()] {
+                        b.push((p.index(), 0, i64::from(w) + c(p) - 1));
+                    }
+                }
+                // Capacity: x(p) + W(t, p) - W(p, t) = y(p) ≤ limit.
+                for &(p, _) in &a.produce {
+                    let l = self.limit[p.index()];
+                    b.push((p.index(), 0, i64::try_from(l).unwrap_or(i64::MAX)));
+                }
+                b.sort_unstable_by_key(|x| x.0);
+                let mut out: Vec<(u32, u32, u32)> = Vec::new();
+                let mut i = 0;
+                while i < b.len() {
+                    let p = b[i].0;
+                    let (mut lo, mut hi) = (0i64, i64::MAX);
+                    while i < b.len() && b[i].0 == p {
+                        lo = lo.max(b[i].1);
+                        hi = hi.min(b[i].2);
+                        i += 1;
+                    }
+                    let hi = hi.min(i64::from(u32::MAX));
+                    if lo > hi {
+                        return None;
+                    }
+                    if lo > 0 || hi < i64::from(u32::MAX) {
+                        out.push((p as u32, lo as u32, hi as u32));
+                    }
+                }
+                Some(out)
+            })
+            .collect()
+    }
+
     /// The enabled set after firing `t` from a marking `m` with enabled set `en`: only the
     /// transitions `t` can affect are asked again.
     #[inline]
@@ -1101,6 +1160,61 @@ mod tests {
     use super::*;
     use crate::testnet::parse;
     use crate::{explore, properties};
+
+    /// `back_intervals` against its definition, for every marking in a box: `y` passes for
+    /// `t` exactly when `x = y - C(·, t)` is within the fields and enables `t`.
+    #[test]
+    fn back_intervals_are_the_predecessor_rule() {
+        let nets = [
+            "a=2 b c ; t: a*2 -> b ; u: b -> a c ; v: c -> c*2",
+            "a=1 b<2 c ; t: a -> b ; u: b ?c -> a ; v: !c*2 a -> c",
+            "a=1 b c? ; t: a ?c -> b ; u: b !c -> a ; v: a !b -> a b",
+            "a=3 b<3 c<1 ; t: a*2 -> b*3 ; u: b -> c ; v: c b*2 -> a ; w: a -> a",
+        ];
+        for text in nets {
+            let net = parse(text);
+            let rules = Rules::new(&net);
+            let layout = Layout::new(&net);
+            let back = rules.back_intervals(&layout);
+            let n = net.places().len();
+            let max: Vec<u32> = layout.fields.iter().map(|f| f.max).collect();
+            let mut y = vec![0u32; n];
+            loop {
+                for (t, b) in back.iter().enumerate() {
+                    let tid = TransitionId(t as u32);
+                    let x: Option<Vec<u32>> = net
+                        .place_ids()
+                        .map(|p| {
+                            let v = i64::from(y[p.index()]) - net.incidence(p, tid);
+                            (0..=i64::from(max[p.index()]))
+                                .contains(&v)
+                                .then_some(v as u32)
+                        })
+                        .collect();
+                    let expect = x.is_some_and(|x| rules.enabled(t, &x));
+                    let got = b.as_ref().is_some_and(|b| {
+                        b.iter()
+                            .all(|&(p, lo, hi)| (lo..=hi).contains(&y[p as usize]))
+                    });
+                    assert_eq!(got, expect, "{text}: y {y:?} t {t}");
+                }
+                // Next marking of the box 0..=top per place: every stored marking fits the
+                // fields (up to 6 tokens where a field is wide).
+                let mut i = 0;
+                while i < n {
+                    y[i] += 1;
+                    if y[i] <= max[i].min(6) {
+                        break;
+                    }
+                    y[i] = 0;
+                    i += 1;
+                }
+                if i == n {
+                    break;
+                }
+            }
+        }
+    }
 
     /// `n` independent copies of a two-place counter with `k` tokens: (k+1)^n states, levels
     /// wide enough for parallel rounds, fields that must widen.

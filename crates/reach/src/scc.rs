@@ -183,26 +183,8 @@ impl<S: Stride> Graph<'_, S> {
         let sp = self.space;
         let k = self.s.k();
         let n = sp.states() as usize;
-        let net = &sp.rules.net;
-        // Per transition: (place, C(p, t)) where C ≠ 0.
-        let changes: Vec<Vec<(usize, i64)>> = net
-            .transition_ids()
-            .map(|t| {
-                let a = net.arcs_of(t);
-                let mut ps: Vec<usize> = a
-                    .consume
-                    .iter()
-                    .chain(&a.produce)
-                    .map(|&(p, _)| p.index())
-                    .collect();
-                ps.sort_unstable();
-                ps.dedup();
-                ps.into_iter()
-                    .map(|p| (p, net.incidence(petriplc_net::PlaceId(p as u32), t)))
-                    .filter(|&(_, c)| c != 0)
-                    .collect()
-            })
-            .collect();
+        // Per transition, the bounds a state must be within to have a predecessor by it.
+        let back = sp.rules.back_intervals(&sp.layout);
         // Reached states by table slot (one bit per slot of each shard): the look-up that
         // finds a predecessor gives its slot, and no slot-to-number map is read.
         let base: Vec<usize> = sp
@@ -256,25 +238,15 @@ impl<S: Stride> Graph<'_, S> {
                     hashes.clear();
                     for y in batch.chunks_exact(k) {
                         sp.decode(y, &mut m);
-                        for (t, ch) in changes.iter().enumerate() {
-                            // Undoing t must leave every place within its field, and t must
-                            // be enabled in the result for it to be an edge to y; both are
-                            // asked before any look-up.
-                            let fits = ch.iter().all(|&(p, c)| {
-                                let v = i64::from(m[p]) - c;
-                                v >= 0 && v <= i64::from(sp.layout.fields[p].max)
+                        for (t, b) in back.iter().enumerate() {
+                            // Undoing t must leave a marking that fits the layout and enables
+                            // t for it to be an edge to y: asked before any look-up.
+                            let Some(b) = b else { continue };
+                            let ok = b.iter().all(|&(p, lo, hi)| {
+                                let v = m[p as usize];
+                                lo <= v && v <= hi
                             });
-                            if !fits {
-                                continue;
-                            }
-                            for &(p, c) in ch {
-                                m[p] = (i64::from(m[p]) - c) as u32;
-                            }
-                            let enabled = sp.rules.enabled(t, &m);
-                            for &(p, c) in ch {
-                                m[p] = (i64::from(m[p]) + c) as u32;
-                            }
-                            if enabled {
+                            if ok {
                                 let d = &sp.deltas[t * k..t * k + k];
                                 let at = cand.len();
                                 cand.extend(y.iter().zip(d).map(|(a, b)| a.wrapping_sub(*b)));

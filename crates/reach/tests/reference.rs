@@ -6,7 +6,7 @@
 use std::collections::{HashSet, VecDeque};
 
 use petriplc_net::{ArcKind, ArcSpec, Marking, Net, NetBuilder, PlaceSpec, TransitionSpec};
-use petriplc_reach::{coverability, explore, properties, ExploreOptions};
+use petriplc_reach::{coverability, explore, properties, ExploreOptions, StateId};
 use proptest::prelude::*;
 
 /// A place: initial tokens, capacity, whether it is an input place.
@@ -126,6 +126,37 @@ proptest! {
                 prop_assert_eq!(p.deadlock, deadlocks > 0);
                 prop_assert_eq!(p.max_tokens_place, max_place);
                 prop_assert_eq!(p.max_tokens_marking, max_sum);
+                // Liveness, reversibility and home markings against the kept graph's
+                // components, by plain reachability.
+                let n = space.states() as usize;
+                let succ: Vec<Vec<usize>> = (0..n)
+                    .map(|s| space.successors(StateId(s as u32)).map(|(_, d)| d.index()).collect())
+                    .collect();
+                let reach_from = |s: usize| {
+                    let mut seen = vec![false; n];
+                    let mut todo = vec![s];
+                    seen[s] = true;
+                    while let Some(v) = todo.pop() {
+                        for &w in &succ[v] {
+                            if !seen[w] {
+                                seen[w] = true;
+                                todo.push(w);
+                            }
+                        }
+                    }
+                    seen
+                };
+                let all: Vec<Vec<bool>> = (0..n).map(reach_from).collect();
+                let reversible = (0..n).all(|s| all[s][0]);
+                // A home marking: one every state can reach.
+                let home = (0..n).any(|h| (0..n).all(|s| all[s][h]));
+                // Live: from every state, every transition fires somewhere reachable.
+                let live = (0..n).all(|s| {
+                    net.transition_ids().all(|t| (0..n).any(|r| all[s][r] && space.successors(StateId(r as u32)).any(|(u, _)| u == t)))
+                });
+                prop_assert_eq!(p.reversible, Some(reversible));
+                prop_assert_eq!(p.home_marking, Some(home));
+                prop_assert_eq!(p.live, Some(live));
                 // Every edge of the kept graph is a firing.
                 for (s, m) in space.iter_markings() {
                     for (t, d) in space.successors(s) {
