@@ -257,6 +257,54 @@ impl TransitionArcs {
                 held(p).saturating_add(u64::from(w)) - u64::from(self.consumed_from(p)) <= limit(p)
             })
     }
+
+    /// [`TransitionArcs::allow`] where one marking `m` is both `tokens` and `held`, as bounds
+    /// on single places: the transition is enabled in `m` exactly when `lo ≤ m(p) ≤ hi` for
+    /// every `(p, lo, hi)` returned (places in order, each once); `None` when no marking
+    /// enables it. State-space searches test millions of markings with it.
+    pub fn enabling_bounds(
+        &self,
+        limit: impl Fn(PlaceId) -> u64,
+        free: impl Fn(PlaceId) -> bool,
+    ) -> Option<Vec<(PlaceId, u64, u64)>> {
+        let mut b: Vec<(PlaceId, u64, u64)> = Vec::new();
+        for &(p, w) in &self.read {
+            if !free(p) {
+                b.push((p, u64::from(w), u64::MAX));
+            }
+        }
+        for &(p, w) in &self.inhibit {
+            if !free(p) {
+                b.push((p, 0, u64::from(w).checked_sub(1)?));
+            }
+        }
+        for &(p, w) in &self.consume {
+            b.push((p, u64::from(w), u64::MAX));
+        }
+        for &(p, w) in &self.produce {
+            // m + w - consumed ≤ limit, read once the preset holds (m ≥ consumed).
+            let hi = limit(p)
+                .saturating_add(u64::from(self.consumed_from(p)))
+                .checked_sub(u64::from(w))?;
+            b.push((p, 0, hi));
+        }
+        b.sort_unstable_by_key(|x| x.0);
+        let mut out: Vec<(PlaceId, u64, u64)> = Vec::new();
+        for (p, lo, hi) in b {
+            match out.last_mut() {
+                Some(last) if last.0 == p => {
+                    last.1 = last.1.max(lo);
+                    last.2 = last.2.min(hi);
+                }
+                _ => out.push((p, lo, hi)),
+            }
+        }
+        if out.iter().any(|&(_, lo, hi)| lo > hi) {
+            return None;
+        }
+        out.retain(|&(_, lo, hi)| lo > 0 || hi < u64::MAX);
+        Some(out)
+    }
 }
 
 /// A checked Petri net with inputs and outputs. Build one with [`NetBuilder`].
@@ -1014,6 +1062,54 @@ impl SignalTable {
 
 #[cfg(test)]
 mod tests {
+
+    /// `enabling_bounds` is `allow` on one marking: every marking of 3 places with 0..=5
+    /// tokens, for transitions with every arc kind, capacities and a free place.
+    #[test]
+    fn enabling_bounds_are_the_firing_rule() {
+        let (a, b, c) = (PlaceId(0), PlaceId(1), PlaceId(2));
+        let arcs = |consume: &[(PlaceId, u32)],
+                    produce: &[(PlaceId, u32)],
+                    read: &[(PlaceId, u32)],
+                    inhibit: &[(PlaceId, u32)]| TransitionArcs {
+            consume: consume.to_vec(),
+            produce: produce.to_vec(),
+            read: read.to_vec(),
+            inhibit: inhibit.to_vec(),
+            timed: Vec::new(),
+        };
+        let cases = [
+            arcs(&[(a, 2)], &[(b, 1)], &[], &[]),
+            arcs(&[(a, 1)], &[(a, 2), (b, 3)], &[(c, 2)], &[]),
+            arcs(&[(b, 1)], &[(c, 1)], &[], &[(a, 3), (c, 2)]),
+            arcs(&[], &[(b, 2)], &[(a, 1)], &[(b, 1)]),
+            arcs(&[(a, 1), (b, 2)], &[(b, 1)], &[(a, 2)], &[(c, 1)]),
+            arcs(&[], &[(c, 4)], &[], &[]),
+        ];
+        let limits: [fn(PlaceId) -> u64; 3] = [
+            |_| u64::MAX,
+            |p| if p.0 == 1 { 3 } else { u64::MAX },
+            |p| if p.0 == 2 { 2 } else { 4 },
+        ];
+        let frees: [fn(PlaceId) -> bool; 2] = [|_| false, |p| p.0 == 2];
+        for t in &cases {
+            for limit in limits {
+                for free in frees {
+                    let bounds = t.enabling_bounds(limit, free);
+                    for m in 0..6u32.pow(3) {
+                        let m = [m % 6, m / 6 % 6, m / 36];
+                        let tokens = |p: PlaceId| m[p.index()];
+                        let expect = t.allow(tokens, |p| u64::from(tokens(p)), limit, free);
+                        let got = bounds.as_ref().is_some_and(|bs| {
+                            bs.iter()
+                                .all(|&(p, lo, hi)| (lo..=hi).contains(&u64::from(tokens(p))))
+                        });
+                        assert_eq!(got, expect, "{t:?} m {m:?}");
+                    }
+                }
+            }
+        }
+    }
     use super::*;
     use crate::guard::parse;
 

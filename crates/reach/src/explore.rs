@@ -178,56 +178,43 @@ impl Rules {
 
     /// Per transition `t`, what a marking `y` must hold for `y` to have a predecessor by
     /// `t` in `layout`: undoing `t` gives `x = y - C(·, t)`, which must fit its fields and
-    /// enable `t`. Every arc's condition on `x` is a bound on one place of `y`, so the whole
-    /// test is `lo ≤ y(p) ≤ hi` for a few places: `None` when no `y` can pass.
+    /// enable `t`. Enabling is a bound on single places of `x`
+    /// ([`petriplc_net::TransitionArcs::enabling_bounds`]), so with the fields it is
+    /// `lo ≤ y(p) ≤ hi` for a few places: `None` when no `y` can pass.
     pub fn back_intervals(&self, layout: &Layout) -> Vec<Option<Vec<(u32, u32, u32)>>> {
         let net = &self.net;
         net.transition_ids()
             .map(|t| {
                 let a = net.arcs_of(t);
-                // (place, lo, hi) on y, as i64 so that negative bounds can be written.
-                let mut b: Vec<(usize, i64, i64)> = Vec::new();
-                let c = |p: PlaceId| net.incidence(p, t);
-                // x(p) = y(p) - C(p, t) fits its field: C ≤ y ≤ max + C.
+                let c = |p: PlaceId| i128::from(net.incidence(p, t));
+                let enabling =
+                    a.enabling_bounds(|p| self.limit[p.index()], |p| self.free[p.index()])?;
+                // (place, lo, hi) on y.
+                let mut b: Vec<(PlaceId, i128, i128)> = enabling
+                    .into_iter()
+                    .map(|(p, lo, hi)| (p, i128::from(lo) + c(p), i128::from(hi) + c(p)))
+                    .collect();
+                // x(p) fits its field: C ≤ y ≤ max + C.
                 for &(p, _) in a.consume.iter().chain(&a.produce) {
-                    let cp = c(p);
-                    b.push((p.index(), cp, i64::from(layout.fields[p.index()].max) + cp));
-                }
-                for &(p, w) in &a.consume {
-                    b.push((p.index(), i64::from(w) + c(p), i64::MAX));
-                }
-                for &(p, w) in &a.read {
-                    if !self.free[p.index()] {
-                        b.push((p.index(), i64::from(w) + c(p), i64::MAX));
-                    }
-                }
-                for &(p, w) in &a.inhibit {
-                    if !self.free[p.index()] {
-                        b.push((p.index(), 0, i64::from(w) + c(p) - 1));
-                    }
-                }
-                // Capacity: x(p) + W(t, p) - W(p, t) = y(p) ≤ limit.
-                for &(p, _) in &a.produce {
-                    let l = self.limit[p.index()];
-                    b.push((p.index(), 0, i64::try_from(l).unwrap_or(i64::MAX)));
+                    let max = i128::from(layout.fields[p.index()].max);
+                    b.push((p, c(p), max + c(p)));
                 }
                 b.sort_unstable_by_key(|x| x.0);
                 let mut out: Vec<(u32, u32, u32)> = Vec::new();
                 let mut i = 0;
                 while i < b.len() {
                     let p = b[i].0;
-                    let (mut lo, mut hi) = (0i64, i64::MAX);
+                    let (mut lo, mut hi) = (0i128, i128::from(u32::MAX));
                     while i < b.len() && b[i].0 == p {
                         lo = lo.max(b[i].1);
                         hi = hi.min(b[i].2);
                         i += 1;
                     }
-                    let hi = hi.min(i64::from(u32::MAX));
                     if lo > hi {
                         return None;
                     }
-                    if lo > 0 || hi < i64::from(u32::MAX) {
-                        out.push((p as u32, lo as u32, hi as u32));
+                    if lo > 0 || hi < i128::from(u32::MAX) {
+                        out.push((p.0, lo as u32, hi as u32));
                     }
                 }
                 Some(out)

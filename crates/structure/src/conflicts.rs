@@ -94,7 +94,7 @@ pub fn effective_conflicts<M: Borrow<Marking>>(
             break;
         }
         let m: &Marking = m.borrow();
-        check.effective_in(net, m, |i| witnesses[i].is_none(), |i| hits.push(i));
+        check.effective_in(m, |i| witnesses[i].is_none(), |i| hits.push(i));
         for i in hits.drain(..) {
             witnesses[i] = Some(m.clone());
             left -= 1;
@@ -116,6 +116,8 @@ struct Candidate {
     /// Tokens each shared place must hold for both: W(p,a) + W(p,b).
     need: Vec<u64>,
     inputs: Vec<(SignalId, i64)>,
+    /// Both enabled, as bounds on single places (`None`: never both).
+    both: Option<Vec<(PlaceId, u64, u64)>>,
 }
 
 impl ConflictCheck {
@@ -131,10 +133,20 @@ impl ConflictCheck {
                     .iter()
                     .map(|&p| u64::from(wa.consumed_from(p)) + u64::from(wb.consumed_from(p)))
                     .collect();
+                let limit = |p: PlaceId| net.bound(p).map_or(u64::MAX, u64::from);
+                let free = |p: PlaceId| net.place(p).input.is_some();
+                let both = match (
+                    wa.enabling_bounds(limit, free),
+                    wb.enabling_bounds(limit, free),
+                ) {
+                    (Some(x), Some(y)) => Some(x.into_iter().chain(y).collect()),
+                    _ => None,
+                };
                 Some(Candidate {
                     conflict: c,
                     need,
                     inputs,
+                    both,
                 })
             })
             .collect();
@@ -153,7 +165,6 @@ impl ConflictCheck {
     /// Calls `hit(i)` for every candidate `i` with `open(i)` that is effective in `m`.
     pub fn effective_in(
         &self,
-        net: &Net,
         m: &Marking,
         open: impl Fn(usize) -> bool,
         mut hit: impl FnMut(usize),
@@ -168,7 +179,11 @@ impl ConflictCheck {
                 .iter()
                 .zip(&c.need)
                 .any(|(&p, &need)| u64::from(m[p]) < need);
-            if lacking && net.is_enabled(m, c.conflict.a) && net.is_enabled(m, c.conflict.b) {
+            let enabled = |bs: &[(PlaceId, u64, u64)]| {
+                bs.iter()
+                    .all(|&(p, lo, hi)| (lo..=hi).contains(&u64::from(m[p])))
+            };
+            if lacking && c.both.as_deref().is_some_and(enabled) {
                 hit(i);
             }
         }

@@ -246,7 +246,7 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             // On all cores, with the first witness in state order (as a sequential sweep).
             let check = structure::ConflictCheck::new(&net);
             let first = s.first_states(0, check.len(), |m, open, hit| {
-                check.effective_in(&net, m, open, hit)
+                check.effective_in(m, open, hit)
             });
             check
                 .conflicts(
