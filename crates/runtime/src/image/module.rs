@@ -63,6 +63,8 @@ struct Plan {
     /// The words the steps write, for the journal: one span per run of `Out` and `Merge`
     /// steps alike, in the order of the steps.
     spans: Vec<Span>,
+    /// Whether the CPU has AVX2 (see [`merge`]).
+    avx2: bool,
 }
 
 /// Words per block of the plan: the journal's lanes, so that a pattern's owned words are
@@ -628,15 +630,37 @@ fn die_half_way(plan: &Plan, m: &[u32], g: &mut [u32], p: &[u32], journal: &mut 
     testhook::die()
 }
 
-/// Words written out between two journal saves: small enough that the chunk is still in
-/// the cache when it is written, large enough that the save's bookkeeping does not count.
-/// A whole number of blocks.
-const CHUNK: usize = 16 * BLOCK;
+/// Words written out between two journal saves, a whole number of blocks: small enough that
+/// the chunk's global and private words (16 KiB) stay in the L1 cache between the save and
+/// the write, large enough that the save's bookkeeping does not count and the hardware
+/// prefetchers see long streams. On the bench machine (AMD EPYC, 32 KiB L1d) interleaved
+/// ownership took 3.3x memcpy with chunks of 64 words, 2.2x with 256, 1.85x with 2048.
+const CHUNK: usize = 128 * BLOCK;
 
 /// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in, each
 /// chunk's words listed by the plan's spans saved in the journal (opened with those spans)
 /// before the chunk is written. `g` must be locked.
 fn merge(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
+    #[cfg(target_arch = "x86_64")]
+    if plan.avx2 {
+        // SAFETY: the CPU has AVX2 (detected when the plan was made).
+        unsafe { merge_avx2(plan, g, p, journal) };
+        return;
+    }
+    merge_portable(plan, g, p, journal);
+}
+
+/// [`merge_portable`] compiled for AVX2: the merge loops run twice as wide as the x86-64
+/// baseline's SSE2, which matters as the copy it is measured against (glibc's `memcpy`)
+/// picks the widest vectors the CPU has.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn merge_avx2(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
+    merge_portable(plan, g, p, journal);
+}
+
+#[inline(always)]
+fn merge_portable(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
     for &step in &plan.steps {
         match step {
             Step::In { start, words } => {
@@ -678,7 +702,7 @@ fn merge(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
 }
 
 /// Merges blocks owned as `m` says, whole blocks at a time: the merged words to both sides.
-#[inline]
+#[inline(always)]
 fn merge_dense(m: &[u32; BLOCK], g: &mut [u32], p: &mut [u32]) {
     let mut gc = g.chunks_exact_mut(BLOCK);
     let mut pc = p.chunks_exact_mut(BLOCK);
@@ -706,34 +730,55 @@ fn merge_dense(m: &[u32; BLOCK], g: &mut [u32], p: &mut [u32]) {
 /// Merges blocks with a few owned words: saves only those in the journal, then merges the
 /// blocks whole (the other words are written unchanged, so they need no saving; writing
 /// the owned words one by one instead would make the next block-wide load wait for them).
-#[inline]
+#[inline(always)]
 fn merge_sparse(pattern: &Pattern, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
     let owned = &pattern.owned[..pattern.sparse as usize];
-    let m = &pattern.mask;
     let blocks = g.len().div_ceil(BLOCK);
-    journal.save(blocks * owned.len(), |saved| {
-        // The blocks first in each zip: the saved words run out with them.
-        let mut saved = saved.chunks_exact_mut(owned.len());
-        let mut gc = g.chunks_exact(BLOCK);
-        for (g, s) in (&mut gc).zip(&mut saved) {
-            let g: &[u32; BLOCK] = g.try_into().expect("a whole block");
-            for (s, &o) in s.iter_mut().zip(owned) {
-                *s = g[o as usize % BLOCK];
-            }
-        }
-        if let Some(s) = saved.next() {
-            let g = gc.remainder();
-            for (s, &o) in s.iter_mut().zip(owned) {
-                *s = g[o as usize];
-            }
-        }
+    journal.save(blocks * owned.len(), |saved| match owned.len() {
+        1 => gather::<1>(owned, g, saved),
+        2 => gather::<2>(owned, g, saved),
+        3 => gather::<3>(owned, g, saved),
+        4 => gather::<4>(owned, g, saved),
+        5 => gather::<5>(owned, g, saved),
+        6 => gather::<6>(owned, g, saved),
+        7 => gather::<7>(owned, g, saved),
+        _ => gather::<SPARSE>(owned, g, saved),
     });
-    merge_dense(m, g, p);
+    merge_dense(&pattern.mask, g, p);
+}
+
+/// Copies the `N` words at offsets `owned` of each block of `g` to `saved`, one after the
+/// other (`N` a constant, so that the loop over a block is unrolled).
+#[inline(always)]
+fn gather<const N: usize>(owned: &[u8], g: &[u32], saved: &mut [u32]) {
+    let owned: [u8; N] = owned.try_into().expect("N owned words");
+    // The blocks first in each zip: the saved words run out with them.
+    let mut saved = saved.chunks_exact_mut(N);
+    let mut gc = g.chunks_exact(BLOCK);
+    for (g, s) in (&mut gc).zip(&mut saved) {
+        let g: &[u32; BLOCK] = g.try_into().expect("a whole block");
+        let s: &mut [u32; N] = s.try_into().expect("N words");
+        for i in 0..N {
+            s[i] = g[owned[i] as usize % BLOCK];
+        }
+    }
+    if let Some(s) = saved.next() {
+        // The image's last block, cut short: its owned words are within it (the pattern is
+        // zero past its end).
+        let g = gc.remainder();
+        for (s, &o) in s.iter_mut().zip(&owned) {
+            *s = g[o as usize];
+        }
+    }
 }
 
 /// Precomputes how `update()` exchanges the words of a module owning the bits of `mask`.
 fn plan(mask: &[u32]) -> Plan {
     let mut plan = Plan::default();
+    #[cfg(target_arch = "x86_64")]
+    {
+        plan.avx2 = std::arch::is_x86_feature_detected!("avx2");
+    }
     for (b, block) in mask.chunks(BLOCK).enumerate() {
         let start = (b * BLOCK) as u32;
         let words = block.len() as u32;
@@ -799,7 +844,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::super::shm::TestJournal;
-    use super::{merge, plan};
+    use super::{merge, merge_portable, plan, CHUNK};
 
     /// Runs `merge` with the plan of `mask` on global words `g0` and private words `p0`, and
     /// compares it with the definition: owned bits from the private words, every other bit
@@ -809,20 +854,27 @@ mod tests {
         let want: Vec<u32> = (0..mask.len())
             .map(|i| (g0[i] & !mask[i]) | (p0[i] & mask[i]))
             .collect();
-        let (mut g, mut p) = (g0.to_vec(), p0.to_vec());
         let plan = plan(mask);
-        let mut journal = TestJournal::new(mask.len());
-        {
-            let mut j = journal.journal();
-            j.open(&plan.spans);
-            merge(&plan, &mut g, &mut p, &mut j);
+        // The merge this CPU runs, and the portable one (if they differ).
+        for portable in [false, true] {
+            let (mut g, mut p) = (g0.to_vec(), p0.to_vec());
+            let mut journal = TestJournal::new(mask.len());
+            {
+                let mut j = journal.journal();
+                j.open(&plan.spans);
+                if portable {
+                    merge_portable(&plan, &mut g, &mut p, &mut j);
+                } else {
+                    merge(&plan, &mut g, &mut p, &mut j);
+                }
+            }
+            assert_eq!(g, want, "global words, mask {mask:x?}");
+            assert_eq!(p, want, "private words, mask {mask:x?}");
+            let changed = (0..g.len()).filter(|&i| g[i] != g0[i]).count();
+            assert!(journal.saved() >= changed, "saved fewer words than changed");
+            journal.undo(&mut g, None);
+            assert_eq!(g, g0, "undone from the journal, mask {mask:x?}");
         }
-        assert_eq!(g, want, "global words, mask {mask:x?}");
-        assert_eq!(p, want, "private words, mask {mask:x?}");
-        let changed = (0..g.len()).filter(|&i| g[i] != g0[i]).count();
-        assert!(journal.saved() >= changed, "saved fewer words than changed");
-        journal.undo(&mut g, None);
-        assert_eq!(g, g0, "undone from the journal, mask {mask:x?}");
     }
 
     fn check_mask(mask: &[u32]) {
@@ -855,6 +907,15 @@ mod tests {
         check_mask(&dense);
         let long: Vec<u32> = (0..1000).map(|i| if i % 4 == 1 { !0 } else { 0 }).collect();
         check_mask(&long);
+        // Every kind of step over several journal chunks, the image ending inside a block.
+        let mut chunks: Vec<u32> = (0..2 * CHUNK + 40)
+            .map(|i| if i % 4 == 1 { !0 } else { 0 })
+            .collect();
+        chunks.extend(vec![u32::MAX; CHUNK + 3]);
+        chunks.extend((0..CHUNK + 100).map(|i| if i % 3 == 0 { 0 } else { 0xF0 }));
+        chunks.extend(vec![0; CHUNK]);
+        chunks.extend((0..CHUNK + 7).map(|i| if i % 16 == 5 { 0x8000_0000 } else { 0 }));
+        check_mask(&chunks);
     }
 
     /// A mask in runs: nobody's, the module's, a partial word repeated, every `k`-th word.

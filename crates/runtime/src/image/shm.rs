@@ -477,7 +477,7 @@ impl Journal<'_> {
 
     /// Saves the next `n` words of the spans (in order, the words the spans list) before they
     /// are written: `fill` writes their present values into the slice it is given.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn save(&mut self, n: usize, fill: impl FnOnce(&mut [u32])) {
         let at = self.count as usize;
         fill(&mut self.saved[at..at + n]);
