@@ -71,8 +71,9 @@ struct Plan {
 /// the same lanes in every block.
 const BLOCK: usize = LANES;
 
-/// A pattern with at most this many owned words per block is merged word by word (only
-/// the owned words written out and journalled); a denser one block by block.
+/// A pattern with at most this many owned words per block has only those saved in the
+/// journal, one after the other; a denser one has its blocks saved whole (a block copy costs
+/// less than picking out most of its words).
 const SPARSE: usize = BLOCK / 2;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
