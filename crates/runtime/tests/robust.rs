@@ -70,13 +70,20 @@ fn config() -> PlcConfig {
     c
 }
 
-/// `bulk` owns 1000 words and `other` one word among them: `bulk`'s update writes two
-/// runs over several journal chunks.
+/// Words `bulk` owns, and the word among them that `other` owns.
+const BULK: u32 = 5000;
+const BULK_OTHER: u32 = 3000;
+
+/// `bulk` owns 5000 words and `other` one word among them: `bulk`'s update writes them over
+/// several journal chunks (2048 words each).
 fn bulk_layout() -> Layout {
-    let mut points: Vec<PointDecl> = (0..1000u32)
-        .map(|i| point(&format!("w{i}"), "bulk", if i < 600 { i } else { i + 1 }))
+    let mut points: Vec<PointDecl> = (0..BULK)
+        .map(|i| {
+            let at = if i < BULK_OTHER { i } else { i + 1 };
+            point(&format!("w{i}"), "bulk", at)
+        })
         .collect();
-    points.push(point("o", "other", 600));
+    points.push(point("o", "other", BULK_OTHER));
     Layout::new(&PlcConfig {
         modules: ["bulk", "other"]
             .iter()
@@ -89,8 +96,10 @@ fn bulk_layout() -> Layout {
 }
 
 /// Runs only as a victim: `update VALUE` writes a = b = VALUE and updates (dying half-way
-/// if the hook is armed); `bulk VALUE` writes VALUE to its 1000 words and updates; `fire`
-/// fires `a:beg` (dying half-way if armed).
+/// if the hook is armed); `bulk VALUE` writes VALUE to its 5000 words and updates; `loop`
+/// writes 1, 2, 3... to all of its points of the mixed layout, updating after each, until
+/// killed (saying `victim ready` after the first update); `fire` fires `a:beg` (dying half-way if
+/// armed).
 #[test]
 fn victim_entry() {
     let Ok(spec) = std::env::var(VICTIM) else {
@@ -117,11 +126,31 @@ fn victim_entry() {
             let layout = bulk_layout();
             let global = GlobalMap::open(id).unwrap();
             let mut m = ModuleMap::new(&layout, "bulk", Location::Local).unwrap();
-            for i in 0..1000 {
+            for i in 0..BULK {
                 m.set_u32(&m.handle(&format!("w{i}")).unwrap(), value)
                     .unwrap();
             }
             m.update(&global);
+        }
+        "loop" => {
+            let layout = mixed_layout();
+            let global = GlobalMap::open(id).unwrap();
+            let mut m = ModuleMap::new(&layout, "victim", Location::Local).unwrap();
+            let mine: Vec<_> = layout
+                .points()
+                .filter(|(_, s)| s.owner == "victim")
+                .map(|(_, s)| m.handle(&s.name).unwrap())
+                .collect();
+            for value in 1u32.. {
+                for h in &mine {
+                    m.set_u32(h, value & 0xFFFF).unwrap();
+                }
+                m.update(&global);
+                if value == 1 {
+                    // After the harness's "test victim_entry ... ", on the same line.
+                    println!("victim ready");
+                }
+            }
         }
         "fire" => {
             let net = SynchNet::from_config(&config).unwrap();
@@ -199,16 +228,134 @@ fn a_death_after_several_journal_chunks_is_undone_whole() {
     let layout = bulk_layout();
     let global = GlobalMap::create(&id, &layout).unwrap();
     assert!(!victim(&format!("bulk {id} 7"), None));
-    // Dies after 500 of its 1000 words: one journal chunk (256 words) saved and written, the
-    // next saved and written up to word 500; the other runs untouched and unsaved.
+    // Dies after 2500 of its 5000 words: one journal chunk (2048 words) saved and written,
+    // the next saved and written in part.
     assert!(victim(&format!("bulk {id} 8"), Some("update:1")));
     let mut other = ModuleMap::new(&layout, "other", Location::Local).unwrap();
     other.update(&global);
     let words = global.lock().words().to_vec();
-    assert_eq!(words.len(), 1001);
+    assert_eq!(words.len(), BULK as usize + 1);
     for (w, &v) in words.iter().enumerate() {
-        assert_eq!(v, if w == 600 { 0 } else { 7 }, "word {w}");
+        assert_eq!(v, if w == BULK_OTHER as usize { 0 } else { 7 }, "word {w}");
     }
+}
+
+/// Every shape of ownership `update()` has a way of writing: `victim` owns every fourth word
+/// of the first 4096 (merged word by word), the next 1024 whole (copied out), 12 words of
+/// every 16 of the next 1024 (merged block by block), and the low halves of the next 256
+/// words (16-bit points sharing words with `other`'s); `other` owns the rest.
+fn mixed_layout() -> Layout {
+    let half = |name: String, owner: &str, word: u32, bit: u8| PointDecl {
+        bits: 16,
+        at: Some((word, bit)),
+        ..point(&name, owner, word)
+    };
+    let mut points = Vec::new();
+    for w in 0..6400u32 {
+        let victim = match w {
+            0..4096 => w % 4 == 1,
+            4096..5120 => true,
+            5120..6144 => w % 16 >= 4,
+            _ => false,
+        };
+        if w >= 6144 {
+            points.push(half(format!("v{w}"), "victim", w, 0));
+            points.push(half(format!("o{w}"), "other", w, 16));
+        } else {
+            let owner = if victim { "victim" } else { "other" };
+            points.push(point(&format!("w{w}"), owner, w));
+        }
+    }
+    Layout::new(&PlcConfig {
+        modules: ["victim", "other"]
+            .iter()
+            .map(|m| ModuleDecl::new(*m, "test"))
+            .collect(),
+        points,
+        ..PlcConfig::default()
+    })
+    .unwrap()
+}
+
+/// The values of `victim`'s points and of `other`'s in the global map, read under the lock
+/// (which undoes a half-done update first).
+fn values(global: &GlobalMap, layout: &Layout) -> (Vec<u32>, Vec<u32>) {
+    let mut words = Vec::new();
+    global.snapshot(&mut words);
+    let (mut victim, mut other) = (Vec::new(), Vec::new());
+    for (id, s) in layout.points() {
+        let PointValue::Unsigned(v) = layout.decode(id, &words) else {
+            panic!("unsigned points only");
+        };
+        if s.owner == "victim" {
+            &mut victim
+        } else {
+            &mut other
+        }
+        .push(v);
+    }
+    (victim, other)
+}
+
+#[test]
+fn kills_at_random_moments_never_leave_a_half_done_update() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    const KILLS: u32 = 200;
+    let id = plc_id("kills");
+    let layout = mixed_layout();
+    let global = GlobalMap::create(&id, &layout).unwrap();
+    // `other` writes distinct values once; no victim may ever change them.
+    let mut other = ModuleMap::new(&layout, "other", Location::Local).unwrap();
+    for (_, s) in layout.points().filter(|(_, s)| s.owner == "other") {
+        let h = other.handle(&s.name).unwrap();
+        other.set_u32(&h, 0xA000 + s.word % 0x1000).unwrap();
+    }
+    other.update(&global);
+    let (_, others) = values(&global, &layout);
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let mut last = 0;
+    for kill in 0..KILLS {
+        let mut child = Command::new(std::env::current_exe().unwrap())
+            .args(["victim_entry", "--exact", "--nocapture", "--test-threads=1"])
+            .env(VICTIM, format!("loop {id}"))
+            .env_remove(testhook::ENV)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut ready = String::new();
+        let mut out = BufReader::new(child.stdout.take().unwrap());
+        while !ready.contains("victim ready") {
+            ready.clear();
+            assert!(out.read_line(&mut ready).unwrap() > 0, "the victim exited");
+        }
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        std::thread::sleep(Duration::from_micros(seed % 3000));
+        child.kill().unwrap();
+        child.wait().unwrap();
+        let (victim, now) = values(&global, &layout);
+        assert_eq!(now, others, "kill {kill}: other's points changed");
+        let v = victim[0];
+        assert!(v >= 1, "kill {kill}: the victim's first update is lost");
+        assert!(
+            victim.iter().all(|&x| x == v),
+            "kill {kill}: the victim's points hold values of different scans: {:?}",
+            victim
+                .iter()
+                .filter(|&&x| x != v)
+                .take(5)
+                .collect::<Vec<_>>()
+        );
+        last = v;
+    }
+    eprintln!(
+        "{KILLS} kills, {} of them inside the lock (undone); last value {last}",
+        global.recoveries()
+    );
+    assert!(global.recoveries() > 0, "no kill landed inside update()");
 }
 
 #[test]

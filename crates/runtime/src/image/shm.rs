@@ -7,13 +7,13 @@
 //! module's `update()`, [`GlobalMap::read_point`]) lays the forced bits over them.
 //!
 //! The journal makes a module's `update()` all or nothing even if the module dies half-way
-//! (`kill -9` in the middle of the copy): the updater opens it with the ranges of words it
-//! will write, then writes them chunk by chunk, saving each chunk's words and counting them
-//! as saved just before overwriting them (the chunk is still in the cache when it is copied
-//! out, so the journal costs one more pass over cache lines, not over memory). The next
-//! process to take the lock after the holder's death finds the journal open and puts the
-//! saved words back, so the image holds that module's previous values, never a mix of two
-//! scans. Each force request is a single word's mask and value, written value first, so it is
+//! (`kill -9` in the middle of the copy): the updater opens it with the [`Span`]s of words it
+//! will write, then writes them chunk by chunk, saving each chunk's words (only the words it
+//! changes, one after the other) and counting them as saved just before overwriting them
+//! (the chunk is still in the cache when it is written, so the journal costs a pass over
+//! cache lines, not over memory). The next process to take the lock after the holder's
+//! death finds the journal open and puts the saved words back, so the image holds that
+//! module's previous values, never a mix of two scans. Each force request is a single word's mask and value, written value first, so it is
 //! applied or not.
 
 use std::fs::File;
@@ -34,7 +34,7 @@ use crate::futex::{self, RobustMutex};
 const MAGIC: u64 = u64::from_le_bytes(*b"PPLCIMG\0");
 /// Bumped whenever the header or the word encoding changes, so that an old module is refused
 /// rather than misreading a newer PLC's image.
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
 /// The header: its fields, then the lock on a cache line of its own. The words start right
 /// after it, away from the contended lock.
 const HEADER: usize = 128;
@@ -54,14 +54,14 @@ struct Header {
     forced_words: AtomicU32,
     /// Bumped by every change of the force table, so maps refresh their copy of the mask.
     force_generation: AtomicU32,
-    /// How many word ranges the journal holds: non-zero while an update writes words out
-    /// (see [`ImageGuard::journal`]).
+    /// How many spans the journal holds: non-zero while an update writes words out (see
+    /// [`Journal`]).
     journal: AtomicU32,
     /// 1 when the lock has priority inheritance.
     inherit: AtomicU32,
     /// How often a lock held by a process that died was recovered.
     recoveries: AtomicU32,
-    /// How many words of the open journal's ranges, in order, are saved (and may have been
+    /// How many words of the open journal's spans, in order, are saved (and may have been
     /// overwritten since).
     journal_saved: AtomicU32,
     _reserved: [AtomicU32; 3],
@@ -71,9 +71,56 @@ struct Header {
 const _: () = assert!(std::mem::size_of::<Header>() == HEADER);
 
 /// The arrays after the header, in units of the image's word count: the words, the force
-/// mask, the forced values, the journal's saved words, and its ranges (two u32 per range,
-/// at most one range per word).
-const ARRAYS: usize = 6;
+/// mask, the forced values and the journal's saved words; the journal's spans follow them
+/// ([`span_area`] u32s).
+const ARRAYS: usize = 4;
+
+/// The journal records which words of a span it saved by their index modulo `LANES`.
+pub(crate) const LANES: usize = 16;
+
+/// Every lane of a [`Span`]: every word of it.
+pub(crate) const ALL_LANES: u32 = (1 << LANES) - 1;
+
+/// The u32s of the journal's spans: three per span, at most one span per block of [`LANES`]
+/// words (an update's spans are whole blocks, the last perhaps cut by the image's end).
+fn span_area(words: usize) -> usize {
+    3 * words.div_ceil(LANES)
+}
+
+/// The size of the mapping of an image of `words` words.
+fn map_len(words: usize) -> usize {
+    HEADER + 4 * (ARRAYS * words + span_area(words))
+}
+
+/// Words an update writes, as its journal lists them: of the words `start..end`, those whose
+/// index modulo [`LANES`] is a set bit of `lanes` ([`ALL_LANES`]: all of them). An update
+/// may list words it leaves unchanged; it must list every word it changes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Span {
+    pub start: u32,
+    pub end: u32,
+    pub lanes: u32,
+}
+
+/// The journal's undo: puts the first `count` saved words back, in the order of the first
+/// `open` spans of `spans` (three u32s each). Bounds are checked, as the arrays come from
+/// a process that died.
+fn undo(words: &mut [u32], saved: &[u32], spans: &[u32], open: usize, count: usize) {
+    let mut k = 0;
+    let count = count.min(saved.len());
+    for s in spans.chunks_exact(3).take(open) {
+        let (start, end, lanes) = (s[0] as usize, (s[1] as usize).min(words.len()), s[2]);
+        for (i, w) in words.iter_mut().enumerate().take(end).skip(start) {
+            if k == count {
+                return;
+            }
+            if lanes >> (i % LANES) & 1 != 0 {
+                *w = saved[k];
+                k += 1;
+            }
+        }
+    }
+}
 
 /// The shared process image of one PLC. Cheap to clone (threads of one process share the
 /// mapping); the creator's last clone removes the shared memory name when dropped.
@@ -173,7 +220,7 @@ impl GlobalMap {
             .metadata()
             .map_err(|e| os("cannot stat shared memory", shm, e))?
             .ino();
-        let len = HEADER + 4 * ARRAYS * layout.words();
+        let len = map_len(layout.words());
         file.set_len(len as u64)
             .map_err(|e| os("cannot size shared memory", shm, e))?;
         let map = MmapOptions::new()
@@ -181,7 +228,7 @@ impl GlobalMap {
             .map_raw(file)
             .map_err(|e| os("cannot map shared memory", shm, e))?;
         let init = layout.init_words();
-        // SAFETY: the mapping is `len` = HEADER + 4 * ARRAYS * init.len() bytes and page-aligned, so
+        // SAFETY: the mapping is `len` = map_len(init.len()) bytes and page-aligned, so
         // the words start 4-aligned at HEADER; nobody else can use the words before the magic
         // below is published (`open` refuses an image without it).
         unsafe {
@@ -249,7 +296,7 @@ impl GlobalMap {
             )));
         }
         let words = h.words.load(Ordering::Relaxed) as usize;
-        if HEADER + 4 * ARRAYS * words != len {
+        if map_len(words) != len {
             return Err(bad(format!("{len} bytes do not hold {words} words")));
         }
         let fingerprint = h.fingerprint.load(Ordering::Relaxed);
@@ -318,28 +365,20 @@ impl GlobalMap {
         let h = header(&self.inner.map);
         let n = self.inner.words;
         // SAFETY: we hold the lock (handed over by EOWNERDEAD), so nobody else touches the
-        // arrays; the mapping holds ARRAYS * n u32s at HEADER.
+        // arrays; the mapping holds map_len(n) - HEADER bytes of u32s at HEADER.
         let all = unsafe {
             std::slice::from_raw_parts_mut(
                 self.inner.map.as_mut_ptr().add(HEADER).cast::<u32>(),
-                ARRAYS * n,
+                ARRAYS * n + span_area(n),
             )
         };
         let (words, rest) = all.split_at_mut(n);
         let (force_mask, rest) = rest.split_at_mut(n);
         let (_, rest) = rest.split_at_mut(n);
-        let (saved, ranges) = rest.split_at_mut(n);
-        let open = (h.journal.load(Ordering::Acquire) as usize).min(n);
-        let mut left = h.journal_saved.load(Ordering::Acquire) as usize;
-        for r in ranges.chunks_exact(2).take(open) {
-            let (start, end) = (r[0] as usize, r[1] as usize);
-            if start >= end || end > n || left == 0 {
-                break;
-            }
-            let end = end.min(start + left);
-            words[start..end].copy_from_slice(&saved[start..end]);
-            left -= end - start;
-        }
+        let (saved, spans) = rest.split_at_mut(n);
+        let open = h.journal.load(Ordering::Acquire) as usize;
+        let count = h.journal_saved.load(Ordering::Acquire) as usize;
+        undo(words, saved, spans, open, count);
         h.journal.store(0, Ordering::Release);
         // A force request is applied whole or not at all, but the count of forced words
         // may lag behind the mask: count again, and make every map refresh its copy.
@@ -403,8 +442,10 @@ pub struct ImageGuard<'a> {
 
 /// The journal of an update in progress (see the module documentation).
 pub struct Journal<'g> {
+    /// The saved words, one after the other in the order of the spans.
     saved: &'g mut [u32],
-    ranges: &'g mut [u32],
+    /// The spans, three u32s each.
+    spans: &'g mut [u32],
     open: &'g AtomicU32,
     saved_count: &'g AtomicU32,
     /// Words saved so far (what `saved_count` holds).
@@ -412,30 +453,36 @@ pub struct Journal<'g> {
 }
 
 impl Journal<'_> {
-    /// Opens the journal for an update that will write the words of `ranges` (at most one
-    /// range per word), in this order, each chunk saved by [`Journal::save`] just before it
-    /// is written. From here until [`Journal::close`], a death of this process makes the next
-    /// locker put the saved words back.
-    pub fn open(&mut self, ranges: &[(u32, u32)]) {
-        for (i, &(start, end)) in ranges.iter().enumerate() {
-            self.ranges[2 * i] = start;
-            self.ranges[2 * i + 1] = end;
+    /// Opens the journal for an update that will write the words of `spans` (at most one
+    /// span per block of [`LANES`] words), in this order, each chunk saved by
+    /// [`Journal::save`] just before it is written. From here until [`Journal::close`], a
+    /// death of this process makes the next locker put the saved words back.
+    pub(crate) fn open(&mut self, spans: &[Span]) {
+        assert!(
+            3 * spans.len() <= self.spans.len(),
+            "{} journal spans for {} words",
+            spans.len(),
+            self.saved.len()
+        );
+        for (d, s) in self.spans.chunks_exact_mut(3).zip(spans) {
+            d.copy_from_slice(&[s.start, s.end, s.lanes]);
         }
         self.count = 0;
         self.saved_count.store(0, Ordering::Relaxed);
-        self.open.store(ranges.len() as u32, Ordering::Release);
+        self.open.store(spans.len() as u32, Ordering::Release);
         // A death is precise (every instruction before the kill ran, none after), so program
         // order is enough: keep the compiler from moving stores across these points.
         compiler_fence(Ordering::SeqCst);
     }
 
-    /// Saves `words[start..end]`, the next words of the ranges in order, before they are
-    /// written.
-    #[inline]
-    pub fn save(&mut self, words: &[u32], start: usize, end: usize) {
-        self.saved[start..end].copy_from_slice(&words[start..end]);
+    /// Saves the next `n` words of the spans (in order, the words the spans list) before they
+    /// are written: `fill` writes their present values into the slice it is given.
+    #[inline(always)]
+    pub(crate) fn save(&mut self, n: usize, fill: impl FnOnce(&mut [u32])) {
+        let at = self.count as usize;
+        fill(&mut self.saved[at..at + n]);
         compiler_fence(Ordering::SeqCst);
-        self.count += (end - start) as u32;
+        self.count += n as u32;
         self.saved_count.store(self.count, Ordering::Relaxed);
         compiler_fence(Ordering::SeqCst);
     }
@@ -444,6 +491,56 @@ impl Journal<'_> {
     pub fn close(&mut self) {
         compiler_fence(Ordering::SeqCst);
         self.open.store(0, Ordering::Release);
+    }
+}
+
+/// A journal in private memory, for unit tests of what an update saves.
+#[cfg(test)]
+pub(crate) struct TestJournal {
+    saved: Vec<u32>,
+    spans: Vec<u32>,
+    open: AtomicU32,
+    count: AtomicU32,
+}
+
+#[cfg(test)]
+impl TestJournal {
+    pub(crate) fn new(words: usize) -> TestJournal {
+        TestJournal {
+            saved: vec![0; words],
+            spans: vec![0; span_area(words)],
+            open: AtomicU32::new(0),
+            count: AtomicU32::new(0),
+        }
+    }
+
+    pub(crate) fn journal(&mut self) -> Journal<'_> {
+        Journal {
+            saved: &mut self.saved,
+            spans: &mut self.spans,
+            open: &self.open,
+            saved_count: &self.count,
+            count: 0,
+        }
+    }
+
+    /// What a process taking the lock after a death would do, as if the update had died
+    /// after saving its first `count` words (all of them: `None`); the spans as last opened.
+    pub(crate) fn undo(&self, words: &mut [u32], count: Option<usize>) {
+        let saved = self.count.load(Ordering::Relaxed) as usize;
+        let spans = self.spans.len() / 3;
+        undo(
+            words,
+            &self.saved,
+            &self.spans,
+            spans,
+            count.unwrap_or(saved).min(saved),
+        );
+    }
+
+    /// How many words the last update saved.
+    pub(crate) fn saved(&self) -> usize {
+        self.count.load(Ordering::Relaxed) as usize
     }
 }
 
@@ -503,26 +600,27 @@ impl ImageGuard<'_> {
     pub fn parts_mut(&mut self) -> Parts<'_> {
         let inner = &self.map.inner;
         let n = inner.words;
-        // SAFETY: the mapping holds ARRAYS * `words` u32s at HEADER (4-aligned, checked at
-        // open and create); the slices are disjoint; holding the lock makes this the only
-        // access among well-behaved users, and the slices borrow the guard mutably.
+        // SAFETY: the mapping holds ARRAYS * `words` + span_area(`words`) u32s at HEADER
+        // (4-aligned, checked at open and create); the slices are disjoint; holding the lock
+        // makes this the only access among well-behaved users, and the slices borrow the
+        // guard mutably.
         let all = unsafe {
             std::slice::from_raw_parts_mut(
                 inner.map.as_mut_ptr().add(HEADER).cast::<u32>(),
-                ARRAYS * n,
+                ARRAYS * n + span_area(n),
             )
         };
         let (words, rest) = all.split_at_mut(n);
         let (force_mask, rest) = rest.split_at_mut(n);
         let (force_value, rest) = rest.split_at_mut(n);
-        let (saved, ranges) = rest.split_at_mut(n);
+        let (saved, spans) = rest.split_at_mut(n);
         Parts {
             words,
             force_mask,
             force_value,
             journal: Journal {
                 saved,
-                ranges,
+                spans,
                 open: &header(&inner.map).journal,
                 saved_count: &header(&inner.map).journal_saved,
                 count: 0,
