@@ -34,6 +34,8 @@ struct Seg {
     len: u32,
 }
 
+/// States whose keys [`StateSpace::for_range`] touches together.
+const PREFETCH: u64 = 16;
 /// States per block of the graph, at most (fewer when a block's edges could pass `u32`).
 const BLOCK: usize = 1 << 16;
 /// States expanded together when building the graph (their look-ups overlap).
@@ -300,8 +302,20 @@ impl StateSpace {
             let s = self.segs[i];
             let shard = &self.shards[s.shard as usize];
             let end = (s.first + u64::from(s.len)).min(b);
-            for x in id..end {
-                f(x, shard.key(k, (s.lo + (x - s.first) as u32) as usize));
+            // States are stored at hashed slots: touch a group's keys before reading the
+            // first, so that their cache misses overlap.
+            let mut x = id;
+            while x < end {
+                let group = (end - x).min(PREFETCH);
+                let mut sink = 0u64;
+                for y in x..x + group {
+                    sink ^= shard.key(k, (s.lo + (y - s.first) as u32) as usize)[0];
+                }
+                std::hint::black_box(sink);
+                for y in x..x + group {
+                    f(y, shard.key(k, (s.lo + (y - s.first) as u32) as usize));
+                }
+                x += group;
             }
             id = end;
             i += 1;
