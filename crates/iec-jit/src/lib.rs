@@ -207,21 +207,96 @@ pub fn compile_limited(engine: &Engine, max_ops: usize) -> Result<Jit, JitError>
         }
         module.clear_context(&mut ctx);
     }
-    module.finalize_definitions().map_err(err)?;
-    let entries = code
+    // Per instance: the function it starts in and the call depth there. Glue that is only
+    // `CallAbs program; Halt`: the program is the entry, one call deep (the glue's call
+    // could not fail its depth check).
+    let starts: Vec<(u32, u64)> = code
         .instances
         .iter()
-        .map(|i| {
-            // Glue that is only `CallAbs program; Halt`: the program is the entry, one call
-            // deep (the glue's call could not fail its depth check).
-            let e = match code.ops.get(i.entry as usize..i.entry as usize + 2) {
+        .map(
+            |i| match code.ops.get(i.entry as usize..i.entry as usize + 2) {
                 Some([Op::CallAbs { entry }, Op::Halt]) => (*entry, 1),
                 _ => (i.entry, 0),
-            };
-            Some((module.get_finalized_function(funcs[&e.0].0), e.1))
-        })
+            },
+        )
         .collect();
-    Ok(Jit::new(module, entries, code.init.len()))
+    // The whole scan: the one instance's function itself, or a function running them all.
+    let scan = match starts[..] {
+        [(e, depth)] => Err((e, depth)),
+        _ => Ok(scan_function(
+            &mut module,
+            &mut ctx,
+            &mut fctx,
+            &entry_sig,
+            &starts
+                .iter()
+                .map(|&(e, d)| (funcs[&e].0, d))
+                .collect::<Vec<_>>(),
+        )?),
+    };
+    module.finalize_definitions().map_err(err)?;
+    let entries = starts
+        .iter()
+        .map(|&(e, depth)| Some((module.get_finalized_function(funcs[&e].0), depth)))
+        .collect();
+    let scan = match scan {
+        Err((e, depth)) => (module.get_finalized_function(funcs[&e].0), depth),
+        Ok(id) => (module.get_finalized_function(id), 0),
+    };
+    Ok(Jit::new(module, entries, scan, code.init.len()))
+}
+
+/// A function `(mem, base, ctx) -> status` that runs every instance once, in order (`entries`:
+/// each one's function and starting call depth), each with the full iteration budget, and
+/// stops at the first that does not end normally (a fault or a panic), returning its status.
+fn scan_function(
+    module: &mut JITModule,
+    ctx: &mut Context,
+    fctx: &mut FunctionBuilderContext,
+    sig: &Signature,
+    entries: &[(FuncId, u64)],
+) -> Result<FuncId, JitError> {
+    let id = module
+        .declare_function("iec_scan", Linkage::Local, sig)
+        .map_err(err)?;
+    ctx.func.signature = sig.clone();
+    ctx.func.name = UserFuncName::user(0, id.as_u32());
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, fctx);
+        let start = b.create_block();
+        b.append_block_params_for_function_params(start);
+        b.switch_to_block(start);
+        let mem = b.block_params(start)[0];
+        let c = b.block_params(start)[2];
+        let t = MemFlags::trusted();
+        for (i, &(f, depth)) in entries.iter().enumerate() {
+            let fr = module.declare_func_in_func(f, b.func);
+            let it = b.ins().load(types::I64, t, c, call::START_ITERATIONS_AT);
+            b.ins().store(t, it, c, call::ITERATIONS_AT);
+            let d = b.ins().iconst(types::I64, depth as i64);
+            b.ins().store(t, d, c, call::DEPTH_AT);
+            let k = b.ins().iconst(types::I64, i as i64);
+            b.ins().store(t, k, c, call::INSTANCE_AT);
+            let base = b.ins().iconst(types::I64, 0);
+            let r = b.ins().call(fr, &[mem, base, c]);
+            let r = b.inst_results(r)[0];
+            // OK and HALT go on; FAULT and PANIC stop the scan.
+            let bad = b.ins().band_imm(r, !(call::HALT as i64));
+            let stop = b.create_block();
+            let go = b.create_block();
+            b.ins().brif(bad, stop, &[], go, &[]);
+            b.switch_to_block(stop);
+            b.ins().return_(&[r]);
+            b.switch_to_block(go);
+        }
+        let ok = b.ins().iconst(types::I32, call::OK as i64);
+        b.ins().return_(&[ok]);
+        b.seal_all_blocks();
+        b.finalize();
+    }
+    module.define_function(id, ctx).map_err(err)?;
+    module.clear_context(ctx);
+    Ok(id)
 }
 
 struct Helpers {

@@ -73,6 +73,33 @@ pub trait Compiled: Send + Sync {
         now: i64,
         budget: &mut Budget<'_>,
     ) -> Ran;
+
+    /// What runs whole scans of one machine of `engine` (the engine this code was made
+    /// for), when there is such a fast path: `None` by default (the machine then runs each
+    /// instance through [`Compiled::run`]).
+    fn scanner(&self, engine: &Arc<Engine>) -> Option<Box<dyn Scanner>> {
+        let _ = engine;
+        None
+    }
+}
+
+/// Whole scans of one machine on compiled code: every program instance once, in order,
+/// each with a budget of `iterations`, as [`Machine::scan`] runs them when no instance has
+/// a task. Made once per machine ([`Compiled::scanner`]), so that what a scan needs is
+/// prepared once, not per scan.
+pub trait Scanner: Send + Sync {
+    /// One scan of `mem` at `now`; `check` is the watchdog's. [`Ran::NotCompiled`] when
+    /// `mem` is not a memory of this engine (nothing has run).
+    fn scan(
+        &mut self,
+        mem: &mut [u64],
+        now: i64,
+        iterations: u64,
+        check: &mut dyn FnMut() -> bool,
+    ) -> Ran;
+
+    /// The instance the last scan ended in (for the message of [`Ran::Panic`]).
+    fn instance(&self) -> usize;
 }
 
 /// How a run of compiled code ended (small, so the scan's fast path stays in registers).
@@ -552,6 +579,8 @@ pub struct Machine {
     /// Loop iterations one scan may make before it fails as endless.
     pub iterations: u64,
     next_due: Vec<Option<i64>>,
+    /// Whole scans on machine code, when the engine has some and no instance has a task.
+    scanner: Option<Box<dyn Scanner>>,
 }
 
 impl fmt::Debug for Machine {
@@ -571,8 +600,12 @@ impl Machine {
             .as_ref()
             .map_or(0, |c| c.tasks.len());
         // Machine code is made now, not in the first scan.
-        let _ = engine.compiled();
+        let scanner = match engine.compiled() {
+            Some(c) if !engine.tasked => c.scanner(&engine),
+            _ => None,
+        };
         Machine {
+            scanner,
             backend: Backend::default(),
             mem: engine.code.init.clone(),
             engine,
@@ -634,57 +667,35 @@ impl Machine {
     /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
     #[inline]
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
-        // The fast path: machine code, no tasks (every instance every scan), in a function
-        // of its own so that a scan of a small program does not pay the prologue of this one.
-        if let (Backend::Compiled, false, Some(Some(c))) = (
-            self.backend,
-            self.engine.tasked,
-            self.engine.compiled.get().map(Option::as_deref),
-        ) {
-            return Self::scan_compiled(
-                &self.engine,
-                c,
-                &mut self.mem,
-                &mut self.stack,
-                self.iterations,
-                now,
-                check,
-            );
+        // The fast path: machine code, no tasks (every instance every scan), one call into
+        // the scanner made for this machine.
+        if let (Backend::Compiled, Some(s)) = (self.backend, self.scanner.as_deref_mut()) {
+            match s.scan(&mut self.mem, now, self.iterations.max(1), &mut *check) {
+                Ran::Done => return Ok(()),
+                Ran::NotCompiled => {}
+                r => return Err(self.scan_stopped(r)),
+            }
         }
         self.scan_tasks(now, check)
     }
 
-    /// Every instance once, on machine code.
+    /// The fault a whole scan on machine code stopped with.
+    #[cold]
     #[inline(never)]
-    fn scan_compiled(
-        engine: &Engine,
-        c: &dyn Compiled,
-        mem: &mut [u64],
-        stack: &mut Vec<(u32, u32)>,
-        iterations: u64,
-        now: i64,
-        check: &mut dyn FnMut() -> bool,
-    ) -> Result<(), Fault> {
-        for i in 0..engine.code.instances.len() {
-            let mut budget = Budget {
-                iterations: iterations.max(1),
-                check: &mut *check,
-            };
-            match c.run(engine, i, mem, now, &mut budget) {
-                Ran::Done => {}
-                Ran::Fault(f) => return Err(engine.locate(*f)),
-                Ran::Panic => return Err(internal(&engine.code.instances[i])),
-                Ran::NotCompiled => run_vm(
-                    engine,
-                    &engine.code.instances[i],
-                    mem,
-                    stack,
-                    now,
-                    &mut budget,
-                )?,
-            }
+    fn scan_stopped(&self, r: Ran) -> Fault {
+        let instances = &self.engine.code.instances;
+        let i = self.scanner.as_ref().map_or(0, |s| s.instance());
+        match (r, instances.get(i).or(instances.first())) {
+            (Ran::Fault(f), _) => self.engine.locate(*f),
+            (_, Some(inst)) => internal(inst),
+            (_, None) => Fault {
+                pou: String::new(),
+                file: String::new(),
+                line: 0,
+                kind: FaultKind::Internal,
+                message: "internal error in the IEC engine (please report it)".into(),
+            },
         }
-        Ok(())
     }
 
     /// A scan with tasks, or on the VM.
@@ -697,6 +708,7 @@ impl Machine {
             stack,
             iterations,
             next_due,
+            ..
         } = self;
         let engine: &Engine = engine;
         let backend = *backend;
