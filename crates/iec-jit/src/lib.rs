@@ -710,26 +710,28 @@ impl Translator<'_, '_, '_> {
                 self.b.switch_to_block(after);
             }
             Op::AndLits { d, start, len } | Op::OrLits { d, start, len } => {
+                // Stops at the first literal that decides, as the VM does: a branch per
+                // literal (a load and a compare with the literal's mask) instead of
+                // computing every literal, so a transition whose first place is empty costs
+                // two instructions.
                 let and = matches!(op, Op::AndLits { .. });
-                let mut acc: Option<Value> = None;
+                let after = self.b.create_block();
+                self.b.append_block_param(after, types::I64);
+                // AND: FALSE at the first literal that is FALSE (`x ^ neg == 0`); OR: TRUE
+                // at the first that is TRUE.
+                let decided = self.k(!and as u64);
                 for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
                     let x = self.ld(env, s);
-                    let x = if neg != 0 {
-                        self.b.ins().bxor_imm(x, neg as i64)
-                    } else {
-                        x
-                    };
-                    let t = self.b.ins().icmp_imm(IntCC::NotEqual, x, 0);
-                    acc = Some(match acc {
-                        None => t,
-                        Some(a) if and => self.b.ins().band(a, t),
-                        Some(a) => self.b.ins().bor(a, t),
-                    });
+                    let cc = if and { IntCC::Equal } else { IntCC::NotEqual };
+                    let hit = self.b.ins().icmp_imm(cc, x, neg as i64);
+                    let next = self.b.create_block();
+                    self.b.ins().brif(hit, after, &[decided.into()], next, &[]);
+                    self.b.switch_to_block(next);
                 }
-                let v = match acc {
-                    Some(a) => self.b.ins().uextend(types::I64, a),
-                    None => self.k(and as u64),
-                };
+                let rest = self.k(and as u64);
+                self.b.ins().jump(after, &[rest.into()]);
+                self.b.switch_to_block(after);
+                let v = self.b.block_params(after)[0];
                 self.st(env, d, v);
             }
             Op::CondStore { c, neg, start, len } => {
