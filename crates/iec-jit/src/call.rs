@@ -2,13 +2,15 @@
 //! engine. What makes it sound:
 //! - the generated code touches the machine's memory only at slots it has checked against
 //!   the memory's length (a frame's slots at the function's entry, absolute slots when it was
-//!   compiled), and the length is the one it was compiled for ([`Jit::run`] checks it);
+//!   compiled), and the length is the one it was compiled for ([`Jit::run`] and
+//!   [`JitScanner::scan`] check it);
 //! - while it runs, the memory is reached only through the one raw pointer taken from the
 //!   caller's `&mut [u64]`: by the generated code, and by the helpers, which make a slice of
 //!   it for the duration of one instruction;
 //! - a helper never unwinds into the generated code: it catches a panic and returns
-//!   [`PANIC`], which [`Jit::run`] reports as [`Ran::Panic`] (the VM's internal fault);
-//! - the code memory lives as long as the [`Jit`] (owned by the engine), and is only read.
+//!   [`PANIC`], which is reported as [`Ran::Panic`] (the VM's internal fault);
+//! - the code memory lives as long as the [`Jit`] (owned by the engine; a [`JitScanner`]
+//!   holds the engine), and is only read.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
