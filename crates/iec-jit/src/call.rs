@@ -296,6 +296,7 @@ impl Compiled for Jit {
         if !own {
             return None;
         }
+        let first = engine.scan_order().first().copied().unwrap_or(0);
         Some(Box::new(JitScanner {
             entry: self.scan.0,
             depth: self.scan.1,
@@ -304,7 +305,8 @@ impl Compiled for Jit {
                 iterations: 0,
                 depth: 0,
                 start_iterations: 0,
-                instance: 0,
+                // The whole-scan function sets it when it runs several instances.
+                instance: u64::from(first),
                 mem: std::ptr::null_mut(),
                 len: self.slots,
                 engine: Arc::as_ptr(engine),

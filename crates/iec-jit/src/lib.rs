@@ -220,17 +220,22 @@ pub fn compile_limited(engine: &Engine, max_ops: usize) -> Result<Jit, JitError>
             },
         )
         .collect();
-    // The whole scan: the one instance's function itself, or a function running them all.
-    let scan = match starts[..] {
-        [(e, depth)] => Err((e, depth)),
+    // The whole scan (the instances in the engine's scan order): the one instance's function
+    // itself, or a function running them all.
+    let order = engine.scan_order();
+    let scan = match order {
+        [i] => Err(starts[*i as usize]),
         _ => Ok(scan_function(
             &mut module,
             &mut ctx,
             &mut fctx,
             &entry_sig,
-            &starts
+            &order
                 .iter()
-                .map(|&(e, d)| (funcs[&e].0, d))
+                .map(|&i| {
+                    let (e, d) = starts[i as usize];
+                    (funcs[&e].0, d, i)
+                })
                 .collect::<Vec<_>>(),
         )?),
     };
@@ -247,14 +252,15 @@ pub fn compile_limited(engine: &Engine, max_ops: usize) -> Result<Jit, JitError>
 }
 
 /// A function `(mem, base, ctx) -> status` that runs every instance once, in order (`entries`:
-/// each one's function and starting call depth), each with the full iteration budget, and
-/// stops at the first that does not end normally (a fault or a panic), returning its status.
+/// each one's function, starting call depth and number), each with the full iteration
+/// budget, and stops at the first that does not end normally (a fault or a panic), returning
+/// its status.
 fn scan_function(
     module: &mut JITModule,
     ctx: &mut Context,
     fctx: &mut FunctionBuilderContext,
     sig: &Signature,
-    entries: &[(FuncId, u64)],
+    entries: &[(FuncId, u64, u32)],
 ) -> Result<FuncId, JitError> {
     let id = module
         .declare_function("iec_scan", Linkage::Local, sig)
@@ -269,7 +275,7 @@ fn scan_function(
         let mem = b.block_params(start)[0];
         let c = b.block_params(start)[2];
         let t = MemFlags::trusted();
-        for (i, &(f, depth)) in entries.iter().enumerate() {
+        for &(f, depth, i) in entries {
             let fr = module.declare_func_in_func(f, b.func);
             let it = b.ins().load(types::I64, t, c, call::START_ITERATIONS_AT);
             b.ins().store(t, it, c, call::ITERATIONS_AT);

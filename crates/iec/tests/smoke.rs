@@ -153,3 +153,71 @@ END_CONFIGURATION";
     assert!(r.unwrap_err().contains("watchdog"));
     assert_eq!((calls, order), (1, int(12112)));
 }
+
+/// With tasks, a scan in which every task is due takes the whole-scan path (by priority);
+/// one that stops on a fault leaves the clocks of the tasks it did not reach as the task path
+/// does, so later scans run the same tasks on both.
+#[test]
+fn whole_scans_with_tasks_keep_the_task_clocks() {
+    let src = "PROGRAM A
+VAR_EXTERNAL d : DINT; na : DINT; log : DINT; END_VAR
+VAR q : DINT; END_VAR
+na := na + 1;
+q := 100 / d;
+log := log * 10 + 1;
+END_PROGRAM
+PROGRAM B
+VAR_EXTERNAL nb : DINT; log : DINT; END_VAR
+nb := nb + 1;
+log := log * 10 + 2;
+END_PROGRAM
+CONFIGURATION c
+VAR_GLOBAL d : DINT := 0; na, nb, log : DINT; END_VAR
+RESOURCE r ON PLC
+    TASK slow (INTERVAL := T#20ms, PRIORITY := 2);
+    TASK fast (INTERVAL := T#10ms, PRIORITY := 1);
+    PROGRAM pb WITH slow : B;
+    PROGRAM pa WITH fast : A;
+END_RESOURCE
+END_CONFIGURATION";
+    let b = build_text("t.st", src, &Select::Auto).unwrap();
+    let e = b.engine.clone();
+    let mut jit = Machine::new(e.clone());
+    let mut vm = Machine::new(e.clone());
+    vm.set_backend(petriplc_iec_vm::Backend::Vm);
+    let mut seen = Vec::new();
+    for k in 0..6i64 {
+        let mut outcome = Vec::new();
+        for m in [&mut jit, &mut vm] {
+            m.set(
+                e.lookup("d").unwrap(),
+                &petriplc_iec_sema::value::Value::Int((k > 0) as i128),
+            )
+            .unwrap();
+            let r = m
+                .scan(k * 10_000_000, &mut || true)
+                .map_err(|f| f.to_string());
+            let slots: Vec<u64> = (0..e.code.init.len() as u32).map(|a| m.slot(a)).collect();
+            outcome.push((r, slots));
+        }
+        assert_eq!(
+            outcome[0], outcome[1],
+            "scan {k}: machine code against the VM"
+        );
+        let log = jit.get(e.lookup("log").unwrap()).unwrap();
+        seen.push(format!("{:?} {log:?}", outcome[0].0.is_ok()));
+    }
+    // Scan 0: A (higher priority) faults, B not reached; scan 1: both due (B's clock was not
+    // advanced), A then B; then B every other scan.
+    assert_eq!(
+        seen,
+        [
+            "false Int(0)",
+            "true Int(12)",
+            "true Int(121)",
+            "true Int(12112)",
+            "true Int(121121)",
+            "true Int(12112112)"
+        ]
+    );
+}
