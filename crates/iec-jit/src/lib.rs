@@ -721,24 +721,29 @@ impl Translator<'_, '_, '_> {
                 // computing every literal, so a transition whose first place is empty costs
                 // two instructions.
                 let and = matches!(op, Op::AndLits { .. });
+                // The literal that decides jumps to one block storing the result; no block
+                // arguments (an argument on a branch to a block of several predecessors is a
+                // critical edge Cranelift would split: a block per literal more to compile).
+                let hit = self.b.create_block();
                 let after = self.b.create_block();
-                self.b.append_block_param(after, types::I64);
-                // AND: FALSE at the first literal that is FALSE (`x ^ neg == 0`); OR: TRUE
-                // at the first that is TRUE.
-                let decided = self.k(!and as u64);
                 for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
                     let x = self.ld(env, s);
+                    // AND: FALSE at the first literal that is FALSE (`x ^ neg == 0`); OR:
+                    // TRUE at the first that is TRUE.
                     let cc = if and { IntCC::Equal } else { IntCC::NotEqual };
-                    let hit = self.b.ins().icmp_imm(cc, x, neg as i64);
+                    let decides = self.b.ins().icmp_imm(cc, x, neg as i64);
                     let next = self.b.create_block();
-                    self.b.ins().brif(hit, after, &[decided.into()], next, &[]);
+                    self.b.ins().brif(decides, hit, &[], next, &[]);
                     self.b.switch_to_block(next);
                 }
                 let rest = self.k(and as u64);
-                self.b.ins().jump(after, &[rest.into()]);
+                self.st(env, d, rest);
+                self.b.ins().jump(after, &[]);
+                self.b.switch_to_block(hit);
+                let decided = self.k(!and as u64);
+                self.st(env, d, decided);
+                self.b.ins().jump(after, &[]);
                 self.b.switch_to_block(after);
-                let v = self.b.block_params(after)[0];
-                self.st(env, d, v);
             }
             Op::CondStore { c, neg, start, len } => {
                 let cv = self.ld(env, c);
