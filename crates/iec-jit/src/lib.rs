@@ -207,21 +207,102 @@ pub fn compile_limited(engine: &Engine, max_ops: usize) -> Result<Jit, JitError>
         }
         module.clear_context(&mut ctx);
     }
-    module.finalize_definitions().map_err(err)?;
-    let entries = code
+    // Per instance: the function it starts in and the call depth there. Glue that is only
+    // `CallAbs program; Halt`: the program is the entry, one call deep (the glue's call
+    // could not fail its depth check).
+    let starts: Vec<(u32, u64)> = code
         .instances
         .iter()
-        .map(|i| {
-            // Glue that is only `CallAbs program; Halt`: the program is the entry, one call
-            // deep (the glue's call could not fail its depth check).
-            let e = match code.ops.get(i.entry as usize..i.entry as usize + 2) {
+        .map(
+            |i| match code.ops.get(i.entry as usize..i.entry as usize + 2) {
                 Some([Op::CallAbs { entry }, Op::Halt]) => (*entry, 1),
                 _ => (i.entry, 0),
-            };
-            Some((module.get_finalized_function(funcs[&e.0].0), e.1))
-        })
+            },
+        )
         .collect();
-    Ok(Jit::new(module, entries, code.init.len()))
+    // The whole scan (the instances in the engine's scan order): the one instance's function
+    // itself, or a function running them all.
+    let order = engine.scan_order();
+    let scan = match order {
+        [i] => Err(starts[*i as usize]),
+        _ => Ok(scan_function(
+            &mut module,
+            &mut ctx,
+            &mut fctx,
+            &entry_sig,
+            &order
+                .iter()
+                .map(|&i| {
+                    let (e, d) = starts[i as usize];
+                    (funcs[&e].0, d, i)
+                })
+                .collect::<Vec<_>>(),
+        )?),
+    };
+    module.finalize_definitions().map_err(err)?;
+    let entries = starts
+        .iter()
+        .map(|&(e, depth)| Some((module.get_finalized_function(funcs[&e].0), depth)))
+        .collect();
+    let scan = match scan {
+        Err((e, depth)) => (module.get_finalized_function(funcs[&e].0), depth),
+        Ok(id) => (module.get_finalized_function(id), 0),
+    };
+    Ok(Jit::new(module, entries, scan, code.init.len()))
+}
+
+/// A function `(mem, base, ctx) -> status` that runs every instance once, in order (`entries`:
+/// each one's function, starting call depth and number), each with the full iteration
+/// budget, and stops at the first that does not end normally (a fault or a panic), returning
+/// its status.
+fn scan_function(
+    module: &mut JITModule,
+    ctx: &mut Context,
+    fctx: &mut FunctionBuilderContext,
+    sig: &Signature,
+    entries: &[(FuncId, u64, u32)],
+) -> Result<FuncId, JitError> {
+    let id = module
+        .declare_function("iec_scan", Linkage::Local, sig)
+        .map_err(err)?;
+    ctx.func.signature = sig.clone();
+    ctx.func.name = UserFuncName::user(0, id.as_u32());
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, fctx);
+        let start = b.create_block();
+        b.append_block_params_for_function_params(start);
+        b.switch_to_block(start);
+        let mem = b.block_params(start)[0];
+        let c = b.block_params(start)[2];
+        let t = MemFlags::trusted();
+        for &(f, depth, i) in entries {
+            let fr = module.declare_func_in_func(f, b.func);
+            let it = b.ins().load(types::I64, t, c, call::START_ITERATIONS_AT);
+            b.ins().store(t, it, c, call::ITERATIONS_AT);
+            let d = b.ins().iconst(types::I64, depth as i64);
+            b.ins().store(t, d, c, call::DEPTH_AT);
+            let k = b.ins().iconst(types::I64, i as i64);
+            b.ins().store(t, k, c, call::INSTANCE_AT);
+            let base = b.ins().iconst(types::I64, 0);
+            let r = b.ins().call(fr, &[mem, base, c]);
+            let r = b.inst_results(r)[0];
+            // OK and HALT go on; FAULT and PANIC stop the scan.
+            let bad = b.ins().band_imm(r, !(call::HALT as i64));
+            let stop = b.create_block();
+            let go = b.create_block();
+            b.ins().brif(bad, stop, &[], go, &[]);
+            b.switch_to_block(stop);
+            b.ins().return_(&[r]);
+            b.switch_to_block(go);
+        }
+        let ok = b.ins().iconst(types::I32, call::OK as i64);
+        b.ins().return_(&[ok]);
+        b.seal_all_blocks();
+        b.finalize();
+    }
+    module.define_function(id, ctx).map_err(err)?;
+    module.clear_context(ctx);
+    Ok(id)
 }
 
 struct Helpers {
@@ -635,27 +716,34 @@ impl Translator<'_, '_, '_> {
                 self.b.switch_to_block(after);
             }
             Op::AndLits { d, start, len } | Op::OrLits { d, start, len } => {
+                // Stops at the first literal that decides, as the VM does: a branch per
+                // literal (a load and a compare with the literal's mask) instead of
+                // computing every literal, so a transition whose first place is empty costs
+                // two instructions.
                 let and = matches!(op, Op::AndLits { .. });
-                let mut acc: Option<Value> = None;
+                // The literal that decides jumps to one block storing the result; no block
+                // arguments (an argument on a branch to a block of several predecessors is a
+                // critical edge Cranelift would split: a block per literal more to compile).
+                let hit = self.b.create_block();
+                let after = self.b.create_block();
                 for &(s, neg) in &code.lits[start as usize..(start + len) as usize] {
                     let x = self.ld(env, s);
-                    let x = if neg != 0 {
-                        self.b.ins().bxor_imm(x, neg as i64)
-                    } else {
-                        x
-                    };
-                    let t = self.b.ins().icmp_imm(IntCC::NotEqual, x, 0);
-                    acc = Some(match acc {
-                        None => t,
-                        Some(a) if and => self.b.ins().band(a, t),
-                        Some(a) => self.b.ins().bor(a, t),
-                    });
+                    // AND: FALSE at the first literal that is FALSE (`x ^ neg == 0`); OR:
+                    // TRUE at the first that is TRUE.
+                    let cc = if and { IntCC::Equal } else { IntCC::NotEqual };
+                    let decides = self.b.ins().icmp_imm(cc, x, neg as i64);
+                    let next = self.b.create_block();
+                    self.b.ins().brif(decides, hit, &[], next, &[]);
+                    self.b.switch_to_block(next);
                 }
-                let v = match acc {
-                    Some(a) => self.b.ins().uextend(types::I64, a),
-                    None => self.k(and as u64),
-                };
-                self.st(env, d, v);
+                let rest = self.k(and as u64);
+                self.st(env, d, rest);
+                self.b.ins().jump(after, &[]);
+                self.b.switch_to_block(hit);
+                let decided = self.k(!and as u64);
+                self.st(env, d, decided);
+                self.b.ins().jump(after, &[]);
+                self.b.switch_to_block(after);
             }
             Op::CondStore { c, neg, start, len } => {
                 let cv = self.ld(env, c);

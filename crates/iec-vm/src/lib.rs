@@ -21,6 +21,6 @@ pub use compile::{CompileError, InstanceSpec};
 pub use exec::FaultKind;
 pub use machine::{
     display, string_literal, Backend, Compiled, Compiler, Engine, Fault, Machine, Ran, RetainImage,
-    Retained, VarRef, DEFAULT_ITERATIONS,
+    Retained, Scanner, VarRef, DEFAULT_ITERATIONS,
 };
 pub use native::{NativeCtx, NativeFb};

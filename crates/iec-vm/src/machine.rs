@@ -49,6 +49,10 @@ pub struct Engine {
     task_order: Vec<usize>,
     /// Whether some program instance runs in a task (else every instance runs every scan).
     tasked: bool,
+    /// The instances in the order a scan runs them when every task is due.
+    scan_order: Vec<u32>,
+    /// Per task: whether some program instance runs in it.
+    task_used: Vec<bool>,
     /// Machine code for the instances, made when the first machine is ([`Engine::compiled`]),
     /// so that checking a program does not pay for it.
     compiled: OnceLock<Option<Box<dyn Compiled>>>,
@@ -73,6 +77,34 @@ pub trait Compiled: Send + Sync {
         now: i64,
         budget: &mut Budget<'_>,
     ) -> Ran;
+
+    /// What runs whole scans of one machine of `engine` (the engine this code was made
+    /// for), when there is such a fast path: `None` by default (the machine then runs each
+    /// instance through [`Compiled::run`]).
+    fn scanner(&self, engine: &Arc<Engine>) -> Option<Box<dyn Scanner>> {
+        let _ = engine;
+        None
+    }
+}
+
+/// Whole scans of one machine on compiled code: every program instance once, in
+/// [`Engine::scan_order`], each with a budget of `iterations`, as [`Machine::scan`] runs
+/// them when every task is due (always, when no instance has a task). Made once per
+/// machine ([`Compiled::scanner`]), so that what a scan needs is prepared once, not per
+/// scan.
+pub trait Scanner: Send + Sync {
+    /// One scan of `mem` at `now`; `check` is the watchdog's. [`Ran::NotCompiled`] when
+    /// `mem` is not a memory of this engine (nothing has run).
+    fn scan(
+        &mut self,
+        mem: &mut [u64],
+        now: i64,
+        iterations: u64,
+        check: &mut dyn FnMut() -> bool,
+    ) -> Ran;
+
+    /// The instance the last scan ended in (for the message of [`Ran::Panic`]).
+    fn instance(&self) -> usize;
 }
 
 /// How a run of compiled code ended (small, so the scan's fast path stays in registers).
@@ -145,6 +177,24 @@ impl Engine {
         }
         let tasked =
             code.instances.iter().any(|i| i.task.is_some()) && project.configuration.is_some();
+        let in_task = |t: Option<u32>| -> Vec<u32> {
+            (0..code.instances.len() as u32)
+                .filter(|&i| code.instances[i as usize].task == t)
+                .collect()
+        };
+        let scan_order = if tasked {
+            let mut order: Vec<u32> = Vec::new();
+            for &t in &task_order {
+                order.extend(in_task(Some(t as u32)));
+            }
+            order.extend(in_task(None));
+            order
+        } else {
+            (0..code.instances.len() as u32).collect()
+        };
+        let task_used = (0..task_order.len())
+            .map(|t| code.instances.iter().any(|i| i.task == Some(t as u32)))
+            .collect();
         Ok(Arc::new(Engine {
             project,
             code,
@@ -152,6 +202,8 @@ impl Engine {
             pou_files,
             task_order,
             tasked,
+            scan_order,
+            task_used,
             compiled: OnceLock::new(),
             compiler: None,
         }))
@@ -173,6 +225,13 @@ impl Engine {
     /// Whether there is machine code (made now if it was not yet).
     pub fn is_compiled(&self) -> bool {
         self.compiled().is_some()
+    }
+
+    /// The program instances in the order a scan runs them when every task is due (all of
+    /// them every scan when no instance has a task): by task priority, then declaration
+    /// order, the instances without a task last.
+    pub fn scan_order(&self) -> &[u32] {
+        &self.scan_order
     }
 
     /// The native function blocks, in the order of `project.natives`.
@@ -484,6 +543,54 @@ fn internal(inst: &compile::InstanceRt) -> Fault {
     }
 }
 
+/// Whether task `t` is due at `now`, and its clock after running it: the next multiple of
+/// its interval after `now` (missed ones are skipped).
+#[inline(always)]
+fn task_due(interval: Option<i64>, next_due: Option<i64>, now: i64) -> (bool, Option<i64>) {
+    match interval {
+        None => (true, next_due),
+        Some(iv) => {
+            let next = next_due.unwrap_or(now);
+            if now >= next {
+                let late = now - next;
+                let k = if late < iv { 1 } else { late / iv + 1 };
+                (true, Some(next + k * iv))
+            } else {
+                (false, next_due)
+            }
+        }
+    }
+}
+
+/// When every task that runs an instance is due at `now`: advances every due task's clock
+/// (the old ones kept in `saved`) and returns true. Else changes nothing.
+#[inline]
+fn all_due(
+    engine: &Engine,
+    next_due: &mut [Option<i64>],
+    saved: &mut [Option<i64>],
+    now: i64,
+) -> bool {
+    let Some(c) = engine.project.configuration.as_ref() else {
+        return true;
+    };
+    // One pass, element by element (no call to memcpy for a slice of one or two clocks);
+    // undone in the rare scan where a task that runs an instance is not due.
+    let mut all = true;
+    for (t, (d, s)) in next_due.iter_mut().zip(saved.iter_mut()).enumerate() {
+        let (due, next) = task_due(c.tasks[t].interval, *d, now);
+        *s = *d;
+        *d = next;
+        all &= due || !engine.task_used[t];
+    }
+    if !all {
+        for (d, s) in next_due.iter_mut().zip(saved.iter()) {
+            *d = *s;
+        }
+    }
+    all
+}
+
 fn gcd(a: i64, b: i64) -> i64 {
     if b == 0 {
         a
@@ -552,6 +659,14 @@ pub struct Machine {
     /// Loop iterations one scan may make before it fails as endless.
     pub iterations: u64,
     next_due: Vec<Option<i64>>,
+    /// The task clocks before the last whole scan on machine code (to undo the advance of
+    /// the tasks it did not reach when it stopped on a fault).
+    saved_due: Vec<Option<i64>>,
+    /// Whole scans on machine code (every instance in [`Engine::scan_order`]), when the
+    /// engine has some.
+    scanner: Option<Box<dyn Scanner>>,
+    /// The engine's `tasked`, kept here: the fast path reads nothing of the engine.
+    tasked: bool,
 }
 
 impl fmt::Debug for Machine {
@@ -571,14 +686,20 @@ impl Machine {
             .as_ref()
             .map_or(0, |c| c.tasks.len());
         // Machine code is made now, not in the first scan.
-        let _ = engine.compiled();
+        let scanner = match engine.compiled() {
+            Some(c) => c.scanner(&engine),
+            None => None,
+        };
         Machine {
+            scanner,
+            tasked: engine.tasked,
             backend: Backend::default(),
             mem: engine.code.init.clone(),
             engine,
             stack: Vec::with_capacity(16),
             iterations: DEFAULT_ITERATIONS,
             next_due: vec![None; tasks],
+            saved_due: vec![None; tasks],
         }
     }
 
@@ -634,57 +755,53 @@ impl Machine {
     /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
     #[inline]
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
-        // The fast path: machine code, no tasks (every instance every scan), in a function
-        // of its own so that a scan of a small program does not pay the prologue of this one.
-        if let (Backend::Compiled, false, Some(Some(c))) = (
-            self.backend,
-            self.engine.tasked,
-            self.engine.compiled.get().map(Option::as_deref),
-        ) {
-            return Self::scan_compiled(
-                &self.engine,
-                c,
-                &mut self.mem,
-                &mut self.stack,
-                self.iterations,
-                now,
-                check,
-            );
+        // The fast path: machine code, and every task due (always, when no instance has a
+        // task): one call into the scanner made for this machine, which runs every instance
+        // in the order the task path would.
+        if let (Backend::Compiled, Some(s)) = (self.backend, self.scanner.as_deref_mut()) {
+            let tasked = self.tasked;
+            if !tasked || all_due(&self.engine, &mut self.next_due, &mut self.saved_due, now) {
+                match s.scan(&mut self.mem, now, self.iterations.max(1), &mut *check) {
+                    Ran::Done => return Ok(()),
+                    Ran::NotCompiled if tasked => {
+                        // Nothing ran: the clocks go back, the task path runs the scan.
+                        self.next_due.copy_from_slice(&self.saved_due);
+                    }
+                    Ran::NotCompiled => {}
+                    r => return Err(self.scan_stopped(r)),
+                }
+            }
         }
         self.scan_tasks(now, check)
     }
 
-    /// Every instance once, on machine code.
+    /// The fault a whole scan on machine code stopped with.
+    /// On a task path the clocks of the tasks after the instance's are left where they were
+    /// (they would not have been reached), as [`Machine::scan_tasks`] does.
+    #[cold]
     #[inline(never)]
-    fn scan_compiled(
-        engine: &Engine,
-        c: &dyn Compiled,
-        mem: &mut [u64],
-        stack: &mut Vec<(u32, u32)>,
-        iterations: u64,
-        now: i64,
-        check: &mut dyn FnMut() -> bool,
-    ) -> Result<(), Fault> {
-        for i in 0..engine.code.instances.len() {
-            let mut budget = Budget {
-                iterations: iterations.max(1),
-                check: &mut *check,
-            };
-            match c.run(engine, i, mem, now, &mut budget) {
-                Ran::Done => {}
-                Ran::Fault(f) => return Err(engine.locate(*f)),
-                Ran::Panic => return Err(internal(&engine.code.instances[i])),
-                Ran::NotCompiled => run_vm(
-                    engine,
-                    &engine.code.instances[i],
-                    mem,
-                    stack,
-                    now,
-                    &mut budget,
-                )?,
+    fn scan_stopped(&mut self, r: Ran) -> Fault {
+        let instances = &self.engine.code.instances;
+        let i = self.scanner.as_ref().map_or(0, |s| s.instance());
+        if let Some(t) = instances.get(i).and_then(|inst| inst.task) {
+            let order = &self.engine.task_order;
+            if let Some(p) = order.iter().position(|&x| x == t as usize) {
+                for &later in &order[p + 1..] {
+                    self.next_due[later] = self.saved_due[later];
+                }
             }
         }
-        Ok(())
+        match (r, instances.get(i).or(instances.first())) {
+            (Ran::Fault(f), _) => self.engine.locate(*f),
+            (_, Some(inst)) => internal(inst),
+            (_, None) => Fault {
+                pou: String::new(),
+                file: String::new(),
+                line: 0,
+                kind: FaultKind::Internal,
+                message: "internal error in the IEC engine (please report it)".into(),
+            },
+        }
     }
 
     /// A scan with tasks, or on the VM.
@@ -697,6 +814,7 @@ impl Machine {
             stack,
             iterations,
             next_due,
+            ..
         } = self;
         let engine: &Engine = engine;
         let backend = *backend;
@@ -720,20 +838,8 @@ impl Machine {
             }
         };
         for &t in &engine.task_order {
-            let due = match tasks[t].interval {
-                None => true,
-                Some(iv) => {
-                    let next = next_due[t].unwrap_or(now);
-                    if now >= next {
-                        // The next multiple of the interval after now (missed ones are skipped).
-                        let k = (now - next) / iv + 1;
-                        next_due[t] = Some(next + k * iv);
-                        true
-                    } else {
-                        false
-                    }
-                }
-            };
+            let (due, next) = task_due(tasks[t].interval, next_due[t], now);
+            next_due[t] = next;
             if !due {
                 continue;
             }
