@@ -84,8 +84,13 @@ fn bulk_layout() -> Layout {
         })
         .collect();
     points.push(point("o", "other", BULK_OTHER));
+    two_modules(["bulk", "other"], points)
+}
+
+/// The layout of `points` owned by two modules.
+fn two_modules(modules: [&str; 2], points: Vec<PointDecl>) -> Layout {
     Layout::new(&PlcConfig {
-        modules: ["bulk", "other"]
+        modules: modules
             .iter()
             .map(|m| ModuleDecl::new(*m, "test"))
             .collect(),
@@ -266,15 +271,7 @@ fn mixed_layout() -> Layout {
             points.push(point(&format!("w{w}"), owner, w));
         }
     }
-    Layout::new(&PlcConfig {
-        modules: ["victim", "other"]
-            .iter()
-            .map(|m| ModuleDecl::new(*m, "test"))
-            .collect(),
-        points,
-        ..PlcConfig::default()
-    })
-    .unwrap()
+    two_modules(["victim", "other"], points)
 }
 
 /// The values of `victim`'s points and of `other`'s in the global map, read under the lock

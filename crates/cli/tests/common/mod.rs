@@ -25,6 +25,9 @@ pub fn c_module(dir: &Path, name: &str, source: &str, flags: &[&str]) -> PathBuf
         .arg(&file)
         .arg("-L")
         .arg(dir)
+        // DT_RPATH, searched before LD_LIBRARY_PATH (cargo's points at target/debug, where
+        // an older libpetriplc.so may lie): the module loads the library copied beside it.
+        .arg("-Wl,--disable-new-dtags")
         .arg(format!("-Wl,-rpath,{}", dir.display()))
         .args(["-lpetriplc", "-o"])
         .arg(&program)
