@@ -479,6 +479,15 @@ impl Net {
         )
     }
 
+    /// [`Net::is_enabled`] as bounds on single places
+    /// ([`TransitionArcs::enabling_bounds`]), for testing many markings.
+    pub fn enabling_bounds(&self, t: TransitionId) -> Option<Vec<(PlaceId, u64, u64)>> {
+        self.by_transition[t.index()].enabling_bounds(
+            |p| self.bound(p).map_or(u64::MAX, u64::from),
+            |p| self.places[p.index()].input.is_some(),
+        )
+    }
+
     /// Fires `t` in `m` (the caller has checked it is enabled). On overflow `m` is left as it
     /// was.
     pub fn fire(&self, m: &mut Marking, t: TransitionId) -> Result<(), TokenOverflow> {
@@ -1062,6 +1071,8 @@ impl SignalTable {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use crate::guard::parse;
 
     /// `enabling_bounds` is `allow` on one marking: every marking of 3 places with 0..=5
     /// tokens, for transitions with every arc kind, capacities and a free place.
@@ -1110,8 +1121,6 @@ mod tests {
             }
         }
     }
-    use super::*;
-    use crate::guard::parse;
 
     fn place(id: &str, initial: u32) -> PlaceSpec {
         PlaceSpec {

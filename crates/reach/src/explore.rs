@@ -432,10 +432,7 @@ struct Shared<'e> {
 
 impl<'a> Engine<'a> {
     pub fn new(net: &Net, opts: &'a ExploreOptions, cancel: Option<&'a AtomicBool>) -> Engine<'a> {
-        let threads = match opts.threads {
-            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-            n => n,
-        };
+        let threads = crate::threads(opts.threads);
         let rules = Rules::new(net);
         let layout = Layout::new(net);
         let deltas = deltas(net, &layout);

@@ -102,6 +102,14 @@ pub fn explore(net: &Net, opts: &ExploreOptions) -> Result<StateSpace, ReachErro
     explore_with(net, opts, None)
 }
 
+/// The threads to use for a setting where 0 means every core.
+pub(crate) fn threads(setting: usize) -> usize {
+    match setting {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    }
+}
+
 /// [`explore`] with a borrowed cancel flag as well.
 pub(crate) fn explore_with(
     net: &Net,

@@ -83,10 +83,7 @@ pub fn properties_with(net: &Net, space: &StateSpace, opts: &PropertyOptions) ->
         .filter(|(_, f)| !**f)
         .map(|(t, _)| TransitionId(t as u32))
         .collect();
-    let threads = match opts.threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
-    };
+    let threads = crate::threads(opts.threads);
     let bounds = crate::scc::Bounds {
         threads,
         max_memory: opts.max_memory,

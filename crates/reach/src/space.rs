@@ -261,10 +261,7 @@ impl StateSpace {
         F: Fn(&Marking, &dyn Fn(usize) -> bool, &mut dyn FnMut(usize)) + Sync,
     {
         let first: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(u64::MAX)).collect();
-        let threads = match threads {
-            0 => std::thread::available_parallelism().map_or(1, |c| c.get()),
-            t => t,
-        };
+        let threads = crate::threads(threads);
         if n > 0 {
             crate::scc::parallel(threads, 0, self.states(), |lo, hi| {
                 // Nothing left to find from here on.

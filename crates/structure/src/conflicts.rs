@@ -120,6 +120,18 @@ struct Candidate {
     both: Option<Vec<(PlaceId, u64, u64)>>,
 }
 
+impl Candidate {
+    /// The shared places that hold too few tokens in `m` for both transitions.
+    fn short<'a>(&'a self, m: &'a Marking) -> impl Iterator<Item = PlaceId> + 'a {
+        self.conflict
+            .places
+            .iter()
+            .zip(&self.need)
+            .filter(|&(&p, &need)| u64::from(m[p]) < need)
+            .map(|(&p, _)| p)
+    }
+}
+
 impl ConflictCheck {
     pub fn new(net: &Net) -> ConflictCheck {
         let candidates = structural_conflicts(net)
@@ -133,12 +145,7 @@ impl ConflictCheck {
                     .iter()
                     .map(|&p| u64::from(wa.consumed_from(p)) + u64::from(wb.consumed_from(p)))
                     .collect();
-                let limit = |p: PlaceId| net.bound(p).map_or(u64::MAX, u64::from);
-                let free = |p: PlaceId| net.place(p).input.is_some();
-                let both = match (
-                    wa.enabling_bounds(limit, free),
-                    wb.enabling_bounds(limit, free),
-                ) {
+                let both = match (net.enabling_bounds(c.a), net.enabling_bounds(c.b)) {
                     (Some(x), Some(y)) => Some(x.into_iter().chain(y).collect()),
                     _ => None,
                 };
@@ -173,12 +180,7 @@ impl ConflictCheck {
             if !open(i) {
                 continue;
             }
-            let lacking = c
-                .conflict
-                .places
-                .iter()
-                .zip(&c.need)
-                .any(|(&p, &need)| u64::from(m[p]) < need);
+            let lacking = c.short(m).next().is_some();
             let enabled = |bs: &[(PlaceId, u64, u64)]| {
                 bs.iter()
                     .all(|&(p, lo, hi)| (lo..=hi).contains(&u64::from(m[p])))
@@ -198,14 +200,7 @@ impl ConflictCheck {
             .zip(witnesses)
             .filter_map(|(c, m)| {
                 let m = m?;
-                let short = c
-                    .conflict
-                    .places
-                    .iter()
-                    .zip(&c.need)
-                    .filter(|&(&p, &need)| u64::from(m[p]) < need)
-                    .map(|(&p, _)| p)
-                    .collect();
+                let short = c.short(&m).collect();
                 Some(EffectiveConflict {
                     a: c.conflict.a,
                     b: c.conflict.b,
