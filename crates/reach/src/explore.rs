@@ -179,7 +179,7 @@ impl Rules {
     /// Per transition `t`, what a marking `y` must hold for `y` to have a predecessor by
     /// `t` in `layout`: undoing `t` gives `x = y - C(·, t)`, which must fit its fields and
     /// enable `t`. Enabling is a bound on single places of `x`
-    /// ([`petriplc_net::TransitionArcs::enabling_bounds`]), so with the fields it is
+    /// ([`petriplc_net::Net::enabling_bounds`]), so with the fields it is
     /// `lo ≤ y(p) ≤ hi` for a few places: `None` when no `y` can pass.
     pub fn back_intervals(&self, layout: &Layout) -> Vec<Option<Vec<(u32, u32, u32)>>> {
         let net = &self.net;
@@ -187,8 +187,7 @@ impl Rules {
             .map(|t| {
                 let a = net.arcs_of(t);
                 let c = |p: PlaceId| i128::from(net.incidence(p, t));
-                let enabling =
-                    a.enabling_bounds(|p| self.limit[p.index()], |p| self.free[p.index()])?;
+                let enabling = net.enabling_bounds(t)?;
                 // (place, lo, hi) on y.
                 let mut b: Vec<(PlaceId, i128, i128)> = enabling
                     .into_iter()
