@@ -4,35 +4,12 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use petriplc_config::{Location, ModuleDecl, Origin, PlcConfig, PointDecl, PointKind, PointValue};
-use petriplc_runtime::image::{GlobalMap, Layout, ModuleMap};
+use petriplc_config::Location;
+use petriplc_runtime::image::{GlobalMap, ModuleMap};
 
-const MODULES: [&str; 4] = ["m0", "m1", "m2", "m3"];
-
-/// `n` 32-bit points (one word each) owned by four modules, either interleaved (word i by
-/// module i % 4: the worst shape for the owned runs) or in four contiguous blocks.
-fn layout(n: usize, interleaved: bool) -> Layout {
-    let module = |name: &str| ModuleDecl::new(name, "bench");
-    let points = (0..n)
-        .map(|i| PointDecl {
-            name: format!("p{i}"),
-            description: String::new(),
-            owner: MODULES[if interleaved { i % 4 } else { i * 4 / n }].into(),
-            at: None,
-            kind: PointKind::Unsigned,
-            bits: 32,
-            init: PointValue::Unsigned(0),
-            retain: false,
-            origin: Origin::default(),
-        })
-        .collect();
-    Layout::new(&PlcConfig {
-        modules: MODULES.iter().map(|m| module(m)).collect(),
-        points,
-        ..Default::default()
-    })
-    .unwrap()
-}
+#[path = "common/layouts.rs"]
+mod layouts;
+use layouts::layout;
 
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("update");

@@ -7,35 +7,12 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use petriplc_config::{Location, ModuleDecl, Origin, PlcConfig, PointDecl, PointKind, PointValue};
-use petriplc_runtime::image::{GlobalMap, Layout, ModuleMap};
+use petriplc_config::Location;
+use petriplc_runtime::image::{GlobalMap, ModuleMap};
 
-const MODULES: [&str; 4] = ["m0", "m1", "m2", "m3"];
-
-/// `n` 32-bit points owned by four modules, interleaved (word i by module i % 4) or in four
-/// blocks; the same layouts as `benches/update.rs`.
-fn layout(n: usize, interleaved: bool) -> Layout {
-    let module = |name: &str| ModuleDecl::new(name, "bench");
-    let points = (0..n)
-        .map(|i| PointDecl {
-            name: format!("p{i}"),
-            description: String::new(),
-            owner: MODULES[if interleaved { i % 4 } else { i * 4 / n }].into(),
-            at: None,
-            kind: PointKind::Unsigned,
-            bits: 32,
-            init: PointValue::Unsigned(0),
-            retain: false,
-            origin: Origin::default(),
-        })
-        .collect();
-    Layout::new(&PlcConfig {
-        modules: MODULES.iter().map(|m| module(m)).collect(),
-        points,
-        ..Default::default()
-    })
-    .expect("layout")
-}
+#[path = "../benches/common/layouts.rs"]
+mod layouts;
+use layouts::layout;
 
 /// The median time of one call over 15 batches of 50 calls, in ns.
 fn time(mut f: impl FnMut()) -> f64 {
