@@ -9,6 +9,8 @@
 //! idle_timeout = 60s               # 0 = never
 //! max_clients = 64
 //! threads = 1                      # network threads; default 1
+//! busy_poll = 50us                 # poll this long after a request before sleeping; 0 = off
+//! io_uring = yes                   # write a turn's answers in one submission (default yes)
 //! word_order = high_first          # default for 32-bit values
 //! coil      0   B1
 //! holding   10  temp  f32  low_first
@@ -24,10 +26,11 @@
 mod map;
 mod pdu;
 mod rtu;
+mod sends;
 mod tcp;
 
 use std::net::{SocketAddr, ToSocketAddrs};
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -54,6 +57,8 @@ pub const SETTINGS: &[&str] = &[
     "idle_timeout",
     "max_clients",
     "threads",
+    "busy_poll",
+    "io_uring",
     "word_order",
 ];
 
@@ -61,6 +66,10 @@ pub const SETTINGS: &[&str] = &[
 pub const DEFAULT_LISTEN: &str = "127.0.0.1:5020";
 pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(60);
 pub const DEFAULT_MAX_CLIENTS: usize = 64;
+/// `busy_poll` when the section sets none.
+pub const DEFAULT_BUSY_POLL: Duration = Duration::from_micros(50);
+/// The longest `busy_poll`: longer would only burn a core between sparse requests.
+pub const MAX_BUSY_POLL: Duration = Duration::from_millis(10);
 /// The scan period when the section sets none: client writes reach the points, and the
 /// points the image, within this time.
 pub const DEFAULT_SCAN_PERIOD: Duration = Duration::from_millis(10);
@@ -81,6 +90,12 @@ pub struct Settings {
     pub max_clients: usize,
     /// Network threads, each serving its share of the TCP connections.
     pub threads: usize,
+    /// How long a network thread keeps polling its sockets after a request before it sleeps;
+    /// `None`: it sleeps at once.
+    pub busy_poll: Option<Duration>,
+    /// Whether to write the answers of a loop's turn with one io_uring submission (where the
+    /// kernel allows it) rather than one `send` each.
+    pub io_uring: bool,
     pub word_order: WordOrder,
 }
 
@@ -157,6 +172,35 @@ impl Settings {
                 }
             },
         };
+        let busy_poll = match common::setting(decl, "busy_poll") {
+            None => Some(DEFAULT_BUSY_POLL),
+            Some(v) => match petriplc_net::time::parse_duration(v) {
+                Ok(d) if d.is_zero() => None,
+                Ok(d) if d <= MAX_BUSY_POLL => Some(d),
+                Ok(_) => {
+                    return Err(bad(
+                        "busy_poll",
+                        format!(
+                            "`busy_poll = {v}`: at most {} ms; a network thread polls this \
+                             long after each request, so a long one burns a core between \
+                             sparse requests (0 turns polling off)",
+                            MAX_BUSY_POLL.as_millis()
+                        ),
+                    ))
+                }
+                Err(e) => {
+                    return Err(bad(
+                        "busy_poll",
+                        format!(
+                            "`busy_poll = {v}`: {e}; write a time such as 50us or T#50us, \
+                             0 for off"
+                        ),
+                    ))
+                }
+            },
+        };
+        let io_uring =
+            common::setting(decl, "io_uring").is_none() || common::flag(decl, "io_uring")?;
         let word_order = match common::setting(decl, "word_order") {
             None => WordOrder::HighFirst,
             Some(v) => WordOrder::parse(v).ok_or_else(|| {
@@ -173,6 +217,8 @@ impl Settings {
             idle_timeout,
             max_clients,
             threads,
+            busy_poll,
+            io_uring,
             word_order,
         })
     }
@@ -254,13 +300,17 @@ struct Refusals {
 
 /// The running network side.
 struct Net {
-    stops: Vec<oneshot::Sender<()>>,
+    /// Tells the TCP loops to stop; they see it when woken through their doors.
+    stop: Arc<AtomicBool>,
+    doors: Vec<Arc<tcp::Door>>,
+    rtu_stop: Option<oneshot::Sender<()>>,
     threads: Vec<JoinHandle<()>>,
 }
 
 impl Net {
     fn stop(&mut self) {
-        for stop in self.stops.drain(..) {
+        tcp::stop(&self.stop, &self.doors);
+        if let Some(stop) = self.rtu_stop.take() {
             let _ = stop.send(());
         }
         for t in self.threads.drain(..) {
@@ -301,32 +351,25 @@ impl ModbusServer {
 
     fn start(&mut self, shared: Arc<Shared>) -> Result<(), ModuleError> {
         let name = self.name.clone();
-        // By default one network thread, which waits on every connection's socket and
-        // answers them in turn, as a select() server does. With two workers of a
-        // multi-threaded runtime the 16-client p99 was 1.3 to 2.3 times libmodbus's: a request
-        // waited for the other worker to be scheduled (task hand-offs, work stealing, the two
-        // threads competing with the clients for two cores). `threads = N` runs N
-        // single-threaded runtimes, each owning the connections handed to it in turn, for
-        // more requests per second at the cost of that tail (docs/modbus.md, Performance).
-        let threads = self.settings.threads;
-        let runtime = || {
-            tokio::runtime::Builder::new_current_thread()
-                .enable_all()
-                .build()
-                .map_err(|e| error(&name, format!("cannot start the network runtime: {e}")))
+        // By default one network thread, which waits on every connection's socket and answers
+        // them in turn, as a select() server does. With two workers of a multi-threaded
+        // runtime the 16-client p99 was 1.3 to 2.3 times libmodbus's: a request waited for
+        // the other worker to be scheduled (the threads compete with the clients for the
+        // cores). `threads = N` runs N loops, each owning the connections handed to it in
+        // turn, for more requests per second at the cost of that tail (docs/modbus.md,
+        // Performance).
+        let mut net = Net {
+            stop: Arc::new(AtomicBool::new(false)),
+            doors: Vec::new(),
+            rtu_stop: None,
+            threads: Vec::new(),
         };
-        let rts = (0..threads)
-            .map(|_| runtime())
-            .collect::<Result<Vec<_>, _>>()?;
-        let handles: Vec<tokio::runtime::Handle> = rts.iter().map(|r| r.handle().clone()).collect();
-        let rt = &rts[0];
-        // Bind and open here, so that a taken port or a missing device stops the PLC's start
-        // with a message instead of failing later in the background.
-        let listener = match self.settings.listen {
-            None => None,
-            Some(addr) => {
-                let _enter = rt.enter();
-                let l = tokio::net::TcpListener::from_std(bind(addr).map_err(|e| {
+        if let Some(addr) = self.settings.listen {
+            // Bind here, so that a taken port stops the PLC's start with a message instead
+            // of failing later in the background.
+            let listener = bind(addr)
+                .map(mio::net::TcpListener::from_std)
+                .map_err(|e| {
                     error(
                         &name,
                         format!(
@@ -334,71 +377,82 @@ impl ModbusServer {
                              or port (`listen = off` for RTU only)"
                         ),
                     )
-                })?)
-                .map_err(|e| error(&name, format!("cannot listen on {addr}: {e}")))?;
-                let local = l.local_addr().unwrap_or(addr);
-                self.tcp = Some(local);
-                log::info!("modbus_server {name}: listening on {local}");
-                Some(l)
+                })?;
+            let local = listener.local_addr().unwrap_or(addr);
+            let loops = (0..self.settings.threads)
+                .map(|_| tcp::Loop::new())
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| error(&name, format!("cannot start the network loop: {e}")))?;
+            net.doors = loops.iter().map(tcp::Loop::door).collect();
+            let mut acceptor = Some(tcp::Acceptor {
+                listener,
+                doors: net.doors.clone(),
+            });
+            let start = std::time::Instant::now();
+            for (i, lp) in loops.into_iter().enumerate() {
+                let accept = acceptor.take();
+                let shared = shared.clone();
+                let stop = net.stop.clone();
+                let options = tcp::Options {
+                    busy_poll: self.settings.busy_poll,
+                    io_uring: self.settings.io_uring,
+                };
+                let thread = std::thread::Builder::new()
+                    .name(format!("modbus {name} {i}"))
+                    .spawn(move || tcp::run(lp, accept, shared, options, start, stop));
+                match thread {
+                    Ok(t) => net.threads.push(t),
+                    Err(e) => {
+                        net.stop();
+                        return Err(error(
+                            &name,
+                            format!("cannot start the network thread: {e}"),
+                        ));
+                    }
+                }
             }
-        };
-        let port = match &self.settings.serial {
-            None => None,
-            Some(s) => {
+            self.tcp = Some(local);
+            log::info!("modbus_server {name}: listening on {local}");
+        }
+        if let Some(s) = &self.settings.serial {
+            let rt = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+                .map_err(|e| error(&name, format!("cannot start the serial runtime: {e}")))?;
+            // Opened here, so that a missing device stops the PLC's start with a message.
+            let port = {
                 let _enter = rt.enter();
-                let p = s.open().map_err(|e| {
+                s.open().map_err(|e| {
+                    net.stop();
                     error(
                         &name,
                         format!("{}; fix `serial` in [{name}]", common::chain(&e)),
                     )
-                })?;
-                log::info!(
-                    "modbus_server {name}: RTU slave {} on {s}",
-                    self.settings.unit
-                );
-                self.rtu = Some(format!("{s} unit {}", self.settings.unit));
-                Some((p, s.clone()))
-            }
-        };
-        let unit = self.settings.unit;
-        let mut net = Net {
-            stops: Vec::new(),
-            threads: Vec::new(),
-        };
-        let mut first = Some((listener, port));
-        for (i, rt) in rts.into_iter().enumerate() {
+                })?
+            };
+            let unit = self.settings.unit;
+            log::info!("modbus_server {name}: RTU slave {unit} on {s}");
+            self.rtu = Some(format!("{s} unit {unit}"));
             let (stop, stopped) = oneshot::channel::<()>();
-            let jobs = first.take();
-            let shared = shared.clone();
-            let handles = handles.clone();
+            let s = s.clone();
             let thread = std::thread::Builder::new()
-                .name(format!("modbus {name} {i}"))
+                .name(format!("modbus {name} rtu"))
                 .spawn(move || {
                     rt.block_on(async move {
-                        if let Some((listener, port)) = jobs {
-                            if let Some(l) = listener {
-                                tokio::spawn(tcp::serve(l, shared.clone(), handles));
-                            }
-                            if let Some((p, s)) = port {
-                                tokio::spawn(rtu::serve(p, s, unit, shared.clone()));
-                            }
-                        }
+                        tokio::spawn(rtu::serve(port, s, unit, shared));
                         let _ = stopped.await;
                     });
-                    // Connection tasks are dropped at their next await; none blocks.
+                    // The serial task is dropped at its next await; it never blocks.
                     rt.shutdown_timeout(Duration::from_secs(1));
                 });
             match thread {
                 Ok(t) => {
-                    net.stops.push(stop);
+                    net.rtu_stop = Some(stop);
                     net.threads.push(t);
                 }
                 Err(e) => {
                     net.stop();
-                    return Err(error(
-                        &name,
-                        format!("cannot start the network thread: {e}"),
-                    ));
+                    return Err(error(&name, format!("cannot start the serial thread: {e}")));
                 }
             }
         }

@@ -353,7 +353,20 @@ fn every_unit_id_is_answered_on_tcp() {
 
 #[test]
 fn several_requests_in_one_segment_are_all_answered_in_order() {
-    let mut srv = Server::start(CONF);
+    pipelined("");
+}
+
+/// The same without io_uring: the answers are written with one send each.
+#[test]
+fn several_requests_in_one_segment_are_all_answered_in_order_without_io_uring() {
+    pipelined("io_uring = no");
+}
+
+fn pipelined(setting: &str) {
+    let mut srv = Server::start(&CONF.replace(
+        "listen = 127.0.0.1:0",
+        &format!("listen = 127.0.0.1:0\n{setting}"),
+    ));
     let mut raw = srv.raw();
     let requests: Vec<Vec<u8>> = vec![
         adu(1, 1, &[0x03, 0, 9, 0, 1]),
@@ -542,6 +555,104 @@ fn idle_connections_time_out() {
 }
 
 #[test]
+fn a_client_that_reads_no_answers_is_closed_at_its_idle_timeout() {
+    reads_no_answers("");
+}
+
+#[test]
+fn a_client_that_reads_no_answers_is_closed_without_io_uring_too() {
+    reads_no_answers("io_uring = no");
+}
+
+fn reads_no_answers(setting: &str) {
+    let srv = Server::start(&CONF.replace(
+        "listen = 127.0.0.1:0",
+        &format!("listen = 127.0.0.1:0\nidle_timeout = T#300ms\n{setting}"),
+    ));
+    // It sends requests and never reads: once the socket buffers are full the server stops
+    // reading its requests, and closes it when it has taken no answer for the idle timeout.
+    // Its writes then fail.
+    let mut stuck = std::net::TcpStream::connect(srv.addr).unwrap();
+    let (done, ended) = mpsc::channel();
+    std::thread::spawn(move || {
+        use std::io::Write;
+        let burst: Vec<u8> = (0..1000u16)
+            .flat_map(|t| adu(t, 1, &[0x03, 0, 9, 0, 1]))
+            .collect();
+        let e = loop {
+            if let Err(e) = stuck.write_all(&burst) {
+                break e;
+            }
+        };
+        let _ = done.send(e.kind());
+    });
+    // Meanwhile another client is served.
+    let mut other = srv.raw();
+    for t in 0..20 {
+        assert_eq!(other.request(t, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+    }
+    let kind = ended
+        .recv_timeout(PATIENCE)
+        .expect("the client that reads nothing is closed");
+    assert!(
+        matches!(
+            kind,
+            std::io::ErrorKind::ConnectionReset | std::io::ErrorKind::BrokenPipe
+        ),
+        "{kind:?}"
+    );
+    // (`other` has been idle meanwhile: a new client.)
+    assert_eq!(srv.raw().request(99, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+}
+
+/// The scheduler state of this process's thread named `name` ('R' running, 'S' sleeping).
+fn thread_state(name: &str) -> Option<char> {
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let dir = task.ok()?.path();
+        if std::fs::read_to_string(dir.join("comm")).ok()?.trim_end() != name {
+            continue;
+        }
+        let stat = std::fs::read_to_string(dir.join("stat")).ok()?;
+        // The state follows the command name, which is in parentheses and may hold spaces.
+        return stat.rsplit_once(") ")?.1.chars().next();
+    }
+    None
+}
+
+#[test]
+fn busy_polling_stops_when_the_requests_stop() {
+    let srv = Server::start(&CONF.replace(
+        "listen = 127.0.0.1:0",
+        "listen = 127.0.0.1:0\nbusy_poll = 10ms\nidle_timeout = 0",
+    ));
+    let mut raw = srv.raw();
+    for round in 0..3u16 {
+        for t in 0..50 {
+            assert_eq!(raw.request(t, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+        }
+        // The network thread polls for 10 ms after the last request, then sleeps until the
+        // next: seen asleep a few times in a row, it is not polling any more.
+        let deadline = std::time::Instant::now() + PATIENCE;
+        let mut asleep = 0;
+        while asleep < 5 {
+            assert!(
+                std::time::Instant::now() < deadline,
+                "round {round}: the network thread still runs (state {:?}) long after the \
+                 last request",
+                thread_state("modbus mb 0")
+            );
+            std::thread::sleep(Duration::from_millis(20));
+            match thread_state("modbus mb 0") {
+                Some('S') => asleep += 1,
+                Some(_) => asleep = 0,
+                None => panic!("no thread `modbus mb 0`"),
+            }
+        }
+    }
+    assert_eq!(raw.request(7, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
+}
+
+#[test]
 fn malformed_headers_close_only_their_connection() {
     let srv = Server::start(CONF);
     let mut good = srv.raw();
@@ -719,6 +830,12 @@ fn bad_settings_are_refused() {
             "`threads = 0`: write a whole number from 1 to 64",
         ),
         ("threads = many\n", "`threads = many`"),
+        ("busy_poll = soon\n", "`busy_poll = soon`: "),
+        ("busy_poll = 1s\n", "`busy_poll = 1s`: at most 10 ms"),
+        (
+            "io_uring = maybe\n",
+            "`io_uring = maybe`: write `io_uring = yes`",
+        ),
         ("word_order = big\n", "write high_first or low_first"),
         ("serial = /dev/ttyS0:9600:9Z1\n", "frame `9Z1`"),
         ("port = 502\n", "unknown setting `port`"),

@@ -1,7 +1,18 @@
-//! Modbus TCP: the listener and one task per connection. The MBAP framing is ours rather
-//! than tokio-modbus's because its codec turns a malformed PDU into a connection error (so a
-//! short request could not get exception 03) and has no idle timeout; here every complete ADU
-//! in what one read returned is answered, in order, in one write, with one lock of the image.
+//! Modbus TCP: each network thread runs its own event loop (mio: one epoll set) over the
+//! connections given to it; the first one also accepts. The MBAP framing is ours rather than
+//! tokio-modbus's because its codec turns a malformed PDU into a connection error (so a short
+//! request could not get exception 03) and has no idle timeout; here every complete ADU in
+//! what one read returned is answered, in order, in one write, with one lock of the image.
+//!
+//! Why not tokio: the loop does per request one `recv`, one `send` and a share of one
+//! `epoll_wait`, with no task to wake, no timer to arm and no clock to read per request. With
+//! tokio's single-threaded runtime the same server spent three times the user time per
+//! request (docs/modbus.md, Performance). The serial RTU slave, one port and one request at a
+//! time, stays on tokio.
+//!
+//! After a request a thread keeps polling its sockets for `busy_poll` before it sleeps (see
+//! [`run`]). Idle timeouts and stuck writes are found by a sweep every
+//! [`SWEEP`].
 //!
 //! At `max_clients`, a new connection takes the place of the connection idle the longest, if
 //! it has been idle [`EVICT_IDLE`] or more: idle connections must not lock active clients out
@@ -9,21 +20,18 @@
 //! first refusal is logged with the limit, later ones are counted and logged every
 //! [`REFUSALS_EVERY`].
 
+use std::io::{ErrorKind, Read, Write};
 use std::net::SocketAddr;
+use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
 
-use std::io::Read;
-
-use socket2::SockRef;
-use tokio::io::{AsyncWriteExt, Interest};
-use tokio::net::{TcpListener, TcpStream};
-use tokio::runtime::Handle;
-use tokio::sync::Notify;
-use tokio::time::Instant;
+use mio::net::{TcpListener, TcpStream};
+use mio::{Events, Interest, Poll, Token, Waker};
 
 use super::pdu;
+use super::sends::Sends;
 use super::Shared;
 
 /// MBAP header: transaction id, protocol id, length, unit id.
@@ -39,50 +47,371 @@ const BUFFER: usize = 4096;
 pub(super) const EVICT_IDLE: Duration = Duration::from_secs(1);
 /// Refusals after the first are logged at most this often, as a count.
 pub(super) const REFUSALS_EVERY: Duration = Duration::from_secs(10);
+/// How often a loop looks for connections past their idle timeout (and, after an accept
+/// error such as running out of file descriptors, tries to accept again).
+const SWEEP: Duration = Duration::from_millis(50);
+
+const LISTENER: Token = Token(0);
+const WAKER: Token = Token(1);
+/// Connection tokens are slots of [`Loop::clients`] from here on.
+const FIRST_CLIENT: usize = 2;
 
 /// What the listener knows of one open connection.
 struct Conn {
-    /// When it last served a request, in ms since the listener started.
+    /// When it last served a request, in ms since the server started.
     last_ms: AtomicU64,
     closed: AtomicBool,
-    evict: Notify,
+    /// Set by the listener to make room for a new connection; the owning loop closes it.
+    evict: AtomicBool,
 }
 
-/// Accepts connections and hands them to the `runtimes` in turn (each a single thread), where
-/// each is served by one task for its whole life.
-pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>, runtimes: Vec<Handle>) {
-    let mut turn = 0usize;
-    let start = Instant::now();
-    let now_ms = move || start.elapsed().as_millis() as u64;
-    let evict_after = shared.idle.map_or(EVICT_IDLE, |i| i.min(EVICT_IDLE));
-    let mut conns: Vec<Arc<Conn>> = Vec::new();
-    let mut refusals = Refusals::default();
-    loop {
-        let (stream, peer) = match listener.accept().await {
-            Ok(c) => c,
+/// A network thread's side that other threads use: connections handed to it, and its waker.
+pub(super) struct Door {
+    waker: Waker,
+    inbox: Mutex<Vec<(TcpStream, SocketAddr, Arc<Conn>)>>,
+}
+
+/// One network thread's event loop, made on the starting thread so that failures to create
+/// it stop the PLC's start with a message.
+pub(super) struct Loop {
+    poll: Poll,
+    door: Arc<Door>,
+}
+
+impl Loop {
+    pub(super) fn new() -> std::io::Result<Loop> {
+        let poll = Poll::new()?;
+        let waker = Waker::new(poll.registry(), WAKER)?;
+        Ok(Loop {
+            poll,
+            door: Arc::new(Door {
+                waker,
+                inbox: Mutex::new(Vec::new()),
+            }),
+        })
+    }
+
+    pub(super) fn door(&self) -> Arc<Door> {
+        self.door.clone()
+    }
+}
+
+/// Stops every loop: set the flag, then wake them.
+pub(super) fn stop(flag: &AtomicBool, doors: &[Arc<Door>]) {
+    flag.store(true, Ordering::SeqCst);
+    for d in doors {
+        let _ = d.waker.wake();
+    }
+}
+
+/// What the first loop does besides serving: accept and share out connections.
+pub(super) struct Acceptor {
+    pub listener: TcpListener,
+    /// Every loop's door, its own first; connections are given to them in turn.
+    pub doors: Vec<Arc<Door>>,
+}
+
+/// State of accepting, on the first loop only.
+struct Accepting {
+    listener: TcpListener,
+    doors: Vec<Arc<Door>>,
+    turn: usize,
+    conns: Vec<Arc<Conn>>,
+    refusals: Refusals,
+    evict_after_ms: u64,
+    /// After an accept error: when to try again.
+    retry_at: Option<Instant>,
+}
+
+/// One open connection, owned by one loop.
+struct Client {
+    stream: TcpStream,
+    peer: SocketAddr,
+    conn: Arc<Conn>,
+    buf: Box<[u8; BUFFER]>,
+    filled: usize,
+    /// Answers not yet written, from `out[sent..]`.
+    out: Vec<u8>,
+    sent: usize,
+    last_request: Instant,
+    /// Since when the client has not taken the answers written to it.
+    stuck_since: Option<Instant>,
+}
+
+/// Why a connection ends, for the log.
+enum Close {
+    /// The client closed it.
+    Gone,
+    /// Logged at info, with the peer.
+    Info(String),
+    /// Logged at debug, with the peer (the connection failed).
+    Debug(String),
+}
+
+/// How a loop serves, from the section's settings.
+pub(super) struct Options {
+    pub busy_poll: Option<Duration>,
+    pub io_uring: bool,
+}
+
+/// Runs one network thread's loop until `stop`. `accept` is the first loop's listener.
+///
+/// `busy_poll`: a thread that sleeps as soon as its sockets are quiet must be woken by the
+/// kernel for the next request. On a loaded machine, and in virtual machines where waking a
+/// CPU is an interrupt through the hypervisor, that wake-up costs more than the answer. So
+/// for `busy_poll` after the last request the loop asks for ready sockets without blocking.
+/// With one client that halves the round trip (docs/modbus.md, Performance).
+pub(super) fn run(
+    mut lp: Loop,
+    accept: Option<Acceptor>,
+    shared: Arc<Shared>,
+    options: Options,
+    start: Instant,
+    stop: Arc<AtomicBool>,
+) {
+    let name = shared.name.clone();
+    let busy_poll = options.busy_poll;
+    let mut sends = if options.io_uring {
+        match Sends::new() {
+            Ok(s) => Some(s),
             Err(e) => {
-                // Out of file descriptors, typically: wait for connections to close.
-                log::warn!("modbus_server {}: accept failed: {e}", shared.name);
-                tokio::time::sleep(Duration::from_millis(100)).await;
+                log::info!(
+                    "modbus_server {name}: io_uring unavailable ({e}); answers are written \
+                     with one send each"
+                );
+                None
+            }
+        }
+    } else {
+        None
+    };
+    let mut accepting = accept.map(|a| Accepting {
+        listener: a.listener,
+        doors: a.doors,
+        turn: 0,
+        conns: Vec::new(),
+        refusals: Refusals::default(),
+        evict_after_ms: shared
+            .idle
+            .map_or(EVICT_IDLE, |i| i.min(EVICT_IDLE))
+            .as_millis() as u64,
+        retry_at: None,
+    });
+    if let Some(a) = &mut accepting {
+        if let Err(e) = lp
+            .poll
+            .registry()
+            .register(&mut a.listener, LISTENER, Interest::READABLE)
+        {
+            log::error!("modbus_server {name}: cannot wait for connections: {e}");
+            return;
+        }
+    }
+    let mut clients: Vec<Option<Client>> = Vec::new();
+    let mut free: Vec<usize> = Vec::new();
+    let mut events = Events::with_capacity(64);
+    let mut to_write: Vec<usize> = Vec::new();
+    let mut last_served = start;
+    let mut next_sweep = Instant::now() + SWEEP;
+    let now_ms = |t: Instant| t.saturating_duration_since(start).as_millis() as u64;
+    while !stop.load(Ordering::Relaxed) {
+        let now = Instant::now();
+        // Busy polling: ask without blocking while requests came within the window.
+        let timeout = match busy_poll {
+            Some(w) if now.duration_since(last_served) < w => Some(Duration::ZERO),
+            // Nothing to sweep and no accept to retry: sleep until an event.
+            _ if free.len() == clients.len()
+                && accepting.as_ref().is_none_or(|a| a.retry_at.is_none()) =>
+            {
+                None
+            }
+            _ => Some(next_sweep.saturating_duration_since(now)),
+        };
+        if let Err(e) = lp.poll.poll(&mut events, timeout) {
+            if e.kind() == ErrorKind::Interrupted {
                 continue;
             }
+            log::error!("modbus_server {name}: waiting for the network failed: {e}");
+            break;
+        }
+        let now = Instant::now();
+        let mut served_any = false;
+        to_write.clear();
+        for ev in events.iter() {
+            match ev.token() {
+                LISTENER => {
+                    if let Some(a) = &mut accepting {
+                        accept_all(a, &shared, &lp, &mut clients, &mut free, now_ms(now));
+                    }
+                }
+                WAKER => {
+                    take_inbox(&lp, &shared, &mut clients, &mut free);
+                    for slot in 0..clients.len() {
+                        let evicted = clients[slot]
+                            .as_ref()
+                            .is_some_and(|c| c.conn.evict.load(Ordering::Relaxed));
+                        if evicted {
+                            let why = format!(
+                                "the connection idle the longest, closed to make room for a \
+                                 new one (max_clients = {})",
+                                shared.max_clients
+                            );
+                            drop_client(
+                                &lp,
+                                &shared,
+                                &mut clients,
+                                &mut free,
+                                slot,
+                                Close::Info(why),
+                            );
+                        }
+                    }
+                }
+                Token(t) => {
+                    let slot = t - FIRST_CLIENT;
+                    let Some(Some(c)) = clients.get_mut(slot) else {
+                        continue;
+                    };
+                    let mut outcome = Ok(0);
+                    if ev.is_writable() && c.sent < c.out.len() {
+                        outcome = flush(c, now);
+                    }
+                    // With answers still unwritten, the requests wait: a client that does not
+                    // read its answers gets no more of them.
+                    if outcome.is_ok() && c.sent == c.out.len() {
+                        // A client that sent its last requests and closed its side may have
+                        // done both before this read: no further event would come for the
+                        // end of file, so such a socket is read until it says so.
+                        let to_the_end = ev.is_read_closed() || ev.is_error();
+                        outcome = serve(c, &shared, to_the_end, now, now_ms(now));
+                    }
+                    match outcome {
+                        Ok(n) => {
+                            served_any |= n > 0;
+                            if n > 0 && !c.out.is_empty() {
+                                to_write.push(slot);
+                            }
+                        }
+                        Err(why) => drop_client(&lp, &shared, &mut clients, &mut free, slot, why),
+                    }
+                }
+            }
+        }
+        // The answers go out together, after every ready socket was read, in one system
+        // call where io_uring is there (see `sends`).
+        if let Some(s) = &mut sends {
+            let batch = to_write.iter().filter_map(|&slot| {
+                let c = clients.get(slot)?.as_ref()?;
+                (c.sent == 0 && !c.out.is_empty())
+                    .then(|| (slot, c.stream.as_raw_fd(), c.out.as_slice()))
+            });
+            match s.send(batch) {
+                Ok(results) => {
+                    for (slot, r) in results {
+                        let slot = *slot;
+                        let Some(Some(c)) = clients.get_mut(slot) else {
+                            continue;
+                        };
+                        let outcome = match r {
+                            Ok(n) => {
+                                c.sent = *n;
+                                flush(c, now)
+                            }
+                            Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                                c.stuck_since.get_or_insert(now);
+                                Ok(0)
+                            }
+                            Err(e) if e.kind() == ErrorKind::Interrupted => flush(c, now),
+                            Err(e) => Err(Close::Info(e.to_string())),
+                        };
+                        if let Err(why) = outcome {
+                            drop_client(&lp, &shared, &mut clients, &mut free, slot, why);
+                        }
+                    }
+                }
+                Err(e) => {
+                    log::warn!(
+                        "modbus_server {name}: io_uring failed ({e}); answers are written \
+                         with one send each from now on"
+                    );
+                    sends = None;
+                }
+            }
+        }
+        // Without io_uring (or what it did not send): one send each.
+        for &slot in &to_write {
+            let Some(Some(c)) = clients.get_mut(slot) else {
+                continue;
+            };
+            if c.sent == 0 && !c.out.is_empty() && c.stuck_since.is_none() {
+                if let Err(why) = flush(c, now) {
+                    drop_client(&lp, &shared, &mut clients, &mut free, slot, why);
+                }
+            }
+        }
+        if served_any {
+            last_served = now;
+        }
+        if now >= next_sweep {
+            next_sweep = now + SWEEP;
+            sweep(&lp, &shared, &mut clients, &mut free, now);
+            if let Some(a) = &mut accepting {
+                if a.retry_at.is_some_and(|t| now >= t) {
+                    a.retry_at = None;
+                    accept_all(a, &shared, &lp, &mut clients, &mut free, now_ms(now));
+                }
+            }
+        }
+    }
+    // Stopping: the connections close as their clients are dropped.
+    for c in clients.into_iter().flatten() {
+        gone(&shared, &c.conn);
+    }
+    log::debug!("modbus_server {name}: network thread stops");
+}
+
+/// Accepts every pending connection and gives each to a loop in turn.
+fn accept_all(
+    a: &mut Accepting,
+    shared: &Arc<Shared>,
+    lp: &Loop,
+    clients: &mut Vec<Option<Client>>,
+    free: &mut Vec<usize>,
+    now_ms: u64,
+) {
+    loop {
+        let (stream, peer) = match a.listener.accept() {
+            Ok(c) => c,
+            Err(e) if e.kind() == ErrorKind::WouldBlock => return,
+            Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+            Err(e) => {
+                // Out of file descriptors, typically: try again after a while (the listener
+                // reports no new readiness for connections already waiting).
+                log::warn!("modbus_server {}: accept failed: {e}", shared.name);
+                a.retry_at = Some(Instant::now() + Duration::from_millis(100));
+                return;
+            }
         };
-        conns.retain(|c| !c.closed.load(Ordering::Relaxed));
-        if conns.len() >= shared.max_clients {
-            let now = now_ms();
-            let idlest = conns
+        a.conns.retain(|c| !c.closed.load(Ordering::Relaxed));
+        if a.conns.len() >= shared.max_clients {
+            let idlest = a
+                .conns
                 .iter()
                 .enumerate()
-                .map(|(i, c)| (now.saturating_sub(c.last_ms.load(Ordering::Relaxed)), i))
+                .map(|(i, c)| (now_ms.saturating_sub(c.last_ms.load(Ordering::Relaxed)), i))
                 .max();
             match idlest {
-                Some((idle, i)) if idle >= evict_after.as_millis() as u64 => {
-                    let c = conns.swap_remove(i);
+                Some((idle, i)) if idle >= a.evict_after_ms => {
+                    let c = a.conns.swap_remove(i);
                     c.closed.store(true, Ordering::Relaxed);
-                    c.evict.notify_one();
+                    c.evict.store(true, Ordering::Relaxed);
+                    // Its loop closes it; this loop's own are looked at when its waker fires.
+                    for d in &a.doors {
+                        let _ = d.waker.wake();
+                    }
                 }
                 _ => {
-                    if let Some(line) = refusals.refused(Instant::now(), shared.max_clients) {
+                    if let Some(line) = a.refusals.refused(Instant::now(), shared.max_clients) {
                         log::warn!("modbus_server {}: refused {peer}: {line}", shared.name);
                     }
                     drop(stream);
@@ -90,34 +419,205 @@ pub(super) async fn serve(listener: TcpListener, shared: Arc<Shared>, runtimes: 
                 }
             }
         }
-        if let Some(line) = refusals.accepted() {
+        if let Some(line) = a.refusals.accepted() {
             log::warn!("modbus_server {}: {line}", shared.name);
         }
         shared.clients.fetch_add(1, Ordering::Relaxed);
         log::debug!("modbus_server {}: client {peer} connected", shared.name);
         let conn = Arc::new(Conn {
-            last_ms: AtomicU64::new(now_ms()),
+            last_ms: AtomicU64::new(now_ms),
             closed: AtomicBool::new(false),
-            evict: Notify::new(),
+            evict: AtomicBool::new(false),
         });
-        conns.push(conn.clone());
-        let guard = ClientGuard(shared.clone(), conn);
-        // The socket is registered again with the reactor of the runtime that serves it, so
-        // its readiness wakes that thread only.
-        let stream = match stream.into_std() {
-            Ok(s) => s,
-            Err(e) => {
-                log::warn!("modbus_server {}: {peer}: {e}", guard.0.name);
-                continue;
-            }
+        a.conns.push(conn.clone());
+        let door = &a.doors[a.turn % a.doors.len()];
+        a.turn = a.turn.wrapping_add(1);
+        if Arc::ptr_eq(door, &lp.door) {
+            add_client(lp, shared, clients, free, stream, peer, conn);
+        } else {
+            door.inbox
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .push((stream, peer, conn));
+            let _ = door.waker.wake();
+        }
+    }
+}
+
+/// Takes the connections other threads handed to this loop.
+fn take_inbox(
+    lp: &Loop,
+    shared: &Shared,
+    clients: &mut Vec<Option<Client>>,
+    free: &mut Vec<usize>,
+) {
+    let handed = std::mem::take(&mut *lp.door.inbox.lock().unwrap_or_else(PoisonError::into_inner));
+    for (stream, peer, conn) in handed {
+        add_client(lp, shared, clients, free, stream, peer, conn);
+    }
+}
+
+fn add_client(
+    lp: &Loop,
+    shared: &Shared,
+    clients: &mut Vec<Option<Client>>,
+    free: &mut Vec<usize>,
+    mut stream: TcpStream,
+    peer: SocketAddr,
+    conn: Arc<Conn>,
+) {
+    let name = &shared.name;
+    if let Err(e) = stream.set_nodelay(true) {
+        log::debug!("modbus_server {name}: {peer}: TCP_NODELAY not set: {e}");
+    }
+    let slot = free.pop().unwrap_or_else(|| {
+        clients.push(None);
+        clients.len() - 1
+    });
+    // Edge-triggered: a read that returns less than it had room for emptied the socket, and
+    // the next bytes bring a new event.
+    if let Err(e) = lp.poll.registry().register(
+        &mut stream,
+        Token(slot + FIRST_CLIENT),
+        Interest::READABLE | Interest::WRITABLE,
+    ) {
+        log::warn!("modbus_server {name}: {peer}: cannot wait for its requests: {e}");
+        free.push(slot);
+        gone(shared, &conn);
+        return;
+    }
+    clients[slot] = Some(Client {
+        stream,
+        peer,
+        conn,
+        buf: Box::new([0; BUFFER]),
+        filled: 0,
+        out: Vec::with_capacity(BUFFER),
+        sent: 0,
+        last_request: Instant::now(),
+        stuck_since: None,
+    });
+}
+
+/// A connection is over: counted down, and the listener no longer counts it.
+fn gone(shared: &Shared, conn: &Conn) {
+    conn.closed.store(true, Ordering::Relaxed);
+    shared.clients.fetch_sub(1, Ordering::Relaxed);
+}
+
+fn drop_client(
+    lp: &Loop,
+    shared: &Shared,
+    clients: &mut [Option<Client>],
+    free: &mut Vec<usize>,
+    slot: usize,
+    why: Close,
+) {
+    let Some(mut c) = clients[slot].take() else {
+        return;
+    };
+    let name = &shared.name;
+    let peer = c.peer;
+    match why {
+        Close::Gone => log::debug!("modbus_server {name}: client {peer} disconnected"),
+        Close::Info(why) => log::info!("modbus_server {name}: closing {peer}: {why}"),
+        Close::Debug(why) => log::debug!("modbus_server {name}: {peer}: {why}"),
+    }
+    let _ = lp.poll.registry().deregister(&mut c.stream);
+    gone(shared, &c.conn);
+    free.push(slot);
+}
+
+/// Reads and answers until the socket is empty (or an answer cannot be written at once):
+/// the number of requests served. A read that returns less than it had room for emptied
+/// the socket, unless `to_the_end` (its end of file or error has come): then it is read
+/// until it says so.
+fn serve(
+    c: &mut Client,
+    shared: &Shared,
+    to_the_end: bool,
+    now: Instant,
+    now_ms: u64,
+) -> Result<u64, Close> {
+    let mut served = 0;
+    loop {
+        let space = BUFFER - c.filled;
+        let n = match c.stream.read(&mut c.buf[c.filled..]) {
+            Ok(0) => return Err(Close::Gone),
+            Ok(n) => n,
+            Err(e) if e.kind() == ErrorKind::WouldBlock => return Ok(served),
+            Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Close::Debug(e.to_string())),
         };
-        runtimes[turn % runtimes.len()].spawn(async move {
-            match TcpStream::from_std(stream) {
-                Ok(stream) => connection(stream, peer, &guard.0, &guard.1, now_ms).await,
-                Err(e) => log::warn!("modbus_server {}: {peer}: {e}", guard.0.name),
+        c.filled += n;
+        let batch = answer(&c.buf[..c.filled], shared, &mut c.out);
+        if batch.served > 0 {
+            served += batch.served;
+            c.last_request = now;
+            c.conn.last_ms.store(now_ms, Ordering::Relaxed);
+        }
+        c.buf.copy_within(batch.used..c.filled, 0);
+        c.filled -= batch.used;
+        if let Some(why) = batch.close {
+            flush(c, now)?;
+            return Err(Close::Info(why));
+        }
+        debug_assert!(BUFFER - c.filled >= MAX_ADU);
+        if n < space && !to_the_end {
+            // Emptied: the next request brings a new event. The answers are written after
+            // the other ready sockets are read (see `run`).
+            return Ok(served);
+        }
+        if !c.out.is_empty() {
+            flush(c, now)?;
+            if c.sent < c.out.len() {
+                return Ok(served);
             }
-        });
-        turn = turn.wrapping_add(1);
+        }
+    }
+}
+
+/// Writes what it can of the unwritten answers; what the socket does not take waits for the
+/// socket's next writable event.
+fn flush(c: &mut Client, now: Instant) -> Result<u64, Close> {
+    while c.sent < c.out.len() {
+        match c.stream.write(&c.out[c.sent..]) {
+            Ok(0) => return Err(Close::Debug("the connection takes no more bytes".into())),
+            Ok(n) => c.sent += n,
+            Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                c.stuck_since.get_or_insert(now);
+                return Ok(0);
+            }
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) => return Err(Close::Info(e.to_string())),
+        }
+    }
+    c.out.clear();
+    c.sent = 0;
+    c.stuck_since = None;
+    Ok(0)
+}
+
+/// Closes the connections past their idle timeout, and those whose client has taken no
+/// answer for that long.
+fn sweep(
+    lp: &Loop,
+    shared: &Shared,
+    clients: &mut [Option<Client>],
+    free: &mut Vec<usize>,
+    now: Instant,
+) {
+    let Some(idle) = shared.idle else { return };
+    for slot in 0..clients.len() {
+        let Some(c) = &clients[slot] else { continue };
+        let why = if c.stuck_since.is_some_and(|t| now.duration_since(t) >= idle) {
+            "the client reads no responses (idle_timeout)".to_string()
+        } else if c.stuck_since.is_none() && now.duration_since(c.last_request) >= idle {
+            format!("no request for {} s (idle_timeout)", idle.as_secs_f64())
+        } else {
+            continue;
+        };
+        drop_client(lp, shared, clients, free, slot, Close::Info(why));
     }
 }
 
@@ -167,143 +667,6 @@ impl Refusals {
         self.logged.take()?;
         let n = std::mem::take(&mut self.count);
         (n > 0).then(|| format!("{n} more connections were refused (max_clients)"))
-    }
-}
-
-/// Counts the connection down however its task ends.
-struct ClientGuard(Arc<Shared>, Arc<Conn>);
-
-impl Drop for ClientGuard {
-    fn drop(&mut self) {
-        self.1.closed.store(true, Ordering::Relaxed);
-        self.0.clients.fetch_sub(1, Ordering::Relaxed);
-    }
-}
-
-async fn connection(
-    mut stream: TcpStream,
-    peer: SocketAddr,
-    shared: &Shared,
-    conn: &Conn,
-    now_ms: impl Fn() -> u64,
-) {
-    let name = &shared.name;
-    if let Err(e) = stream.set_nodelay(true) {
-        log::debug!("modbus_server {name}: {peer}: TCP_NODELAY not set: {e}");
-    }
-    let mut buf = vec![0u8; BUFFER];
-    let mut filled = 0usize;
-    let mut out: Vec<u8> = Vec::with_capacity(BUFFER);
-    // The idle timer fires at most once per idle period: it is pushed back lazily from the
-    // time of the last request instead of being re-armed on every one.
-    let idle = shared.idle;
-    let mut last_request = Instant::now();
-    let far = Duration::from_secs(86400 * 365);
-    let timer = tokio::time::sleep(idle.unwrap_or(far));
-    tokio::pin!(timer);
-    // Registered once for the connection's life, not once per request.
-    let evicted = conn.evict.notified();
-    tokio::pin!(evicted);
-    loop {
-        let n = tokio::select! {
-            biased;
-            () = &mut evicted => {
-                log::info!(
-                    "modbus_server {name}: closing {peer}, the connection idle the longest, \
-                     to make room for a new one (max_clients = {})",
-                    shared.max_clients
-                );
-                return;
-            }
-            r = read_some(&stream, &mut buf[filled..]) => r,
-            () = &mut timer => {
-                let Some(idle) = idle else {
-                    timer.as_mut().reset(Instant::now() + far);
-                    continue;
-                };
-                let due = last_request + idle;
-                if Instant::now() >= due {
-                    log::info!(
-                        "modbus_server {name}: closing {peer}: no request for {} s (idle_timeout)",
-                        idle.as_secs_f64()
-                    );
-                    return;
-                }
-                timer.as_mut().reset(due);
-                continue;
-            }
-        };
-        let n = match n {
-            Ok(0) => {
-                log::debug!("modbus_server {name}: client {peer} disconnected");
-                return;
-            }
-            Ok(n) => n,
-            Err(e) => {
-                log::debug!("modbus_server {name}: {peer}: {e}");
-                return;
-            }
-        };
-        filled += n;
-        let batch = answer(&buf[..filled], shared, &mut out);
-        if batch.served > 0 {
-            last_request = Instant::now();
-            conn.last_ms.store(now_ms(), Ordering::Relaxed);
-        }
-        buf.copy_within(batch.used..filled, 0);
-        filled -= batch.used;
-        if !out.is_empty() {
-            let write = stream.write_all(&out);
-            let written = match idle {
-                Some(idle) => tokio::time::timeout(idle, write).await.unwrap_or_else(|_| {
-                    Err(std::io::Error::new(
-                        std::io::ErrorKind::TimedOut,
-                        "the client reads no responses (idle_timeout)",
-                    ))
-                }),
-                None => write.await,
-            };
-            out.clear();
-            if let Err(e) = written {
-                log::info!("modbus_server {name}: closing {peer}: {e}");
-                return;
-            }
-        }
-        if let Some(why) = batch.close {
-            log::info!("modbus_server {name}: closing {peer}: {why}");
-            return;
-        }
-        debug_assert!(BUFFER - filled >= MAX_ADU);
-    }
-}
-
-/// One read once the socket is readable. A read that returns less than the space drained
-/// the socket, so its readiness is cleared there and then (tokio clears it only if no event
-/// came since it was observed): the next wait goes straight to the reactor instead of first
-/// costing a read that fails with WouldBlock, one system call per request less.
-async fn read_some(stream: &TcpStream, buf: &mut [u8]) -> std::io::Result<usize> {
-    let space = buf.len();
-    loop {
-        stream.readable().await?;
-        let mut got = 0;
-        let r = stream.try_io(Interest::READABLE, || {
-            let n = (&*SockRef::from(stream)).read(buf)?;
-            got = n;
-            if n > 0 && n < space {
-                Err(std::io::ErrorKind::WouldBlock.into())
-            } else {
-                Ok(n)
-            }
-        });
-        match r {
-            Ok(n) => return Ok(n),
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                if got > 0 {
-                    return Ok(got);
-                }
-            }
-            Err(e) => return Err(e),
-        }
     }
 }
 
