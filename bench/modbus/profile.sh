@@ -48,8 +48,8 @@ mkdir -p "$(dirname "$OUT")"
   "$PERF" report -i "$work/perf.data" --children --sort symbol -g none --stdio 2>/dev/null \
     | grep -E '^ +[0-9.]+%' | head -40 || true
   echo
-  echo "## user space: tokio, the server's code, locks, allocation (including callees)"
+  echo "## user space: the event loop (mio), io_uring, the server's code, locks, allocation (including callees)"
   "$PERF" report -i "$work/perf.data" --children --sort symbol -g none --stdio 2>/dev/null \
-    | grep -E '^ +[0-9.]+%' | grep -iE 'tokio|petriplc|mutex|futex|malloc|free|epoll' | head -20 || true
+    | grep -E '^ +[0-9.]+%' | grep -iE 'mio|uring|petriplc|mutex|futex|malloc|free|epoll' | head -20 || true
 } >"$OUT"
 echo "profile summary: $OUT"

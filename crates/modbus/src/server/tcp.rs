@@ -23,6 +23,7 @@
 use std::io::{ErrorKind, Read, Write};
 use std::net::SocketAddr;
 use std::os::fd::AsRawFd;
+use std::panic::{self, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
@@ -146,6 +147,16 @@ enum Close {
     Info(String),
     /// Logged at debug, with the peer (the connection failed).
     Debug(String),
+    /// The server's code panicked serving it: logged as an error.
+    Failed(String),
+}
+
+/// The message of a caught panic.
+fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic".into())
 }
 
 /// How a loop serves, from the section's settings.
@@ -272,19 +283,26 @@ pub(super) fn run(
                     let Some(Some(c)) = clients.get_mut(slot) else {
                         continue;
                     };
-                    let mut outcome = Ok(0);
-                    if ev.is_writable() && c.sent < c.out.len() {
-                        outcome = flush(c, now);
-                    }
-                    // With answers still unwritten, the requests wait: a client that does not
-                    // read its answers gets no more of them.
-                    if outcome.is_ok() && c.sent == c.out.len() {
-                        // A client that sent its last requests and closed its side may have
-                        // done both before this read: no further event would come for the
-                        // end of file, so such a socket is read until it says so.
-                        let to_the_end = ev.is_read_closed() || ev.is_error();
-                        outcome = serve(c, &shared, to_the_end, now, now_ms(now));
-                    }
+                    // A request that makes the server's code panic (a bug) closes its own
+                    // connection only, as a failed task did on tokio; the image's lock
+                    // survives poisoning.
+                    let outcome = panic::catch_unwind(AssertUnwindSafe(|| {
+                        let mut outcome = Ok(0);
+                        if ev.is_writable() && c.sent < c.out.len() {
+                            outcome = flush(c, now);
+                        }
+                        // With answers still unwritten, the requests wait: a client that does
+                        // not read its answers gets no more of them.
+                        if outcome.is_ok() && c.sent == c.out.len() {
+                            // A client that sent its last requests and closed its side may
+                            // have done both before this read: no further event would come
+                            // for the end of file, so such a socket is read until it says so.
+                            let to_the_end = ev.is_read_closed() || ev.is_error();
+                            outcome = serve(c, &shared, to_the_end, now, now_ms(now));
+                        }
+                        outcome
+                    }))
+                    .unwrap_or_else(|p| Err(Close::Failed(panic_text(p.as_ref()))));
                     match outcome {
                         Ok(n) => {
                             served_any |= n > 0;
@@ -522,6 +540,10 @@ fn drop_client(
         Close::Gone => log::debug!("modbus_server {name}: client {peer} disconnected"),
         Close::Info(why) => log::info!("modbus_server {name}: closing {peer}: {why}"),
         Close::Debug(why) => log::debug!("modbus_server {name}: {peer}: {why}"),
+        Close::Failed(why) => log::error!(
+            "modbus_server {name}: closing {peer}: serving it failed ({why}); other \
+             connections are served on"
+        ),
     }
     let _ = lp.poll.registry().deregister(&mut c.stream);
     gone(shared, &c.conn);
