@@ -69,6 +69,14 @@ set If 1.5
 set N4 9
 ";
 
+/// [`CONF`] with more settings in the `[mb]` section (lines).
+fn with_settings(extra: &str) -> String {
+    CONF.replace(
+        "listen = 127.0.0.1:0",
+        &format!("listen = 127.0.0.1:0\n{extra}"),
+    )
+}
+
 async fn connect(srv: &Server) -> client::Context {
     tcp::connect(srv.addr).await.unwrap()
 }
@@ -363,10 +371,7 @@ fn several_requests_in_one_segment_are_all_answered_in_order_without_io_uring() 
 }
 
 fn pipelined(setting: &str) {
-    let mut srv = Server::start(&CONF.replace(
-        "listen = 127.0.0.1:0",
-        &format!("listen = 127.0.0.1:0\n{setting}"),
-    ));
+    let mut srv = Server::start(&with_settings(setting));
     let mut raw = srv.raw();
     let requests: Vec<Vec<u8>> = vec![
         adu(1, 1, &[0x03, 0, 9, 0, 1]),
@@ -470,10 +475,7 @@ fn many_clients_at_once() {
 
 #[test]
 fn max_clients_refuses_further_connections() {
-    let mut srv = Server::start(&CONF.replace(
-        "listen = 127.0.0.1:0",
-        "listen = 127.0.0.1:0\nmax_clients = 2",
-    ));
+    let mut srv = Server::start(&with_settings("max_clients = 2"));
     let mut a = srv.raw();
     let mut b = srv.raw();
     assert_eq!(a.request(1, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
@@ -490,10 +492,7 @@ fn max_clients_refuses_further_connections() {
 
 #[test]
 fn at_max_clients_the_longest_idle_connection_makes_room() {
-    let srv = Server::start(&CONF.replace(
-        "listen = 127.0.0.1:0",
-        "listen = 127.0.0.1:0\nmax_clients = 2\nidle_timeout = 60",
-    ));
+    let srv = Server::start(&with_settings("max_clients = 2\nidle_timeout = 60"));
     let mut a = srv.raw();
     let mut b = srv.raw();
     assert_eq!(a.request(1, &[0x03, 0, 9, 0, 1]), [0x03, 2, 0, 77]);
@@ -510,10 +509,7 @@ fn at_max_clients_the_longest_idle_connection_makes_room() {
 
 #[test]
 fn several_network_threads_share_the_connections() {
-    let mut srv = Server::start(&CONF.replace(
-        "listen = 127.0.0.1:0",
-        "listen = 127.0.0.1:0\nthreads = 3\nmax_clients = 4",
-    ));
+    let mut srv = Server::start(&with_settings("threads = 3\nmax_clients = 4"));
     // Connections are handed to the threads in turn; every one is answered, the count of
     // clients is shared, and one closing frees a place on any thread.
     let mut clients: Vec<_> = (0..4).map(|_| srv.raw()).collect();
@@ -534,10 +530,7 @@ fn several_network_threads_share_the_connections() {
 
 #[test]
 fn idle_connections_time_out() {
-    let srv = Server::start(&CONF.replace(
-        "listen = 127.0.0.1:0",
-        "listen = 127.0.0.1:0\nidle_timeout = T#300ms",
-    ));
+    let srv = Server::start(&with_settings("idle_timeout = T#300ms"));
     // A half header that never completes, and a connection that never sends.
     let mut half = srv.raw();
     half.send(&[0, 1, 0]);
@@ -565,10 +558,9 @@ fn a_client_that_reads_no_answers_is_closed_without_io_uring_too() {
 }
 
 fn reads_no_answers(setting: &str) {
-    let srv = Server::start(&CONF.replace(
-        "listen = 127.0.0.1:0",
-        &format!("listen = 127.0.0.1:0\nidle_timeout = T#300ms\n{setting}"),
-    ));
+    let srv = Server::start(&with_settings(&format!(
+        "idle_timeout = T#300ms\n{setting}"
+    )));
     // It sends requests and never reads: once the socket buffers are full the server stops
     // reading its requests, and closes it when it has taken no answer for the idle timeout.
     // Its writes then fail.
@@ -621,10 +613,7 @@ fn thread_state(name: &str) -> Option<char> {
 
 #[test]
 fn busy_polling_stops_when_the_requests_stop() {
-    let srv = Server::start(&CONF.replace(
-        "listen = 127.0.0.1:0",
-        "listen = 127.0.0.1:0\nbusy_poll = 10ms\nidle_timeout = 0",
-    ));
+    let srv = Server::start(&with_settings("busy_poll = 10ms\nidle_timeout = 0"));
     let mut raw = srv.raw();
     for round in 0..3u16 {
         for t in 0..50 {

@@ -54,7 +54,7 @@ const SWEEP: Duration = Duration::from_millis(50);
 
 const LISTENER: Token = Token(0);
 const WAKER: Token = Token(1);
-/// Connection tokens are slots of [`Loop::clients`] from here on.
+/// Connection tokens are slots of [`Slots`] from here on.
 const FIRST_CLIENT: usize = 2;
 
 /// What the listener knows of one open connection.
@@ -139,6 +139,19 @@ struct Client {
     stuck_since: Option<Instant>,
 }
 
+/// A loop's connections, by token slot; the free slots are used again.
+#[derive(Default)]
+struct Slots {
+    clients: Vec<Option<Client>>,
+    free: Vec<usize>,
+}
+
+impl Slots {
+    fn is_empty(&self) -> bool {
+        self.free.len() == self.clients.len()
+    }
+}
+
 /// Why a connection ends, for the log.
 enum Close {
     /// The client closed it.
@@ -218,8 +231,7 @@ pub(super) fn run(
             return;
         }
     }
-    let mut clients: Vec<Option<Client>> = Vec::new();
-    let mut free: Vec<usize> = Vec::new();
+    let mut slots = Slots::default();
     let mut events = Events::with_capacity(64);
     let mut to_write: Vec<usize> = Vec::new();
     let mut last_served = start;
@@ -231,9 +243,7 @@ pub(super) fn run(
         let timeout = match busy_poll {
             Some(w) if now.duration_since(last_served) < w => Some(Duration::ZERO),
             // Nothing to sweep and no accept to retry: sleep until an event.
-            _ if free.len() == clients.len()
-                && accepting.as_ref().is_none_or(|a| a.retry_at.is_none()) =>
-            {
+            _ if slots.is_empty() && accepting.as_ref().is_none_or(|a| a.retry_at.is_none()) => {
                 None
             }
             _ => Some(next_sweep.saturating_duration_since(now)),
@@ -252,13 +262,13 @@ pub(super) fn run(
             match ev.token() {
                 LISTENER => {
                     if let Some(a) = &mut accepting {
-                        accept_all(a, &shared, &lp, &mut clients, &mut free, now_ms(now));
+                        accept_all(a, &shared, &lp, &mut slots, now_ms(now));
                     }
                 }
                 WAKER => {
-                    take_inbox(&lp, &shared, &mut clients, &mut free);
-                    for slot in 0..clients.len() {
-                        let evicted = clients[slot]
+                    take_inbox(&lp, &shared, &mut slots);
+                    for slot in 0..slots.clients.len() {
+                        let evicted = slots.clients[slot]
                             .as_ref()
                             .is_some_and(|c| c.conn.evict.load(Ordering::Relaxed));
                         if evicted {
@@ -267,20 +277,13 @@ pub(super) fn run(
                                  new one (max_clients = {})",
                                 shared.max_clients
                             );
-                            drop_client(
-                                &lp,
-                                &shared,
-                                &mut clients,
-                                &mut free,
-                                slot,
-                                Close::Info(why),
-                            );
+                            drop_client(&lp, &shared, &mut slots, slot, Close::Info(why));
                         }
                     }
                 }
                 Token(t) => {
                     let slot = t - FIRST_CLIENT;
-                    let Some(Some(c)) = clients.get_mut(slot) else {
+                    let Some(Some(c)) = slots.clients.get_mut(slot) else {
                         continue;
                     };
                     // A request that makes the server's code panic (a bug) closes its own
@@ -310,7 +313,7 @@ pub(super) fn run(
                                 to_write.push(slot);
                             }
                         }
-                        Err(why) => drop_client(&lp, &shared, &mut clients, &mut free, slot, why),
+                        Err(why) => drop_client(&lp, &shared, &mut slots, slot, why),
                     }
                 }
             }
@@ -319,7 +322,7 @@ pub(super) fn run(
         // call where io_uring is there (see `sends`).
         if let Some(s) = &mut sends {
             let batch = to_write.iter().filter_map(|&slot| {
-                let c = clients.get(slot)?.as_ref()?;
+                let c = slots.clients.get(slot)?.as_ref()?;
                 (c.sent == 0 && !c.out.is_empty())
                     .then(|| (slot, c.stream.as_raw_fd(), c.out.as_slice()))
             });
@@ -327,7 +330,7 @@ pub(super) fn run(
                 Ok(results) => {
                     for (slot, r) in results {
                         let slot = *slot;
-                        let Some(Some(c)) = clients.get_mut(slot) else {
+                        let Some(Some(c)) = slots.clients.get_mut(slot) else {
                             continue;
                         };
                         let outcome = match r {
@@ -343,7 +346,7 @@ pub(super) fn run(
                             Err(e) => Err(Close::Info(e.to_string())),
                         };
                         if let Err(why) = outcome {
-                            drop_client(&lp, &shared, &mut clients, &mut free, slot, why);
+                            drop_client(&lp, &shared, &mut slots, slot, why);
                         }
                     }
                 }
@@ -358,12 +361,12 @@ pub(super) fn run(
         }
         // Without io_uring (or what it did not send): one send each.
         for &slot in &to_write {
-            let Some(Some(c)) = clients.get_mut(slot) else {
+            let Some(Some(c)) = slots.clients.get_mut(slot) else {
                 continue;
             };
             if c.sent == 0 && !c.out.is_empty() && c.stuck_since.is_none() {
                 if let Err(why) = flush(c, now) {
-                    drop_client(&lp, &shared, &mut clients, &mut free, slot, why);
+                    drop_client(&lp, &shared, &mut slots, slot, why);
                 }
             }
         }
@@ -372,31 +375,24 @@ pub(super) fn run(
         }
         if now >= next_sweep {
             next_sweep = now + SWEEP;
-            sweep(&lp, &shared, &mut clients, &mut free, now);
+            sweep(&lp, &shared, &mut slots, now);
             if let Some(a) = &mut accepting {
                 if a.retry_at.is_some_and(|t| now >= t) {
                     a.retry_at = None;
-                    accept_all(a, &shared, &lp, &mut clients, &mut free, now_ms(now));
+                    accept_all(a, &shared, &lp, &mut slots, now_ms(now));
                 }
             }
         }
     }
     // Stopping: the connections close as their clients are dropped.
-    for c in clients.into_iter().flatten() {
+    for c in slots.clients.into_iter().flatten() {
         gone(&shared, &c.conn);
     }
     log::debug!("modbus_server {name}: network thread stops");
 }
 
 /// Accepts every pending connection and gives each to a loop in turn.
-fn accept_all(
-    a: &mut Accepting,
-    shared: &Arc<Shared>,
-    lp: &Loop,
-    clients: &mut Vec<Option<Client>>,
-    free: &mut Vec<usize>,
-    now_ms: u64,
-) {
+fn accept_all(a: &mut Accepting, shared: &Arc<Shared>, lp: &Loop, slots: &mut Slots, now_ms: u64) {
     loop {
         let (stream, peer) = match a.listener.accept() {
             Ok(c) => c,
@@ -451,7 +447,7 @@ fn accept_all(
         let door = &a.doors[a.turn % a.doors.len()];
         a.turn = a.turn.wrapping_add(1);
         if Arc::ptr_eq(door, &lp.door) {
-            add_client(lp, shared, clients, free, stream, peer, conn);
+            add_client(lp, shared, slots, stream, peer, conn);
         } else {
             door.inbox
                 .lock()
@@ -463,23 +459,17 @@ fn accept_all(
 }
 
 /// Takes the connections other threads handed to this loop.
-fn take_inbox(
-    lp: &Loop,
-    shared: &Shared,
-    clients: &mut Vec<Option<Client>>,
-    free: &mut Vec<usize>,
-) {
+fn take_inbox(lp: &Loop, shared: &Shared, slots: &mut Slots) {
     let handed = std::mem::take(&mut *lp.door.inbox.lock().unwrap_or_else(PoisonError::into_inner));
     for (stream, peer, conn) in handed {
-        add_client(lp, shared, clients, free, stream, peer, conn);
+        add_client(lp, shared, slots, stream, peer, conn);
     }
 }
 
 fn add_client(
     lp: &Loop,
     shared: &Shared,
-    clients: &mut Vec<Option<Client>>,
-    free: &mut Vec<usize>,
+    slots: &mut Slots,
     mut stream: TcpStream,
     peer: SocketAddr,
     conn: Arc<Conn>,
@@ -488,9 +478,9 @@ fn add_client(
     if let Err(e) = stream.set_nodelay(true) {
         log::debug!("modbus_server {name}: {peer}: TCP_NODELAY not set: {e}");
     }
-    let slot = free.pop().unwrap_or_else(|| {
-        clients.push(None);
-        clients.len() - 1
+    let slot = slots.free.pop().unwrap_or_else(|| {
+        slots.clients.push(None);
+        slots.clients.len() - 1
     });
     // Edge-triggered: a read that returns less than it had room for emptied the socket, and
     // the next bytes bring a new event.
@@ -500,11 +490,11 @@ fn add_client(
         Interest::READABLE | Interest::WRITABLE,
     ) {
         log::warn!("modbus_server {name}: {peer}: cannot wait for its requests: {e}");
-        free.push(slot);
+        slots.free.push(slot);
         gone(shared, &conn);
         return;
     }
-    clients[slot] = Some(Client {
+    slots.clients[slot] = Some(Client {
         stream,
         peer,
         conn,
@@ -523,15 +513,8 @@ fn gone(shared: &Shared, conn: &Conn) {
     shared.clients.fetch_sub(1, Ordering::Relaxed);
 }
 
-fn drop_client(
-    lp: &Loop,
-    shared: &Shared,
-    clients: &mut [Option<Client>],
-    free: &mut Vec<usize>,
-    slot: usize,
-    why: Close,
-) {
-    let Some(mut c) = clients[slot].take() else {
+fn drop_client(lp: &Loop, shared: &Shared, slots: &mut Slots, slot: usize, why: Close) {
+    let Some(mut c) = slots.clients[slot].take() else {
         return;
     };
     let name = &shared.name;
@@ -547,7 +530,7 @@ fn drop_client(
     }
     let _ = lp.poll.registry().deregister(&mut c.stream);
     gone(shared, &c.conn);
-    free.push(slot);
+    slots.free.push(slot);
 }
 
 /// Reads and answers until the socket is empty (or an answer cannot be written at once):
@@ -622,16 +605,12 @@ fn flush(c: &mut Client, now: Instant) -> Result<u64, Close> {
 
 /// Closes the connections past their idle timeout, and those whose client has taken no
 /// answer for that long.
-fn sweep(
-    lp: &Loop,
-    shared: &Shared,
-    clients: &mut [Option<Client>],
-    free: &mut Vec<usize>,
-    now: Instant,
-) {
+fn sweep(lp: &Loop, shared: &Shared, slots: &mut Slots, now: Instant) {
     let Some(idle) = shared.idle else { return };
-    for slot in 0..clients.len() {
-        let Some(c) = &clients[slot] else { continue };
+    for slot in 0..slots.clients.len() {
+        let Some(c) = &slots.clients[slot] else {
+            continue;
+        };
         let why = if c.stuck_since.is_some_and(|t| now.duration_since(t) >= idle) {
             "the client reads no responses (idle_timeout)".to_string()
         } else if c.stuck_since.is_none() && now.duration_since(c.last_request) >= idle {
@@ -639,7 +618,7 @@ fn sweep(
         } else {
             continue;
         };
-        drop_client(lp, shared, clients, free, slot, Close::Info(why));
+        drop_client(lp, shared, slots, slot, Close::Info(why));
     }
 }
 
