@@ -30,10 +30,18 @@ pub(super) struct Sends {
 }
 
 impl Sends {
-    /// A ring for one loop, or why the kernel refused it.
+    /// A ring for one loop, or why the kernel refused it. Kernels from 5.1 to 5.5 have
+    /// io_uring without its `send`; they are asked (a probe, itself from 5.6) rather than
+    /// left to fail every send.
     pub(super) fn new() -> io::Result<Sends> {
+        let ring = IoUring::new(ENTRIES)?;
+        let mut probe = io_uring::Probe::new();
+        ring.submitter().register_probe(&mut probe)?;
+        if !probe.is_supported(opcode::Send::CODE) {
+            return Err(io::Error::other("this kernel's io_uring has no send"));
+        }
         Ok(Sends {
-            ring: IoUring::new(ENTRIES)?,
+            ring,
             results: Vec::new(),
         })
     }
