@@ -259,6 +259,7 @@ impl<S: Stride> Graph<'_, S> {
                         sink ^= sp.touch(self.s, h);
                     }
                     std::hint::black_box(sink);
+                    let before = mine.len();
                     for (j, &h) in hashes.iter().enumerate() {
                         let x = &cand[j * k..(j + 1) * k];
                         let Some(at) = sp.find_slot(self.s, x, h) else {
@@ -266,8 +267,13 @@ impl<S: Stride> Graph<'_, S> {
                         };
                         if !is_in(at) && join(at) {
                             mine.extend_from_slice(x);
-                            reached.fetch_add(1, Ordering::Relaxed);
                         }
+                    }
+                    // Counted once per batch: a shared counter bumped per state would bounce
+                    // its cache line between the threads on every new state.
+                    let joined = ((mine.len() - before) / k) as u64;
+                    if joined > 0 {
+                        reached.fetch_add(joined, Ordering::Relaxed);
                     }
                 }
                 next.lock()
