@@ -4,6 +4,7 @@
 mod args;
 mod commands;
 mod failure;
+mod heap;
 mod logging;
 mod output;
 mod panic;

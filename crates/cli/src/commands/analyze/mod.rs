@@ -25,6 +25,7 @@ use crate::failure::{BadInputExt, Failure, RunExt};
 use crate::output::write_file;
 
 pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
+    crate::heap::reuse_freed_memory();
     let net = super::read_net(&args.net, args.names)?;
     let plant = match &args.plant {
         Some(path) => Some(
