@@ -389,14 +389,14 @@ impl ModbusServer {
                 doors: net.doors.clone(),
             });
             let start = std::time::Instant::now();
+            let options = tcp::Options {
+                busy_poll: self.settings.busy_poll,
+                io_uring: self.settings.io_uring,
+            };
             for (i, lp) in loops.into_iter().enumerate() {
                 let accept = acceptor.take();
                 let shared = shared.clone();
                 let stop = net.stop.clone();
-                let options = tcp::Options {
-                    busy_poll: self.settings.busy_poll,
-                    io_uring: self.settings.io_uring,
-                };
                 let thread = std::thread::Builder::new()
                     .name(format!("modbus {name} {i}"))
                     .spawn(move || tcp::run(lp, accept, shared, options, start, stop));

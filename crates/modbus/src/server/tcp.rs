@@ -4,8 +4,9 @@
 //! request could not get exception 03) and has no idle timeout; here every complete ADU in
 //! what one read returned is answered, in order, in one write, with one lock of the image.
 //!
-//! Why not tokio: the loop does per request one `recv`, one `send` and a share of one
-//! `epoll_wait`, with no task to wake, no timer to arm and no clock to read per request. With
+//! Why not tokio: the loop does per request one `recv`, and per turn one `epoll_wait` and one
+//! io_uring submission of the turn's answers ([`write_answers`]), with no task to wake, no
+//! timer to arm and no clock to read per request. With
 //! tokio's single-threaded runtime the same server spent three times the user time per
 //! request (docs/modbus.md, Performance). The serial RTU slave, one port and one request at a
 //! time, stays on tokio.
@@ -134,7 +135,6 @@ struct Client {
     /// Answers not yet written, from `out[sent..]`.
     out: Vec<u8>,
     sent: usize,
-    last_request: Instant,
     /// Since when the client has not taken the answers written to it.
     stuck_since: Option<Instant>,
 }
@@ -173,6 +173,7 @@ fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
 }
 
 /// How a loop serves, from the section's settings.
+#[derive(Clone, Copy)]
 pub(super) struct Options {
     pub busy_poll: Option<Duration>,
     pub io_uring: bool,
@@ -290,20 +291,19 @@ pub(super) fn run(
                     // connection only, as a failed task did on tokio; the image's lock
                     // survives poisoning.
                     let outcome = panic::catch_unwind(AssertUnwindSafe(|| {
-                        let mut outcome = Ok(0);
                         if ev.is_writable() && c.sent < c.out.len() {
-                            outcome = flush(c, now);
+                            flush(c, now)?;
                         }
                         // With answers still unwritten, the requests wait: a client that does
                         // not read its answers gets no more of them.
-                        if outcome.is_ok() && c.sent == c.out.len() {
-                            // A client that sent its last requests and closed its side may
-                            // have done both before this read: no further event would come
-                            // for the end of file, so such a socket is read until it says so.
-                            let to_the_end = ev.is_read_closed() || ev.is_error();
-                            outcome = serve(c, &shared, to_the_end, now, now_ms(now));
+                        if c.sent < c.out.len() {
+                            return Ok(0);
                         }
-                        outcome
+                        // A client that sent its last requests and closed its side may have
+                        // done both before this read: no further event would come for the
+                        // end of file, so such a socket is read until it says so.
+                        let to_the_end = ev.is_read_closed() || ev.is_error();
+                        serve(c, &shared, to_the_end, now, now_ms(now))
                     }))
                     .unwrap_or_else(|p| Err(Close::Failed(panic_text(p.as_ref()))));
                     match outcome {
@@ -318,64 +318,13 @@ pub(super) fn run(
                 }
             }
         }
-        // The answers go out together, after every ready socket was read, in one system
-        // call where io_uring is there (see `sends`).
-        if let Some(s) = &mut sends {
-            let batch = to_write.iter().filter_map(|&slot| {
-                let c = slots.clients.get(slot)?.as_ref()?;
-                (c.sent == 0 && !c.out.is_empty())
-                    .then(|| (slot, c.stream.as_raw_fd(), c.out.as_slice()))
-            });
-            match s.send(batch) {
-                Ok(results) => {
-                    for (slot, r) in results {
-                        let slot = *slot;
-                        let Some(Some(c)) = slots.clients.get_mut(slot) else {
-                            continue;
-                        };
-                        let outcome = match r {
-                            Ok(n) => {
-                                c.sent = *n;
-                                flush(c, now)
-                            }
-                            Err(e) if e.kind() == ErrorKind::WouldBlock => {
-                                c.stuck_since.get_or_insert(now);
-                                Ok(0)
-                            }
-                            Err(e) if e.kind() == ErrorKind::Interrupted => flush(c, now),
-                            Err(e) => Err(Close::Info(e.to_string())),
-                        };
-                        if let Err(why) = outcome {
-                            drop_client(&lp, &shared, &mut slots, slot, why);
-                        }
-                    }
-                }
-                Err(e) => {
-                    log::warn!(
-                        "modbus_server {name}: io_uring failed ({e}); answers are written \
-                         with one send each from now on"
-                    );
-                    sends = None;
-                }
-            }
-        }
-        // Without io_uring (or what it did not send): one send each.
-        for &slot in &to_write {
-            let Some(Some(c)) = slots.clients.get_mut(slot) else {
-                continue;
-            };
-            if c.sent == 0 && !c.out.is_empty() && c.stuck_since.is_none() {
-                if let Err(why) = flush(c, now) {
-                    drop_client(&lp, &shared, &mut slots, slot, why);
-                }
-            }
-        }
+        write_answers(&mut sends, &lp, &shared, &mut slots, &to_write, now);
         if served_any {
             last_served = now;
         }
         if now >= next_sweep {
             next_sweep = now + SWEEP;
-            sweep(&lp, &shared, &mut slots, now);
+            sweep(&lp, &shared, &mut slots, now, now_ms(now));
             if let Some(a) = &mut accepting {
                 if a.retry_at.is_some_and(|t| now >= t) {
                     a.retry_at = None;
@@ -389,6 +338,77 @@ pub(super) fn run(
         gone(&shared, &c.conn);
     }
     log::debug!("modbus_server {name}: network thread stops");
+}
+
+impl Client {
+    /// Whether its answers of this turn wait for their first write.
+    fn answers_waiting(&self) -> bool {
+        self.sent == 0 && !self.out.is_empty() && self.stuck_since.is_none()
+    }
+}
+
+/// Writes the answers of a turn to the connections `to_write`: together, after every ready
+/// socket was read, in one system call where io_uring is there (see `sends`); else, or for
+/// what it did not send, with one `send` each.
+fn write_answers(
+    sends: &mut Option<Sends>,
+    lp: &Loop,
+    shared: &Shared,
+    slots: &mut Slots,
+    to_write: &[usize],
+    now: Instant,
+) {
+    if let Some(s) = sends {
+        let batch = to_write.iter().filter_map(|&slot| {
+            let c = slots.clients.get(slot)?.as_ref()?;
+            c.answers_waiting()
+                .then(|| (slot, c.stream.as_raw_fd(), c.out.as_slice()))
+        });
+        match s.send(batch) {
+            Ok(results) => {
+                for &(slot, ref r) in results {
+                    let Some(Some(c)) = slots.clients.get_mut(slot) else {
+                        continue;
+                    };
+                    let outcome = match r {
+                        Ok(n) => {
+                            // The rest of a partial send, if any, goes out (or waits) as a
+                            // plain write would.
+                            c.sent = *n;
+                            flush(c, now)
+                        }
+                        Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                            c.stuck_since.get_or_insert(now);
+                            Ok(())
+                        }
+                        Err(e) if e.kind() == ErrorKind::Interrupted => flush(c, now),
+                        Err(e) => Err(Close::Info(e.to_string())),
+                    };
+                    if let Err(why) = outcome {
+                        drop_client(lp, shared, slots, slot, why);
+                    }
+                }
+            }
+            Err(e) => {
+                log::warn!(
+                    "modbus_server {}: io_uring failed ({e}); answers are written with one \
+                     send each from now on",
+                    shared.name
+                );
+                *sends = None;
+            }
+        }
+    }
+    for &slot in to_write {
+        let Some(Some(c)) = slots.clients.get_mut(slot) else {
+            continue;
+        };
+        if c.answers_waiting() {
+            if let Err(why) = flush(c, now) {
+                drop_client(lp, shared, slots, slot, why);
+            }
+        }
+    }
 }
 
 /// Accepts every pending connection and gives each to a loop in turn.
@@ -502,7 +522,6 @@ fn add_client(
         filled: 0,
         out: Vec::with_capacity(BUFFER),
         sent: 0,
-        last_request: Instant::now(),
         stuck_since: None,
     });
 }
@@ -558,7 +577,6 @@ fn serve(
         let batch = answer(&c.buf[..c.filled], shared, &mut c.out);
         if batch.served > 0 {
             served += batch.served;
-            c.last_request = now;
             c.conn.last_ms.store(now_ms, Ordering::Relaxed);
         }
         c.buf.copy_within(batch.used..c.filled, 0);
@@ -584,14 +602,14 @@ fn serve(
 
 /// Writes what it can of the unwritten answers; what the socket does not take waits for the
 /// socket's next writable event.
-fn flush(c: &mut Client, now: Instant) -> Result<u64, Close> {
+fn flush(c: &mut Client, now: Instant) -> Result<(), Close> {
     while c.sent < c.out.len() {
         match c.stream.write(&c.out[c.sent..]) {
             Ok(0) => return Err(Close::Debug("the connection takes no more bytes".into())),
             Ok(n) => c.sent += n,
             Err(e) if e.kind() == ErrorKind::WouldBlock => {
                 c.stuck_since.get_or_insert(now);
-                return Ok(0);
+                return Ok(());
             }
             Err(e) if e.kind() == ErrorKind::Interrupted => {}
             Err(e) => return Err(Close::Info(e.to_string())),
@@ -600,20 +618,23 @@ fn flush(c: &mut Client, now: Instant) -> Result<u64, Close> {
     c.out.clear();
     c.sent = 0;
     c.stuck_since = None;
-    Ok(0)
+    Ok(())
 }
 
-/// Closes the connections past their idle timeout, and those whose client has taken no
-/// answer for that long.
-fn sweep(lp: &Loop, shared: &Shared, slots: &mut Slots, now: Instant) {
+/// Closes the connections past their idle timeout (by the time of their last request, which
+/// the listener reads too), and those whose client has taken no answer for that long.
+fn sweep(lp: &Loop, shared: &Shared, slots: &mut Slots, now: Instant, now_ms: u64) {
     let Some(idle) = shared.idle else { return };
+    let idle_ms = idle.as_millis() as u64;
     for slot in 0..slots.clients.len() {
         let Some(c) = &slots.clients[slot] else {
             continue;
         };
         let why = if c.stuck_since.is_some_and(|t| now.duration_since(t) >= idle) {
             "the client reads no responses (idle_timeout)".to_string()
-        } else if c.stuck_since.is_none() && now.duration_since(c.last_request) >= idle {
+        } else if c.stuck_since.is_none()
+            && now_ms.saturating_sub(c.conn.last_ms.load(Ordering::Relaxed)) >= idle_ms
+        {
             format!("no request for {} s (idle_timeout)", idle.as_secs_f64())
         } else {
             continue;
