@@ -8,6 +8,8 @@ use super::shm::{GlobalMap, ImageGuard, Journal, Span, ALL_LANES, LANES, WORDS_P
 use super::{kind_name, ImageError};
 use crate::testhook;
 
+#[cfg(avx512_intrinsics)]
+mod avx512;
 mod isolate;
 
 pub use isolate::process_threads;
@@ -63,8 +65,43 @@ struct Plan {
     /// The words the steps write, for the journal: one span per run of `Out` and `Merge`
     /// steps alike, in the order of the steps.
     spans: Vec<Span>,
-    /// Whether the CPU has AVX2 (see [`merge`]).
-    avx2: bool,
+    /// The widest merge loops this CPU runs (see [`merge`]).
+    simd: Simd,
+}
+
+/// The instruction sets [`merge`] has loops for, narrowest first.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum Simd {
+    /// The target's baseline (SSE2 on x86-64).
+    #[default]
+    Portable,
+    /// x86-64 with AVX2.
+    Avx2,
+    /// x86-64 with AVX-512F.
+    Avx512,
+}
+
+impl Simd {
+    /// The widest this CPU has.
+    fn detect() -> Simd {
+        [Simd::Avx512, Simd::Avx2]
+            .into_iter()
+            .find(|s| s.available())
+            .unwrap_or(Simd::Portable)
+    }
+
+    /// Whether this CPU has it, and this build loops for it.
+    fn available(self) -> bool {
+        match self {
+            Simd::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(avx512_intrinsics)]
+            Simd::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            #[allow(unreachable_patterns)]
+            _ => false,
+        }
+    }
 }
 
 /// Words per block of the plan: the journal's lanes, so that a pattern's owned words are
@@ -638,17 +675,32 @@ fn die_half_way(plan: &Plan, m: &[u32], g: &mut [u32], p: &[u32], journal: &mut 
 /// ownership took 3.3x memcpy with chunks of 64 words, 2.2x with 256, 1.85x with 2048.
 const CHUNK: usize = 128 * BLOCK;
 
-/// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in, each
-/// chunk's words listed by the plan's spans saved in the journal (opened with those spans)
-/// before the chunk is written. `g` must be locked.
+/// The update itself: the owned bits of `p` out to `g`, every other bit of `g` in, the words
+/// the plan's spans list saved in the journal (opened with those spans), in order, before
+/// they are written; a word the merge leaves as it is may be written or not. `g` must be
+/// locked.
 fn merge(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
-    #[cfg(target_arch = "x86_64")]
-    if plan.avx2 {
-        // SAFETY: the CPU has AVX2 (detected when the plan was made).
-        unsafe { merge_avx2(plan, g, p, journal) };
-        return;
+    merge_with(plan.simd, plan, g, p, journal);
+}
+
+/// [`merge`] with the loops for `simd`.
+///
+/// # Panics
+/// If `simd` is not [available](Simd::available).
+fn merge_with(simd: Simd, plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
+    assert!(
+        simd.available(),
+        "{simd:?} merge on a CPU or build without it"
+    );
+    match simd {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the CPU has AVX2 (asserted above).
+        Simd::Avx2 => unsafe { merge_avx2(plan, g, p, journal) },
+        #[cfg(avx512_intrinsics)]
+        // SAFETY: the CPU has AVX-512F (asserted above).
+        Simd::Avx512 => unsafe { avx512::merge(plan, g, p, journal) },
+        _ => merge_portable(plan, g, p, journal),
     }
-    merge_portable(plan, g, p, journal);
 }
 
 /// [`merge_portable`] compiled for AVX2: the merge loops run twice as wide as the x86-64
@@ -662,43 +714,72 @@ fn merge_avx2(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'
 
 #[inline(always)]
 fn merge_portable(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
+    each_step(plan, g, p, journal, |pattern, g, p, journal| {
+        let mut c = 0;
+        while c < g.len() {
+            let d = (c + CHUNK).min(g.len());
+            merge_chunk(pattern, &mut g[c..d], &mut p[c..d], journal);
+            c = d;
+        }
+    });
+}
+
+/// Runs the plan's steps in order: the copies by [`copy_step`], each [`Step::Merge`] by
+/// `merge` with its pattern and its words of `g` and `p`.
+#[inline(always)]
+fn each_step(
+    plan: &Plan,
+    g: &mut [u32],
+    p: &mut [u32],
+    journal: &mut Journal<'_>,
+    mut merge: impl FnMut(&Pattern, &mut [u32], &mut [u32], &mut Journal<'_>),
+) {
     for &step in &plan.steps {
         match step {
-            Step::In { start, words } => {
-                let r = start as usize..(start + words) as usize;
-                p[r.clone()].copy_from_slice(&g[r]);
-            }
-            Step::Out { start, words } => {
-                let (start, end) = (start as usize, (start + words) as usize);
-                let mut c = start;
-                while c < end {
-                    let d = (c + CHUNK).min(end);
-                    journal.save(d - c, |saved| saved.copy_from_slice(&g[c..d]));
-                    g[c..d].copy_from_slice(&p[c..d]);
-                    c = d;
-                }
-            }
             Step::Merge {
                 start,
                 words,
                 pattern,
             } => {
+                let r = start as usize..(start + words) as usize;
                 let pattern = &plan.patterns[pattern as usize];
-                let (start, end) = (start as usize, (start + words) as usize);
-                let mut c = start;
-                while c < end {
-                    let d = (c + CHUNK).min(end);
-                    let (g, p) = (&mut g[c..d], &mut p[c..d]);
-                    if pattern.sparse == 0 {
-                        journal.save(d - c, |saved| saved.copy_from_slice(g));
-                        merge_dense(&pattern.mask, g, p);
-                    } else {
-                        merge_sparse(pattern, g, p, journal);
-                    }
-                    c = d;
-                }
+                merge(pattern, &mut g[r.clone()], &mut p[r], journal);
+            }
+            step => copy_step(step, g, p, journal),
+        }
+    }
+}
+
+/// A [`Step::In`] or [`Step::Out`]: whole words one way, an `Out` saved chunk by chunk.
+#[inline(always)]
+fn copy_step(step: Step, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
+    match step {
+        Step::In { start, words } => {
+            let r = start as usize..(start + words) as usize;
+            p[r.clone()].copy_from_slice(&g[r]);
+        }
+        Step::Out { start, words } => {
+            let (start, end) = (start as usize, (start + words) as usize);
+            let mut c = start;
+            while c < end {
+                let d = (c + CHUNK).min(end);
+                journal.save(d - c, |saved| saved.copy_from_slice(&g[c..d]));
+                g[c..d].copy_from_slice(&p[c..d]);
+                c = d;
             }
         }
+        Step::Merge { .. } => unreachable!("a merge step is not a copy"),
+    }
+}
+
+/// Up to a [`CHUNK`] of a [`Step::Merge`]'s words: saved, then merged.
+#[inline(always)]
+fn merge_chunk(pattern: &Pattern, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
+    if pattern.sparse == 0 {
+        journal.save(g.len(), |saved| saved.copy_from_slice(g));
+        merge_dense(&pattern.mask, g, p);
+    } else {
+        merge_sparse(pattern, g, p, journal);
     }
 }
 
@@ -775,11 +856,10 @@ fn gather<const N: usize>(owned: &[u8], g: &[u32], saved: &mut [u32]) {
 
 /// Precomputes how `update()` exchanges the words of a module owning the bits of `mask`.
 fn plan(mask: &[u32]) -> Plan {
-    let mut plan = Plan::default();
-    #[cfg(target_arch = "x86_64")]
-    {
-        plan.avx2 = std::arch::is_x86_feature_detected!("avx2");
-    }
+    let mut plan = Plan {
+        simd: Simd::detect(),
+        ..Plan::default()
+    };
     for (b, block) in mask.chunks(BLOCK).enumerate() {
         let start = (b * BLOCK) as u32;
         let words = block.len() as u32;
@@ -845,7 +925,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::super::shm::TestJournal;
-    use super::{merge, merge_portable, plan, CHUNK};
+    use super::{merge_with, plan, Simd, CHUNK};
 
     /// Runs `merge` with the plan of `mask` on global words `g0` and private words `p0`, and
     /// compares it with the definition: owned bits from the private words, every other bit
@@ -856,25 +936,24 @@ mod tests {
             .map(|i| (g0[i] & !mask[i]) | (p0[i] & mask[i]))
             .collect();
         let plan = plan(mask);
-        // The merge this CPU runs, and the portable one (if they differ).
-        for portable in [false, true] {
+        // Every merge this CPU can run.
+        for simd in [Simd::Portable, Simd::Avx2, Simd::Avx512] {
+            if !simd.available() {
+                continue;
+            }
             let (mut g, mut p) = (g0.to_vec(), p0.to_vec());
             let mut journal = TestJournal::new(mask.len());
             {
                 let mut j = journal.journal();
                 j.open(&plan.spans);
-                if portable {
-                    merge_portable(&plan, &mut g, &mut p, &mut j);
-                } else {
-                    merge(&plan, &mut g, &mut p, &mut j);
-                }
+                merge_with(simd, &plan, &mut g, &mut p, &mut j);
             }
-            assert_eq!(g, want, "global words, mask {mask:x?}");
-            assert_eq!(p, want, "private words, mask {mask:x?}");
+            assert_eq!(g, want, "global words, {simd:?}, mask {mask:x?}");
+            assert_eq!(p, want, "private words, {simd:?}, mask {mask:x?}");
             let changed = (0..g.len()).filter(|&i| g[i] != g0[i]).count();
             assert!(journal.saved() >= changed, "saved fewer words than changed");
             journal.undo(&mut g, None);
-            assert_eq!(g, g0, "undone from the journal, mask {mask:x?}");
+            assert_eq!(g, g0, "undone from the journal, {simd:?}, mask {mask:x?}");
         }
     }
 
@@ -921,17 +1000,19 @@ mod tests {
 
     /// A mask in runs: nobody's, the module's, a partial word repeated, every `k`-th word.
     fn masks() -> impl Strategy<Value = Vec<u32>> {
-        let run = (0u8..4, 1usize..80, any::<u32>(), 1usize..6).prop_map(|(kind, len, bits, k)| {
-            (0..len)
-                .map(|i| match kind {
-                    0 => 0,
-                    1 => u32::MAX,
-                    2 => bits,
-                    _ if i % k == 0 => u32::MAX,
-                    _ => 0,
-                })
-                .collect::<Vec<u32>>()
-        });
+        // Every k-th word for k up to 17: one to eight owned words in a block.
+        let run =
+            (0u8..4, 1usize..80, any::<u32>(), 1usize..18).prop_map(|(kind, len, bits, k)| {
+                (0..len)
+                    .map(|i| match kind {
+                        0 => 0,
+                        1 => u32::MAX,
+                        2 => bits,
+                        _ if i % k == 0 => u32::MAX,
+                        _ => 0,
+                    })
+                    .collect::<Vec<u32>>()
+            });
         prop::collection::vec(run, 0..12).prop_map(|runs| runs.concat())
     }
 

@@ -487,6 +487,34 @@ impl Journal<'_> {
         compiler_fence(Ordering::SeqCst);
     }
 
+    /// Saves and writes `pieces` pieces of `n` words each (`n` > 0), one piece after the
+    /// other: `save(i, slot)` writes the present values of piece `i`'s words into `slot`,
+    /// then, the journal counting them, `write(i)` may overwrite them. As [`Journal::save`]
+    /// once per piece, but the count stays in a register between pieces.
+    #[inline(always)]
+    #[cfg_attr(not(avx512_intrinsics), allow(dead_code))] // used by the AVX-512 merge only
+    pub(crate) fn save_each(
+        &mut self,
+        pieces: usize,
+        n: usize,
+        mut save: impl FnMut(usize, &mut [u32]),
+        mut write: impl FnMut(usize),
+    ) {
+        let at = self.count as usize;
+        let saved_count = self.saved_count;
+        for (i, slot) in self.saved[at..at + pieces * n]
+            .chunks_exact_mut(n)
+            .enumerate()
+        {
+            save(i, slot);
+            compiler_fence(Ordering::SeqCst);
+            saved_count.store((at + (i + 1) * n) as u32, Ordering::Relaxed);
+            compiler_fence(Ordering::SeqCst);
+            write(i);
+        }
+        self.count = (at + pieces * n) as u32;
+    }
+
     /// Closes the journal: the update is complete.
     pub fn close(&mut self) {
         compiler_fence(Ordering::SeqCst);
