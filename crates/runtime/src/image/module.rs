@@ -8,9 +8,13 @@ use super::shm::{GlobalMap, ImageGuard, Journal, Span, ALL_LANES, LANES, WORDS_P
 use super::{kind_name, ImageError};
 use crate::testhook;
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 #[cfg(avx512_intrinsics)]
 mod avx512;
 mod isolate;
+#[cfg(target_arch = "x86_64")]
+mod one_pass;
 
 pub use isolate::process_threads;
 
@@ -695,7 +699,7 @@ fn merge_with(simd: Simd, plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &m
     match simd {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the CPU has AVX2 (asserted above).
-        Simd::Avx2 => unsafe { merge_avx2(plan, g, p, journal) },
+        Simd::Avx2 => unsafe { avx2::merge(plan, g, p, journal) },
         #[cfg(avx512_intrinsics)]
         // SAFETY: the CPU has AVX-512F (asserted above).
         Simd::Avx512 => unsafe { avx512::merge(plan, g, p, journal) },
@@ -703,15 +707,8 @@ fn merge_with(simd: Simd, plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &m
     }
 }
 
-/// [`merge_portable`] compiled for AVX2: the merge loops run twice as wide as the x86-64
-/// baseline's SSE2, which matters as the copy it is measured against (glibc's `memcpy`)
-/// picks the widest vectors the CPU has.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn merge_avx2(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
-    merge_portable(plan, g, p, journal);
-}
-
+/// The merge in the target's baseline instructions (SSE2 on x86-64), two passes per chunk:
+/// the chunk's journal words saved, then the chunk merged.
 #[inline(always)]
 fn merge_portable(plan: &Plan, g: &mut [u32], p: &mut [u32], journal: &mut Journal<'_>) {
     each_step(plan, g, p, journal, |pattern, g, p, journal| {
