@@ -492,7 +492,7 @@ impl Journal<'_> {
     /// then, the journal counting them, `write(i)` may overwrite them. As [`Journal::save`]
     /// once per piece, but the count stays in a register between pieces.
     #[inline(always)]
-    #[cfg_attr(not(avx512_intrinsics), allow(dead_code))] // used by the AVX-512 merge only
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))] // used by the vector merges
     pub(crate) fn save_each(
         &mut self,
         pieces: usize,

@@ -22,12 +22,12 @@ const PIECE: usize = 2;
 /// slower).
 const AHEAD: usize = 256;
 
-/// Runs `pattern`'s merge over `g` and `p` (a [`super::Step::Merge`]'s words), whole block by
-/// whole block: `save(gb, slot)` writes the journal's `saved` words of the block at `gb` to
-/// `slot`; then, the journal counting them, `merge(gb, pb)` merges the block at `gb` with
-/// the one at `pb`. `gb` and `pb` are valid for reading and writing BLOCK u32s, `slot` for
-/// writing `saved` u32s, and they are the only access to those words during the call. The last block, if cut short, is merged by
-/// [`merge_chunk`].
+/// Runs `pattern`'s merge over `g` and `p` (a [`super::Step::Merge`]'s words), whole block
+/// by whole block: `save(gb, slot)` writes the journal's `saved` words (`saved` > 0) of the
+/// block at `gb` to `slot`; then, the journal counting them, `merge(gb, pb)` merges the block
+/// at `gb` with the one at `pb`. `gb` and `pb` are valid for reading and writing BLOCK u32s,
+/// `slot` for writing `saved` u32s, and they are the only access to those words during the
+/// call. The last block, if cut short, is merged by [`merge_chunk`].
 #[inline(always)]
 pub(super) fn blocks(
     pattern: &Pattern,
