@@ -73,13 +73,16 @@ fn blocks<const N: usize>(
         move |gb, pb| {
             let (gv, pv) =
                 unsafe { (_mm512_loadu_si512(gb.cast()), _mm512_loadu_si512(pb.cast())) };
-            // Bitwise m ? p : g.
-            let v = _mm512_ternarylogic_epi32::<0xCA>(m, pv, gv);
-            if _mm512_cmpneq_epi32_mask(v, gv) != 0 {
-                unsafe { _mm512_storeu_si512(gb.cast(), v) };
-            }
-            if _mm512_cmpneq_epi32_mask(v, pv) != 0 {
-                unsafe { _mm512_storeu_si512(pb.cast(), v) };
+            // Equal sides (a steady scan's usual block) need nothing: one test for both.
+            if _mm512_cmpneq_epi32_mask(gv, pv) != 0 {
+                // Bitwise m ? p : g.
+                let v = _mm512_ternarylogic_epi32::<0xCA>(m, pv, gv);
+                if _mm512_cmpneq_epi32_mask(v, gv) != 0 {
+                    unsafe { _mm512_storeu_si512(gb.cast(), v) };
+                }
+                if _mm512_cmpneq_epi32_mask(v, pv) != 0 {
+                    unsafe { _mm512_storeu_si512(pb.cast(), v) };
+                }
             }
         },
     );
