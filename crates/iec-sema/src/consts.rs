@@ -178,6 +178,16 @@ impl Checker<'_> {
             }
             ExprKind::Load(_) | ExprKind::Call(_) => return Ok(None),
         };
+        // At run time REAL arithmetic gives Inf and NaN (IEC 60559); written as a constant
+        // expression, either is a mistake the author can see and fix, so it is refused here.
+        if let Value::Real(f) = &v {
+            if f.is_nan() {
+                return Err(OpError::Domain("the result is not a number (NaN)"));
+            }
+            if f.is_infinite() {
+                return Err(OpError::Overflow);
+            }
+        }
         Ok(Some(v))
     }
 
@@ -259,6 +269,9 @@ impl Checker<'_> {
                     Class::Elem(e) => e,
                     _ => Elem::Lreal,
                 };
+                if op == BinaryOp::Div && b == 0.0 {
+                    return Err(OpError::DivisionByZero);
+                }
                 let r = ops::real_binary(op, a, b, e)?;
                 Ok(if cmp {
                     Value::Int((r != 0.0) as i128)
@@ -271,7 +284,7 @@ impl Checker<'_> {
                     Class::Elem(e) => e,
                     _ => Elem::Lreal,
                 };
-                Ok(Value::Real(ops::real_power_int(a, n, e)?))
+                Ok(Value::Real(ops::real_power_int(a, n, e)))
             }
             (Value::Int(a), Value::Int(b)) => {
                 let e = match (xc, yc) {
@@ -335,14 +348,14 @@ impl Checker<'_> {
             | Builtin::Acos
             | Builtin::Atan => {
                 let x = v[0].as_real().unwrap_or(0.0);
-                Value::Real(ops::real_fn(b, x, elem(rt).unwrap_or(Elem::Lreal))?)
+                Value::Real(ops::real_fn(b, x, elem(rt).unwrap_or(Elem::Lreal)))
             }
             Builtin::Atan2 => {
                 let (y, x) = (v[0].as_real().unwrap_or(0.0), v[1].as_real().unwrap_or(0.0));
                 Value::Real(ops::real_result(
                     y.atan2(x),
                     elem(rt).unwrap_or(Elem::Lreal),
-                )?)
+                ))
             }
             Builtin::Max | Builtin::Min => {
                 let mut best = v[0].clone();

@@ -4,10 +4,13 @@
 //!
 //! Rules (docs/iec.md): integer arithmetic whose result leaves the type's range is an
 //! overflow (the standard: "it shall be an error"), integer division by zero is an error and
-//! `MOD` by zero gives 0 (the standard's definition); conversions between integer types keep
-//! the low bits (wrap-around), REAL/LREAL to integers round half to even (IEC 60559) and fail
-//! outside the target's range; TIME ⇄ integers count milliseconds, LTIME nanoseconds, DATE
-//! and DT seconds since 1970-01-01, TOD milliseconds since midnight.
+//! `MOD` by zero gives 0 (the standard's definition); REAL and LREAL arithmetic is IEC 60559's
+//! (IEEE 754): a result too large is ±Inf, one without a value (0.0 / 0.0, SQRT(-1.0)) is NaN,
+//! and both propagate, as on every other PLC; conversions between integer types keep the low
+//! bits (wrap-around), REAL/LREAL to integers round half to even and fail for NaN, ±Inf and
+//! values outside the target's range (an integer has no value to stand for them); TIME ⇄
+//! integers count milliseconds, LTIME nanoseconds, DATE and DT seconds since 1970-01-01, TOD
+//! milliseconds since midnight.
 
 use std::fmt;
 
@@ -81,31 +84,37 @@ pub fn int_binary(op: BinaryOp, a: i128, b: i128, e: Elem) -> OpResult<i128> {
     }
 }
 
-/// Rounds to the type's precision and checks the result is finite.
-pub fn real_result(v: f64, e: Elem) -> OpResult<f64> {
-    let v = if e == Elem::Real { to_real(v) } else { v };
-    if v.is_finite() {
-        Ok(v)
-    } else if v.is_nan() {
-        Err(OpError::Domain("the result is not a number"))
+/// Rounds to the type's precision: REAL is single precision, so an LREAL beyond its range
+/// becomes ±Inf, as IEC 60559 rounds.
+pub fn real_result(v: f64, e: Elem) -> f64 {
+    if e == Elem::Real {
+        to_real(v)
     } else {
-        Err(OpError::Overflow)
+        v
     }
 }
 
-/// A real operator. Comparisons give 0.0/1.0.
+/// Why a real has no place in an integer, or `None` when it is a finite number: for fault
+/// messages.
+pub fn non_finite(v: f64) -> Option<&'static str> {
+    if v.is_nan() {
+        Some("NaN (not a number)")
+    } else if v.is_infinite() {
+        Some(if v > 0.0 { "+Inf" } else { "-Inf" })
+    } else {
+        None
+    }
+}
+
+/// A real operator, by IEC 60559: division by zero gives ±Inf (NaN for 0.0 / 0.0).
+/// Comparisons give 0.0/1.0 (every comparison with NaN is false but `<>`).
 pub fn real_binary(op: BinaryOp, a: f64, b: f64, e: Elem) -> OpResult<f64> {
     use BinaryOp::*;
     let r = match op {
         Add => a + b,
         Sub => a - b,
         Mul => a * b,
-        Div => {
-            if b == 0.0 {
-                return Err(OpError::DivisionByZero);
-            }
-            a / b
-        }
+        Div => a / b,
         Power => a.powf(b),
         Eq => return Ok((a == b) as i32 as f64),
         Ne => return Ok((a != b) as i32 as f64),
@@ -115,11 +124,11 @@ pub fn real_binary(op: BinaryOp, a: f64, b: f64, e: Elem) -> OpResult<f64> {
         Ge => return Ok((a >= b) as i32 as f64),
         Mod | And | Or | Xor => return Err(OpError::Domain("not an operator of reals")),
     };
-    real_result(r, e)
+    Ok(real_result(r, e))
 }
 
 /// `**` with an integer exponent (powi is exact for small exponents).
-pub fn real_power_int(a: f64, n: i128, e: Elem) -> OpResult<f64> {
+pub fn real_power_int(a: f64, n: i128, e: Elem) -> f64 {
     let r = if let Ok(n) = i32::try_from(n) {
         a.powi(n)
     } else {
@@ -209,7 +218,7 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem) -> OpResult<Value> {
                 let units = i / time_units(from);
                 if to.is_real() {
                     let f = i as f64 / time_units(from) as f64;
-                    return Ok(Value::Real(real_result(f, to)?));
+                    return Ok(Value::Real(real_result(f, to)));
                 }
                 return Ok(Value::Int(wrap(units, to)));
             }
@@ -221,16 +230,14 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem) -> OpResult<Value> {
                 return Ok(Value::Int(ns));
             }
             if to.is_real() {
-                return Ok(Value::Real(real_result(i as f64, to)?));
+                return Ok(Value::Real(real_result(i as f64, to)));
             }
             Ok(Value::Int(wrap(i, to)))
         }
         Value::Real(f) => {
             let f = *f;
             if to.is_real() {
-                return Ok(Value::Real(
-                    real_result(f, to).map_err(|_| OpError::Conversion)?,
-                ));
+                return Ok(Value::Real(real_result(f, to)));
             }
             if is_time_like(to) {
                 let ns = round_even(f * time_units(to) as f64);
@@ -363,9 +370,13 @@ pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
                 .replace('_', "")
                 .parse()
                 .map_err(|_| OpError::Conversion)?;
-            Ok(Value::Real(
-                real_result(f, to).map_err(|_| OpError::Conversion)?,
-            ))
+            // IEC 60559 has no literal for NaN or Inf: text that spells one (`nan`, `inf`),
+            // or a number beyond the type's range, does not spell a REAL.
+            let r = real_result(f, to);
+            if !r.is_finite() {
+                return Err(OpError::Conversion);
+            }
+            Ok(Value::Real(r))
         }
         Elem::Time | Elem::Ltime => lexer::parse_duration(&body)
             .map(Value::Int)
@@ -525,41 +536,20 @@ pub fn find(a: &[u8], b: &[u8]) -> i128 {
         .map_or(0, |i| i as i128 + 1)
 }
 
-/// The real functions of one argument.
-pub fn real_fn(b: crate::ir::Builtin, x: f64, e: Elem) -> OpResult<f64> {
+/// The real functions of one argument, by IEC 60559: outside its domain a function gives
+/// NaN (SQRT(-1.0), ASIN(2.0)) or -Inf (LN(0.0)), as C's `<math.h>` does.
+pub fn real_fn(b: crate::ir::Builtin, x: f64, e: Elem) -> f64 {
     use crate::ir::Builtin::*;
-    let domain = |ok: bool, what: &'static str| {
-        if ok {
-            Ok(())
-        } else {
-            Err(OpError::Domain(what))
-        }
-    };
     let r = match b {
-        Sqrt => {
-            domain(x >= 0.0, "SQRT of a negative number")?;
-            x.sqrt()
-        }
-        Ln => {
-            domain(x > 0.0, "LN of a number not above 0")?;
-            x.ln()
-        }
-        Log => {
-            domain(x > 0.0, "LOG of a number not above 0")?;
-            x.log10()
-        }
+        Sqrt => x.sqrt(),
+        Ln => x.ln(),
+        Log => x.log10(),
         Exp => x.exp(),
         Sin => x.sin(),
         Cos => x.cos(),
         Tan => x.tan(),
-        Asin => {
-            domain((-1.0..=1.0).contains(&x), "ASIN outside -1..1")?;
-            x.asin()
-        }
-        Acos => {
-            domain((-1.0..=1.0).contains(&x), "ACOS outside -1..1")?;
-            x.acos()
-        }
+        Asin => x.asin(),
+        Acos => x.acos(),
         Atan => x.atan(),
         Abs => x.abs(),
         _ => x,

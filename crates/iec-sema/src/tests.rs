@@ -187,6 +187,19 @@ fn literals_adapt_and_fold() {
             "E113]: this constant expression overflows INT",
         ],
     );
+    // REAL arithmetic gives Inf and NaN at run time; written as constants they are refused.
+    check_errors(
+        &prog(
+            "r : REAL; l : LREAL;",
+            "r := 1.0 / 0.0; r := 1.0E30 * 1.0E30; l := SQRT(-1.0); l := 1.0E300 * 1.0E300;",
+        ),
+        &[
+            "E113]: this constant expression divides by zero",
+            "E113]: this value does not fit REAL",
+            "E113]: this constant expression has no value: the result is not a number (NaN)",
+            "E113]: this constant expression overflows a real literal",
+        ],
+    );
 }
 
 #[test]

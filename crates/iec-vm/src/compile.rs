@@ -1915,6 +1915,24 @@ impl<'c, 'p> Fx<'c, 'p> {
         let y = self.expr(b, None)?;
         let d = want.unwrap_or_else(|| self.temp(1));
         let re = elem_or_dint(p, ty);
+        // Durations and dates of one type: LINT arithmetic, but an overflow is told in T#…
+        if ae == be
+            && (ae.is_duration() || ae.is_date())
+            && matches!(op, BinaryOp::Add | BinaryOp::Sub)
+        {
+            self.ext(
+                ExtOp::TimeAdd {
+                    d,
+                    a: x,
+                    b: y,
+                    sub: op == BinaryOp::Sub,
+                    of: ae,
+                    to: re,
+                },
+                span,
+            );
+            return Ok(d);
+        }
         // Time arithmetic with mixed types.
         if ae != be && (ae.is_duration() || ae.is_date()) {
             match (op, ae, be) {
@@ -2659,6 +2677,7 @@ impl ExtOp {
             ExtOp::Pow { d, a, b, .. }
             | ExtOp::TimeScale { d, a, b, .. }
             | ExtOp::TodAdd { d, a, b, .. }
+            | ExtOp::TimeAdd { d, a, b, .. }
             | ExtOp::ConcatDateTod { d, a, b } => {
                 g(d);
                 g(a);

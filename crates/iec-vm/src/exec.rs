@@ -514,30 +514,16 @@ fn data(
             b,
             single,
         } => {
+            // IEC 60559 arithmetic: Inf and NaN are values like any other (docs/iec.md).
             let (x, y) = (f64::from_bits(m!(a)), f64::from_bits(m!(b)));
             let v = match op {
                 Arith::Add => x + y,
                 Arith::Sub => x - y,
                 Arith::Mul => x * y,
-                Arith::Div => {
-                    if y == 0.0 {
-                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0.0"));
-                    }
-                    x / y
-                }
+                Arith::Div => x / y,
                 Arith::Mod => 0.0,
             };
             let v = if single { v as f32 as f64 } else { v };
-            if !v.is_finite() {
-                fail!(
-                    FaultKind::Op(OpError::Overflow),
-                    format!(
-                        "{x} {} {y} leaves the range of {}",
-                        sym(op),
-                        if single { "REAL" } else { "LREAL" }
-                    )
-                );
-            }
             m!(d) = v.to_bits();
         }
         Op::NegN { d, s, r } => {

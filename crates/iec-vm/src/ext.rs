@@ -5,7 +5,7 @@
 use petriplc_iec_sema::ir::Builtin;
 use petriplc_iec_sema::ops::{self, OpError};
 use petriplc_iec_sema::types::Elem;
-use petriplc_iec_sema::value::{wrap, Value};
+use petriplc_iec_sema::value::{fits, wrap, Value};
 use petriplc_iec_syntax::ast::BinaryOp;
 use petriplc_iec_syntax::lexer::NANOS_PER_DAY;
 
@@ -77,6 +77,16 @@ pub enum ExtOp {
         b: u32,
         div: bool,
         real: bool,
+    },
+    /// Durations and dates added or subtracted (TIME + TIME, DT - DT): 64-bit nanoseconds
+    /// as LINT would be, with an overflow told in the operands' own literals.
+    TimeAdd {
+        d: u32,
+        a: u32,
+        b: u32,
+        sub: bool,
+        of: Elem,
+        to: Elem,
     },
     /// TOD ± TIME, wrapping around midnight.
     TodAdd {
@@ -283,10 +293,11 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             let raw = slot(mem, base, *s);
             let v = get_value(raw, *from);
             let r = ops::convert_elem(&v, *from, *to).map_err(|e| {
-                fault(
-                    e,
-                    format!("{}_TO_{}({})", from.name(), to.name(), show(raw, *from)),
-                )
+                let call = format!("{}_TO_{}({})", from.name(), to.name(), show(raw, *from));
+                match ops::non_finite(v.as_real().unwrap_or(0.0)) {
+                    Some(what) => fault(e, format!("{call}: {what} has no {} value", to.name())),
+                    None => fault(e, call),
+                }
             })?;
             mem[base + *d as usize] = put_value(&r, *to);
         }
@@ -308,8 +319,16 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         }
         ExtOp::Trunc { d, s, to } => {
             let v = real(mem, base, *s);
-            let r = ops::trunc_to_int(v, *to)
-                .map_err(|e| fault(e, format!("TRUNC({v}) to {}", to.name())))?;
+            let r = ops::trunc_to_int(v, *to).map_err(|e| {
+                fault(
+                    e,
+                    format!(
+                        "TRUNC({}) to {}",
+                        ops::format_real(v, Elem::Lreal),
+                        to.name()
+                    ),
+                )
+            })?;
             mem[base + *d as usize] = r as i64 as u64;
         }
         ExtOp::Check { d, s, lo, hi } => {
@@ -332,7 +351,7 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             let x = real(mem, base, *a);
             let r = if *int_exp {
                 let n = int(mem, base, *b);
-                ops::real_power_int(x, n, *e).map_err(|er| fault(er, format!("{x} ** {n}")))?
+                ops::real_power_int(x, n, *e)
             } else {
                 let y = real(mem, base, *b);
                 ops::real_binary(BinaryOp::Power, x, y, *e)
@@ -353,7 +372,7 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
                 if *div && f == 0.0 {
                     return Err(fault(
                         OpError::DivisionByZero,
-                        format!("{} / 0.0", ops::format_duration(t)),
+                        format!("T#{} / 0.0", ops::format_duration(t)),
                     ));
                 }
                 let r = ops::round_even(if *div { t as f64 / f } else { t as f64 * f });
@@ -361,9 +380,10 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
                     return Err(fault(
                         OpError::Overflow,
                         format!(
-                            "{} {} {f}",
+                            "T#{} {} {} leaves the range of TIME",
                             ops::format_duration(t),
-                            if *div { "/" } else { "*" }
+                            if *div { "/" } else { "*" },
+                            ops::format_real(f, Elem::Lreal)
                         ),
                     ));
                 }
@@ -375,13 +395,37 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
                     fault(
                         e,
                         format!(
-                            "T#{} {} {n}",
+                            "T#{} {} {n} leaves the range of TIME",
                             ops::format_duration(t),
                             if *div { "/" } else { "*" }
                         ),
                     )
                 })?
             };
+            mem[base + *d as usize] = r as i64 as u64;
+        }
+        ExtOp::TimeAdd {
+            d,
+            a,
+            b,
+            sub,
+            of,
+            to,
+        } => {
+            let (x, y) = (int(mem, base, *a), int(mem, base, *b));
+            let r = if *sub { x - y } else { x + y };
+            if !fits(r, Elem::Lint) {
+                return Err(fault(
+                    OpError::Overflow,
+                    format!(
+                        "{} {} {} leaves the range of {}",
+                        show(slot(mem, base, *a), *of),
+                        if *sub { "-" } else { "+" },
+                        show(slot(mem, base, *b), *of),
+                        to.name()
+                    ),
+                ));
+            }
             mem[base + *d as usize] = r as i64 as u64;
         }
         ExtOp::TodAdd { d, a, b, sub } => {
@@ -391,8 +435,7 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         }
         ExtOp::Math { f, d, s, e } => {
             let v = real(mem, base, *s);
-            let r =
-                ops::real_fn(*f, v, *e).map_err(|er| fault(er, format!("{}({v})", f.name())))?;
+            let r = ops::real_fn(*f, v, *e);
             mem[base + *d as usize] = r.to_bits();
         }
         ExtOp::AbsI { d, s, e } => {
@@ -403,8 +446,7 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             mem[base + *d as usize] = r as i64 as u64;
         }
         ExtOp::Atan2 { d, y, x, e } => {
-            let r = ops::real_result(real(mem, base, *y).atan2(real(mem, base, *x)), *e)
-                .map_err(|er| fault(er, "ATAN2".to_string()))?;
+            let r = ops::real_result(real(mem, base, *y).atan2(real(mem, base, *x)), *e);
             mem[base + *d as usize] = r.to_bits();
         }
         ExtOp::MinMax {

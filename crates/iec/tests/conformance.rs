@@ -13,7 +13,7 @@
 //!
 //! Names are the program's variables (`x`, `inst.q`, `a[2]`), or `instance.var` and globals
 //! for a configuration. BOOL is 1/0 (TRUE/FALSE accepted), reals compare with a relative
-//! tolerance of 1e-6, everything else as the trace prints it.
+//! tolerance of 1e-6 (`NaN`, `inf`, `-inf` as written), everything else as the trace prints it.
 //!
 //! Every ST program must also parse with blark, a third-party IEC 61131-3 grammar (pinned;
 //! scripts/test-all.sh installs it): a program blark refuses is not standard. blark has no
@@ -164,6 +164,7 @@ fn same(expected: &str, actual: &str, real: bool) -> bool {
     if real {
         if let (Ok(a), Ok(b)) = (e.parse::<f64>(), actual.parse::<f64>()) {
             return a == b
+                || (a.is_nan() && b.is_nan())
                 || (a - b).abs() <= 1e-12
                 || (a - b).abs() <= 1e-6 * a.abs().max(b.abs());
         }
