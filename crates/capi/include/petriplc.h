@@ -99,6 +99,11 @@ typedef struct plc_pt_t {
  * and the PLC's shared memory attached; the PLC must be running with the same
  * configuration.
  *
+ * The module's own retentive points (`retain`) are the exception: they hold, from
+ * plc_init on, the value given back from the retain file (or, for a restarted module, the
+ * one its previous process last committed). A module that keeps a count in one must read
+ * it (plc_get) before its first plc_set of it, or the stored value is lost.
+ *
  * With `location = isolate` the global map is attached by the proxy process plc_init forks
  * (see Isolation above), and PLC_ERR_CONFIG also means the process already had threads.
  *

@@ -1,7 +1,8 @@
 //! `VAR RETAIN` through the real binary: an ST program counts in a RETAIN variable and a
 //! RETAIN CTU instance; the PLC is killed with SIGKILL and started again, and the program
 //! resumes from exactly what the retain file held while its other variables start from their
-//! initial values; a changed declaration is refused with the documented message.
+//! initial values; a changed declaration is refused with the documented message. A plain
+//! output variable that drives a retentive point goes on from the point's stored value.
 //!
 //! No timing assertions: waits poll for a state with a generous safety limit.
 
@@ -47,7 +48,11 @@ fn stored(path: &Path) -> Vec<(String, i64)> {
     let Ok(loaded) = petriplc_retain::file::peek(path) else {
         return Vec::new();
     };
-    assert_eq!(loaded.warning, None, "the retain file is damaged");
+    assert_eq!(
+        loaded.warnings,
+        Vec::<String>::new(),
+        "the retain file is damaged"
+    );
     let Some(snap) = loaded.snapshot else {
         return Vec::new();
     };
@@ -152,4 +157,79 @@ fn var_retain_survives_kill_9_and_a_changed_declaration_is_refused() {
     );
     // Nothing was overwritten by the refused start.
     assert_eq!(stored(&retain), after);
+}
+
+/// The stored bits of retentive point `name`.
+fn stored_point(path: &Path, name: &str) -> Option<u32> {
+    let loaded = petriplc_retain::file::peek(path).ok()?;
+    loaded.snapshot?.entries.iter().find_map(|e| match e.value {
+        Value::Point { raw, .. } if e.name == name => Some(raw),
+        _ => None,
+    })
+}
+
+/// Issue 27: `point batches … retain` driven by a VAR_OUTPUT that is not RETAIN was given
+/// back ("restored 1 of 1 retentive points") and then overwritten by the variable's initial
+/// value at the first scan (197 → 63). The variable now starts from the restored value.
+#[test]
+fn a_plain_output_driving_a_retentive_point_goes_on_from_its_stored_value() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(
+        dir.path().join("main.st"),
+        "PROGRAM main\n\
+         VAR_OUTPUT batches : UDINT := 63; END_VAR\n\
+         VAR scans : DINT; END_VAR\n\
+         VAR RETAIN resumed : UDINT; END_VAR\n\
+         IF scans = 0 THEN resumed := batches; END_IF;\n\
+         scans := scans + 1;\n\
+         batches := batches + 1;\n\
+         END_PROGRAM\n",
+    )
+    .unwrap();
+    let conf = dir.path().join("plc.conf");
+    fs::write(
+        &conf,
+        "[PLC]\nmodule logic iec\n\
+         point batches \"batches made\" logic u32 retain\n\
+         retain_file = state/plc.retain\nretain_write = change\n\
+         [logic]\nprogram = main.st\nscan_period = T#1ms\n",
+    )
+    .unwrap();
+    let retain = dir.path().join("state/plc.retain");
+    let id = format!("iecpt-{}", std::process::id());
+    let mut plc = petriplc()
+        .arg("run")
+        .arg(&conf)
+        .args(["--plc-id", &id, "--log-level", "warn"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while stored_point(&retain, "batches").is_none_or(|b| b < 197) {
+        assert!(plc.try_wait().unwrap().is_none(), "the PLC exited");
+        assert!(started.elapsed() < SAFETY_NET, "nothing retained in time");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    plc.kill().unwrap();
+    plc.wait().unwrap();
+    let at_kill = stored_point(&retain, "batches").unwrap();
+
+    let out = petriplc()
+        .arg("run")
+        .arg(&conf)
+        .args(["--plc-id", &id, "--for", "200ms"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("restored 1 of 1 retentive point"), "{err}");
+    // In its first scan the variable held exactly what the file gave back, and the count
+    // went on from there.
+    assert_eq!(
+        value(&stored(&retain), "logic/main.resumed"),
+        Some(i64::from(at_kill)),
+        "{err}"
+    );
+    assert!(stored_point(&retain, "batches").unwrap() > at_kill);
 }

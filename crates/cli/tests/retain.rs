@@ -126,7 +126,11 @@ fn gone(pid: u32) {
 /// The newest snapshot's count, failing on any damage.
 fn stored(path: &Path) -> Option<u64> {
     let loaded = petriplc_retain::file::peek(path).unwrap();
-    assert_eq!(loaded.warning, None, "the retain file is damaged");
+    assert_eq!(
+        loaded.warnings,
+        Vec::<String>::new(),
+        "the retain file is damaged"
+    );
     let snap = loaded.snapshot?;
     assert_eq!(snap.entries.len(), 1);
     match snap.entries[0].value {
@@ -369,4 +373,166 @@ fn a_restarted_module_goes_on_from_its_retained_value() {
             w[1]
         );
     }
+}
+
+/// A PLC with one retentive point, counted by an IEC program (no C compiler needed), whose
+/// retain file is `retain_file` (as written in the configuration).
+fn iec_config(dir: &Path, retain_file: &str) -> PathBuf {
+    fs::write(
+        dir.join("count.st"),
+        "PROGRAM main\nVAR_OUTPUT count : UDINT; END_VAR\ncount := count + 1;\nEND_PROGRAM\n",
+    )
+    .unwrap();
+    let path = dir.join("iec.conf");
+    fs::write(
+        &path,
+        format!(
+            "[PLC]\nmodule logic iec\npoint count \"scans counted\" logic u32 retain\n\
+             retain_file = {retain_file}\nretain_write = change\n\
+             [logic]\nprogram = count.st\nscan_period = T#1ms\n"
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn shm_left(id: &str) -> Vec<String> {
+    fs::read_dir("/dev/shm")
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(&format!("petriplc-{id}")))
+        .collect()
+}
+
+/// Issue 27: `retain_file=/dev/full` read without end until the OOM killer struck, and a
+/// FIFO blocked the start for ever. Both are refused at once, exit 2, naming the file;
+/// nothing is left in /dev/shm.
+#[test]
+fn a_retain_file_that_is_not_a_regular_file_is_refused_at_start() {
+    let dir = TempDir::new().unwrap();
+    let conf = iec_config(dir.path(), "state/plc.retain");
+    let fifo = dir.path().join("fifo.retain");
+    nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
+    let id = format!("retain-odd-{}", std::process::id());
+    for (file, kind) in [
+        ("/dev/full".to_string(), "a character device"),
+        ("/dev/zero".to_string(), "a character device"),
+        (fifo.display().to_string(), "a FIFO (named pipe)"),
+        (dir.path().display().to_string(), "a folder"),
+    ] {
+        let out = petriplc()
+            .arg("run")
+            .arg(&conf)
+            .args(["--plc-id", &id, "--for", "0.3s"])
+            .arg("--set")
+            .arg(format!("PLC:retain_file={file}"))
+            .output()
+            .unwrap();
+        let log = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{file}: {log}");
+        assert!(
+            log.contains(&format!("retain file {file} is {kind}, not a regular file")),
+            "{log}"
+        );
+        assert_eq!(shm_left(&id), Vec::<String>::new());
+    }
+}
+
+/// Issue 27: a zero-filled or empty retain file (what a power cut leaves on some file
+/// systems) gave "[INFO] nothing stored yet" and every value from its init; a file cut so
+/// that one copy is lost said nothing. Each is now a warning that says what was lost.
+#[test]
+fn a_wiped_or_cut_retain_file_is_a_warning() {
+    let dir = TempDir::new().unwrap();
+    let conf = iec_config(dir.path(), "state/plc.retain");
+    let retain = dir.path().join("state/plc.retain");
+    let id = format!("retain-wiped-{}", std::process::id());
+    let run = || {
+        let out = petriplc()
+            .arg("run")
+            .arg(&conf)
+            .args(["--plc-id", &id, "--for", "0.3s"])
+            .output()
+            .unwrap();
+        let log = text(&out.stderr);
+        assert!(out.status.success(), "{log}");
+        log
+    };
+    // A new file: made and stamped, said as INFO.
+    let log = run();
+    assert!(
+        log.contains("[INFO] retain file") && log.contains("created"),
+        "{log}"
+    );
+    assert!(!log.contains("WARN"), "{log}");
+    for (bytes, what) in [
+        (vec![0u8; 8192], "holds only zeros (8192 bytes)"),
+        (Vec::new(), "is empty"),
+    ] {
+        fs::write(&retain, bytes).unwrap();
+        let log = run();
+        assert!(
+            log.contains("[WARN]") && log.contains(what) && log.contains("values were lost"),
+            "{log}"
+        );
+        assert!(!log.contains("nothing stored yet"), "{log}");
+    }
+    // Several snapshots, then the file cut to its first page: the copy beyond is lost.
+    run();
+    let seq = petriplc_retain::file::peek(&retain)
+        .unwrap()
+        .snapshot
+        .unwrap()
+        .seq;
+    assert!(seq >= 2, "{seq}");
+    fs::OpenOptions::new()
+        .write(true)
+        .open(&retain)
+        .unwrap()
+        .set_len(4096)
+        .unwrap();
+    let log = run();
+    assert!(
+        log.contains("[WARN]") && log.contains("is 4096 bytes, not two copies of whole pages"),
+        "{log}"
+    );
+    // The next writes made the file whole again.
+    assert!(petriplc_retain::file::peek(&retain)
+        .unwrap()
+        .warnings
+        .is_empty());
+}
+
+/// Issue 27: a retentive point that a module recomputes at every scan from state that
+/// starts afresh (a net's output) would be overwritten at the first scan: refused at start.
+#[test]
+fn a_retentive_net_output_is_refused() {
+    let dir = TempDir::new().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let conf = dir.path().join("net.conf");
+    fs::write(
+        &conf,
+        format!(
+            "[PLC]\nmodule blink petrinet\nmodule stop shutdown\npoint input0 \"key\" stop\n\
+             point out0 \"lamp\" blink u1 retain\npoint out1 \"lamp\" blink\n\
+             point out2 \"lamp\" blink\n[blink]\nnet = {}\n[stop]\npoint = input0\n",
+            root.join("examples/blink/blink.pnml").display()
+        ),
+    )
+    .unwrap();
+    let out = petriplc()
+        .arg("run")
+        .arg(&conf)
+        .args(["--plc-id", &format!("retain-net-{}", std::process::id())])
+        .args(["--for", "0.3s"])
+        .output()
+        .unwrap();
+    let log = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{log}");
+    assert!(
+        log.contains("drives point `out0`, which is retentive (`retain`)")
+            && log.contains("drop `retain` from point `out0`"),
+        "{log}"
+    );
 }

@@ -414,6 +414,17 @@ pub fn bind(
             ));
             return None;
         }
+        if output && ctx.map.layout().slot(handle.id()).retain {
+            problems.push(format!(
+                "output signal `{}` of {what} drives point `{point}`{}, which is retentive \
+                 (`retain`): the module computes it at every scan from state that starts \
+                 afresh (a net's marking, a model's state), so its stored value would be \
+                 overwritten at the first scan; drop `retain` from point `{point}`",
+                port.name,
+                if mapped.is_empty() { "" } else { " (mapped)" },
+            ));
+            return None;
+        }
         Some(Bound {
             signal: port.name.clone(),
             point: point.to_string(),

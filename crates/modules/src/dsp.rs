@@ -95,6 +95,13 @@ impl Points for MapPoints<'_> {
                 self.module
             ));
         }
+        if write && self.map.layout().slot(handle.id()).retain {
+            return Err(format!(
+                "`{name}` is retentive (`retain`), but the blocks compute it at every scan \
+                 from state that starts afresh, so its stored value would be overwritten at the \
+                 first scan; drop `retain` from point `{name}`"
+            ));
+        }
         let index = match self.names.iter().position(|n| n == name) {
             Some(i) => i,
             None => {

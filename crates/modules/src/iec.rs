@@ -29,7 +29,7 @@ use petriplc_iec::sema::ir::VarClass;
 use petriplc_iec::sema::types::{Elem, Type};
 use petriplc_iec::vm::{Engine, Machine, VarRef};
 use petriplc_iec::{Natives, Select, Sources};
-use petriplc_runtime::image::Handle;
+use petriplc_runtime::image::{Handle, ModuleMap};
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
 
 use crate::common::{self, error};
@@ -67,6 +67,20 @@ struct Binding {
     at: VarRef,
     handle: Handle,
     conv: Conv,
+}
+
+impl Binding {
+    /// The point's value as the variable's memory slot.
+    fn read(&self, map: &ModuleMap) -> u64 {
+        let h = &self.handle;
+        match self.conv {
+            Conv::Bool => u64::from(map.get_bool(h)),
+            Conv::Unsigned => u64::from(map.get_u32(h)),
+            Conv::Signed => map.get_i32(h) as i64 as u64,
+            Conv::Real => (map.get_f32(h) as f64).to_bits(),
+            Conv::TimeMs => (map.get_i32(h) as i64 * 1_000_000) as u64,
+        }
+    }
 }
 
 /// The `iec` module.
@@ -364,6 +378,21 @@ impl Module for IecModule {
         if !problems.is_empty() {
             return Err(error(&self.name, problems.join("\n")));
         }
+        // A retentive point the program drives goes on from its stored value: it is loaded
+        // into the variable before the first scan, which would otherwise write the
+        // variable's initial value over it. A RETAIN variable given back from the retain
+        // file keeps its own value.
+        for b in &outputs {
+            if ctx.restored(&b.handle) && !kept.iter().any(|k| k.restored_at(b.at.addr)) {
+                machine.set_slot(b.at.addr, b.read(ctx.map));
+                log::debug!(
+                    "{}: `{}` goes on from retentive point `{}`",
+                    self.name,
+                    b.var,
+                    b.point
+                );
+            }
+        }
         let period = engine
             .task_period()
             .and_then(|ns| u64::try_from(ns).ok())
@@ -385,14 +414,7 @@ impl Module for IecModule {
             return Err(error(&self.name, "scanned before init"));
         };
         for b in &run.inputs {
-            let raw = match b.conv {
-                Conv::Bool => u64::from(ctx.map.get_bool(&b.handle)),
-                Conv::Unsigned => u64::from(ctx.map.get_u32(&b.handle)),
-                Conv::Signed => ctx.map.get_i32(&b.handle) as i64 as u64,
-                Conv::Real => (ctx.map.get_f32(&b.handle) as f64).to_bits(),
-                Conv::TimeMs => (ctx.map.get_i32(&b.handle) as i64 * 1_000_000) as u64,
-            };
-            run.machine.set_slot(b.at.addr, raw);
+            run.machine.set_slot(b.at.addr, b.read(ctx.map));
         }
         let started = Instant::now();
         let limit = self.watchdog;

@@ -24,6 +24,15 @@ pub(crate) struct Kept {
     handle: Retained,
     /// The slots last handed to the runner (or restored).
     last: Vec<u64>,
+    /// Given back from the retain file at this start.
+    restored: bool,
+}
+
+impl Kept {
+    /// Whether slot `addr` belongs to this variable and was given back from the file.
+    pub(crate) fn restored_at(&self, addr: u32) -> bool {
+        self.restored && (self.addr..self.addr + self.len).contains(&addr)
+    }
 }
 
 /// Whether the program `file` (relative to `conf`'s folder) declares anything RETAIN: known
@@ -68,7 +77,9 @@ pub(crate) fn restore(
             }
         };
         let mut last: Vec<u64> = (r.addr..r.addr + r.len).map(|a| machine.slot(a)).collect();
-        if let Some(stored) = handle.get() {
+        let stored = handle.get();
+        let restored = stored.is_some();
+        if let Some(stored) = stored {
             if stored.len() != last.len() * 8 {
                 problems.push(format!(
                     "the retain file holds `{}` ({}) in {} bytes and the program now keeps it \
@@ -95,6 +106,7 @@ pub(crate) fn restore(
             len: r.len,
             handle,
             last,
+            restored,
         });
     }
     if problems.is_empty() {

@@ -27,7 +27,7 @@ use petriplc_config::{
     ConfigError, Location, ModuleDecl, OnFailure, Origin, Override, PlcConfig, PointKind,
     PointValue,
 };
-use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap};
+use petriplc_runtime::image::{GlobalMap, Handle, ImageError, Layout, ModuleMap, PointId};
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use petriplc_runtime::owner::{self, Owner, OwnerError, Probe};
 use petriplc_runtime::period::{self, Period, ScanStats};
@@ -510,6 +510,7 @@ impl Plc {
         let clocks = ScanClocks::create(&opts.plc_id, config.modules.len())?;
         // Restored before any module exists: every module's first scan sees these values.
         retained::write(&global, &layout, &restore);
+        let restored_points: Vec<PointId> = restore.iter().map(|&(id, _)| id).collect();
         retain.install();
 
         if !global.priority_inheritance() {
@@ -541,6 +542,7 @@ impl Plc {
                     map: &mut map,
                     base_dir: &base_dir,
                     plc_id: &opts.plc_id,
+                    restored_points: &restored_points,
                 })
                 .map_err(|error| RunError::Init {
                     module: decl.name.clone(),
@@ -1063,6 +1065,7 @@ fn make(
     map: &mut ModuleMap,
     base_dir: &Path,
     plc_id: &str,
+    restored_points: &[PointId],
 ) -> Result<Box<dyn Module>, ModuleError> {
     let mut module = factory(decl)?;
     module.init(&mut InitContext {
@@ -1071,6 +1074,7 @@ fn make(
         map,
         base_dir,
         plc_id,
+        restored_points,
     })?;
     Ok(module)
 }
@@ -1287,6 +1291,8 @@ fn fresh(
     retained::adopt(&mut map, &shared.global, Adopt::Retentive);
     map.update(&shared.global);
     shared.retain.registry.new_instance(&decl.name);
+    // Every retentive point goes on from where the failed instance left it.
+    let restored = retained::points(&shared.layout);
     let module = catch_unwind(AssertUnwindSafe(|| {
         make(
             factory,
@@ -1295,6 +1301,7 @@ fn fresh(
             &mut map,
             &shared.base_dir,
             &shared.plc_id,
+            &restored,
         )
     }))
     .unwrap_or_else(|_| Err(ModuleError::new("the module panicked while starting")))?;

@@ -93,7 +93,7 @@ impl Retain {
             ));
         }
         let (file, loaded) = petriplc_retain::RetainFile::open(&path)?;
-        if let Some(w) = &loaded.warning {
+        for w in &loaded.warnings {
             log::warn!("{w}");
         }
         let wanted: Vec<Wanted> = points
@@ -129,10 +129,15 @@ impl Retain {
                 petriplc_retain::file::show_time(snap.written)
             );
             data_entries = &snap.entries;
-        } else if !points.is_empty() {
+        } else if loaded.created {
             log::info!(
-                "retain file {}: nothing stored yet; the retentive points start from their \
-                 init values",
+                "retain file {}: created; the retentive values start from their init values",
+                path.display()
+            );
+        } else if loaded.warnings.is_empty() {
+            log::info!(
+                "retain file {}: nothing stored yet (the PLC stopped before its first write); \
+                 the retentive values start from their init values",
                 path.display()
             );
         }

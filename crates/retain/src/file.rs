@@ -22,8 +22,8 @@
 //! one and the folder synced, so that the file at the path is always whole.
 
 use std::fs::{File, OpenOptions};
-use std::io::{self, Read, Seek, SeekFrom, Write};
-use std::os::unix::fs::{FileExt, MetadataExt};
+use std::io::{self, Read, Write};
+use std::os::unix::fs::{FileExt, FileTypeExt, MetadataExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -31,11 +31,18 @@ use crc::{Crc, CRC_32_ISCSI};
 use nix::fcntl::{Flock, FlockArg};
 use petriplc_config::PointKind;
 
+use crate::copies;
 use crate::{Entry, Identity, RetainError, Snapshot, Value};
 
-const MAGIC: &[u8; 8] = b"PPLCRTN1";
-const HEADER: usize = 40;
-const PAGE: u64 = 4096;
+pub(crate) const MAGIC: &[u8; 8] = b"PPLCRTN1";
+pub(crate) const HEADER: usize = 40;
+pub(crate) const PAGE: u64 = 4096;
+/// The largest snapshot a retain file takes: retained values are counters, totals and
+/// recipes, not bulk data; a larger one is refused when written rather than grown without end.
+pub const MAX_RECORD: usize = 64 << 20;
+/// The largest retain file: two slots for the largest snapshot with room to grow (see
+/// [`RetainFile::write`]).
+pub const MAX_FILE: u64 = 2 * ((MAX_RECORD as u64 * 3 / 2).div_ceil(PAGE) + 1) * PAGE;
 const CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
 
 /// An open, locked retain file.
@@ -55,8 +62,11 @@ pub struct RetainFile {
 pub struct Loaded {
     /// The newest whole snapshot, if any.
     pub snapshot: Option<Snapshot>,
-    /// A damaged copy, said once for the log: which, and what was used instead.
-    pub warning: Option<String>,
+    /// What was wrong, one line each for the log: a damaged or lost copy and what was used
+    /// instead, a file cut short, or wiped (its values lost).
+    pub warnings: Vec<String>,
+    /// The file did not exist: it was made now.
+    pub created: bool,
 }
 
 fn io<'a>(path: &'a Path, what: &'static str) -> impl FnOnce(io::Error) -> RetainError + 'a {
@@ -70,20 +80,38 @@ fn io<'a>(path: &'a Path, what: &'static str) -> impl FnOnce(io::Error) -> Retai
 impl RetainFile {
     /// Opens (creating it and its folder if need be) and locks the retain file at `path`,
     /// and reads the newest whole snapshot in it. Refused while another process holds the
-    /// file, and when neither copy can be read (a file that is not a retain file, or with
-    /// both copies damaged).
+    /// file, when `path` is not a regular file (a device, a FIFO, a folder), when the file
+    /// is larger than any retain file can be, and when neither copy can be read (a file
+    /// that is not a retain file, or with both copies damaged).
+    ///
+    /// A new file is made whole before it takes the name (written beside it, synced, then
+    /// renamed), stamped with an empty snapshot 0: a file at the path that holds nothing
+    /// was wiped, which [`Loaded::warnings`] says.
     pub fn open(path: &Path) -> Result<(RetainFile, Loaded), RetainError> {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(io(path, "cannot create its folder"))?;
         }
+        let mut created = false;
         let file = loop {
-            let file = OpenOptions::new()
+            // Checked before opening: opening a FIFO or a terminal can block or do harm.
+            if let Ok(m) = std::fs::metadata(path) {
+                regular(path, &m)?;
+            }
+            let file = match OpenOptions::new()
                 .read(true)
                 .write(true)
-                .create(true)
-                .truncate(false)
+                .custom_flags(nix::libc::O_NONBLOCK | nix::libc::O_NOCTTY)
                 .open(path)
-                .map_err(io(path, "cannot open it"))?;
+            {
+                Ok(f) => f,
+                Err(e) if e.kind() == io::ErrorKind::NotFound => {
+                    create(path)?;
+                    created = true;
+                    continue;
+                }
+                Err(e) => return Err(io(path, "cannot open it")(e)),
+            };
+            regular(path, &file.metadata().map_err(io(path, "cannot read it"))?)?;
             let file = match Flock::lock(file, FlockArg::LockExclusiveNonblock) {
                 Ok(f) => f,
                 Err((_, nix::errno::Errno::EWOULDBLOCK)) => {
@@ -100,67 +128,37 @@ impl RetainFile {
                 _ => continue,
             }
         };
-        let mut bytes = Vec::new();
-        (&*file)
-            .read_to_end(&mut bytes)
-            .map_err(io(path, "cannot read it"))?;
+        let bytes = read_bounded(path, &file)?;
         let unreadable = |why: String| RetainError::Unreadable {
             path: path.to_path_buf(),
             why,
         };
+        let copies = copies::find(&path.display().to_string(), &bytes);
         let mut me = RetainFile {
             path: path.to_path_buf(),
             file,
-            slot: PAGE,
+            // A file cut short or added to has no slot size: the next write makes it anew.
+            slot: copies.slot.unwrap_or(0),
             last_seq: 0,
             last_record: None,
         };
-        if bytes.is_empty() {
-            return Ok((
-                me,
-                Loaded {
-                    snapshot: None,
-                    warning: None,
-                },
-            ));
-        }
-        let len = bytes.len() as u64;
-        if len % (2 * PAGE) != 0 && !bytes.starts_with(MAGIC) {
-            return Err(unreadable(format!(
-                "it is not a petriplc retain file ({len} bytes, not two slots of whole pages)"
-            )));
-        }
-        let slot = (len / 2).max(PAGE) as usize;
-        me.slot = slot as u64;
-        let slots: Vec<Slot> = (0..2)
-            .map(|i| decode_slot(bytes.get(i * slot..((i + 1) * slot).min(bytes.len()))))
-            .collect();
-        let good: Vec<(usize, &Snapshot)> = slots
-            .iter()
-            .enumerate()
-            .filter_map(|(i, s)| match s {
-                Slot::Good(snap, _) => Some((i, snap)),
-                _ => None,
-            })
-            .collect();
-        let newest = good.iter().max_by_key(|(_, s)| s.seq).copied();
-        let damaged: Vec<(usize, &str)> = slots
-            .iter()
-            .enumerate()
-            .filter_map(|(i, s)| match s {
-                Slot::Damaged(why) => Some((i, why.as_str())),
-                _ => None,
-            })
-            .collect();
-        let Some((index, snapshot)) = newest else {
+        let Some((index, snapshot)) = copies.newest() else {
+            let damaged = copies.damaged();
             if damaged.is_empty() {
                 return Ok((
                     me,
                     Loaded {
                         snapshot: None,
-                        warning: None,
+                        warnings: copies.warnings,
+                        created,
                     },
                 ));
+            }
+            if copies.slot.is_none() && !bytes.starts_with(MAGIC) {
+                return Err(unreadable(format!(
+                    "it is not a petriplc retain file ({} bytes, not two slots of whole pages)",
+                    bytes.len()
+                )));
             }
             let whys: Vec<String> = damaged
                 .iter()
@@ -171,24 +169,18 @@ impl RetainFile {
                 whys.join("; ")
             )));
         };
-        let warning = damaged.first().map(|(i, why)| {
-            format!(
-                "retain file {}: copy {i} is damaged ({why}: a write cut short by a crash or \
-                 power loss, or a failing disk); using the other copy, snapshot {} of {}",
-                path.display(),
-                snapshot.seq,
-                show_time(snapshot.written)
-            )
-        });
         me.last_seq = snapshot.seq;
-        if let Slot::Good(_, record) = &slots[index] {
+        if let copies::Slot::Good(_, record) = &copies.slots[index] {
             me.last_record = Some(record.clone());
         }
+        // Snapshot 0 is the stamp of a new file: nothing stored yet.
+        let snapshot = (snapshot.seq > 0).then(|| snapshot.clone());
         Ok((
             me,
             Loaded {
-                snapshot: Some(snapshot.clone()),
-                warning,
+                snapshot,
+                warnings: copies.warnings,
+                created,
             },
         ))
     }
@@ -218,6 +210,13 @@ impl RetainFile {
             identity: identity.clone(),
             entries: entries.to_vec(),
         });
+        if record.len() > MAX_RECORD {
+            return Err(RetainError::TooLarge {
+                path: self.path.clone(),
+                bytes: record.len(),
+                limit: MAX_RECORD,
+            });
+        }
         let file_len = self
             .file
             .metadata()
@@ -278,6 +277,105 @@ impl RetainFile {
     }
 }
 
+/// Refuses what is not a regular file: a retain file on a device would be read without end
+/// (`/dev/zero`) and a FIFO would block the start.
+fn regular(path: &Path, m: &std::fs::Metadata) -> Result<(), RetainError> {
+    let t = m.file_type();
+    if t.is_file() {
+        return Ok(());
+    }
+    let kind = if t.is_dir() {
+        "a folder"
+    } else if t.is_fifo() {
+        "a FIFO (named pipe)"
+    } else if t.is_char_device() {
+        "a character device"
+    } else if t.is_block_device() {
+        "a block device"
+    } else if t.is_socket() {
+        "a socket"
+    } else {
+        "not a regular file"
+    };
+    Err(RetainError::NotAFile {
+        path: path.to_path_buf(),
+        kind,
+    })
+}
+
+/// The file's bytes, refused beyond the largest retain file petriplc writes.
+fn read_bounded(path: &Path, file: &File) -> Result<Vec<u8>, RetainError> {
+    let len = file.metadata().map_err(io(path, "cannot read it"))?.len();
+    let too_large = |len: u64| RetainError::Unreadable {
+        path: path.to_path_buf(),
+        why: format!(
+            "it is {len} bytes, larger than any retain file ({MAX_FILE} bytes at most: two \
+             copies of at most {MAX_RECORD} bytes of retained values, with room to grow)"
+        ),
+    };
+    if len > MAX_FILE {
+        return Err(too_large(len));
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    // Bounded even if the file grows while it is read.
+    file.take(MAX_FILE + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io(path, "cannot read it"))?;
+    if bytes.len() as u64 > MAX_FILE {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+/// Makes a new retain file at `path`: two slots of one page, copy 0 the stamp (snapshot 0,
+/// no values). It is written and synced under another name, locked, and renamed into place,
+/// so the file at `path` is never empty; one left half-made by a kill is made again.
+fn create(path: &Path) -> Result<(), RetainError> {
+    let new = new_path(path);
+    let f = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&new)
+        .map_err(io(path, "cannot create it"))?;
+    // Truncated only once locked: another start making the same file waits for us.
+    let mut f = match Flock::lock(f, FlockArg::LockExclusiveNonblock) {
+        Ok(f) => f,
+        Err((_, nix::errno::Errno::EWOULDBLOCK)) => {
+            return Err(RetainError::InUse {
+                path: path.to_path_buf(),
+            })
+        }
+        Err((_, e)) => return Err(io(path, "cannot lock it")(e.into())),
+    };
+    if path.exists() {
+        // Made by another start while this one waited.
+        return Ok(());
+    }
+    let stamp = encode(&Snapshot {
+        seq: 0,
+        written: SystemTime::now(),
+        identity: Identity::default(),
+        entries: Vec::new(),
+    });
+    let mut image = vec![0u8; 2 * PAGE as usize];
+    image[..stamp.len()].copy_from_slice(&stamp);
+    f.set_len(0)
+        .and_then(|()| f.write_all(&image))
+        .and_then(|()| f.sync_all())
+        .map_err(io(path, "cannot write it"))?;
+    std::fs::rename(&new, path).map_err(io(path, "cannot create it"))?;
+    sync_dir(path).map_err(io(path, "cannot sync its folder"))
+}
+
+/// The name a new retain file is made under, beside it.
+fn new_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".new");
+    PathBuf::from(name)
+}
+
 /// The temporary file a growing retain file is written to, beside it.
 pub fn tmp_path(path: &Path) -> PathBuf {
     let mut name = path.as_os_str().to_owned();
@@ -321,25 +419,6 @@ fn civil(days: i64) -> (i64, u32, u32) {
     let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
     let y = yoe + era * 400 + i64::from(m <= 2);
     (y, m, d)
-}
-
-enum Slot {
-    Empty,
-    Good(Snapshot, Vec<u8>),
-    Damaged(String),
-}
-
-fn decode_slot(bytes: Option<&[u8]>) -> Slot {
-    let Some(bytes) = bytes else {
-        return Slot::Empty;
-    };
-    if bytes.len() < HEADER || bytes[..HEADER].iter().all(|&b| b == 0) {
-        return Slot::Empty;
-    }
-    match decode(bytes) {
-        Ok((snap, len)) => Slot::Good(snap, bytes[..len].to_vec()),
-        Err(why) => Slot::Damaged(why),
-    }
 }
 
 /// One snapshot as the bytes of a slot.
@@ -496,31 +575,26 @@ impl<'a> Reader<'a> {
 /// Reads the newest whole snapshot of the file at `path` without locking it (for tools and
 /// tests that look at a PLC's file): `Ok(None)` for an empty file.
 pub fn peek(path: &Path) -> Result<Loaded, RetainError> {
-    let mut bytes = Vec::new();
-    File::open(path)
-        .and_then(|mut f| {
-            f.seek(SeekFrom::Start(0))?;
-            f.read_to_end(&mut bytes)
-        })
-        .map_err(io(path, "cannot read it"))?;
-    let slot = (bytes.len() / 2).max(PAGE as usize);
-    let slots: Vec<Slot> = (0..2)
-        .map(|i| decode_slot(bytes.get(i * slot..((i + 1) * slot).min(bytes.len()))))
-        .collect();
-    let mut snapshot: Option<Snapshot> = None;
-    let mut warning = None;
-    for (i, s) in slots.into_iter().enumerate() {
-        match s {
-            Slot::Good(snap, _) => {
-                if snapshot.as_ref().is_none_or(|old| old.seq < snap.seq) {
-                    snapshot = Some(snap);
-                }
-            }
-            Slot::Damaged(why) => warning = Some(format!("copy {i} is damaged ({why})")),
-            Slot::Empty => {}
-        }
+    if let Ok(m) = std::fs::metadata(path) {
+        regular(path, &m)?;
     }
-    Ok(Loaded { snapshot, warning })
+    let file = OpenOptions::new()
+        .read(true)
+        .custom_flags(nix::libc::O_NONBLOCK | nix::libc::O_NOCTTY)
+        .open(path)
+        .map_err(io(path, "cannot read it"))?;
+    regular(path, &file.metadata().map_err(io(path, "cannot read it"))?)?;
+    let bytes = read_bounded(path, &file)?;
+    let copies = copies::find(&path.display().to_string(), &bytes);
+    let snapshot = copies
+        .newest()
+        .filter(|(_, s)| s.seq > 0)
+        .map(|(_, s)| s.clone());
+    Ok(Loaded {
+        snapshot,
+        warnings: copies.warnings,
+        created: false,
+    })
 }
 
 #[cfg(test)]
@@ -552,7 +626,8 @@ mod tests {
             Value::Point { raw, .. } => Some(raw),
             _ => None,
         });
-        (snap.map(|s| s.seq), raw, loaded.warning)
+        let warning = (!loaded.warnings.is_empty()).then(|| loaded.warnings.join("\n"));
+        (snap.map(|s| s.seq), raw, warning)
     }
 
     #[test]
@@ -684,5 +759,132 @@ mod tests {
         std::fs::write(&path, &bytes).unwrap();
         (f, _) = RetainFile::open(&path).unwrap();
         assert_eq!(f.last_seq(), 1);
+    }
+
+    #[test]
+    fn a_new_file_is_stamped_so_that_a_wiped_one_is_told_apart() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plc.retain");
+        let (f, loaded) = RetainFile::open(&path).unwrap();
+        assert!(loaded.created && loaded.snapshot.is_none() && loaded.warnings.is_empty());
+        drop(f);
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(bytes.len() as u64, 2 * PAGE);
+        assert!(bytes.starts_with(MAGIC));
+        assert!(!new_path(&path).exists());
+        // Opened again: stamped, never written; nothing to warn about.
+        let (f, loaded) = RetainFile::open(&path).unwrap();
+        assert!(!loaded.created && loaded.snapshot.is_none() && loaded.warnings.is_empty());
+        assert_eq!(f.last_seq(), 0);
+        drop(f);
+        // What a power cut leaves on some file systems: zeros, or nothing.
+        for (bytes, what) in [
+            (vec![0u8; 8192], "holds only zeros (8192 bytes)"),
+            (Vec::new(), "is empty"),
+        ] {
+            std::fs::write(&path, bytes).unwrap();
+            let (_, loaded) = RetainFile::open(&path).unwrap();
+            assert!(loaded.snapshot.is_none() && !loaded.created);
+            let w = loaded.warnings.join("\n");
+            assert!(w.contains(what) && w.contains("values were lost"), "{w}");
+        }
+    }
+
+    #[test]
+    fn a_half_made_new_file_left_by_a_kill_is_made_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plc.retain");
+        std::fs::write(new_path(&path), b"PPLCRTN1 half").unwrap();
+        let (_, loaded) = RetainFile::open(&path).unwrap();
+        assert!(loaded.created && loaded.warnings.is_empty());
+        assert!(!new_path(&path).exists());
+        assert!(std::fs::read(&path).unwrap().starts_with(MAGIC));
+    }
+
+    #[test]
+    fn a_file_cut_short_says_which_copy_is_lost_and_is_written_anew() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plc.retain");
+        let (mut f, _) = RetainFile::open(&path).unwrap();
+        for v in 1..=3 {
+            f.write(&ident(), &[point("count", v)], SystemTime::now())
+                .unwrap();
+        }
+        drop(f);
+        // Snapshot 3 is in slot 1, snapshot 2 in slot 0: keep only the first page.
+        let file = OpenOptions::new().write(true).open(&path).unwrap();
+        file.set_len(PAGE).unwrap();
+        drop(file);
+        let (seq, raw, warning) = newest(&path);
+        assert_eq!((seq, raw), (Some(2), Some(2)));
+        let w = warning.unwrap();
+        assert!(
+            w.contains("is 4096 bytes, not two copies of whole pages")
+                && w.contains("copy 1 is lost (zeroed or cut off)"),
+            "{w}"
+        );
+        // The next write makes the file regular again, with both copies.
+        let (mut f, _) = RetainFile::open(&path).unwrap();
+        assert_eq!(
+            f.write(&ident(), &[point("count", 9)], SystemTime::now())
+                .unwrap(),
+            3
+        );
+        drop(f);
+        assert_eq!(std::fs::metadata(&path).unwrap().len() % (2 * PAGE), 0);
+        assert_eq!(newest(&path), (Some(3), Some(9), None));
+        // A copy zeroed in place is lost too.
+        let mut bytes = std::fs::read(&path).unwrap();
+        let half = bytes.len() / 2;
+        bytes[half..].fill(0);
+        std::fs::write(&path, &bytes).unwrap();
+        let (seq, _, warning) = newest(&path);
+        assert_eq!(seq, Some(2));
+        assert!(warning.unwrap().contains("copy 1 is lost"));
+    }
+
+    #[test]
+    fn only_a_regular_file_of_a_sane_size_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo.retain");
+        nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
+        for (path, kind) in [
+            (Path::new("/dev/full"), "a character device"),
+            (Path::new("/dev/zero"), "a character device"),
+            (fifo.as_path(), "a FIFO (named pipe)"),
+            (dir.path(), "a folder"),
+        ] {
+            let e = RetainFile::open(path).unwrap_err();
+            assert!(matches!(e, RetainError::NotAFile { .. }), "{e}");
+            assert!(e.is_bad_input());
+            assert!(
+                e.to_string()
+                    .contains(&format!("is {kind}, not a regular file")),
+                "{e}"
+            );
+            assert!(peek(path).is_err());
+        }
+        // A sparse file larger than any retain file is refused without reading it.
+        let big = dir.path().join("big.retain");
+        File::create(&big).unwrap().set_len(MAX_FILE + 1).unwrap();
+        let e = RetainFile::open(&big).unwrap_err().to_string();
+        assert!(e.contains("larger than any retain file"), "{e}");
+    }
+
+    #[test]
+    fn a_snapshot_larger_than_the_limit_is_refused_when_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plc.retain");
+        let (mut f, _) = RetainFile::open(&path).unwrap();
+        let huge = Entry {
+            name: "m/blob".into(),
+            value: Value::Data {
+                signature: "ARRAY".into(),
+                bytes: vec![7; MAX_RECORD],
+            },
+        };
+        let e = f.write(&ident(), &[huge], SystemTime::now()).unwrap_err();
+        assert!(matches!(e, RetainError::TooLarge { .. }), "{e}");
+        assert_eq!(f.last_seq(), 0);
     }
 }

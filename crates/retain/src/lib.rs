@@ -17,6 +17,7 @@
 //! - [`data`]: module-private retained data (a module registers named values at init, sets
 //!   them in its scans, and the runner commits them with the scan's outputs).
 
+mod copies;
 pub mod data;
 pub mod file;
 pub mod persist;
@@ -175,6 +176,22 @@ pub enum RetainError {
         config: String,
         count: usize,
         names: String,
+    },
+    #[error(
+        "retain file {} is {kind}, not a regular file: point `retain_file` in [PLC] (or \
+         `--set PLC:retain_file=FILE`) at a file; it is made if missing",
+        .path.display()
+    )]
+    NotAFile { path: PathBuf, kind: &'static str },
+    #[error(
+        "retain file {}: the retained values make a snapshot of {bytes} bytes, more than the \
+         {limit} a retain file takes; retain fewer or smaller values",
+        .path.display()
+    )]
+    TooLarge {
+        path: PathBuf,
+        bytes: usize,
+        limit: usize,
     },
     #[error("retain file {}: {what}: {source}", .path.display())]
     Io {

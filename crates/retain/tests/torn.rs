@@ -66,15 +66,15 @@ proptest! {
         let untouched = torn[record.clone()] == before[record];
         if whole {
             prop_assert_eq!((snap.seq, values[0]), (3, 3));
-            prop_assert!(loaded.warning.is_none());
+            prop_assert!(loaded.warnings.is_empty());
         } else if untouched {
             prop_assert_eq!((snap.seq, values[0]), (2, 2));
-            prop_assert!(loaded.warning.is_none());
+            prop_assert!(loaded.warnings.is_empty());
         } else {
             prop_assert!(snap.seq == 2 || snap.seq == 3);
             prop_assert_eq!(values[0] as u64, snap.seq);
             if snap.seq == 2 {
-                prop_assert!(loaded.warning.is_some());
+                prop_assert!(!loaded.warnings.is_empty());
             }
         }
     }

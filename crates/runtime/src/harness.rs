@@ -64,6 +64,7 @@ pub fn start(text: &str, dir: &Path, registry: Registry) -> Result<Plc, ModuleEr
             map: &mut map,
             base_dir: dir,
             plc_id: &plc_id,
+            restored_points: &[],
         })?;
         modules.push((decl.name.clone(), module, map));
     }

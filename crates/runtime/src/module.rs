@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use petriplc_config::{ModuleDecl, PlcConfig};
 
-use crate::image::ModuleMap;
+use crate::image::{Handle, ModuleMap, PointId};
 
 /// Why a module could not start or could not go on; the message says what to fix.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -33,6 +33,10 @@ pub struct InitContext<'a> {
     pub base_dir: &'a Path,
     /// The PLC's id (`petriplc run --plc-id`): names its shared memory and status file.
     pub plc_id: &'a str,
+    /// The module's retentive points whose values it must go on from: given back from the
+    /// retain file at this start, or, when the module restarts, as its last committed scan
+    /// left them. [`InitContext::restored`] asks for one.
+    pub restored_points: &'a [PointId],
 }
 
 impl InitContext<'_> {
@@ -49,6 +53,14 @@ impl InitContext<'_> {
                 self.decl.name, self.decl.name
             ))
         })
+    }
+
+    /// Whether point `h` holds a value the module must go on from (see
+    /// [`InitContext::restored_points`]): its map already holds it, and a module that drives
+    /// the point from a variable of its own loads the variable from it before its first
+    /// scan, which would otherwise write the variable's initial value over it.
+    pub fn restored(&self, h: &Handle) -> bool {
+        self.restored_points.contains(&h.id())
     }
 
     /// A path setting resolved against the configuration file's directory.
