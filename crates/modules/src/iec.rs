@@ -263,7 +263,8 @@ impl Module for IecModule {
         sources.add_file(&path).map_err(|e| error(&self.name, e))?;
         if self.project
             && !petriplc_iec::syntax::plcopen::is_plcopen(
-                &std::fs::read_to_string(&path).unwrap_or_default(),
+                &petriplc_files::read_to_string(&path, petriplc_files::IEC_SOURCE)
+                    .unwrap_or_default(),
             )
         {
             return Err(error(&self.name, format!("`project = {}` is not a PLCopen XML project; for Structured Text write `program = {}`", self.file, self.file)));

@@ -41,7 +41,7 @@ impl Kept {
 /// counts; `NON_RETAIN`/`nonretain` do not. An unreadable file is reported by `init`.
 pub(crate) fn declares_retain(conf: &str, file: &str) -> bool {
     let base = Path::new(conf).parent().unwrap_or(Path::new("."));
-    let Ok(text) = std::fs::read(base.join(file)) else {
+    let Ok(text) = petriplc_files::read(&base.join(file), petriplc_files::IEC_SOURCE) else {
         return false;
     };
     let word = |i: usize| {

@@ -100,6 +100,18 @@ impl Module for TimelineModule {
             // Checked now, so a bad cell stops the PLC before it starts, not minutes in.
             let decimals = timeline.decimal_changes(i).unwrap_or_default();
             let whole = |v: f64| v.is_finite() && v.fract() == 0.0;
+            // In f32 a value beyond its range would become an infinity: refused like one.
+            if h.kind() == PointKind::Float {
+                if let Some(&(t, v)) = decimals.iter().find(|&&(_, v)| (v as f32).is_infinite()) {
+                    problems.push(format!(
+                        "timeline `{}` sets `{col}` to {v:?} at t={}s, beyond the range of point \
+                         `{col}` (f32: ±3.4e38); write a smaller number",
+                        self.file,
+                        format_seconds(t),
+                    ));
+                    continue;
+                }
+            }
             if h.kind() != PointKind::Float {
                 if let Some(&(t, v)) = decimals.iter().find(|&&(_, v)| !whole(v)) {
                     problems.push(format!(

@@ -452,8 +452,13 @@ fn timeline_errors() {
     );
     let e = start_err(&text(ok, "file = none.csv"), dir.path());
     assert!(
-        e.starts_with("module t: cannot read timeline ") && e.contains("none.csv: No such file"),
+        e.starts_with("module t: cannot read ") && e.ends_with("none.csv: no such file"),
         "{e}"
+    );
+    let e = start_err(&text(ok, "file = /dev/zero"), dir.path());
+    assert_eq!(
+        e,
+        "module t: cannot read /dev/zero: it is a character device, not a file; name a timeline"
     );
     assert_eq!(
         start_err(
@@ -476,6 +481,20 @@ fn timeline_errors() {
         ),
         "module t: timeline `t.csv` sets `B` to 2 at t=0s, which point `B` (unsigned, 1 bits) \
          cannot hold"
+    );
+    // Issue 27: NaN and infinities are refused where they are written, and so is a value an
+    // f32 point would hold as an infinity.
+    std::fs::write(dir.path().join("nan.csv"), "time,F\n0,1.5\n1,NaN\n").unwrap();
+    let float = "point A \"\" t\npoint F \"\" t f32";
+    let e = start_err(&text(float, "file = nan.csv"), dir.path());
+    assert!(
+        e.contains("nan.csv:3:3: `NaN` for `F` is not a finite number"),
+        "{e}"
+    );
+    std::fs::write(dir.path().join("big.csv"), "time,F\n0,1.5\n1,1e39\n").unwrap();
+    assert_eq!(
+        start_err(&text(float, "file = big.csv"), dir.path()),
+        "module t: timeline `big.csv` sets `F` to 1e39 at t=1s, beyond the range of point `F` (f32: ±3.4e38); write a smaller number"
     );
     std::fs::write(dir.path().join("bad.csv"), "time,A\nsoon,1\n").unwrap();
     let e = start_err(&text(ok, "file = bad.csv"), dir.path());

@@ -25,12 +25,9 @@ use petriplc_net::time::{format_seconds, parse_duration, TimeError};
 /// What is wrong with a timeline file, with where.
 #[derive(Debug, thiserror::Error)]
 pub enum TimelineError {
-    #[error("cannot read timeline {file}")]
-    Io {
-        file: String,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The file could not be read (missing, a folder or device, too large).
+    #[error(transparent)]
+    Io(#[from] petriplc_files::FileError),
     /// `line` and `column` are 1-based; `column` counts characters.
     #[error("{file}:{line}:{column}: {problem}")]
     Syntax {
@@ -45,14 +42,14 @@ impl TimelineError {
     /// The problem, when the file could be read.
     pub fn problem(&self) -> Option<&TimelineProblem> {
         match self {
-            TimelineError::Io { .. } => None,
+            TimelineError::Io(_) => None,
             TimelineError::Syntax { problem, .. } => Some(problem),
         }
     }
     /// The 1-based line and column, when the file could be read.
     pub fn position(&self) -> Option<(usize, usize)> {
         match self {
-            TimelineError::Io { .. } => None,
+            TimelineError::Io(_) => None,
             TimelineError::Syntax { line, column, .. } => Some((*line, *column)),
         }
     }
@@ -89,8 +86,10 @@ pub enum TimelineProblem {
     BadTime(TimeError),
     #[error("`{text}` is not a value for `{column}`: write 0/1, TRUE/FALSE or an integer, or leave the cell empty to keep the previous value")]
     BadValue { column: String, text: String },
-    #[error("`{text}` is not a value for `{column}`: write 0/1, TRUE/FALSE, an integer or a decimal number (1.5, -2e-3, nan, inf), or leave the cell empty to keep the previous value")]
+    #[error("`{text}` is not a value for `{column}`: write 0/1, TRUE/FALSE, an integer or a decimal number (1.5, -2e-3), or leave the cell empty to keep the previous value")]
     BadDecimal { column: String, text: String },
+    #[error("`{text}` for `{column}` is not a finite number: the PLC refuses NaN and infinities from outside, so that no point ever holds one (docs/runtime.md, \"What the PLC does with bad values\"); write a number")]
+    NotFinite { column: String, text: String },
     #[error("time {}s comes before {}s on line {previous_line}; sort the rows by time (equal times are allowed)", format_seconds(*time), format_seconds(*previous))]
     DecreasingTime {
         time: Duration,
@@ -240,6 +239,13 @@ impl Timeline {
                         };
                         err(line_no, col, problem)
                     })?;
+                    if !value.is_finite() {
+                        let problem = TimelineProblem::NotFinite {
+                            column: columns[i].clone(),
+                            text: cell.to_string(),
+                        };
+                        return Err(err(line_no, col, problem));
+                    }
                     reals[i].push((time, value));
                     // Whole numbers also as integers, for integer points.
                     if value.fract() == 0.0 && value.abs() < 9.0e15 {
@@ -285,10 +291,7 @@ impl Timeline {
 
     fn read_text(path: &Path) -> Result<(String, String), TimelineError> {
         let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| TimelineError::Io {
-            file: file.clone(),
-            source,
-        })?;
+        let bytes = petriplc_files::read(path, petriplc_files::TIMELINE)?;
         let text = String::from_utf8(bytes).map_err(|e| not_utf8(&file, e))?;
         Ok((text, file))
     }
@@ -649,20 +652,25 @@ mod tests {
     #[test]
     fn decimals_for_float_points() {
         let tl =
-            Timeline::parse_decimal("time,A,B\n0,1.5,2\n1,nan,-2e-3\n2,-inf,3.0\n", "d").unwrap();
+            Timeline::parse_decimal("time,A,B\n0,1.5,2\n1,0.25,-2e-3\n2,-7,3.0\n", "d").unwrap();
         assert_eq!(tl.decimal_at(0, secs(0.5)), Some(1.5));
-        assert!(tl.decimal_at(0, secs(1.0)).unwrap().is_nan());
-        assert_eq!(tl.decimal_at(0, secs(2.0)), Some(f64::NEG_INFINITY));
+        assert_eq!(tl.decimal_at(0, secs(1.0)), Some(0.25));
+        assert_eq!(tl.decimal_at(0, secs(2.0)), Some(-7.0));
         assert_eq!(tl.decimal_at(1, secs(1.0)), Some(-0.002));
         // Whole values, however written, are also there as integers.
         assert_eq!(tl.changes(1), &[(secs(0.0), 2), (secs(2.0), 3)]);
         assert_eq!(tl.decimal_changes(7), None);
-        assert_eq!(
-            tl.to_string(),
-            "time,A,B\n0,1.5,2\n1,NaN,-0.002\n2,-inf,3\n"
-        );
+        assert_eq!(tl.to_string(), "time,A,B\n0,1.5,2\n1,0.25,-0.002\n2,-7,3\n");
         let e = Timeline::parse_decimal("time,A\n0,warm\n", "d").unwrap_err();
-        assert_eq!(e.to_string(), "d:2:3: `warm` is not a value for `A`: write 0/1, TRUE/FALSE, an integer or a decimal number (1.5, -2e-3, nan, inf), or leave the cell empty to keep the previous value");
+        assert_eq!(e.to_string(), "d:2:3: `warm` is not a value for `A`: write 0/1, TRUE/FALSE, an integer or a decimal number (1.5, -2e-3), or leave the cell empty to keep the previous value");
+        // Issue 27: NaN and infinities, however spelled, are refused where they are written.
+        for cell in ["nan", "NaN", "inf", "-inf", "+Infinity", "1e999"] {
+            let e = Timeline::parse_decimal(&format!("time,A\n0,1\n1,{cell}\n"), "d").unwrap_err();
+            assert_eq!(
+                e.to_string(),
+                format!("d:3:3: `{cell}` for `A` is not a finite number: the PLC refuses NaN and infinities from outside, so that no point ever holds one (docs/runtime.md, \"What the PLC does with bad values\"); write a number")
+            );
+        }
         // The simulation's timelines stay whole.
         assert!(Timeline::parse("time,A\n0,1.5\n", "d").is_err());
         assert_eq!(
@@ -684,7 +692,7 @@ mod tests {
         let e = Timeline::read_file("/nonexistent/petriplc/tl.csv").unwrap_err();
         assert!(e.problem().is_none());
         assert!(petriplc_testnet::error_chain(&e)
-            .starts_with("cannot read timeline /nonexistent/petriplc/tl.csv: "));
+            .starts_with("cannot read /nonexistent/petriplc/tl.csv: no such file"));
     }
 
     #[test]

@@ -150,14 +150,14 @@ impl Module for Vitrine {
             None => Vec::new(),
             Some(file) => {
                 let path = ctx.path(file);
-                let text = std::fs::read_to_string(&path).map_err(|e| {
-                    self.fail(format!(
-                        "cannot read the background `{}`: {e}; fix `background` in [{}] (a \
-                         text file, relative to the configuration file)",
-                        path.display(),
-                        self.name
-                    ))
-                })?;
+                let text =
+                    petriplc_files::read_to_string(&path, petriplc_files::SMALL).map_err(|e| {
+                        self.fail(format!(
+                            "background: {e}; fix `background` in [{}] (a text file, relative \
+                             to the configuration file)",
+                            self.name
+                        ))
+                    })?;
                 text.lines().map(expand_tabs).collect()
             }
         };

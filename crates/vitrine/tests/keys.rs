@@ -317,7 +317,7 @@ fn wrong_sections_say_where_and_how_to_fix() {
         ("graph SP 5 1", "MIN (5) must be below MAX (1); swap them"),
         ("graph SP 5", "a graph row is `graph POINT [MIN MAX]`"),
         ("plot SP", "test.conf:15: a vitrine module reads only show, graph, key rows, not `plot`"),
-        ("background = missing.txt", "cannot read the background"),
+        ("background = missing.txt", "background: cannot read "),
         ("backgrnd = x.txt", "unknown setting `backgrnd` (test.conf:15) in section [vitrine]"),
         ("points = B1 NOPE", "`points`: "),
     ];

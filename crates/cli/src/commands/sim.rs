@@ -28,8 +28,14 @@ fn is_iec(path: &Path) -> bool {
         return true;
     }
     if ext == "xml" {
-        let head = fs::read(path).unwrap_or_default();
-        let head = String::from_utf8_lossy(&head[..head.len().min(4096)]).into_owned();
+        // The first 4 KiB say; a path that is not a file is reported by the reader later.
+        let mut head = Vec::new();
+        if petriplc_files::check(path, petriplc_files::IEC_SOURCE).is_ok() {
+            if let Ok(f) = fs::File::open(path) {
+                let _ = std::io::Read::read_to_end(&mut std::io::Read::take(f, 4096), &mut head);
+            }
+        }
+        let head = String::from_utf8_lossy(&head).into_owned();
         return petriplc_iec::syntax::plcopen::is_plcopen(&head);
     }
     false
