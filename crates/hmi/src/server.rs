@@ -28,6 +28,8 @@ use crate::state::{ForceRequest, PageGuard, Shared};
 const KEEP_ALIVE: Duration = Duration::from_secs(5);
 /// How long a force request waits for the module's next scan to apply it.
 const APPLY_WAIT: Duration = Duration::from_secs(2);
+/// The most pages that may follow the PLC's changes at once.
+const MAX_PAGES: usize = 256;
 /// How long `close` lets open requests finish before the runtime is dropped.
 const GRACE: Duration = Duration::from_secs(2);
 
@@ -267,7 +269,22 @@ async fn net_svg(State(app): State<App>, Path(module): Path<String>) -> Response
 
 /// The snapshots, as server-sent events: at once, then every `refresh` when something
 /// changed, and after `KEEP_ALIVE` without a change; the stream ends when the server stops.
-async fn events(State(app): State<App>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
+async fn events(State(app): State<App>) -> Response {
+    // Each open page costs a task and its buffers: a client opening streams without end is
+    // refused rather than allowed to grow the PLC's memory.
+    if app.shared.pages() >= MAX_PAGES {
+        return json_error(
+            StatusCode::SERVICE_UNAVAILABLE,
+            format!(
+                "{MAX_PAGES} pages already follow this PLC; close some (or raise the limit in \
+                 a build of your own)"
+            ),
+        );
+    }
+    stream(app).into_response()
+}
+
+fn stream(app: App) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
     let guard = PageGuard::new(Arc::clone(&app.shared));
     let mut tick = tokio::time::interval(app.shared.refresh);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -427,6 +444,9 @@ pub(crate) fn point_value(
     let text = match v {
         Value::Bool(b) => u8::from(*b).to_string(),
         Value::Number(n) => n.to_string(),
+        Value::String(s) if s.len() > 64 => {
+            return Err(format!("value {} is not a number", short(s)))
+        }
         Value::String(s) => match s.trim().to_ascii_lowercase().as_str() {
             "true" | "on" => "1".to_string(),
             "false" | "off" => "0".to_string(),
@@ -447,8 +467,16 @@ pub(crate) fn point_value(
             Ok(f) if f.is_finite() && f.abs() <= f64::from(f32::MAX) => {
                 Ok(PointValue::Float(f as f32))
             }
-            Ok(_) => Err(format!("value {text} does not fit type {type_name}")),
-            Err(_) => Err(format!("value {text} is not a number")),
+            // No point ever holds NaN or an infinity from outside (docs/runtime.md).
+            Ok(f) if !f.is_finite() => Err(format!(
+                "value {} is not a finite number; the PLC refuses NaN and infinities",
+                short(&text)
+            )),
+            Ok(_) => Err(format!(
+                "value {} does not fit type {type_name} (±3.4e38)",
+                short(&text)
+            )),
+            Err(_) => Err(format!("value {} is not a number", short(&text))),
         },
         PointKind::Unsigned => {
             let hi = (1i64 << bits) - 1;
@@ -466,6 +494,14 @@ pub(crate) fn point_value(
                 Err(_) => Err(format!("value {text} is not a whole number")),
             }
         }
+    }
+}
+
+/// A value as a message quotes it: at most 40 characters.
+fn short(text: &str) -> String {
+    match text.char_indices().nth(40) {
+        Some((i, _)) => format!("{}… ({} characters)", &text[..i], text.chars().count()),
+        None => text.to_string(),
     }
 }
 
@@ -503,7 +539,34 @@ mod tests {
         assert_eq!(check(Float, 32, json!("x")), "value x is not a number");
         assert_eq!(
             check(Float, 32, json!(1e300)),
-            "value 1e+300 does not fit type f32"
+            "value 1e+300 does not fit type f32 (±3.4e38)"
+        );
+        // Issue 27: NaN and infinities, however written, never reach a point.
+        for v in [
+            json!("NaN"),
+            json!("nan"),
+            json!("inf"),
+            json!("-Infinity"),
+            json!("1e400"),
+        ] {
+            assert!(
+                check(Float, 32, v.clone())
+                    .ends_with("is not a finite number; the PLC refuses NaN and infinities"),
+                "{v}: {}",
+                check(Float, 32, v.clone())
+            );
+        }
+        assert_eq!(
+            check(Float, 32, json!("1e39")),
+            "value 1e39 does not fit type f32 (±3.4e38)"
+        );
+        let long = "9".repeat(10_000);
+        assert_eq!(
+            check(Float, 32, json!(long)),
+            format!(
+                "value {}… (10000 characters) is not a number",
+                "9".repeat(40)
+            )
         );
         assert_eq!(check(Unsigned, 8, json!([1])), "value [1] is not a number");
         assert_eq!(

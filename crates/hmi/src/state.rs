@@ -112,11 +112,19 @@ impl Shared {
         std::mem::take(&mut *self.requests.lock().unwrap_or_else(|e| e.into_inner()))
     }
 
+    /// Queues a request for the next scan. A newer request for a point replaces one still
+    /// waiting (its page is told so): the queue never holds more requests than points, however
+    /// many arrive while the module does not scan.
     pub fn queue(&self, r: ForceRequest) {
-        self.requests
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push(r);
+        let mut requests = self.requests.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(i) = requests.iter().position(|q| q.point == r.point) {
+            let old = requests.swap_remove(i);
+            let _ = old.reply.send(Err(format!(
+                "point `{}`: replaced by a newer request before a scan applied it",
+                self.points[r.point].name
+            )));
+        }
+        requests.push(r);
     }
 
     pub fn point(&self, name: &str) -> Option<usize> {
@@ -207,5 +215,70 @@ impl PageGuard {
 impl Drop for PageGuard {
     fn drop(&mut self) {
         self.0.pages.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use petriplc_config::Location;
+    use petriplc_runtime::image::{Layout, ModuleMap};
+
+    fn shared() -> Shared {
+        let cfg = petriplc_runtime::harness::config(
+            "[PLC]\nmodule hmi hmi\npoint A \"\" hmi\npoint B \"\" hmi\n",
+            std::path::Path::new("."),
+        );
+        let layout = Layout::new(&cfg).unwrap();
+        let map = ModuleMap::new(&layout, "hmi", Location::Local).unwrap();
+        let points = ["A", "B"]
+            .iter()
+            .map(|n| PointInfo {
+                name: n.to_string(),
+                description: String::new(),
+                owner: "hmi".into(),
+                kind: PointKind::Unsigned,
+                bits: 1,
+                handle: map.handle(n).unwrap(),
+            })
+            .collect();
+        Shared::new(
+            "hmi".into(),
+            String::new(),
+            String::new(),
+            Duration::from_millis(100),
+            points,
+            Vec::new(),
+        )
+    }
+
+    /// Issue 27: requests that arrive while the module does not scan cannot grow the queue
+    /// without bound: a newer one for a point replaces the waiting one, which is answered.
+    #[test]
+    fn the_queue_holds_at_most_one_request_per_point() {
+        let s = shared();
+        let mut answers = Vec::new();
+        for i in 0..10_000u32 {
+            let (reply, answer) = oneshot::channel();
+            s.queue(ForceRequest {
+                point: (i % 2) as usize,
+                value: Some(PointValue::Unsigned(i % 2)),
+                reply,
+            });
+            answers.push(answer);
+        }
+        assert_eq!(s.requests.lock().unwrap().len(), 2);
+        let replaced = answers
+            .iter_mut()
+            .filter_map(|a| a.try_recv().ok())
+            .filter(|r| {
+                r.as_ref()
+                    .is_err_and(|e| e.contains("replaced by a newer request"))
+            })
+            .count();
+        assert_eq!(replaced, 9_998);
+        let left: Vec<usize> = s.take_requests().iter().map(|r| r.point).collect();
+        assert_eq!(left.len(), 2);
+        assert!(left.contains(&0) && left.contains(&1));
     }
 }

@@ -10,54 +10,8 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use common::*;
-use petriplc_runtime::harness::{self, ms, Plc};
+use petriplc_runtime::harness::{self, ms};
 use serde_json::Value;
-
-/// The mixer's modules stepped in-process, with a logger of B1, L1 and SP (a signed point
-/// nobody writes) and the hmi.
-fn mixer_harness(log: &std::path::Path) -> (Plc, String) {
-    let text = format!(
-        "[PLC]\nmodule operator timeline\nmodule tank plant\nmodule controller petrinet\n\
-         module log logger\nmodule hmi hmi\n{MIXER_POINTS}\n\
-         point SP \"set point\" operator i16 init 7\n\
-         [operator]\nfile = operator.csv\nrepeat = yes\n\
-         [tank]\nplant = tank\nspeed = 5\n\
-         [controller]\nnet = mixer.pnml\nnames = sipn\n\
-         [log]\nfile = {}\npoints = B1 SP L1\n\
-         [hmi]\nlisten = 127.0.0.1:0\ntoken = {TOKEN}\nrefresh = T#20ms\n",
-        log.display()
-    );
-    let plc = harness::start(&text, &mixer_dir(), registry).unwrap_or_else(|e| panic!("{e}"));
-    let url = url_in(&plc.status("hmi")).expect("no address in the hmi's status line");
-    (plc, url)
-}
-
-/// Runs `f` on another thread while the PLC scans on this one, at `now` advanced by `step`
-/// each scan (zero: time stands still), until `f` returns.
-fn while_scanning<T: Send>(
-    plc: &mut Plc,
-    now: &mut Duration,
-    step: Duration,
-    f: impl FnOnce() -> T + Send,
-) -> T {
-    std::thread::scope(|s| {
-        let h = s.spawn(f);
-        while !h.is_finished() {
-            plc.tick(*now).unwrap();
-            *now += step;
-            std::thread::sleep(Duration::from_millis(2));
-        }
-        h.join().unwrap()
-    })
-}
-
-/// Scans until `until` (10 ms scans).
-fn run_to(plc: &mut Plc, now: &mut Duration, until: Duration) {
-    while *now < until {
-        plc.tick(*now).unwrap();
-        *now += ms(10);
-    }
-}
 
 /// The logger's rows for `point`, as (time, value).
 fn logged(log: &std::path::Path, point: &str) -> Vec<(String, String)> {
@@ -252,6 +206,19 @@ fn bad_requests_are_refused_with_the_reason_and_change_nothing() {
             r#"{"point": "SP", "value": "ten"}"#,
             "point `SP`: value ten is not a whole number",
         ),
+        // Issue 27: no point ever holds NaN or an infinity from outside.
+        (
+            r#"{"point": "T", "value": "NaN"}"#,
+            "point `T`: value nan is not a finite number",
+        ),
+        (
+            r#"{"point": "T", "value": "-inf"}"#,
+            "point `T`: value -inf is not a finite number",
+        ),
+        (
+            r#"{"point": "T", "value": 1e39}"#,
+            "point `T`: value 1e+39 does not fit type f32 (±3.4e38)",
+        ),
     ] {
         let (status, reply) = post(&force, Some(TOKEN), body);
         assert_eq!(status, 400, "{body}: {reply}");
@@ -264,6 +231,7 @@ fn bad_requests_are_refused_with_the_reason_and_change_nothing() {
         assert_eq!(p["forced"], false, "{p}");
     }
     assert_eq!(point(&state, "SP")["value"], 7);
+    assert_eq!(point(&state, "T")["value"], 21.5);
     plc.close();
 }
 

@@ -9,7 +9,7 @@ use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
 use petriplc_plc::{Plc, PlcStatus, RunOptions};
-use petriplc_runtime::harness;
+use petriplc_runtime::harness::{self, ms};
 use petriplc_runtime::module::Factory;
 use serde_json::Value;
 
@@ -197,5 +197,52 @@ pub fn wait_for<T>(limit: Duration, mut f: impl FnMut() -> Option<T>) -> Option<
             return None;
         }
         std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The mixer's modules stepped in-process, with a logger of B1, L1 and SP (a signed point
+/// nobody writes) and the hmi.
+pub fn mixer_harness(log: &std::path::Path) -> (harness::Plc, String) {
+    let text = format!(
+        "[PLC]\nmodule operator timeline\nmodule tank plant\nmodule controller petrinet\n\
+         module log logger\nmodule hmi hmi\n{MIXER_POINTS}\n\
+         point SP \"set point\" operator i16 init 7\n\
+         point T \"temperature\" operator f32 init 21.5\n\
+         [operator]\nfile = operator.csv\nrepeat = yes\n\
+         [tank]\nplant = tank\nspeed = 5\n\
+         [controller]\nnet = mixer.pnml\nnames = sipn\n\
+         [log]\nfile = {}\npoints = B1 SP L1\n\
+         [hmi]\nlisten = 127.0.0.1:0\ntoken = {TOKEN}\nrefresh = T#20ms\n",
+        log.display()
+    );
+    let plc = harness::start(&text, &mixer_dir(), registry).unwrap_or_else(|e| panic!("{e}"));
+    let url = url_in(&plc.status("hmi")).expect("no address in the hmi's status line");
+    (plc, url)
+}
+
+/// Runs `f` on another thread while the PLC scans on this one, at `now` advanced by `step`
+/// each scan (zero: time stands still), until `f` returns.
+pub fn while_scanning<T: Send>(
+    plc: &mut harness::Plc,
+    now: &mut Duration,
+    step: Duration,
+    f: impl FnOnce() -> T + Send,
+) -> T {
+    std::thread::scope(|s| {
+        let h = s.spawn(f);
+        while !h.is_finished() {
+            plc.tick(*now).unwrap();
+            *now += step;
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        h.join().unwrap()
+    })
+}
+
+/// Scans until `until` (10 ms scans).
+pub fn run_to(plc: &mut harness::Plc, now: &mut Duration, until: Duration) {
+    while *now < until {
+        plc.tick(*now).unwrap();
+        *now += ms(10);
     }
 }
