@@ -226,3 +226,46 @@ fn the_il_chaser_runs_on_the_soft_plc() {
     assert!(report.contains("chaser_il    iec"), "{report}");
     assert!(report.contains("chaser_il.il (chaser):"), "{report}");
 }
+
+/// Issue 27: a stuck IEC scan was failed by the runner's watchdog with "its scan has run
+/// 100.1 ms" and no place; the engine's own check now fails it first, naming the file and
+/// line of the loop, with the fault time in milliseconds.
+#[test]
+fn a_stuck_scan_on_the_soft_plc_names_its_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    file(
+        &dir,
+        "stuck.st",
+        "PROGRAM main\nVAR i : DINT; go : BOOL := TRUE; END_VAR\n\
+         WHILE go DO\n  i := i + 1;\n  IF i > 1000000 THEN i := 0; END_IF;\nEND_WHILE;\n\
+         END_PROGRAM\n",
+    );
+    let conf = file(
+        &dir,
+        "plc.conf",
+        "[PLC]\nmodule logic iec\n[logic]\nprogram = stuck.st\nwatchdog = T#100ms\n\
+         max_iterations = 4000000000\n",
+    );
+    let out = petriplc()
+        .args(["run", &conf, "--for", "5s"])
+        .args(["--plc-id", &format!("test-stuck-{}", std::process::id())])
+        .assert()
+        .code(1)
+        .get_output()
+        .stderr
+        .clone();
+    let log = String::from_utf8_lossy(&out);
+    assert!(
+        log.contains("stuck.st:3: in PROGRAM main: watchdog: a loop ran past the watchdog time (watchdog = T#100ms)"),
+        "{log}"
+    );
+    // Milliseconds: `at t=0.01s`, never nine decimals.
+    let at = log
+        .split("at t=")
+        .nth(1)
+        .unwrap()
+        .split('s')
+        .next()
+        .unwrap();
+    assert!(at.split('.').nth(1).is_none_or(|f| f.len() <= 3), "{log}");
+}

@@ -445,7 +445,10 @@ pub fn bind(
     }
 }
 
-/// `at t=1.5s` for scan-time errors.
+/// `at t=1.5s` for scan-time errors, to the millisecond: the PLC's clock counts
+/// nanoseconds, which say nothing to a person reading the log.
 pub fn at(now: Duration) -> String {
-    format!("at t={}s", format_seconds(now))
+    let ms = (now.as_nanos() + 500_000) / 1_000_000;
+    let rounded = Duration::from_millis(u64::try_from(ms).unwrap_or(u64::MAX));
+    format!("at t={}s", format_seconds(rounded))
 }

@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 use petriplc_config::{ModuleDecl, PointKind};
 use petriplc_iec::sema::ir::VarClass;
 use petriplc_iec::sema::types::{Elem, Type};
-use petriplc_iec::vm::{Engine, Machine, VarRef};
+use petriplc_iec::vm::{Engine, FaultKind, Machine, VarRef};
 use petriplc_iec::{Natives, Select, Sources};
 use petriplc_runtime::image::{Handle, ModuleMap};
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
@@ -422,7 +422,15 @@ impl Module for IecModule {
         let mut check = || limit.is_none_or(|l| started.elapsed() < l);
         run.machine
             .scan(ctx.now.as_nanos() as i64, &mut check)
-            .map_err(|f| error(&self.name, format!("{}: {f}", common::at(ctx.now))))?;
+            .map_err(|f| {
+                let limit = match (&f.kind, limit) {
+                    (FaultKind::Watchdog, Some(l)) => {
+                        format!(" (watchdog = {})", petriplc_net::time::format_iec(l))
+                    }
+                    _ => String::new(),
+                };
+                error(&self.name, format!("{}: {f}{limit}", common::at(ctx.now)))
+            })?;
         for b in &run.outputs {
             let raw = run.machine.slot(b.at.addr);
             let r = match b.conv {
@@ -488,6 +496,14 @@ impl Module for IecModule {
 
     fn retains_data(&self) -> bool {
         self.retains
+    }
+
+    /// The engine checks `watchdog` in its loops and fails the scan with the file and line
+    /// it was stuck at: the runner waits a little longer before it abandons the scan.
+    fn watchdog_grace(&self) -> Duration {
+        self.watchdog.map_or(Duration::ZERO, |limit| {
+            (limit / 2).clamp(Duration::from_millis(20), Duration::from_millis(500))
+        })
     }
 
     fn default_scan_period(&self) -> Option<Duration> {

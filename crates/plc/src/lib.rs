@@ -1141,7 +1141,10 @@ fn run_thread(shared: &Arc<Shared>, r: Ready) {
         restarts.started();
         let (ended, close_panicked) = match decl.watchdog {
             None => run_instance(shared, index, module, map, &stats),
-            Some(limit) => supervise(shared, index, module, map, &stats, limit, first),
+            Some(limit) => {
+                let limit = limit + module.watchdog_grace();
+                supervise(shared, index, module, map, &stats, limit, first)
+            }
         };
         first = false;
         let why = match ended {
@@ -1368,7 +1371,9 @@ fn scan_loop(
                 return Ended::Abandoned;
             }
             let took = period::now().saturating_sub(t.began());
-            if took > *limit {
+            // A module that failed its own scan for taking too long (the iec engine) says
+            // where it was: its message is the better one.
+            if took > *limit && result.is_ok() {
                 data.discard();
                 return Ended::Watchdog(format!(
                     "its scan took {}, longer than its watchdog ({}); its outputs were not \

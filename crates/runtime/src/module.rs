@@ -138,6 +138,13 @@ pub trait Module: Send {
     fn default_scan_period(&self) -> Option<Duration> {
         None
     }
+    /// How much longer than its `watchdog` the runner waits before it gives up on a scan
+    /// that does not end. A module that checks the limit itself (the `iec` engine does, in
+    /// its loops) then fails its own scan with a message that says where it was stuck, which
+    /// the runner cannot say; the runner's watchdog stays the backstop. Default: none.
+    fn watchdog_grace(&self) -> Duration {
+        Duration::ZERO
+    }
     /// Whether the module will register retained data in `init` ([`InitContext::retain`]),
     /// known from its settings alone: the runner then opens the PLC's retain file before
     /// initialising any module (a module that registers without saying so is refused).
