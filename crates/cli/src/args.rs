@@ -37,14 +37,14 @@ pub enum Command {
     /// Print the modules of a running PLC: state, process, scans, cycle times, overruns.
     #[command(after_long_help = concat!("Examples:\n  \
         petriplc status\n  \
-        petriplc status --plc-id line2\n\n\
+        petriplc status line2\n\n\
     0 while the PLC runs (or starts), 4 when no PLC has that id, 5 when it exited without\n\
     stopping: `petriplc stop` or the next `petriplc run` removes what it left.\n\n",
         exit_codes!()))]
     Status(PlcIdArgs),
     /// Stop a running PLC cleanly; for one that exited without stopping, remove what it left.
     #[command(after_long_help = concat!("Examples:\n  \
-        petriplc stop --plc-id line2\n  \
+        petriplc stop line2\n  \
         petriplc stop\n\n\
     0 once stopped (or cleaned up after a PLC that had exited), 1 when the PLC did not\n\
     stop, 4 when no PLC has that id.\n\n",
@@ -380,9 +380,23 @@ pub struct RunArgs {
 
 #[derive(Debug, Args)]
 pub struct PlcIdArgs {
-    /// Which PLC.
-    #[arg(long, default_value = DEFAULT_PLC_ID, value_name = "ID")]
-    pub plc_id: String,
+    /// Which PLC: the id `petriplc run` was given (`--plc-id`, or `plc_id` in [PLC])
+    /// [default: petriplc]
+    #[arg(value_name = "ID", conflicts_with = "plc_id")]
+    id: Option<String>,
+    /// The same, as an option (as `petriplc run` takes it)
+    #[arg(long, value_name = "ID")]
+    plc_id: Option<String>,
+}
+
+impl PlcIdArgs {
+    /// The PLC id, however it was given.
+    pub fn id(&self) -> &str {
+        self.id
+            .as_deref()
+            .or(self.plc_id.as_deref())
+            .unwrap_or(DEFAULT_PLC_ID)
+    }
 }
 
 fn parse_time(s: &str) -> Result<Duration, String> {

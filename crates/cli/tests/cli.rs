@@ -517,3 +517,29 @@ fn a_sipn_net_without_names_sipn_gets_the_hint() {
         "",
     );
 }
+
+/// Issue 27: `petriplc status ID` was refused ("unexpected argument"): status and stop take
+/// the id as users type it, or as `--plc-id`, but not both.
+#[test]
+fn status_and_stop_take_the_id_as_an_argument() {
+    let id = format!("no-such-plc-{}", std::process::id());
+    for command in ["status", "stop"] {
+        for args in [
+            vec![command, id.as_str()],
+            vec![command, "--plc-id", id.as_str()],
+        ] {
+            Command::cargo_bin("petriplc")
+                .unwrap()
+                .args(&args)
+                .assert()
+                .code(4)
+                .stderr(predicate::str::contains(format!("no PLC with id `{id}`")));
+        }
+        Command::cargo_bin("petriplc")
+            .unwrap()
+            .args([command, "a", "--plc-id", "b"])
+            .assert()
+            .code(2)
+            .stderr(predicate::str::contains("cannot be used with"));
+    }
+}

@@ -234,7 +234,7 @@ fn init_logging(args: &RunArgs, vitrine: bool, plc_id: &str) -> Result<(), Failu
 /// `petriplc status`: 0 and the modules' table for a running PLC, 5 for one that exited
 /// without stopping, 4 for none.
 pub fn status(args: PlcIdArgs) -> Result<(), Failure> {
-    let id = &args.plc_id;
+    let id = args.id();
     match owner::probe(id).bad_input()? {
         Probe::Running { pid } => {
             let text = match PlcStatus::read(id) {
@@ -263,7 +263,7 @@ pub fn status(args: PlcIdArgs) -> Result<(), Failure> {
 /// exited without stopping, removes what it left. 4 if there is no such PLC.
 pub fn stop(args: PlcIdArgs) -> Result<(), Failure> {
     use nix::sys::signal::Signal;
-    let id = &args.plc_id;
+    let id = args.id();
     let started = std::time::Instant::now();
     loop {
         if let Some(plc) = owner::running_plc(id).bad_input()? {
