@@ -372,9 +372,13 @@ pub struct RunArgs {
     /// `syslog:PATH` (a syslog Unix socket), `syslog:HOST:PORT` (syslog over UDP).
     #[arg(long, value_name = "WHERE", default_value = "auto", value_parser = crate::logging::parse_log_to)]
     pub log_to: crate::logging::LogTo,
-    /// Overrides a setting of a module's section, e.g. `--set hmi:listen=127.0.0.1:8081`
-    /// (repeatable).
-    #[arg(long = "set", value_name = "MODULE:SETTING=VALUE")]
+    /// Overrides a setting of a module's section, e.g. `--set hmi:listen=127.0.0.1:8081`,
+    /// or one of its table rows, the row of that table with the same first cell: `--set
+    /// 'io:device table tcp:127.0.0.1:5022 1 5ms 500ms'` (repeatable).
+    #[arg(
+        long = "set",
+        value_name = "MODULE:SETTING=VALUE | MODULE:TABLE KEY CELL…"
+    )]
     pub overrides: Vec<petriplc_config::Override>,
 }
 

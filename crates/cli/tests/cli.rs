@@ -543,3 +543,39 @@ fn status_and_stop_take_the_id_as_an_argument() {
             .stderr(predicate::str::contains("cannot be used with"));
     }
 }
+
+/// Issue 27: a configuration's problems came in two passes (C022 first, the modules' own
+/// errors only once that was fixed). One attempt now tells them all.
+#[test]
+fn every_problem_of_a_configuration_is_reported_at_once() {
+    let dir = TempDir::new().unwrap();
+    fs::write(
+        dir.path().join("plc.conf"),
+        "[PLC]\nmodule logic iec\nmodule hmi hmi\nmodule io ./no-such-program\n\
+         point V1 \"valve\" controller\n[logic]\nprogram = nope.st\n\
+         [hmi]\nlisten = not-an-address\n",
+    )
+    .unwrap();
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .current_dir(dir.path())
+        .args(["run", "plc.conf", "--for", "1s"])
+        .args(["--set", "nosuch:x=1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "error[C022]: the owner of point V1",
+        ))
+        .stderr(predicate::str::contains(
+            "error: module hmi: plc.conf:9: `listen = not-an-address` is not an address",
+        ))
+        .stderr(predicate::str::contains(
+            "error: module io: `./no-such-program`",
+        ))
+        .stderr(predicate::str::contains(
+            "--set: error[C033]: `x` is set for `nosuch`, but no module nosuch is declared",
+        ))
+        .stderr(predicate::str::contains(
+            "plc.conf is not a valid configuration (4 problems); nothing was started",
+        ));
+}

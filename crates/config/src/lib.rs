@@ -31,35 +31,75 @@ pub fn read_file(path: &Path) -> Result<PlcConfig, ConfigError> {
     typed::build(read_raw(path)?)
 }
 
-/// A setting given on the command line (`petriplc run --set SECTION:NAME=VALUE`): it replaces
-/// the section's setting of that name, or adds it.
+/// A setting or a table row given on the command line (`petriplc run --set`):
+/// `SECTION:NAME=VALUE` replaces the section's setting of that name, or adds it;
+/// `SECTION:TABLE KEY CELL…` replaces the section's row of that table whose first cell is
+/// KEY (`--set 'io:device table tcp:127.0.0.1:5022 1 5ms 500ms'`), or adds it.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Override {
     pub section: String,
+    /// The setting's name, or the row's table.
     pub name: String,
+    /// The setting's value (empty for a row).
     pub value: String,
+    /// A row's cells, its key first; `None` for a setting.
+    pub cells: Option<Vec<String>>,
 }
 
 impl std::str::FromStr for Override {
     type Err = String;
 
-    /// `SECTION:NAME=VALUE`, e.g. `hmi:listen=127.0.0.1:8081`.
+    /// `SECTION:NAME=VALUE`, e.g. `hmi:listen=127.0.0.1:8081`, or `SECTION:TABLE KEY CELL…`.
     fn from_str(text: &str) -> Result<Override, String> {
         let bad = || {
-            format!("`{text}` is not SECTION:NAME=VALUE (for example `hmi:listen=127.0.0.1:8081`)")
+            format!(
+                "`{text}` is neither SECTION:NAME=VALUE (for example `hmi:listen=127.0.0.1:8081`) \
+                 nor SECTION:TABLE KEY CELL… (a row, for example `io:device table \
+                 tcp:127.0.0.1:5022 1 5ms 500ms`)"
+            )
         };
         let (section, rest) = text.split_once(':').ok_or_else(bad)?;
-        let (name, value) = rest.split_once('=').ok_or_else(bad)?;
-        let (section, name) = (section.trim(), name.trim());
-        let word = |w: &str| !w.is_empty() && !w.contains(char::is_whitespace);
-        if !word(section) || !word(name) {
+        let section = section.trim();
+        if section.is_empty() || section.contains(char::is_whitespace) {
             return Err(bad());
         }
-        Ok(Override {
-            section: section.to_string(),
-            name: name.to_string(),
-            value: value.trim().to_string(),
-        })
+        match raw::setting_or_row(rest).map_err(|_| bad())? {
+            raw::Entry::Pair(name, value) => Ok(Override {
+                section: section.to_string(),
+                name,
+                value: value.trim().to_string(),
+                cells: None,
+            }),
+            raw::Entry::Row(table, cells) if !cells.is_empty() => Ok(Override {
+                section: section.to_string(),
+                name: table,
+                value: String::new(),
+                cells: Some(cells),
+            }),
+            raw::Entry::Row(..) => Err(bad()),
+        }
+    }
+}
+
+impl std::fmt::Display for Override {
+    /// As it is written after `--set`, so that it reads back the same.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.cells {
+            None => write!(f, "{}:{}={}", self.section, self.name, self.value),
+            Some(cells) => {
+                write!(f, "{}:{}", self.section, self.name)?;
+                for c in cells {
+                    if c.is_empty()
+                        || c.contains(|ch: char| ch.is_whitespace() || "\"#".contains(ch))
+                    {
+                        write!(f, " \"{}\"", c.replace('\\', "\\\\").replace('"', "\\\""))?;
+                    } else {
+                        write!(f, " {c}")?;
+                    }
+                }
+                Ok(())
+            }
+        }
     }
 }
 
@@ -67,6 +107,21 @@ impl std::str::FromStr for Override {
 /// an overridden `scan_period` is checked like one in the file). Messages about an
 /// overridden setting point at `--set`.
 pub fn read_file_with(path: &Path, overrides: &[Override]) -> Result<PlcConfig, ConfigError> {
+    let (config, diagnostics) = read_file_partial(path, overrides)?;
+    if diagnostics.is_empty() {
+        Ok(config)
+    } else {
+        Err(ConfigError { diagnostics })
+    }
+}
+
+/// [`read_file_with`], giving the configuration as far as it could be given meaning with
+/// every problem found in it, so that a caller can check the rest (the modules' own
+/// settings) and report all at once. `Err` only when the files cannot be read at all.
+pub fn read_file_partial(
+    path: &Path,
+    overrides: &[Override],
+) -> Result<(PlcConfig, Vec<Diagnostic>), ConfigError> {
     let mut raw = read_raw(path)?;
     for o in overrides {
         let section = raw
@@ -77,19 +132,33 @@ pub fn read_file_with(path: &Path, overrides: &[Override]) -> Result<PlcConfig, 
                 pairs: Vec::new(),
                 rows: Vec::new(),
             });
+        let origin = Origin {
+            file: "--set".to_string(),
+            line: 0,
+        };
+        if let Some(cells) = &o.cells {
+            let row = Row {
+                table: o.name.clone(),
+                cells: cells.clone(),
+                origin,
+            };
+            let same = |r: &Row| r.table == row.table && r.cells.first() == row.cells.first();
+            match section.rows.iter_mut().find(|r| same(r)) {
+                Some(r) => *r = row,
+                None => section.rows.push(row),
+            }
+            continue;
+        }
         let setting = Setting {
             value: o.value.clone(),
-            origin: Origin {
-                file: "--set".to_string(),
-                line: 0,
-            },
+            origin,
         };
         match section.pairs.iter_mut().find(|(k, _)| *k == o.name) {
             Some((_, s)) => *s = setting,
             None => section.pairs.push((o.name.clone(), setting)),
         }
     }
-    typed::build(raw)
+    Ok(typed::build_partial(raw))
 }
 
 /// Reads `text` as the configuration file `file` (the name used in messages); `*include`s

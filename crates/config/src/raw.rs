@@ -284,12 +284,6 @@ enum Line {
     Entry(Option<String>, Entry),
 }
 
-#[derive(Debug, PartialEq, Eq)]
-enum Entry {
-    Pair(String, String),
-    Row(String, Vec<String>),
-}
-
 type LineError = (&'static str, String);
 
 fn parse_line(line: &str) -> Result<Line, LineError> {
@@ -389,6 +383,20 @@ fn split_prefix(body: &str) -> (Option<String>, &str) {
     } else {
         (None, body)
     }
+}
+
+/// A line's meaning: a setting or a table row.
+#[derive(Debug, PartialEq, Eq)]
+pub(crate) enum Entry {
+    /// `name = value`
+    Pair(String, String),
+    /// `table cell cell …`
+    Row(String, Vec<String>),
+}
+
+/// What follows `SECTION:` in a `--set`, read as a line of a file reads.
+pub(crate) fn setting_or_row(body: &str) -> Result<Entry, String> {
+    entry(body).map_err(|(_, why)| why)
 }
 
 fn entry(body: &str) -> Result<Entry, LineError> {

@@ -65,6 +65,17 @@ const MATPLC_PLC_SETTINGS: &[(&str, &str)] = &[
 const NULL: &str = "NULL";
 
 pub(crate) fn build(raw: RawConfig) -> Result<PlcConfig, ConfigError> {
+    let (config, diagnostics) = build_partial(raw);
+    if diagnostics.is_empty() {
+        Ok(config)
+    } else {
+        Err(ConfigError { diagnostics })
+    }
+}
+
+/// The configuration as far as it could be read, and every problem found: a tool that
+/// checks more (the modules' own settings) reports its problems with these, at once.
+pub(crate) fn build_partial(raw: RawConfig) -> (PlcConfig, Vec<Diagnostic>) {
     let mut b = Builder::default();
     let empty = Section::default();
     let plc = raw.sections.get("PLC").unwrap_or(&empty);
@@ -76,20 +87,16 @@ pub(crate) fn build(raw: RawConfig) -> Result<PlcConfig, ConfigError> {
     b.check_modules();
     b.check_net();
     let modules = b.module_settings(&raw.sections);
-    if !b.diags.is_empty() {
-        return Err(ConfigError {
-            diagnostics: b.diags,
-        });
-    }
-    Ok(PlcConfig {
-        file: raw.file,
+    let config = PlcConfig {
+        file: raw.file.clone(),
         plc: first_settings(plc),
         retain,
         points: b.points,
         modules,
         synch: b.synch,
-        sections: raw.sections,
-    })
+        sections: raw.sections.clone(),
+    };
+    (config, b.diags)
 }
 
 /// A section's settings by name; a repeated setting has the same value (layer 1 checks),

@@ -107,10 +107,6 @@ struct Run {
     kept: Vec<iec_retain::Kept>,
 }
 
-fn parse_time(text: &str) -> Option<Duration> {
-    petriplc_net::time::parse_duration(text).ok()
-}
-
 impl IecModule {
     pub fn new(decl: &ModuleDecl) -> Result<IecModule, ModuleError> {
         common::check_decl(decl, KIND, SETTINGS)?;
@@ -144,15 +140,9 @@ impl IecModule {
                 )
             })?,
         };
-        let watchdog = match common::setting(decl, "watchdog") {
-            None => None,
-            Some(v) => Some(parse_time(v).filter(|d| !d.is_zero()).ok_or_else(|| {
-                error(
-                    &decl.name,
-                    format!("`watchdog = {v}`: give a duration such as T#100ms or 0.1"),
-                )
-            })?),
-        };
+        // Read by the configuration (C060 when it is not a duration): the runner's watchdog
+        // and the engine's check are the same limit.
+        let watchdog = decl.watchdog;
         Ok(IecModule {
             name: decl.name.clone(),
             file,

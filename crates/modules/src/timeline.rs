@@ -1,14 +1,17 @@
 //! `timeline`: drives points from a timeline CSV (petriplc-sim's format: `time,A,B,...`,
 //! each value holding until a later row changes it); every column drives the point of the
 //! same name, which this module must own. A column driving an f32 point takes decimal values
-//! (`20.5`, `-1e-3`, `nan`, `inf`); the others take whole numbers and TRUE/FALSE. Before a column's first row its point keeps
-//! its init value (restored at each restart with `repeat`). Every value is checked against
-//! its point at `init`.
+//! (`20.5`, `-1e-3`); the others take whole numbers and TRUE/FALSE. NaN and infinities are
+//! refused, as at every boundary of the PLC, unless `non_finite = accept` (for tests of how
+//! a program copes with them). Before a column's first row its point keeps its init value
+//! (restored at each restart with `repeat`). Every value is checked against its point at
+//! `init`.
 //!
 //! ```text
 //! [buttons]
 //! file = press-b1.csv       # relative to the configuration file
 //! repeat = yes              # start again 1 s after the last row (default: no)
+//! non_finite = refuse       # or accept: `nan`, `inf` drive f32 points (default: refuse)
 //! ```
 
 use std::time::Duration;
@@ -17,7 +20,7 @@ use petriplc_config::{ModuleDecl, PointKind, PointValue};
 use petriplc_net::time::format_seconds;
 use petriplc_runtime::image::Handle;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
-use petriplc_sim::Timeline;
+use petriplc_sim::{NonFinite, Timeline};
 
 use crate::common::{self, at, chain, error, fits, kind_name, write_int};
 
@@ -36,6 +39,7 @@ pub struct TimelineModule {
     name: String,
     file: String,
     repeat: bool,
+    non_finite: NonFinite,
     run: Option<Run>,
 }
 
@@ -52,11 +56,26 @@ struct Run {
 impl TimelineModule {
     /// Checks the settings; the file is read by `init`.
     pub fn new(decl: &ModuleDecl) -> Result<TimelineModule, ModuleError> {
-        common::check_decl(decl, KIND, &["file", "repeat"])?;
+        common::check_decl(decl, KIND, &["file", "repeat", "non_finite"])?;
+        let non_finite = match common::setting(decl, "non_finite") {
+            None | Some("refuse") => NonFinite::Refuse,
+            Some("accept") => NonFinite::Accept,
+            Some(other) => {
+                return Err(error(
+                    &decl.name,
+                    format!(
+                        "`non_finite = {other}`: write `refuse` (the default: NaN and \
+                         infinities in the file are errors) or `accept` (they are driven into \
+                         f32 points, to test how the PLC copes with them)"
+                    ),
+                ))
+            }
+        };
         Ok(TimelineModule {
             name: decl.name.clone(),
             file: common::require(decl, "file")?.to_string(),
             repeat: common::flag(decl, "repeat")?,
+            non_finite,
             run: None,
         })
     }
@@ -70,7 +89,7 @@ fn seconds(d: Duration) -> String {
 impl Module for TimelineModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         common::rows(ctx, KIND, &[])?;
-        let timeline = Timeline::read_file_decimal(ctx.path(&self.file))
+        let timeline = Timeline::read_file_decimal(ctx.path(&self.file), self.non_finite)
             .map_err(|e| error(&self.name, chain(&e)))?;
         let module = self.name.as_str();
         let mut problems = Vec::new();
@@ -101,7 +120,7 @@ impl Module for TimelineModule {
             let decimals = timeline.decimal_changes(i).unwrap_or_default();
             let whole = |v: f64| v.is_finite() && v.fract() == 0.0;
             // In f32 a value beyond its range would become an infinity: refused like one.
-            if h.kind() == PointKind::Float {
+            if h.kind() == PointKind::Float && self.non_finite == NonFinite::Refuse {
                 if let Some(&(t, v)) = decimals.iter().find(|&&(_, v)| (v as f32).is_infinite()) {
                     problems.push(format!(
                         "timeline `{}` sets `{col}` to {v:?} at t={}s, beyond the range of point \

@@ -461,6 +461,7 @@ point raw \"\" dsp
 point t \"\" dsp f32
 [feed]
 file = in.csv
+non_finite = accept
 [dsp]
 scan_period = 0.1
 out_time_pt = t
@@ -749,7 +750,8 @@ fn timeline_and_logger_carry_f32_points() {
     )
     .unwrap();
     let conf = "[PLC]\nmodule feed timeline\nmodule log logger\npoint x \"\" feed f32\n\
-                point n \"\" feed i8\n[feed]\nfile = in.csv\n[log]\nfile = log.csv\n\
+                point n \"\" feed i8\n[feed]\nfile = in.csv\nnon_finite = accept\n\
+                [log]\nfile = log.csv\n\
                 plot = trend.svg\n";
     let mut plc = start(conf, dir.path()).unwrap();
     for k in 0..3 {

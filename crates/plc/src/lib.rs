@@ -82,11 +82,6 @@ pub enum RunError {
     /// a source would be printed again after it.)
     #[error("{error}")]
     Init { module: String, error: ModuleError },
-    #[error("--set {setting}: there is no module of that name; the configuration declares {}", .modules.join(", "))]
-    Override {
-        setting: String,
-        modules: Vec<String>,
-    },
     /// What the PLC needs and others hold: its id, the addresses its modules listen on.
     /// Every one is listed, each with the command-line option that avoids it.
     #[error("nothing was started: {}", taken_list(.0))]
@@ -130,6 +125,28 @@ pub enum RunError {
         plc_id: String,
         reason: String,
     },
+    /// Every problem one attempt found, so that none waits for another to be fixed.
+    #[error("{}", .0.iter().map(ToString::to_string).collect::<Vec<_>>().join("\n"))]
+    Many(Vec<RunError>),
+}
+
+impl RunError {
+    /// One error, or [`RunError::Many`]; `problems` must not be empty.
+    fn many(mut problems: Vec<RunError>) -> RunError {
+        if problems.len() == 1 {
+            problems.remove(0)
+        } else {
+            RunError::Many(problems)
+        }
+    }
+
+    /// The problems, one by one (a [`RunError::Many`] unfolded).
+    pub fn problems(&self) -> Vec<&RunError> {
+        match self {
+            RunError::Many(all) => all.iter().flat_map(RunError::problems).collect(),
+            e => vec![e],
+        }
+    }
 }
 
 fn list(what: &str, names: &[String]) -> String {
@@ -159,6 +176,13 @@ impl RunError {
     /// Whose fault it is: the configuration's (exit code 2) or the machine's (3).
     pub fn kind(&self) -> NotStarted {
         match self {
+            RunError::Many(all) => {
+                if all.iter().any(|e| e.kind() == NotStarted::CouldNotStart) {
+                    NotStarted::CouldNotStart
+                } else {
+                    NotStarted::BadInput
+                }
+            }
             RunError::Spawn { .. }
             | RunError::Taken(_)
             | RunError::Image(ImageError::AlreadyRunning { .. } | ImageError::Os { .. })
@@ -366,23 +390,28 @@ impl Plc {
         registry: Registry,
         opts: &RunOptions,
     ) -> Result<Plc, RunError> {
-        let config = Plc::read_config(config_path, opts)?;
+        let config = Plc::read_config(config_path, registry, opts)?;
         Plc::start_with(config, config_path, registry, opts)
     }
 
     /// Reads `config_path` with `opts.overrides` applied, each of which must name a module
-    /// (or `PLC`).
-    pub fn read_config(config_path: &Path, opts: &RunOptions) -> Result<PlcConfig, RunError> {
-        let config = petriplc_config::read_file_with(config_path, &opts.overrides)?;
-        for o in &opts.overrides {
-            if o.section != "PLC" && !config.modules.iter().any(|m| m.name == o.section) {
-                return Err(RunError::Override {
-                    setting: format!("{}:{}={}", o.section, o.name, o.value),
-                    modules: config.modules.iter().map(|m| m.name.clone()).collect(),
-                });
-            }
+    /// (or `PLC`). A configuration with problems has its modules' own settings checked too
+    /// (each made by `registry`, or its program found), so that every problem is reported
+    /// at once.
+    pub fn read_config(
+        config_path: &Path,
+        registry: Registry,
+        opts: &RunOptions,
+    ) -> Result<PlcConfig, RunError> {
+        let (config, diagnostics) =
+            petriplc_config::read_file_partial(config_path, &opts.overrides)?;
+        // An override of a module that does not exist is among them (C033).
+        if diagnostics.is_empty() {
+            return Ok(config);
         }
-        Ok(config)
+        let mut problems = vec![RunError::Config(ConfigError { diagnostics })];
+        problems.extend(make_modules(&config, &base_dir_of(config_path), registry, opts).1);
+        Err(RunError::many(problems))
     }
 
     /// Starts every module of `config`, read from `config_path` by [`Plc::read_config`]
@@ -395,12 +424,7 @@ impl Plc {
         registry: Registry,
         opts: &RunOptions,
     ) -> Result<Plc, RunError> {
-        // `plc.conf` has the parent "", which would send a program path `prog` to a search
-        // of PATH: the folder is `.` then.
-        let base_dir = config_path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+        let base_dir = base_dir_of(config_path);
         if let Err(ImageError::BadPlcId { plc_id, reason }) =
             petriplc_runtime::image::shm::shm_name(&opts.plc_id)
         {
@@ -416,37 +440,26 @@ impl Plc {
         let layout = Layout::new(&config)?;
         let net = SynchNet::from_config(&config)?;
 
-        // Everything the configuration can be blamed for is checked before anything exists:
-        // every built-in module is made (its settings checked), every program found.
-        let mut kinds = Vec::new();
+        // Everything the configuration can be blamed for is checked before anything exists,
+        // and reported at once: every built-in module is made (its settings checked), every
+        // program found, every safe value and watchdog checked.
+        let (kinds, mut problems) = make_modules(&config, &base_dir, registry, opts);
+        let mut safe = Vec::new();
         for decl in &config.modules {
-            match registry(&decl.kind) {
-                Some(factory) => {
-                    if decl.location == Location::Isolate {
-                        return Err(RunError::IsolateThread {
-                            module: decl.name.clone(),
-                        });
-                    }
-                    let module = factory(decl).map_err(|error| RunError::Init {
-                        module: decl.name.clone(),
-                        error,
-                    })?;
-                    kinds.push(Ok((factory, module)));
-                }
-                None => kinds.push(Err(program_of(decl, &base_dir, opts)?)),
+            match safe_values(&config, &layout, decl) {
+                Ok(s) => safe.push(s),
+                Err(e) => problems.push(e),
             }
         }
-        let safe = config
-            .modules
-            .iter()
-            .map(|decl| safe_values(&config, &layout, decl))
-            .collect::<Result<Vec<_>, _>>()?;
         for (decl, kind) in config.modules.iter().zip(&kinds) {
             if decl.watchdog.is_some() && decl.location == Location::Shared && kind.is_ok() {
-                return Err(RunError::WatchdogShared {
+                problems.push(RunError::WatchdogShared {
                     module: decl.name.clone(),
                 });
             }
+        }
+        if !problems.is_empty() {
+            return Err(RunError::many(problems));
         }
         let programs_fire = kinds.iter().any(Result::is_err);
         if let Some(dead) = net.never_scanning(programs_fire) {
@@ -524,6 +537,7 @@ impl Plc {
         // nothing half started.
         let mut ready = Vec::new();
         let mut programs = Vec::new();
+        let mut problems = Vec::new();
         for (index, (decl, kind)) in config.modules.iter().zip(kinds).enumerate() {
             let (factory, mut module) = match kind {
                 Ok(made) => made,
@@ -535,25 +549,34 @@ impl Plc {
             let mut map = ModuleMap::new(&layout, &decl.name, decl.location)?;
             retained::adopt(&mut map, &global, Adopt::Retentive);
             retain.registry.new_instance(&decl.name);
-            module
-                .init(&mut InitContext {
-                    decl,
-                    config: &config,
-                    map: &mut map,
-                    base_dir: &base_dir,
-                    plc_id: &opts.plc_id,
-                    restored_points: &restored_points,
-                })
-                .map_err(|error| RunError::Init {
+            let init = module.init(&mut InitContext {
+                decl,
+                config: &config,
+                map: &mut map,
+                base_dir: &base_dir,
+                plc_id: &opts.plc_id,
+                restored_points: &restored_points,
+            });
+            // The other modules are initialised too, so that every problem is told at once.
+            if let Err(error) = init {
+                problems.push(RunError::Init {
                     module: decl.name.clone(),
                     error,
-                })?;
+                });
+                continue;
+            }
             ready.push(Ready {
                 index,
                 module,
                 map,
                 factory,
             });
+        }
+        if !problems.is_empty() {
+            for mut r in ready {
+                r.module.close();
+            }
+            return Err(RunError::many(problems));
         }
 
         retain.start(&global, &layout, config.retain.write)?;
@@ -579,7 +602,7 @@ impl Plc {
             overrides: opts
                 .overrides
                 .iter()
-                .map(|o| format!("{}:{}={}", o.section, o.name, o.value))
+                .map(ToString::to_string)
                 .collect::<Vec<_>>()
                 .join("\n"),
             config_path: canonical,
@@ -722,6 +745,52 @@ impl Drop for Plc {
 }
 
 /// The program of a module that is not built in: it must exist and be executable.
+/// The folder relative paths of `config_path` start at. `plc.conf` has the parent "",
+/// which would send a program path `prog` to a search of PATH: the folder is `.` then.
+fn base_dir_of(config_path: &Path) -> PathBuf {
+    config_path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+/// A module made from its declaration by its kind's factory, or the program it runs.
+type Made = Result<(Factory, Box<dyn Module>), PathBuf>;
+
+/// Every module of `config`: a built-in one made by its factory (which checks its
+/// settings), a program found; with every problem, not only the first. The modules are in
+/// declaration order when there is no problem.
+fn make_modules(
+    config: &PlcConfig,
+    base_dir: &Path,
+    registry: Registry,
+    opts: &RunOptions,
+) -> (Vec<Made>, Vec<RunError>) {
+    let mut made = Vec::new();
+    let mut problems = Vec::new();
+    for decl in &config.modules {
+        match registry(&decl.kind) {
+            Some(_) if decl.location == Location::Isolate => {
+                problems.push(RunError::IsolateThread {
+                    module: decl.name.clone(),
+                })
+            }
+            Some(factory) => match factory(decl) {
+                Ok(module) => made.push(Ok((factory, module))),
+                Err(error) => problems.push(RunError::Init {
+                    module: decl.name.clone(),
+                    error,
+                }),
+            },
+            None => match program_of(decl, base_dir, opts) {
+                Ok(program) => made.push(Err(program)),
+                Err(e) => problems.push(e),
+            },
+        }
+    }
+    (made, problems)
+}
+
 fn program_of(decl: &ModuleDecl, base_dir: &Path, opts: &RunOptions) -> Result<PathBuf, RunError> {
     let program = base_dir.join(&decl.kind);
     if !program.is_file() {

@@ -19,6 +19,6 @@ pub use plants::{
 };
 pub use plot::{render_svg, render_svg_with, write_svg, PlotError, PlotOptions};
 pub use sim::{SimError, SimOptions, Simulation};
-pub use timeline::{Timeline, TimelineCursor, TimelineError, TimelineProblem};
+pub use timeline::{NonFinite, Timeline, TimelineCursor, TimelineError, TimelineProblem};
 pub use trace::{Trace, TraceRow};
 pub use trend::{render_trend_svg, write_trend_svg, Series};

@@ -113,6 +113,15 @@ fn not_utf8(file: &str, e: std::string::FromUtf8Error) -> TimelineError {
     }
 }
 
+/// What a timeline of decimal values does with NaN and infinities (`nan`, `inf`, `1e999`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NonFinite {
+    /// Refused where written (the default: no point holds one from outside the PLC).
+    Refuse,
+    /// Taken as values, to test how a program copes with them.
+    Accept,
+}
+
 /// A parsed timeline: column names and, per column, the times its value changes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Timeline {
@@ -130,20 +139,33 @@ pub struct Timeline {
 impl Timeline {
     /// Parses timeline text; `source_name` (usually the file name) prefixes error messages.
     pub fn parse(text: &str, source_name: &str) -> Result<Timeline, TimelineError> {
-        Timeline::parse_values(text, source_name, false)
+        Timeline::parse_values(text, source_name, None)
     }
 
     /// Like [`Timeline::parse`], also accepting decimal values (for float points), which
     /// [`Timeline::decimal_changes`] and [`Timeline::decimal_at`] give.
+    /// NaN and infinities are refused ([`TimelineProblem::NotFinite`]).
     pub fn parse_decimal(text: &str, source_name: &str) -> Result<Timeline, TimelineError> {
-        Timeline::parse_values(text, source_name, true)
+        Timeline::parse_values(text, source_name, Some(NonFinite::Refuse))
     }
 
+    /// [`Timeline::parse_decimal`], choosing what NaN and infinities are.
+    pub fn parse_decimal_with(
+        text: &str,
+        source_name: &str,
+        non_finite: NonFinite,
+    ) -> Result<Timeline, TimelineError> {
+        Timeline::parse_values(text, source_name, Some(non_finite))
+    }
+
+    /// `decimal`: decimal values allowed, and what NaN and infinities are then.
     fn parse_values(
         text: &str,
         source_name: &str,
-        decimal: bool,
+        decimal: Option<NonFinite>,
     ) -> Result<Timeline, TimelineError> {
+        let non_finite = decimal.unwrap_or(NonFinite::Refuse);
+        let decimal = decimal.is_some();
         let err = |line: usize, column: usize, problem: TimelineProblem| TimelineError::Syntax {
             file: source_name.to_string(),
             line,
@@ -239,7 +261,7 @@ impl Timeline {
                         };
                         err(line_no, col, problem)
                     })?;
-                    if !value.is_finite() {
+                    if !value.is_finite() && non_finite == NonFinite::Refuse {
                         let problem = TimelineProblem::NotFinite {
                             column: columns[i].clone(),
                             text: cell.to_string(),
@@ -284,9 +306,12 @@ impl Timeline {
 
     /// Reads and parses a timeline file, accepting decimal values
     /// ([`Timeline::parse_decimal`]).
-    pub fn read_file_decimal(path: impl AsRef<Path>) -> Result<Timeline, TimelineError> {
+    pub fn read_file_decimal(
+        path: impl AsRef<Path>,
+        non_finite: NonFinite,
+    ) -> Result<Timeline, TimelineError> {
         let (text, file) = Timeline::read_text(path.as_ref())?;
-        Timeline::parse_decimal(&text, &file)
+        Timeline::parse_decimal_with(&text, &file, non_finite)
     }
 
     fn read_text(path: &Path) -> Result<(String, String), TimelineError> {

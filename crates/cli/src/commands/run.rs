@@ -52,7 +52,8 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
         known_kinds: KINDS,
         overrides: args.overrides.clone(),
     };
-    let config = Plc::read_config(&args.config, &options).map_err(|e| not_started(&args, e))?;
+    let config =
+        Plc::read_config(&args.config, builtin, &options).map_err(|e| not_started(&args, e))?;
     options.plc_id = petriplc_plc::plc_id_of(&config, args.plc_id.as_deref(), DEFAULT_PLC_ID);
     // While the vitrine holds the terminal, log lines go to its footer (and are printed when
     // it gives the terminal back) instead of over the display.
@@ -92,12 +93,23 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
 /// refused it.
 fn not_started(args: &RunArgs, e: RunError) -> Failure {
     match e {
-        // Compiler style, as for a bad net: one diagnostic per line, then one summary.
-        RunError::Config(c) => {
-            for d in &c.diagnostics {
-                eprintln!("{d}");
+        // Compiler style, as for a bad net: one problem per line, then one summary.
+        e @ (RunError::Config(_) | RunError::Many(_)) if e.kind() == NotStarted::BadInput => {
+            let mut n = 0;
+            for p in e.problems() {
+                match p {
+                    RunError::Config(c) => {
+                        for d in &c.diagnostics {
+                            eprintln!("{d}");
+                            n += 1;
+                        }
+                    }
+                    other => {
+                        eprintln!("error: {other}");
+                        n += 1;
+                    }
+                }
             }
-            let n = c.diagnostics.len();
             Failure::BadInput(anyhow!(
                 "{} is not a valid configuration ({n} problem{}); nothing was started",
                 args.config.display(),
