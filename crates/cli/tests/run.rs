@@ -3,6 +3,8 @@
 //! reach a running PLC; bad configurations start nothing; failing modules follow
 //! `on_failure`.
 
+mod common;
+
 use std::fs;
 use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant};
@@ -378,33 +380,14 @@ fn a_failing_process_module_follows_on_failure() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let (lines, log) = std::sync::mpsc::channel();
-    let stderr = run.stderr.take().unwrap();
-    std::thread::spawn(move || {
-        use std::io::BufRead;
-        for line in std::io::BufReader::new(stderr).lines() {
-            let Ok(line) = line else { return };
-            if lines.send(line).is_err() {
-                return;
-            }
-        }
-    });
-    let mut err = String::new();
-    while !err.contains("restarting it") {
-        match log.recv_timeout(Duration::from_secs(60)) {
-            Ok(line) => {
-                err.push_str(&line);
-                err.push('\n');
-            }
-            Err(e) => panic!("no restart ({e}):\n{err}"),
-        }
-    }
+    let mut lines = common::Lines::of(&mut run);
+    lines.until("restarting it", Duration::from_secs(60));
     Command::cargo_bin("petriplc")
         .unwrap()
         .args(["stop", "--plc-id", &id])
         .assert()
         .success();
-    err.extend(log.iter().map(|l| l + "\n"));
+    let err = lines.rest();
     assert!(run.wait().unwrap().success(), "{err}");
     // stop: safe values written, the PLC stops, exit code 1 (`--for` only bounds a broken
     // run: the failure ends it first).
