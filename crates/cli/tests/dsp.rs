@@ -33,6 +33,15 @@ fn status_with_filter(id: &str) -> String {
     }
 }
 
+/// The `t=` of the `ctl` module's status line, seconds.
+fn controller_time(status: &str) -> f64 {
+    status
+        .lines()
+        .find_map(|l| l.split_once(" sections, t=").map(|(_, t)| t))
+        .and_then(|t| t.trim_end_matches(" s").parse().ok())
+        .unwrap_or(0.0)
+}
+
 #[test]
 fn oven_status_shows_the_filter_and_the_run_writes_the_trend() {
     let dir = TempDir::new().unwrap();
@@ -46,7 +55,7 @@ fn oven_status_shows_the_filter_and_the_run_writes_the_trend() {
         "--plc-id",
         &id,
         "--for",
-        "4s",
+        "120s",
     ])
     .args(["--set", "hmi:listen=127.0.0.1:0"])
     .arg("--set")
@@ -55,8 +64,20 @@ fn oven_status_shows_the_filter_and_the_run_writes_the_trend() {
     .arg(format!("log:plot={}", plot.display()))
     .stdout(Stdio::null())
     .stderr(Stdio::piped());
+    // Until the status shows the filter and a second of the controller's time (a fixed
+    // `--for` could end before a loaded machine shows either), then stopped.
     let child = run.spawn().unwrap();
     let status = status_with_filter(&id);
+    let started = Instant::now();
+    while controller_time(&status_with_filter(&id)) < 1.0 {
+        assert!(started.elapsed() < Duration::from_secs(60), "no progress");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["stop", "--plc-id", &id])
+        .assert()
+        .success();
     let out = child.wait_with_output().unwrap();
     assert!(
         out.status.success(),

@@ -275,6 +275,16 @@ fn a_failing_simulation_writes_what_it_simulated_marked_incomplete() {
         ));
 }
 
+/// Whether process `pid` has a handler for SIGINT (its `SigCgt` mask in /proc).
+fn catches_sigint(pid: u32) -> bool {
+    let status = fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("SigCgt:"))
+        .and_then(|mask| u64::from_str_radix(mask.trim(), 16).ok())
+        .is_some_and(|mask| mask & (1 << (nix::sys::signal::Signal::SIGINT as u32 - 1)) != 0)
+}
+
 #[test]
 fn an_interrupted_simulation_writes_what_it_simulated() {
     let dir = TempDir::new().unwrap();
@@ -287,7 +297,16 @@ fn an_interrupted_simulation_writes_what_it_simulated() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(300));
+    // Not a fixed pause (a loaded machine may not have started it by then, and SIGINT before
+    // its handler kills it): wait until the process catches SIGINT.
+    let started = Instant::now();
+    while !catches_sigint(child.id()) {
+        assert!(
+            started.elapsed() < SAFETY_NET,
+            "the simulation never caught SIGINT"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
     nix::sys::signal::kill(
         nix::unistd::Pid::from_raw(child.id() as i32),
         nix::sys::signal::Signal::SIGINT,

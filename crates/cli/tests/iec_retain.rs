@@ -116,13 +116,29 @@ fn var_retain_survives_kill_9_and_a_changed_declaration_is_refused() {
     );
     assert!(value(&at_kill, "logic/main.scans").is_none(), "{at_kill:?}");
 
-    // A clean restart goes on from exactly the stored values.
-    let out = petriplc()
+    // A clean restart goes on from exactly the stored values. It runs until the file shows
+    // the restart's first scans (a fixed `--for` may hold none on a loaded machine), then is
+    // stopped.
+    let plc = petriplc()
         .arg("run")
         .arg(&conf)
-        .args(["--plc-id", &id, "--for", "200ms", "--log-level", "warn"])
-        .output()
+        .args(["--plc-id", &id, "--for", "120s", "--log-level", "warn"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
         .unwrap();
+    let started = Instant::now();
+    while value(&stored(&retain), "logic/main.total").is_none_or(|t| t <= total) {
+        assert!(started.elapsed() < SAFETY_NET, "no scan after the restart");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let stop = petriplc().args(["stop", "--plc-id", &id]).output().unwrap();
+    assert!(
+        stop.status.success(),
+        "{}",
+        String::from_utf8_lossy(&stop.stderr)
+    );
+    let out = plc.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     let after = stored(&retain);

@@ -185,6 +185,16 @@ fn retained_values_survive_kill_9_at_any_moment() {
             .spawn()
             .unwrap();
         let counter = wait_counting(&id, &mut plc);
+        // Half the rounds (of both configurations) are killed only after a first acknowledged
+        // write, so that both kinds of kill are tested whatever the machine's speed (counting
+        // the rounds that happened to see one was at the mercy of the load).
+        if round % 4 >= 2 {
+            let started = Instant::now();
+            while acknowledged(&id).is_none() {
+                assert!(started.elapsed() < SAFETY_NET, "no write acknowledged");
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        }
         std::thread::sleep(Duration::from_millis(moments.below(60)));
         let ack = acknowledged(&id);
         plc.kill().unwrap();
@@ -218,7 +228,7 @@ fn retained_values_survive_kill_9_at_any_moment() {
         }
         expect = now.or(expect);
     }
-    assert!(acks > 100, "only {acks} rounds saw an acknowledged write");
+    assert!(acks >= 100, "only {acks} rounds saw an acknowledged write");
     eprintln!("200 kills, {acks} after an acknowledged write; last count {expect:?}");
 }
 

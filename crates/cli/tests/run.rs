@@ -3,6 +3,8 @@
 //! reach a running PLC; bad configurations start nothing; failing modules follow
 //! `on_failure`.
 
+mod common;
+
 use std::fs;
 use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant};
@@ -76,18 +78,42 @@ fn fired(report: &str, t: &str) -> u64 {
 fn the_mixer_goes_through_full_cycles() {
     let dir = TempDir::new().unwrap();
     let log = dir.path().join("plc.log");
-    let out = mixer(&plc_id("mixer"))
-        .args(["--for", "6s"])
+    let id = plc_id("mixer");
+    // A cycle is B1 (fill), N2, N3 (drain), N1 (back to ready): about 1.6 s with the tank at
+    // speed 5, plus at most 1.4 s until the operator presses B1 again. Not a fixed `--for`
+    // (a loaded machine scans late, and would fit fewer cycles in it): the PLC runs until
+    // its status shows two whole cycles, then is stopped.
+    let run = mixer(&id)
+        .args(["--for", "120s"])
         .args(FREE_PORTS)
         .arg("--log")
         .arg(&log)
-        .output()
+        .stderr(Stdio::piped())
+        .spawn()
         .unwrap();
+    let started = Instant::now();
+    let cycles = |status: &str| {
+        let line = status.lines().find(|l| l.contains("fired "))?;
+        line.split_whitespace()
+            .find_map(|w| w.strip_prefix("N1:"))
+            .and_then(|n| n.parse::<u64>().ok())
+    };
+    while cycles(&wait_for_status(&id)).unwrap_or(0) < 2 {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "{}",
+            wait_for_status(&id)
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["stop", "--plc-id", &id])
+        .assert()
+        .success();
+    let out = run.wait_with_output().unwrap();
     let report = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{report}");
-    // A cycle is B1 (fill), N2, N3 (drain), N1 (back to ready): about 1.6 s with the tank at
-    // speed 5, plus at most 1.4 s until the operator presses B1 again; 6 s hold at least two
-    // whole cycles (the first starts at 0.2 s).
     assert!(fired(&report, "N1") >= 2, "{report}");
     for t in ["B1", "N2", "N3"] {
         assert!(fired(&report, t) >= fired(&report, "N1"), "{report}");
@@ -340,18 +366,32 @@ fn a_failing_process_module_follows_on_failure() {
              [crasher]\non_failure = {on_failure}\nsafe valve 0\n[quit]\npoint = stop\nscan_period = 0.01\n"
         )
     };
-    // restart: the PLC keeps running and counts the restarts.
-    let out = run_config(
-        &dir,
-        &conf("restart"),
-        &plc_id("restart"),
-        &["--for", "1500ms"],
-    );
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    assert!(err.contains("restarting it"), "{err}");
-    // stop: safe values written, the PLC stops, exit code 1.
-    let out = run_config(&dir, &conf("stop"), &plc_id("stop"), &["--for", "10s"]);
+    // restart: the PLC keeps running and counts the restarts. It runs until the log says so
+    // (not for a fixed time, which a loaded machine may not start the program in), then is
+    // stopped.
+    let id = plc_id("restart");
+    let conf_file = dir.path().join("restart.conf");
+    fs::write(&conf_file, conf("restart")).unwrap();
+    let mut run = Process::cargo_bin("petriplc")
+        .unwrap()
+        .arg("run")
+        .arg(&conf_file)
+        .args(["--plc-id", &id, "--for", "120s"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = common::Lines::of(&mut run);
+    lines.until("restarting it", Duration::from_secs(60));
+    Command::cargo_bin("petriplc")
+        .unwrap()
+        .args(["stop", "--plc-id", &id])
+        .assert()
+        .success();
+    let err = lines.rest();
+    assert!(run.wait().unwrap().success(), "{err}");
+    // stop: safe values written, the PLC stops, exit code 1 (`--for` only bounds a broken
+    // run: the failure ends it first).
+    let out = run_config(&dir, &conf("stop"), &plc_id("stop"), &["--for", "120s"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("safe value valve = 0"), "{err}");
@@ -362,8 +402,10 @@ fn a_failing_process_module_follows_on_failure() {
 #[test]
 fn two_plcs_cannot_share_an_id() {
     let id = plc_id("twice");
+    // Stopped by the test: `--for` only bounds a broken run (a short one could end the
+    // first PLC before the second is tried, on a loaded machine).
     let mut first = mixer(&id)
-        .args(["--for", "10s"])
+        .args(["--for", "120s"])
         .args(FREE_PORTS)
         .stderr(Stdio::null())
         .spawn()
@@ -407,14 +449,15 @@ fn a_live_id_and_ports_clash_together_and_a_dead_id_is_free() {
     ];
     let id = plc_id("clash");
     let dead = format!("{id}-2");
+    // `--for` only bounds a broken run: both must still run when the third one is tried.
     let mut first = mixer(&id)
-        .args(["--for", "30s"])
+        .args(["--for", "120s"])
         .args(&listen)
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
     let mut killed = mixer(&dead)
-        .args(["--for", "30s"])
+        .args(["--for", "120s"])
         .args(FREE_PORTS)
         .stderr(Stdio::null())
         .spawn()
@@ -501,7 +544,7 @@ fn the_main_job_serves_modbus_and_a_modbus_write_stops_it() {
         .unwrap()
         .port();
     let mut run = mixer(&plc_id("modbus"))
-        .args(["--for", "60s"])
+        .args(["--for", "120s"])
         .args(["--set", &format!("modbus:listen=127.0.0.1:{port}")])
         .args(["--set", "hmi:listen=127.0.0.1:0"])
         .stderr(Stdio::piped())

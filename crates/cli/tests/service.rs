@@ -303,12 +303,22 @@ int main(int argc, char **argv) {
     )
     .unwrap();
     let id = format!("service-wdg-{}", std::process::id());
-    let out = petriplc()
+    // Not a fixed `--for` (a loaded machine may not start the C program and reach its 4th
+    // scan in it): the PLC runs until the sleeper has failed and the logger has scanned a few
+    // times since, then is stopped.
+    let plc = petriplc()
         .arg("run")
         .arg(&conf)
-        .args(["--plc-id", &id, "--for", "1.2s"])
-        .output()
+        .args(["--plc-id", &id, "--for", "120s"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
         .unwrap();
+    let logged_since_failure = wait_for_module(&id, "sleeper", "failed", "log");
+    wait_for_scans(&id, "log", logged_since_failure + 3);
+    let stop = petriplc().args(["stop", "--plc-id", &id]).output().unwrap();
+    assert!(stop.status.success(), "{}", text(&stop.stderr));
+    let out = plc.wait_with_output().unwrap();
     let log = text(&out.stderr);
     // on_failure = ignore: the others went on, and `run` says a module failed.
     assert_eq!(out.status.code(), Some(1), "{log}");
@@ -330,4 +340,48 @@ int main(int argc, char **argv) {
     let one = values.iter().position(|v| *v == "1").expect(&logged);
     assert!(values[one..].contains(&"0"), "{logged}");
     assert!(!values.contains(&"2"), "{logged}");
+}
+
+/// The `petriplc status` row of `module`: (state, scans), once the PLC runs.
+fn module_row(id: &str, module: &str) -> Option<(String, u64)> {
+    let out = petriplc()
+        .args(["status", "--plc-id", id])
+        .output()
+        .unwrap();
+    text(&out.stdout).lines().find_map(|l| {
+        let cells: Vec<&str> = l.split_whitespace().collect();
+        match cells.as_slice() {
+            [name, _kind, state, _pid, scans, ..] if *name == module => {
+                Some((state.to_string(), scans.parse().ok()?))
+            }
+            _ => None,
+        }
+    })
+}
+
+/// Waits until `module` of PLC `id` is in `state`; returns `other`'s scans at that moment.
+fn wait_for_module(id: &str, module: &str, state: &str, other: &str) -> u64 {
+    let started = Instant::now();
+    loop {
+        if module_row(id, module).is_some_and(|(s, _)| s == state) {
+            return module_row(id, other).map_or(0, |(_, n)| n);
+        }
+        assert!(
+            started.elapsed() < SAFETY_NET,
+            "module {module} of PLC {id} never {state}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Waits until `module` of PLC `id` has made `scans` scans.
+fn wait_for_scans(id: &str, module: &str, scans: u64) {
+    let started = Instant::now();
+    while module_row(id, module).map_or(0, |(_, n)| n) < scans {
+        assert!(
+            started.elapsed() < SAFETY_NET,
+            "module {module} of PLC {id} never made {scans} scans"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }

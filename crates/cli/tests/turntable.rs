@@ -163,7 +163,7 @@ fn hardware_in_the_loop_completes_the_same_transports() {
     assert!(out.contains(TRANSPORTS), "{out}");
     assert!(!out.contains("ERRORS"), "{out}");
     assert!(
-        out.contains("table up ("),
+        out.contains("table connected ("),
         "the Modbus client answered: {out}"
     );
 }

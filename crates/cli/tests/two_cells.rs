@@ -21,12 +21,13 @@ fn python() -> PathBuf {
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/py/bin/python"))
 }
 
-/// `petriplc run examples/two-cells/CELL.conf` as PLC `id`, on the test's broker.
+/// `petriplc run examples/two-cells/CELL.conf` as PLC `id`, on the test's broker, until the
+/// test stops it (`--for` only bounds a broken run).
 fn cell(cell: &str, id: &str, broker: &Broker, log: &Path, extra: &[&str]) -> Child {
     Process::cargo_bin("petriplc")
         .unwrap()
         .args(["run", &format!("{EXAMPLES}/{cell}.conf"), "--plc-id", id])
-        .args(["--for", "10s", "--log"])
+        .args(["--for", "120s", "--log"])
         .arg(log)
         .args(["--set", &format!("mqtt:broker={}", broker.address())])
         .args(extra)
@@ -59,9 +60,36 @@ fn mqtt_line(id: &str) -> String {
 fn wait_until(what: &str, done: impl Fn() -> bool) {
     let start = Instant::now();
     while !done() {
-        assert!(start.elapsed() < Duration::from_secs(10), "{what}");
+        assert!(start.elapsed() < Duration::from_secs(30), "{what}");
         std::thread::sleep(Duration::from_millis(50));
     }
+}
+
+/// How often transition `t` has fired so far, from `petriplc status` (0 before the first).
+fn fired_so_far(id: &str, t: &str) -> u64 {
+    let status = status(id);
+    status
+        .lines()
+        .find(|l| l.contains("fired "))
+        .and_then(|line| {
+            line.split_whitespace()
+                .find_map(|w| w.strip_prefix(&format!("{t}:")))
+                .and_then(|n| n.parse().ok())
+        })
+        .unwrap_or(0)
+}
+
+fn stop(id: &str) {
+    let out = Process::cargo_bin("petriplc")
+        .unwrap()
+        .args(["stop", "--plc-id", id])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "stop {id}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// How often transition `t` fired, from the controller's status line `fired B1:3 N2:3 ...`.
@@ -75,6 +103,15 @@ fn fired(report: &str, t: &str) -> u64 {
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no count for {t} in `{line}`"))
 }
+
+/// The topics paho must see go 1 and 0.
+const TOPICS: [&str; 5] = [
+    "control/V1",
+    "control/V3",
+    "control/B1",
+    "plant/N2",
+    "plant/N3",
+];
 
 #[test]
 fn two_plcs_run_the_mixer_through_mosquitto_and_survive_a_broker_restart() {
@@ -102,7 +139,8 @@ fn two_plcs_run_the_mixer_through_mosquitto_and_survive_a_broker_restart() {
             env!("CARGO_MANIFEST_DIR"),
             "/tests/two_cells_paho.py"
         ))
-        .args([&broker.port.to_string(), "9"])
+        .args([&broker.port.to_string(), "60"])
+        .args(TOPICS)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -121,6 +159,20 @@ fn two_plcs_run_the_mixer_through_mosquitto_and_survive_a_broker_restart() {
     wait_until("both cells reconnected", || {
         mqtt_line(&control_id).contains(" up;") && mqtt_line(&plant_id).contains(" up;")
     });
+    // Wait for what is asserted below (two whole cycles, paho seeing every value), not for
+    // a fixed time, then stop both cells.
+    let start = Instant::now();
+    while fired_so_far(&control_id, "N1") < 2 {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "{}",
+            status(&control_id)
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let watched = watcher.wait_with_output().unwrap();
+    stop(&control_id);
+    stop(&plant_id);
 
     let control = control.wait_with_output().unwrap();
     let plant = plant.wait_with_output().unwrap();
@@ -145,7 +197,6 @@ fn two_plcs_run_the_mixer_through_mosquitto_and_survive_a_broker_restart() {
         assert!(!text.contains("panicked"), "{name}:\n{text}");
     }
     // A third-party client saw both cells' values change.
-    let watched = watcher.wait_with_output().unwrap();
     let seen = String::from_utf8_lossy(&watched.stdout);
     assert!(
         watched.status.success(),
@@ -153,13 +204,7 @@ fn two_plcs_run_the_mixer_through_mosquitto_and_survive_a_broker_restart() {
         String::from_utf8_lossy(&watched.stderr)
     );
     let json: serde_json::Value = serde_json::from_str(seen.trim()).unwrap();
-    for topic in [
-        "control/V1",
-        "control/V3",
-        "control/B1",
-        "plant/N2",
-        "plant/N3",
-    ] {
+    for topic in TOPICS {
         let values: Vec<&str> = json[topic]
             .as_array()
             .unwrap_or_else(|| panic!("paho saw no {topic}: {seen}"))

@@ -1,10 +1,11 @@
 """paho-mqtt (a third-party MQTT client) watches what the two cells publish.
 
-    two_cells_paho.py PORT SECONDS
+    two_cells_paho.py PORT SECONDS [TOPIC...]
 
 Subscribes to control/# and plant/# on 127.0.0.1:PORT, reconnecting when the broker goes
 away, and prints one JSON object: every topic with the values it saw, in order, repeats
-removed.
+removed. It watches for SECONDS, or, given TOPICs, until each of them has shown both 0 and 1
+(SECONDS then only bounds a run that never sees them).
 """
 
 import json
@@ -14,6 +15,7 @@ import time
 import paho.mqtt.client as mqtt
 
 port, seconds = int(sys.argv[1]), float(sys.argv[2])
+wanted = sys.argv[3:]
 seen = {}
 
 
@@ -34,6 +36,10 @@ client.on_message = on_message
 client.reconnect_delay_set(min_delay=0.1, max_delay=0.5)
 client.connect("127.0.0.1", port)
 client.loop_start()
-time.sleep(seconds)
+deadline = time.monotonic() + seconds
+while time.monotonic() < deadline:
+    if wanted and all({"0", "1"} <= set(seen.get(t, [])) for t in wanted):
+        break
+    time.sleep(0.05)
 client.loop_stop()
 print(json.dumps(seen, sort_keys=True))

@@ -12,7 +12,12 @@
 //! write   drive  holding  10  setpoint  f32  low_first
 //! stale   drive  io_drive_stale
 //! backoff_max = 5s
+//! connect_within = 10s     # optional: a device silent this long after start fails the module
 //! ```
+//!
+//! Values from a device that no point can take (NaN or ±Inf for a float point, 300 for a
+//! `u8`) are refused: the point keeps its value, the device's stale point says so, and the
+//! first refusal per row is logged (docs/modbus-client.md, Bad values).
 
 mod config;
 mod plan;
@@ -21,9 +26,9 @@ mod poll;
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use petriplc_config::{ModuleDecl, PointKind};
+use petriplc_config::{ModuleDecl, PointKind, PointValue};
 use petriplc_modules::common::{self, error};
 use petriplc_net::time::parse_duration;
 use petriplc_runtime::image::{Handle, ModuleMap};
@@ -51,10 +56,19 @@ pub fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
     Ok(Box::new(ModbusClient::new(decl)?))
 }
 
+/// The settings a `modbus_client` section may have (besides the runner's).
+pub const SETTINGS: &[&str] = &["backoff_max", "connect_within"];
+
 /// The `modbus_client` module.
 pub struct ModbusClient {
     name: String,
     backoff_max: Duration,
+    /// `connect_within`: how long after its start a device may go without one complete cycle
+    /// before the module fails (with the setting as written, for the message); `None`: never.
+    connect_within: Option<(Duration, String)>,
+    /// The time of the first scan since `init` (the runner's clock), from which
+    /// `connect_within` counts.
+    started: Option<Duration>,
     devices: Vec<DeviceView>,
     worker: Option<Worker>,
 }
@@ -62,7 +76,12 @@ pub struct ModbusClient {
 /// A device as the scans see it.
 struct DeviceView {
     name: String,
+    /// Where it is reached, for messages.
+    endpoint: String,
+    unit: u8,
     period: Duration,
+    /// Values read from it that no point could take.
+    bad_values: u64,
     reads: Vec<ReadRow>,
     writes: Vec<PointRow>,
     stale: Option<Handle>,
@@ -74,7 +93,8 @@ struct DeviceView {
 struct ReadRow {
     row: PointRow,
     device: String,
-    /// A value that did not fit the point was reported, and none has fitted since.
+    /// The last value read was refused (the first of a run of refusals is logged); the point
+    /// holds an older value, so the device's stale point is set.
     misfit: bool,
 }
 
@@ -88,7 +108,7 @@ struct Worker {
 impl ModbusClient {
     /// Checks the settings; the rows are read by `init`, which sees the whole section.
     pub fn new(decl: &ModuleDecl) -> Result<ModbusClient, ModuleError> {
-        common::check_decl(decl, KIND, &["backoff_max"])?;
+        common::check_decl(decl, KIND, SETTINGS)?;
         let backoff_max = match common::setting(decl, "backoff_max") {
             None => DEFAULT_BACKOFF_MAX,
             Some(v) => match parse_duration(v) {
@@ -102,9 +122,28 @@ impl ModbusClient {
                 Err(e) => return Err(error(&decl.name, format!("`backoff_max = {v}`: {e}"))),
             },
         };
+        let connect_within = match common::setting(decl, "connect_within") {
+            None | Some("off" | "no" | "none") => None,
+            Some(v) => match parse_duration(v) {
+                Ok(d) if d.is_zero() => None,
+                Ok(d) => Some((d, v.to_string())),
+                Err(e) => {
+                    return Err(error(
+                        &decl.name,
+                        format!(
+                            "`connect_within = {v}`: {e}; write a time such as 10s or T#10s, \
+                             or `off` (the default: a device that never answers is only \
+                             reported)"
+                        ),
+                    ))
+                }
+            },
+        };
         Ok(ModbusClient {
             name: decl.name.clone(),
             backoff_max,
+            connect_within,
+            started: None,
             devices: Vec::new(),
             worker: None,
         })
@@ -185,7 +224,10 @@ impl ModbusClient {
             });
             views.push(DeviceView {
                 name: d.name.clone(),
+                endpoint: d.endpoint.to_string(),
+                unit: d.unit,
                 period: d.period,
+                bad_values: 0,
                 inbox: vec![None; my_reads.len()],
                 reads: my_reads
                     .into_iter()
@@ -233,6 +275,7 @@ impl ModbusClient {
 impl Module for ModbusClient {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         self.stop();
+        self.started = None;
         let spec = config::read(ctx)?;
         self.start(spec)
     }
@@ -266,15 +309,21 @@ impl Module for ModbusClient {
             };
             for (r, raw) in d.reads.iter_mut().zip(d.inbox.iter_mut()) {
                 if let Some(raw) = raw.take() {
-                    deliver(&self.name, ctx.map, r, raw);
+                    if !deliver(&self.name, ctx.map, r, raw) {
+                        d.bad_values += 1;
+                    }
                 }
             }
+            // A point holding an older value than the device's because the last one was
+            // refused is not fresh either.
+            let stale = stale || d.reads.iter().any(|r| r.misfit);
             if let Some(h) = &d.stale {
                 ctx.map
                     .set_bool(h, stale)
                     .map_err(|e| error(&self.name, e))?;
             }
         }
+        self.check_connected(ctx.now)?;
         Ok(Control::Continue)
     }
 
@@ -285,21 +334,7 @@ impl Module for ModbusClient {
     fn status(&self) -> String {
         self.devices
             .iter()
-            .map(|d| {
-                let st = d.shared.lock();
-                let counts = format!(
-                    "{} cycle{}, {} error{}",
-                    st.cycles,
-                    if st.cycles == 1 { "" } else { "s" },
-                    st.errors,
-                    if st.errors == 1 { "" } else { "s" }
-                );
-                match (&st.last_error, st.stale) {
-                    (_, false) => format!("{} up ({counts})", d.name),
-                    (Some(e), true) => format!("{} stale: {e} ({counts})", d.name),
-                    (None, true) => format!("{} connecting ({counts})", d.name),
-                }
-            })
+            .map(|d| link_state(d, &d.shared.lock()))
             .collect::<Vec<_>>()
             .join("; ")
     }
@@ -310,15 +345,103 @@ impl Module for ModbusClient {
     }
 }
 
+impl ModbusClient {
+    /// With `connect_within`: fails the module once that long has passed since its first
+    /// scan and a device has never completed a cycle, naming every such device.
+    fn check_connected(&mut self, now: Duration) -> Result<(), ModuleError> {
+        let Some((limit, text)) = &self.connect_within else {
+            return Ok(());
+        };
+        let started = *self.started.get_or_insert(now);
+        if now.saturating_sub(started) < *limit {
+            return Ok(());
+        }
+        let silent: Vec<String> = self
+            .devices
+            .iter()
+            .filter_map(|d| {
+                let st = d.shared.lock();
+                (st.cycles == 0).then(|| {
+                    let last = st
+                        .last_error
+                        .as_deref()
+                        .map(|e| format!(", last: {e}"))
+                        .unwrap_or_default();
+                    format!(
+                        "device `{}` ({}, unit {}) never connected within connect_within = \
+                         {text} ({}{last})",
+                        d.name,
+                        d.endpoint,
+                        d.unit,
+                        plural(st.failures, "failed attempt")
+                    )
+                })
+            })
+            .collect();
+        if silent.is_empty() {
+            // Every device has answered: the setting has done its job for this run.
+            self.connect_within = None;
+            return Ok(());
+        }
+        Err(error(
+            &self.name,
+            format!(
+                "{}; check that the device is on and reachable at that address, or raise \
+                 `connect_within` in [{}] (`off`: a device that never answers is only reported)",
+                silent.join("; "),
+                self.name
+            ),
+        ))
+    }
+}
+
+/// A device's line in the status: its link's state, cycles, failures and refused values.
+fn link_state(d: &DeviceView, st: &poll::State) -> String {
+    let mut counts = format!(
+        "{}, {}",
+        plural(st.cycles, "cycle"),
+        plural(st.failures, "failure")
+    );
+    if d.bad_values > 0 {
+        counts.push_str(&format!(", {} refused", plural(d.bad_values, "value")));
+    }
+    let last = st
+        .last_error
+        .as_deref()
+        .map(|e| format!(", last: {e}"))
+        .unwrap_or_default();
+    let name = &d.name;
+    match (st.cycles, st.stale, st.down_since) {
+        (0, _, _) => format!("{name} never connected to {} ({counts}{last})", d.endpoint),
+        (_, false, _) => format!("{name} connected ({counts})"),
+        (_, true, Some(t)) => format!(
+            "{name} down since {} ({}; {counts}{last})",
+            clock(t),
+            d.endpoint
+        ),
+        (_, true, None) => format!("{name} down ({}; {counts}{last})", d.endpoint),
+    }
+}
+
+fn plural(n: u64, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
+/// `HH:MM:SS UTC`.
+fn clock(t: SystemTime) -> String {
+    let s = t.duration_since(UNIX_EPOCH).unwrap_or_default().as_secs() % 86_400;
+    format!("{:02}:{:02}:{:02} UTC", s / 3600, s / 60 % 60, s % 60)
+}
+
 impl Drop for ModbusClient {
     fn drop(&mut self) {
         self.stop();
     }
 }
 
-/// Writes a value read from a device into its point, or reports (once until a value fits
-/// again) one that the point cannot hold.
-fn deliver(module: &str, map: &mut ModuleMap, r: &mut ReadRow, raw: Raw) {
+/// Writes a value read from a device into its point, or refuses one that the point cannot
+/// take (reported once until a value fits again); returns whether it was written.
+fn deliver(module: &str, map: &mut ModuleMap, r: &mut ReadRow, raw: Raw) -> bool {
     let row = &r.row;
     let (kind, bits) = (row.handle.kind(), row.handle.bits());
     let value = match raw {
@@ -326,12 +449,12 @@ fn deliver(module: &str, map: &mut ModuleMap, r: &mut ReadRow, raw: Raw) {
         Raw::Words(w) => decode(&w[..row.ty.registers()], row.ty, row.order),
     };
     let problem = match convert(value, kind, bits) {
-        Some(v) => match map.set(&row.handle, v) {
+        Ok(v) => match map.set(&row.handle, v) {
             Ok(()) => None,
             Err(e) => Some(e.to_string()),
         },
-        None => Some(format!(
-            "it does not fit point `{}` ({}{bits})",
+        Err(why) => Some(format!(
+            "{why}, and point `{}` is {}{bits}",
             row.point,
             match kind {
                 PointKind::Unsigned => 'u',
@@ -340,28 +463,42 @@ fn deliver(module: &str, map: &mut ModuleMap, r: &mut ReadRow, raw: Raw) {
             }
         )),
     };
-    match problem {
-        None => r.misfit = false,
-        Some(why) if !r.misfit => {
-            r.misfit = true;
-            log::warn!(
-                "module {module}: {} read from device {} {} {} ({}): {why}; the point keeps its \
-                 value until a value fits",
-                show(value),
-                r.device,
-                row.table.name(),
-                row.address,
-                row.origin
-            );
-        }
-        Some(_) => {}
+    let Some(why) = problem else {
+        r.misfit = false;
+        return true;
+    };
+    if !r.misfit {
+        r.misfit = true;
+        let registers = match raw {
+            Raw::Bit(b) => format!("bit {}", u8::from(b)),
+            Raw::Words(w) => w[..row.ty.registers()]
+                .iter()
+                .map(|w| format!("0x{w:04X}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+        };
+        log::warn!(
+            "module {module}: refused {} ({registers}) read from device {} {} {} ({}): {why}; \
+             the point keeps its value and the device's stale point is set until a value \
+             fits (further refusals are only counted: status line, values refused)",
+            show(value),
+            r.device,
+            row.table.name(),
+            row.address,
+            row.origin
+        );
     }
+    false
 }
 
-fn show(v: petriplc_config::PointValue) -> String {
+fn show(v: PointValue) -> String {
     match v {
-        petriplc_config::PointValue::Unsigned(u) => u.to_string(),
-        petriplc_config::PointValue::Signed(i) => i.to_string(),
-        petriplc_config::PointValue::Float(f) => f.to_string(),
+        PointValue::Unsigned(u) => u.to_string(),
+        PointValue::Signed(i) => i.to_string(),
+        PointValue::Float(f) if f.is_nan() => "NaN".to_string(),
+        PointValue::Float(f) if f.is_infinite() => {
+            if f > 0.0 { "+Inf" } else { "-Inf" }.to_string()
+        }
+        PointValue::Float(f) => f.to_string(),
     }
 }

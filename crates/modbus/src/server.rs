@@ -248,6 +248,8 @@ pub(crate) struct Shared {
     clients: AtomicUsize,
     requests: AtomicU64,
     exceptions: AtomicU64,
+    /// Writes refused for a value its point cannot hold (counted in `exceptions` too).
+    bad_values: AtomicU64,
     refusals: Mutex<Refusals>,
 }
 
@@ -285,6 +287,42 @@ impl Shared {
             self.name,
             pdu::explain(&self.map, pdu, code)
         );
+    }
+}
+
+impl Shared {
+    /// Counts, and logs if it is the point's first since its last accepted write, a write
+    /// refused for its value: a client that keeps writing NaN to a point every 10 ms gets one
+    /// line, not one per request. `image` is the locked image the refusal was decided under.
+    fn bad_value(&self, image: &mut map::Image, bad: &pdu::BadValue) {
+        self.bad_values.fetch_add(1, Ordering::Relaxed);
+        let point = self.map.entries[bad.entry as usize].point;
+        if image.refuse(point) {
+            log::warn!(
+                "modbus_server {}: refused {}; further bad values for `{}` are only counted \
+                 (status line: values refused) until a write to it is accepted",
+                self.name,
+                pdu::explain_value(&self.map, bad),
+                self.map.points[point as usize].name
+            );
+        }
+    }
+
+    /// Counts and logs what [`pdu::respond`] did with a request that was not served: a bad
+    /// value per point ([`Shared::bad_value`]), any other refusal at most every 10 s
+    /// ([`Shared::refused`]). Returns whether the answer was an exception.
+    fn outcome(&self, image: &mut map::Image, pdu: &[u8], outcome: pdu::Outcome) -> bool {
+        match outcome {
+            pdu::Outcome::Served => false,
+            pdu::Outcome::Exception(code) => {
+                self.refused(pdu, code);
+                true
+            }
+            pdu::Outcome::BadValue(bad) => {
+                self.bad_value(image, &bad);
+                true
+            }
+        }
     }
 }
 
@@ -494,6 +532,7 @@ pub fn answer_tcp_bytes(
         clients: AtomicUsize::new(0),
         requests: AtomicU64::new(0),
         exceptions: AtomicU64::new(0),
+        bad_values: AtomicU64::new(0),
         refusals: Mutex::new(Refusals::default()),
     };
     let mut out = Vec::new();
@@ -525,6 +564,7 @@ impl Module for ModbusServer {
             clients: AtomicUsize::new(0),
             requests: AtomicU64::new(0),
             exceptions: AtomicU64::new(0),
+            bad_values: AtomicU64::new(0),
             refusals: Mutex::new(Refusals::default()),
         });
         self.shared = Some(shared.clone());
@@ -579,10 +619,11 @@ impl Module for ModbusServer {
         if let Some(sh) = &self.shared {
             let count = |n: u64, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
             s.push_str(&format!(
-                "; {}, {}, {}",
+                "; {}, {}, {}, {} refused",
                 count(sh.clients.load(Ordering::Relaxed) as u64, "client"),
                 count(sh.requests.load(Ordering::Relaxed), "request"),
-                count(sh.exceptions.load(Ordering::Relaxed), "exception")
+                count(sh.exceptions.load(Ordering::Relaxed), "exception"),
+                count(sh.bad_values.load(Ordering::Relaxed), "value")
             ));
         }
         s

@@ -7,7 +7,7 @@
 //! | `i16` | 1 | -32768 to 32767 (two's complement) |
 //! | `u32` | 2 | 0 to 4294967295 |
 //! | `i32` | 2 | -2147483648 to 2147483647 |
-//! | `f32` | 2 | an IEEE 754 single |
+//! | `f32` | 2 | an IEEE 754 single (from the network: finite only, see [`convert`]) |
 //!
 //! Word order of the two-register types, for the value `0x12345678` at address 10:
 //!
@@ -135,8 +135,10 @@ pub fn default_type(kind: PointKind, bits: u8) -> RegisterType {
 /// are used (the other is 0).
 ///
 /// A value the type holds is carried exactly (a point narrower than its type always is: see
-/// [`RegisterType::holds`]). Otherwise: an integer is cut to the type's width (its low 16 or
-/// 32 bits in two's complement, e.g. 70000 as `u16` is 4464, -1 as `u16` is 65535); an
+/// [`RegisterType::holds`]), a float point's NaN or ±Inf too (the value the PLC holds is
+/// shown as it is). The modules check at start that every row's type holds its point, so the
+/// rest is defined only for completeness: an integer is cut to the type's width (its low 16
+/// or 32 bits in two's complement, e.g. 70000 as `u16` is 4464, -1 as `u16` is 65535); an
 /// integer as `f32` is the nearest float; a float as an integer type is truncated towards
 /// zero and saturated at the type's bounds (NaN is 0).
 pub fn encode(v: PointValue, ty: RegisterType, order: WordOrder) -> [u16; 2] {
@@ -182,48 +184,79 @@ pub fn decode(words: &[u16], ty: RegisterType, order: WordOrder) -> PointValue {
     }
 }
 
+/// Why a value received from the network cannot be written to a point (see [`convert`]).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum Unfit {
+    /// NaN or ±Inf: no point takes one from the network (docs/modbus.md, Bad values). The
+    /// IEC engine's REAL arithmetic follows IEEE 754, but a value from outside that is not a
+    /// number is a fault of the sender, refused where it enters.
+    #[error("{} is not a finite number; points take only finite values from the network", show_float(*.0))]
+    NotFinite(f32),
+    /// A float with a fractional part into an integer point.
+    #[error("{0} has a fractional part; the point holds whole numbers")]
+    Fraction(f32),
+    /// An integer outside the point's range (300 into a `u8`, -1 into an unsigned point).
+    #[error("{value} is outside the point's range {min} to {max}")]
+    OutOfRange { value: f64, min: i64, max: i64 },
+}
+
+/// `NaN`, `+Inf`, `-Inf` or the number.
+fn show_float(f: f32) -> String {
+    if f.is_nan() {
+        "NaN".to_string()
+    } else if f.is_infinite() {
+        if f > 0.0 { "+Inf" } else { "-Inf" }.to_string()
+    } else {
+        f.to_string()
+    }
+}
+
 /// Whether a value received from the network can be written to a point of `kind` and
 /// `bits` (see [`convert`]).
 pub fn fits(v: &PointValue, kind: PointKind, bits: u8) -> bool {
-    convert(*v, kind, bits).is_some()
+    convert(*v, kind, bits).is_ok()
 }
 
-/// `v` as the point of `kind` and `bits` holds it (the form `ModuleMap::set` takes), or
-/// `None` when it does not fit: an integer outside the point's range (300 into an 8-bit
-/// point, -1 into an unsigned one), a float with a fractional part, infinite or NaN into an
-/// integer point. An integer into a float point is converted to the nearest float.
-pub fn convert(v: PointValue, kind: PointKind, bits: u8) -> Option<PointValue> {
-    let bits = u32::from(bits.clamp(1, 32));
-    let whole: i64 = match (kind, v) {
-        (PointKind::Float, PointValue::Float(f)) => return Some(PointValue::Float(f)),
-        (PointKind::Float, PointValue::Unsigned(u)) => return Some(PointValue::Float(u as f32)),
-        (PointKind::Float, PointValue::Signed(i)) => return Some(PointValue::Float(i as f32)),
-        (_, PointValue::Unsigned(u)) => i64::from(u),
-        (_, PointValue::Signed(i)) => i64::from(i),
-        (_, PointValue::Float(f)) => {
-            // Every integer a point holds (|v| < 2^32) is exact in an f64.
-            let d = f64::from(f);
-            if !d.is_finite() || d.fract() != 0.0 || d.abs() > 4_294_967_295.0 {
-                return None;
-            }
-            d as i64
+/// `v` as the point of `kind` and `bits` holds it (the form `ModuleMap::set` takes), or why
+/// it cannot: NaN or ±Inf into any point, an integer outside the point's range (300 into an
+/// 8-bit point, -1 into an unsigned one), a float with a fractional part into an integer
+/// point. An integer into a float point is converted to the nearest float (exact up to 2^24;
+/// the modules never do it: a float point travels as `f32`).
+pub fn convert(v: PointValue, kind: PointKind, bits: u8) -> Result<PointValue, Unfit> {
+    let whole: f64 = match v {
+        PointValue::Float(f) if !f.is_finite() => return Err(Unfit::NotFinite(f)),
+        PointValue::Float(f) if kind == PointKind::Float => return Ok(PointValue::Float(f)),
+        PointValue::Unsigned(u) if kind == PointKind::Float => {
+            return Ok(PointValue::Float(u as f32))
         }
+        PointValue::Signed(i) if kind == PointKind::Float => {
+            return Ok(PointValue::Float(i as f32))
+        }
+        // Every integer a point holds (|v| < 2^32), and every f32, is exact in an f64.
+        PointValue::Unsigned(u) => f64::from(u),
+        PointValue::Signed(i) => f64::from(i),
+        PointValue::Float(f) if f.fract() != 0.0 => return Err(Unfit::Fraction(f)),
+        PointValue::Float(f) => f64::from(f),
     };
-    match kind {
-        PointKind::Unsigned => {
-            let max = (1i64 << bits) - 1;
-            (0..=max)
-                .contains(&whole)
-                .then_some(PointValue::Unsigned(whole as u32))
-        }
-        PointKind::Signed => {
-            let half = 1i64 << (bits - 1);
-            (-half..half)
-                .contains(&whole)
-                .then_some(PointValue::Signed(whole as i32))
-        }
-        PointKind::Float => None,
+    let bits = u32::from(bits.clamp(1, 32));
+    let signed = kind == PointKind::Signed;
+    let (min, max) = if signed {
+        (-(1i64 << (bits - 1)), (1i64 << (bits - 1)) - 1)
+    } else {
+        (0, (1i64 << bits) - 1)
+    };
+    if !(min as f64..=max as f64).contains(&whole) {
+        return Err(Unfit::OutOfRange {
+            value: whole,
+            min,
+            max,
+        });
     }
+    Ok(if signed {
+        PointValue::Signed(whole as i32)
+    } else {
+        PointValue::Unsigned(whole as u32)
+    })
 }
 
 /// A point as a coil or discrete input: any non-zero value is on.
@@ -354,18 +387,54 @@ mod tests {
         assert!(fits(&V::Float(3.0), Unsigned, 2));
         assert!(!fits(&V::Float(3.5), Unsigned, 2));
         assert!(!fits(&V::Float(f32::INFINITY), Signed, 32));
-        assert!(fits(&V::Float(f32::NAN), Float, 32));
+        assert!(fits(&V::Float(f32::MAX), Float, 32));
+        assert!(fits(&V::Float(f32::MIN_POSITIVE / 2.0), Float, 32));
         assert!(fits(&V::Unsigned(1), Unsigned, 1));
         assert!(!fits(&V::Unsigned(2), Unsigned, 1));
     }
 
     #[test]
     fn convert_gives_the_points_own_kind() {
-        assert_eq!(convert(V::Unsigned(5), Signed, 8), Some(V::Signed(5)));
-        assert_eq!(convert(V::Signed(5), Unsigned, 8), Some(V::Unsigned(5)));
-        assert_eq!(convert(V::Signed(-3), Float, 32), Some(V::Float(-3.0)));
-        assert_eq!(convert(V::Float(-3.0), Signed, 4), Some(V::Signed(-3)));
-        assert_eq!(convert(V::Float(-9.0), Signed, 4), None);
+        assert_eq!(convert(V::Unsigned(5), Signed, 8), Ok(V::Signed(5)));
+        assert_eq!(convert(V::Signed(5), Unsigned, 8), Ok(V::Unsigned(5)));
+        assert_eq!(convert(V::Signed(-3), Float, 32), Ok(V::Float(-3.0)));
+        assert_eq!(convert(V::Float(-3.0), Signed, 4), Ok(V::Signed(-3)));
+        assert_eq!(
+            convert(V::Float(-9.0), Signed, 4),
+            Err(Unfit::OutOfRange {
+                value: -9.0,
+                min: -8,
+                max: 7
+            })
+        );
+        assert_eq!(
+            convert(V::Float(4294967296.0), Unsigned, 32).map_err(|e| e.to_string()),
+            Err("4294967296 is outside the point's range 0 to 4294967295".to_string())
+        );
+        assert_eq!(convert(V::Float(0.5), Signed, 8), Err(Unfit::Fraction(0.5)));
+    }
+
+    #[test]
+    fn no_point_takes_a_value_that_is_not_a_number() {
+        for f in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for (kind, bits) in [(Float, 32), (Signed, 32), (Unsigned, 16)] {
+                assert!(
+                    matches!(convert(V::Float(f), kind, bits), Err(Unfit::NotFinite(_))),
+                    "{f} into {kind:?}"
+                );
+            }
+        }
+        // What the log says, for the registers 0x7FC0 0x0000 and 0xFF80 0x0000.
+        let nan = decode(&[0x7FC0, 0], F32, HighFirst);
+        assert_eq!(
+            convert(nan, Float, 32).unwrap_err().to_string(),
+            "NaN is not a finite number; points take only finite values from the network"
+        );
+        let minus_inf = decode(&[0xFF80, 0], F32, HighFirst);
+        assert!(convert(minus_inf, Float, 32)
+            .unwrap_err()
+            .to_string()
+            .starts_with("-Inf is not"));
     }
 
     #[test]
@@ -394,6 +463,39 @@ mod tests {
                     v,
                     "{v:?} {ty} {order}"
                 );
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// Any registers as any type into any point the type may be read into: either the
+        /// point takes a finite value that carries the same registers back, or it is refused.
+        #[test]
+        fn registers_from_the_network_are_taken_exactly_or_refused(
+            words in proptest::array::uniform2(proptest::prelude::any::<u16>()),
+            ty in proptest::sample::select(vec![U16, I16, U32, I32, F32]),
+            order in proptest::sample::select(vec![HighFirst, LowFirst]),
+            kind in proptest::sample::select(vec![Unsigned, Signed, Float]),
+            bits in 1u8..=32,
+        ) {
+            let bits = if kind == Float { 32 } else { bits };
+            let n = ty.registers();
+            let v = decode(&words[..n], ty, order);
+            match convert(v, kind, bits) {
+                Ok(p) => {
+                    if let V::Float(f) = p {
+                        proptest::prop_assert!(f.is_finite());
+                    }
+                    proptest::prop_assert!(fits(&p, kind, bits));
+                    if ty.holds(kind, bits) {
+                        proptest::prop_assert_eq!(&encode(p, ty, order)[..n], &words[..n]);
+                    }
+                }
+                Err(Unfit::NotFinite(f)) => proptest::prop_assert!(!f.is_finite()),
+                Err(Unfit::Fraction(f)) => proptest::prop_assert!(f.fract() != 0.0),
+                Err(Unfit::OutOfRange { value, min, max }) => {
+                    proptest::prop_assert!(value < min as f64 || value > max as f64)
+                }
             }
         }
     }

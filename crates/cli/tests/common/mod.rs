@@ -1,5 +1,8 @@
-//! What the tests that run C modules share: building a module program against the
-//! `libpetriplc.so` built with the test.
+//! What the integration tests share: building a C module program against the
+//! `libpetriplc.so` built with the test, and reading a process's log line by line as it comes.
+
+// Each test file compiles this module on its own and uses a part of it.
+#![allow(dead_code)]
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -39,4 +42,60 @@ pub fn c_module(dir: &Path, name: &str, source: &str, flags: &[&str]) -> PathBuf
         String::from_utf8_lossy(&out.stderr)
     );
     program
+}
+
+/// The standard error of `child` (spawned with it piped), line by line as it comes, so that a
+/// test can wait for exactly the line it needs instead of running for a fixed time.
+pub struct Lines {
+    rx: std::sync::mpsc::Receiver<String>,
+    /// Every line read so far, for messages.
+    pub seen: String,
+}
+
+impl Lines {
+    pub fn of(child: &mut std::process::Child) -> Lines {
+        let stderr = child.stderr.take().expect("standard error piped");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            for line in std::io::BufReader::new(stderr).lines() {
+                let Ok(line) = line else { return };
+                if tx.send(line).is_err() {
+                    return;
+                }
+            }
+        });
+        Lines {
+            rx,
+            seen: String::new(),
+        }
+    }
+
+    /// Reads until a line contains `text` (within `patience`); panics with what came if none
+    /// does.
+    pub fn until(&mut self, text: &str, patience: std::time::Duration) {
+        let deadline = std::time::Instant::now() + patience;
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match self.rx.recv_timeout(left) {
+                Ok(line) => {
+                    self.seen.push_str(&line);
+                    self.seen.push('\n');
+                    if line.contains(text) {
+                        return;
+                    }
+                }
+                Err(e) => panic!("no line with `{text}` ({e}):\n{}", self.seen),
+            }
+        }
+    }
+
+    /// Everything until the process closes its standard error.
+    pub fn rest(mut self) -> String {
+        for line in self.rx.iter() {
+            self.seen.push_str(&line);
+            self.seen.push('\n');
+        }
+        self.seen
+    }
 }

@@ -37,9 +37,12 @@ pub struct State {
     /// Complete cycles.
     pub cycles: u64,
     /// Failed cycles (including failed connections).
-    pub errors: u64,
+    pub failures: u64,
     /// What went wrong last, while stale.
     pub last_error: Option<String>,
+    /// When the device last stopped answering after a complete cycle (`None` while it
+    /// answers, and while it never has).
+    pub down_since: Option<std::time::SystemTime>,
 }
 
 /// A device's [`State`] behind a mutex that a panic elsewhere cannot poison for good: the
@@ -151,6 +154,7 @@ impl Device {
                     st.stale = false;
                     st.cycles += 1;
                     st.last_error = None;
+                    st.down_since = None;
                     drop(st);
                     if failures > 0 {
                         log::info!(
@@ -179,8 +183,11 @@ impl Device {
                     }
                     failures += 1;
                     let mut st = self.shared.lock();
+                    if st.cycles > 0 && !st.stale {
+                        st.down_since = Some(std::time::SystemTime::now());
+                    }
                     st.stale = true;
-                    st.errors += 1;
+                    st.failures += 1;
                     st.last_error = Some(e);
                     drop(st);
                     retry_at = Some(Instant::now() + backoff);

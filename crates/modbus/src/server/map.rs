@@ -416,12 +416,16 @@ fn describe(kind: PointKind, bits: u8) -> String {
 }
 
 /// The values the network serves, one per mapped address of each table's span (bits as 0 or
-/// 1), and the client writes not yet applied to the points.
+/// 1), the client writes not yet applied to the points, and which points had a value refused
+/// since their last accepted write.
 #[derive(Debug, Default)]
 pub struct Image {
     pub values: [Vec<u16>; 4],
     /// Point index and value, in arrival order; drained by each scan.
     pub pending: Vec<(u32, PointValue)>,
+    /// Per point: a refused value was logged, and no write to it has been accepted since
+    /// (further refusals are only counted).
+    refusing: Vec<bool>,
 }
 
 impl Image {
@@ -429,6 +433,16 @@ impl Image {
         Image {
             values: Table::ALL.map(|t| vec![0u16; map.table(t).span()]),
             pending: Vec::new(),
+            refusing: vec![false; map.points.len()],
+        }
+    }
+
+    /// A value written to point `p` was refused: whether this is the first since the point
+    /// last accepted one (the refusal to log).
+    pub fn refuse(&mut self, p: u32) -> bool {
+        match self.refusing.get_mut(p as usize) {
+            Some(r) => !std::mem::replace(r, true),
+            None => false,
         }
     }
 
@@ -457,6 +471,9 @@ impl Image {
     /// A client's write: shown at once, applied to the point at the next scan.
     pub fn write(&mut self, map: &AddressMap, p: u32, v: PointValue) {
         self.show(map, p, v);
+        if let Some(r) = self.refusing.get_mut(p as usize) {
+            *r = false;
+        }
         // While the module does not scan (held by the synchronisation net, say) writes pile
         // up; only the last per point can matter, since a scan applies them all before any
         // other module sees one.

@@ -198,11 +198,14 @@ fn answer(frame: &[u8], unit: u8, shared: &Shared, out: &mut Vec<u8>) {
     let pdu = &frame[1..frame.len() - 2];
     let start = out.len();
     out.push(address);
-    let exception = pdu::respond(&shared.map, &mut shared.lock(), pdu, out);
+    let exception = {
+        let mut image = shared.lock();
+        let outcome = pdu::respond(&shared.map, &mut image, pdu, out);
+        shared.outcome(&mut image, pdu, outcome)
+    };
     shared.requests.fetch_add(1, Ordering::Relaxed);
     if exception {
         shared.exceptions.fetch_add(1, Ordering::Relaxed);
-        shared.refused(pdu, out[out.len() - 1]);
     }
     if address == 0 {
         out.truncate(start);

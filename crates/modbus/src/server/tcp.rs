@@ -729,9 +729,10 @@ pub(super) fn answer(buf: &[u8], shared: &Shared, out: &mut Vec<u8>) -> Batch {
         let image = image.get_or_insert_with(|| shared.lock());
         let start = out.len();
         out.extend_from_slice(&rest[..HEADER]);
-        if pdu::respond(&shared.map, image, &rest[HEADER..total], out) {
+        let request = &rest[HEADER..total];
+        let outcome = pdu::respond(&shared.map, image, request, out);
+        if shared.outcome(image, request, outcome) {
             exceptions += 1;
-            shared.refused(&rest[HEADER..total], out[out.len() - 1]);
         }
         let length = (out.len() - start - 6) as u16;
         out[start + 4..start + 6].copy_from_slice(&length.to_be_bytes());

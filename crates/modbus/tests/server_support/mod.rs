@@ -228,6 +228,44 @@ pub fn adu(tid: u16, unit: u8, pdu: &[u8]) -> Vec<u8> {
     v
 }
 
+/// FC 16 of `words` at `address`.
+pub fn fc16(address: u16, words: &[u16]) -> Vec<u8> {
+    let mut pdu = vec![0x10];
+    pdu.extend(address.to_be_bytes());
+    pdu.extend((words.len() as u16).to_be_bytes());
+    pdu.push(2 * words.len() as u8);
+    for w in words {
+        pdu.extend(w.to_be_bytes());
+    }
+    pdu
+}
+
+/// FC 23: read one register at 0, write `words` at `address`.
+pub fn fc23(address: u16, words: &[u16]) -> Vec<u8> {
+    let mut pdu = vec![0x17, 0, 0, 0, 1];
+    pdu.extend(address.to_be_bytes());
+    pdu.extend((words.len() as u16).to_be_bytes());
+    pdu.push(2 * words.len() as u8);
+    for w in words {
+        pdu.extend(w.to_be_bytes());
+    }
+    pdu
+}
+
+/// The number before `word` in a status line (`3 values refused`).
+pub fn count(status: &str, word: &str) -> u64 {
+    let end = status
+        .find(word)
+        .unwrap_or_else(|| panic!("no `{word}` in `{status}`"));
+    status[..end]
+        .trim_end()
+        .rsplit([' ', ';', ','])
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
 /// A serial line between two paths: two pseudo-terminal pairs whose master sides a thread
 /// each copies to the other (what `socat pty pty` does). The server opens one slave path, a
 /// client the other; both set raw mode as serial libraries do.
