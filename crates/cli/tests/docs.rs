@@ -10,6 +10,10 @@
 //!   running once its PLC is up: it then goes on while the rest of its document runs (as if
 //!   in another terminal), and is stopped with SIGINT at the end of the document, after
 //!   which it must exit 0;
+//! - a configuration is fenced ```conf: a complete one is written under `out/docs-conf/` and
+//!   started for 2 s (exit 0); ```conf excerpt=FILE shows lines of an example file, which
+//!   must be that file's lines in order, and the file is started instead; any other block
+//!   holding a `[SECTION]` line fails;
 //! - a document may write only under `out/` (git-ignored): new untracked files elsewhere fail;
 //! - a document listed in [`RUN_ELSEWHERE`] has its fences checked here but its commands run
 //!   by a test of its own, which checks what they print (and runs every block: it says so).
@@ -64,10 +68,17 @@ struct Cmd {
     text: String,
 }
 
-/// A document's fenced blocks: the commands of its ```sh blocks, and problems with fences.
-fn sh_commands(file: &str, text: &str) -> (Vec<Cmd>, Vec<String>) {
-    let mut commands = Vec::new();
-    let mut problems = Vec::new();
+/// A fenced block: the line of its opening fence, its info string (`sh`, `conf
+/// excerpt=FILE`), and its lines with their indexes.
+struct Fence<'a> {
+    line: usize,
+    info: &'a str,
+    body: Vec<(usize, &'a str)>,
+}
+
+/// A document's fenced blocks.
+fn fences(text: &str) -> Vec<Fence<'_>> {
+    let mut out = Vec::new();
     let mut lines = text.lines().enumerate();
     while let Some((i, line)) = lines.next() {
         let trimmed = line.trim_start();
@@ -75,14 +86,6 @@ fn sh_commands(file: &str, text: &str) -> (Vec<Cmd>, Vec<String>) {
             continue;
         };
         let indent = line.len() - trimmed.len();
-        let lang = info.split_whitespace().next().unwrap_or("");
-        if lang.is_empty() {
-            problems.push(format!(
-                "{file}:{}: a fenced block without a language: write ```sh for commands the \
-                 docs test runs, ```text (or the format's name) for anything else",
-                i + 1
-            ));
-        }
         let mut body = Vec::new();
         for (j, l) in lines.by_ref() {
             if l.trim_start().starts_with("```") {
@@ -90,11 +93,161 @@ fn sh_commands(file: &str, text: &str) -> (Vec<Cmd>, Vec<String>) {
             }
             body.push((j, l.get(indent..).unwrap_or(l.trim_start())));
         }
+        out.push(Fence {
+            line: i + 1,
+            info: info.trim(),
+            body,
+        });
+    }
+    out
+}
+
+/// A line that opens a section of a configuration: `[NAME]`, perhaps with a comment.
+fn section_header(line: &str) -> bool {
+    let l = line.split(" #").next().unwrap_or("").trim();
+    l.len() > 2
+        && l.starts_with('[')
+        && l.ends_with(']')
+        && l[1..l.len() - 1]
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+/// A document's fenced blocks: the commands of its ```sh blocks, and problems with fences.
+fn sh_commands(file: &str, text: &str) -> (Vec<Cmd>, Vec<String>) {
+    let mut commands = Vec::new();
+    let mut problems = Vec::new();
+    for f in fences(text) {
+        let lang = f.info.split_whitespace().next().unwrap_or("");
+        if lang.is_empty() {
+            problems.push(format!(
+                "{file}:{}: a fenced block without a language: write ```sh for commands the \
+                 docs test runs, ```text (or the format's name) for anything else",
+                f.line
+            ));
+        }
         if lang == "sh" {
-            commands.extend(logical_lines(file, &body));
+            commands.extend(logical_lines(file, &f.body));
+        }
+        if lang != "conf" && f.body.iter().any(|(_, l)| section_header(l)) {
+            problems.push(format!(
+                "{file}:{}: this block holds a configuration (a `[SECTION]` line): fence it \
+                 ```conf, a complete configuration the docs test starts, or ```conf \
+                 excerpt=examples/NAME/FILE.conf, lines of that file, which the docs test \
+                 starts instead",
+                f.line
+            ));
         }
     }
     (commands, problems)
+}
+
+/// A configuration shown in a document: whole (`excerpt: None`), or lines of an example
+/// file.
+#[derive(Clone, Debug)]
+struct Conf {
+    at: String,
+    text: String,
+    excerpt: Option<String>,
+}
+
+/// The ```conf blocks of a document.
+fn conf_blocks(file: &str, text: &str) -> Vec<Conf> {
+    fences(text)
+        .into_iter()
+        .filter(|f| f.info.split_whitespace().next() == Some("conf"))
+        .map(|f| Conf {
+            at: format!("{file}:{}", f.line),
+            text: f.body.iter().map(|(_, l)| format!("{l}\n")).collect(),
+            excerpt: f
+                .info
+                .split_whitespace()
+                .find_map(|w| w.strip_prefix("excerpt="))
+                .map(str::to_string),
+        })
+        .collect()
+}
+
+/// A configuration line as compared with an example file: its comment dropped (a `#` after
+/// a space), its spaces collapsed; `None` for a blank or comment line.
+fn conf_line(line: &str) -> Option<String> {
+    let code = match line.find(" #") {
+        Some(i) => &line[..i],
+        None => line,
+    };
+    let code = code.split_whitespace().collect::<Vec<_>>().join(" ");
+    (!code.is_empty() && !code.starts_with('#')).then_some(code)
+}
+
+/// What is wrong with an excerpt: a line that is not in its file, in order.
+fn excerpt_problems(conf: &Conf, file: &str, file_text: &str) -> Vec<String> {
+    let mut lines = file_text.lines().filter_map(conf_line);
+    let mut problems = Vec::new();
+    for want in conf.text.lines().filter_map(conf_line) {
+        if !lines.any(|l| l == want) {
+            problems.push(format!(
+                "{}: `{want}` is not in {file} (or not in this order): the excerpt must show \
+                 that file's lines as they are",
+                conf.at
+            ));
+            break;
+        }
+    }
+    problems
+}
+
+/// Checks and starts every configuration of a document: a whole one is written under
+/// `out/docs-conf/` and started; an excerpt is matched against its file, which is started.
+/// Each must run for two seconds and stop with exit code 0.
+fn run_confs(doc: &str, confs: &[Conf]) -> Vec<String> {
+    let mut failures = Vec::new();
+    let mut commands: Vec<Cmd> = Vec::new();
+    let dir = root().join("out/docs-conf");
+    fs::create_dir_all(&dir).unwrap();
+    for (k, conf) in confs.iter().enumerate() {
+        let id = format!("docs-conf-{k}");
+        let file = match &conf.excerpt {
+            Some(file) => {
+                let Ok(text) = fs::read_to_string(root().join(file)) else {
+                    failures.push(format!("{}: excerpt={file}: no such file", conf.at));
+                    continue;
+                };
+                failures.extend(excerpt_problems(conf, file, &text));
+                if commands
+                    .iter()
+                    .any(|c| c.text.contains(&format!(" {file} ")))
+                {
+                    continue;
+                }
+                file.clone()
+            }
+            None => {
+                let name = format!("{}-{k}.conf", doc.replace(['/', '.'], "-"));
+                fs::write(dir.join(&name), &conf.text).unwrap();
+                format!("out/docs-conf/{name}")
+            }
+        };
+        commands.push(Cmd {
+            at: conf.at.clone(),
+            text: format!("petriplc run {file} --for 2s --plc-id {id} --log-to terminal"),
+        });
+    }
+    let bin = bin_dir();
+    for cmd in &commands {
+        let mut job = Job::start(cmd, bin.path());
+        match job.wait(FINITE, || false) {
+            Some(s) if s.success() => {}
+            Some(s) => failures.push(job.report(&format!(
+                "failed ({s}): a ```conf block must run as written"
+            ))),
+            None => {
+                job.signal(Signal::SIGKILL);
+                let _ = job.child.wait();
+                failures.push(job.report(&format!("did not finish within {FINITE:?}")));
+            }
+        }
+    }
+    failures
 }
 
 /// Joins `\`-continued lines; drops blank and comment lines.
@@ -352,10 +505,14 @@ fn every_documented_command_runs_as_written() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let mut failures = Vec::new();
     let mut ran = 0;
+    let mut configurations = 0;
     for doc in documents() {
         let text = fs::read_to_string(root().join(&doc)).unwrap();
         let (commands, problems) = sh_commands(&doc, &text);
         failures.extend(problems);
+        let confs = conf_blocks(&doc, &text);
+        configurations += confs.len();
+        failures.extend(run_confs(&doc, &confs));
         if RUN_ELSEWHERE.iter().any(|(d, _)| *d == doc) {
             continue;
         }
@@ -363,6 +520,10 @@ fn every_documented_command_runs_as_written() {
         failures.extend(run_document(&doc, &commands));
     }
     assert!(ran >= 10, "only {ran} documented commands found");
+    assert!(
+        configurations >= 5,
+        "only {configurations} documented configurations found"
+    );
     assert!(failures.is_empty(), "\n{}", failures.join("\n\n"));
 }
 
@@ -470,5 +631,34 @@ mod parsing {
             0,
         );
         check("```\nanything\n```\n", &[], 1);
+        // A configuration must say what it is.
+        check("```text\n[PLC]\nmodule a b\n```\n", &[], 1);
+        check(
+            "```conf\n[PLC] # top\n```\n```text\nARRAY[1..2] OF INT\n```\n",
+            &[],
+            0,
+        );
+    }
+
+    #[test]
+    fn conf_blocks_are_whole_or_excerpts_matched_line_by_line() {
+        let confs = conf_blocks(
+            "d.md",
+            "```conf\n[PLC]\n```\n\n```conf excerpt=examples/x/plc.conf\n[io]   # the io\nport = 5\n```\n",
+        );
+        assert_eq!(confs.len(), 2);
+        assert_eq!(
+            (confs[0].at.as_str(), confs[0].excerpt.as_deref()),
+            ("d.md:1", None)
+        );
+        assert_eq!(confs[1].excerpt.as_deref(), Some("examples/x/plc.conf"));
+        let file = "# head\n[PLC]\nmodule io x\n[io]\nport  =  5   # five\nretain_write = T#5ms\n";
+        assert!(excerpt_problems(&confs[1], "f", file).is_empty());
+        let swapped = "[PLC]\nport = 5\n[io]\n";
+        assert_eq!(excerpt_problems(&confs[1], "f", swapped).len(), 1);
+        assert_eq!(
+            conf_line("retain_write = T#5ms"),
+            Some("retain_write = T#5ms".into())
+        );
     }
 }
