@@ -79,3 +79,67 @@ proptest! {
         }
     }
 }
+
+/// Any bytes at the retain file's path — random, zeros, a valid file cut or grown anywhere,
+/// a header claiming more than the file holds — open without a panic: a snapshot that is
+/// one whole copy, or an error that names the file; never a mix.
+fn arbitrary_file() -> impl Strategy<Value = Vec<u8>> {
+    let valid = (1usize..40, 1u32..4).prop_map(|(n, writes)| {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v.retain");
+        let ident = Identity {
+            plc_id: "t".into(),
+            config: "t.conf".into(),
+        };
+        let (mut f, _) = RetainFile::open(&path).unwrap();
+        for w in 0..writes {
+            f.write(&ident, &entries(w, n), SystemTime::now()).unwrap();
+        }
+        drop(f);
+        std::fs::read(&path).unwrap()
+    });
+    prop_oneof![
+        proptest::collection::vec(any::<u8>(), 0..20_000),
+        (0usize..20_000).prop_map(|n| vec![0u8; n]),
+        (valid.clone(), any::<prop::sample::Index>())
+            .prop_map(|(b, i)| b[..i.index(b.len() + 1)].to_vec()),
+        (
+            valid.clone(),
+            proptest::collection::vec(any::<u8>(), 1..5000)
+        )
+            .prop_map(|(mut b, tail)| {
+                b.extend(tail);
+                b
+            }),
+        (valid, any::<prop::sample::Index>(), any::<u8>()).prop_map(|(mut b, i, x)| {
+            let i = i.index(b.len());
+            b[i] ^= x | 1;
+            b
+        }),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+    #[test]
+    fn any_bytes_open_to_a_whole_snapshot_or_an_error(bytes in arbitrary_file()) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.retain");
+        std::fs::write(&path, &bytes).unwrap();
+        match RetainFile::open(&path) {
+            Ok((mut f, loaded)) => {
+                if let Some(snap) = &loaded.snapshot {
+                    let values: Vec<u32> = snap.entries.iter().filter_map(|e| match e.value {
+                        Value::Point { raw, .. } => Some(raw),
+                        Value::Data { .. } => None,
+                    }).collect();
+                    prop_assert!(values.iter().all(|&v| v == values[0]), "a mix: {:?}", values);
+                }
+                // And the file can be written again.
+                let ident = Identity { plc_id: "t".into(), config: "t.conf".into() };
+                prop_assert!(f.write(&ident, &entries(9, 3), SystemTime::now()).is_ok());
+            }
+            Err(e) => prop_assert!(e.to_string().contains("t.retain"), "{}", e),
+        }
+    }
+}
