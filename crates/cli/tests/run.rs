@@ -259,7 +259,7 @@ fn bad_configurations_start_nothing() {
             "b:point=q",
             "--set: error[C033]: `point` is set for `b`, but no module b is declared",
         ),
-        ("a-point", "is not SECTION:NAME=VALUE"),
+        ("a-point", "is neither SECTION:NAME=VALUE"),
     ];
     for (i, (set, message)) in sets.iter().enumerate() {
         let out = run_config(&dir, text, &plc_id(&format!("set{i}")), &["--set", set]);
