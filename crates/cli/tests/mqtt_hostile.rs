@@ -205,6 +205,7 @@ fn an_oversized_retained_message_is_dropped_and_counted_and_the_link_stays_up() 
     wait_until("three rejected", || {
         module_line(&id, "mqtt").contains("3 rejected")
     });
+    wait_until("logged", || !log_lines(&log, "topic plant/big:").is_empty());
     let warned = log_lines(&log, "topic plant/big:");
     assert_eq!(warned.len(), 1, "{warned:?}");
     assert!(
@@ -288,6 +289,10 @@ fn non_finite_values_are_refused_with_one_log_line_per_topic() {
     publish(&broker, "plant/count", b"inf", false);
     wait_until("301 rejected", || {
         module_line(&id, "mqtt").contains("301 rejected")
+    });
+    wait_until("logged", || {
+        !log_lines(&log, "topic plant/level:").is_empty()
+            && !log_lines(&log, "topic plant/count:").is_empty()
     });
     let level = log_lines(&log, "topic plant/level:");
     assert_eq!(level.len(), 1, "{level:?}");

@@ -108,19 +108,21 @@ impl Shared {
     /// first on its topic since a good message, at most one line per topic every 10 s
     /// (`refusals.rs`): a peer publishing garbage at 1 kHz logs one line, not a thousand.
     pub(crate) fn refuse(&self, topic: &str, what: impl FnOnce() -> String) {
-        self.rejected.fetch_add(1, Ordering::Relaxed);
         let logged = lock(&self.refusals).refused(topic, Instant::now());
-        let more = match logged {
-            None => return,
-            Some(0) => String::new(),
-            Some(n) => format!(", as were {n} more since the last line about it"),
-        };
-        log::warn!(
-            "mqtt {}: topic {topic}: {}; refused{more} (further refusals on this topic are \
-             only counted until a good message arrives)",
-            self.name,
-            what()
-        );
+        if let Some(unlogged) = logged {
+            let more = match unlogged {
+                0 => String::new(),
+                n => format!(", as were {n} more since the last line about it"),
+            };
+            log::warn!(
+                "mqtt {}: topic {topic}: {}; refused{more} (further refusals on this topic are \
+                 only counted until a good message arrives)",
+                self.name,
+                what()
+            );
+        }
+        // Counted once logged: a status that shows the refusal finds its line in the log.
+        self.rejected.fetch_add(1, Ordering::Relaxed);
     }
 
     /// A good message on `topic`: its next refusal is logged again.

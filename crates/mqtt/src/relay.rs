@@ -13,8 +13,9 @@
 //! never held. Everything else passes through unchanged, in both directions.
 //!
 //! The Unix socket lives in a folder of the module's own (mode 0700, a random name under the
-//! system's temporary folder), made at start and removed at stop; each connection binds it,
-//! takes rumqttc's one connection, and unlinks it.
+//! system's temporary folder), made at start and removed at stop (or, after a SIGKILL, by the
+//! next start of a PLC of the same user); each connection binds it, takes rumqttc's one
+//! connection, and unlinks it.
 
 use std::collections::HashSet;
 use std::io;
@@ -183,20 +184,54 @@ impl Drop for Relay {
     }
 }
 
+/// The start of the name of a relay's folder, followed by the PID and a random number.
+const DIR_PREFIX: &str = "petriplc-mqtt-";
+
 /// A new folder only this user may enter, with a name nobody can guess ahead of us: a
-/// socket in it is reachable by this PLC alone.
+/// socket in it is reachable by this PLC alone. The folders of this user's PLCs that died
+/// without removing theirs (SIGKILL) are removed on the way.
 fn private_dir() -> io::Result<PathBuf> {
     use std::io::Read;
     use std::os::unix::fs::DirBuilderExt;
     let mut random = [0u8; 8];
     std::fs::File::open("/dev/urandom")?.read_exact(&mut random)?;
-    let dir = std::env::temp_dir().join(format!(
-        "petriplc-mqtt-{}-{:016x}",
+    let tmp = std::env::temp_dir();
+    let dir = tmp.join(format!(
+        "{DIR_PREFIX}{}-{:016x}",
         std::process::id(),
         u64::from_ne_bytes(random)
     ));
     std::fs::DirBuilder::new().mode(0o700).create(&dir)?;
+    remove_dead(&tmp, &dir);
     Ok(dir)
+}
+
+/// Removes the relay folders under `tmp` that belong to `ours`' owner and to a process that
+/// no longer exists (a PID reused since only delays that).
+fn remove_dead(tmp: &Path, ours: &Path) {
+    use std::os::unix::fs::MetadataExt;
+    let Ok(me) = std::fs::metadata(ours).map(|m| m.uid()) else {
+        return;
+    };
+    let Ok(entries) = std::fs::read_dir(tmp) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix(DIR_PREFIX))
+            .and_then(|rest| rest.split('-').next())
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        let path = entry.path();
+        let mine = std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir() && m.uid() == me);
+        if mine && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_dir_all(&path);
+        }
+    }
 }
 
 /// Reads MQTT packets from the broker and writes them on, flushing only when the broker
@@ -491,6 +526,32 @@ mod tests {
         let (out, why) = relay(&f, Huge { head, left: size }).await;
         assert_eq!(out, publish(1, CUT, 9, b""));
         assert_eq!(why, "the broker closed the connection");
+    }
+
+    #[test]
+    fn the_folders_of_dead_plcs_are_removed() {
+        let tmp = tempfile::tempdir().unwrap();
+        let mut dead = std::process::Command::new("true").spawn().unwrap();
+        let dead_pid = dead.id();
+        dead.wait().unwrap();
+        let left = tmp
+            .path()
+            .join(format!("{DIR_PREFIX}{dead_pid}-0123456789abcdef"));
+        let alive = tmp
+            .path()
+            .join(format!("{DIR_PREFIX}{}-0", std::process::id()));
+        let other = tmp.path().join("petriplc-other-1");
+        for d in [&left, &alive, &other] {
+            std::fs::create_dir(d).unwrap();
+        }
+        std::fs::write(left.join("broker"), "").unwrap();
+        let ours = tmp
+            .path()
+            .join(format!("{DIR_PREFIX}{}-1", std::process::id()));
+        std::fs::create_dir(&ours).unwrap();
+        remove_dead(tmp.path(), &ours);
+        assert!(!left.exists());
+        assert!(alive.exists() && other.exists() && ours.exists());
     }
 
     #[tokio::test(flavor = "current_thread")]
