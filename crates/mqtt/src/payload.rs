@@ -53,6 +53,8 @@ pub fn encode(v: PointValue, format: Format, ts_ms: u64) -> Vec<u8> {
 pub enum Number {
     Int(i64),
     Float(f64),
+    /// Digits beyond `f64` (`1e400`, a 400-digit integer): finite, too large for any point.
+    Beyond,
 }
 
 /// Why a received payload cannot become a point's value. Displayed after `payload "..."`,
@@ -161,12 +163,7 @@ pub fn decode(bytes: &[u8]) -> Result<Number, Refusal> {
     match text.parse::<f64>() {
         Ok(f) if f.is_finite() => Ok(Number::Float(f)),
         // Digits beyond f64's range (`1e400`) parse as an infinity: a number, too large.
-        Ok(f) if f.is_infinite() && text.bytes().any(|b| b.is_ascii_digit()) => {
-            Err(Refusal::OutOfRange {
-                min: format!("{:e}", f64::MIN),
-                max: format!("{:e}", f64::MAX),
-            })
-        }
+        Ok(f) if f.is_infinite() && text.bytes().any(|b| b.is_ascii_digit()) => Ok(Number::Beyond),
         Ok(_) => Err(Refusal::NotFinite),
         Err(_) => Err(Refusal::NotANumber),
     }
@@ -178,6 +175,10 @@ pub fn to_point(n: Number, kind: PointKind, bits: u8) -> Result<PointValue, Refu
     let bits = u32::from(bits);
     let (min, max) = match kind {
         PointKind::Float => {
+            let out_of_range = || Refusal::OutOfRange {
+                min: format!("{:e}", f32::MIN),
+                max: format!("{:e}", f32::MAX),
+            };
             return match n {
                 Number::Int(i) => Ok(PointValue::Float(i as f32)),
                 Number::Float(f) if !f.is_finite() => Err(Refusal::NotFinite),
@@ -187,12 +188,10 @@ pub fn to_point(n: Number, kind: PointKind, bits: u8) -> Result<PointValue, Refu
                     if v.is_finite() {
                         Ok(PointValue::Float(v))
                     } else {
-                        Err(Refusal::OutOfRange {
-                            min: format!("{:e}", f32::MIN),
-                            max: format!("{:e}", f32::MAX),
-                        })
+                        Err(out_of_range())
                     }
                 }
+                Number::Beyond => Err(out_of_range()),
             };
         }
         PointKind::Unsigned => (0i64, (1i64 << bits) - 1),
@@ -209,7 +208,7 @@ pub fn to_point(n: Number, kind: PointKind, bits: u8) -> Result<PointValue, Refu
         Number::Float(f) if !f.is_finite() => return Err(Refusal::NotFinite),
         Number::Float(f) if f.fract() != 0.0 => return Err(Refusal::NotWhole),
         Number::Float(f) if (-two_63..two_63).contains(&f) => f as i64,
-        Number::Float(_) => return Err(out_of_range()),
+        Number::Float(_) | Number::Beyond => return Err(out_of_range()),
     };
     if !(min..=max).contains(&i) {
         return Err(out_of_range());
@@ -305,8 +304,19 @@ mod tests {
             Err("out of range (-3.4028235e38 to 3.4028235e38)"),
         );
         check("-1e39", Float, 32, Err("out of range"));
-        check("1e400", Float, 32, Err("out of range"));
-        check("1e400", Unsigned, 32, Err("out of range"));
+        check(
+            "1e400",
+            Float,
+            32,
+            Err("out of range (-3.4028235e38 to 3.4028235e38)"),
+        );
+        check("-1e400", Unsigned, 8, Err("out of range (0 to 255)"));
+        check(
+            &"9".repeat(400),
+            Signed,
+            8,
+            Err("out of range (-128 to 127)"),
+        );
         check("1e39", Unsigned, 32, Err("out of range"));
         check("3.4028235e38", Float, 32, Ok(V::Float(f32::MAX)));
         check("1e-50", Float, 32, Ok(V::Float(0.0)));
