@@ -8,6 +8,7 @@
 //! topic_prefix = cell-a            # default: the PLC id
 //! payload = plain                  # or json
 //! stale = link_down                # a bool point of this module: true while the broker is away
+//! max_payload = 64 KiB             # larger messages are dropped and counted (relay.rs)
 //! publish V1 V2 V3
 //! subscribe cell-b/N1 N1           # N1 owned by this module; `hold` (default) or a safe value
 //! subscribe cell-b/N2 N2 0
@@ -16,10 +17,14 @@
 //!
 //! The network runs on a tokio runtime in a thread of its own (started by `init`, stopped by
 //! `close`); the scan only swaps values with it under short locks, so a slow or absent broker
-//! never holds a scan.
+//! never holds a scan. What a peer publishes reaches a point only as a finite value within
+//! the point's type (`payload.rs`); everything else is refused, counted and logged once per
+//! topic and burst (`refusals.rs`).
 
 mod link;
 pub mod payload;
+mod refusals;
+mod relay;
 pub mod settings;
 pub mod sparkplug;
 #[doc(hidden)]
@@ -27,7 +32,7 @@ pub mod testing;
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use petriplc_config::{ModuleDecl, PointValue};
 use petriplc_modules::common::error;
@@ -87,11 +92,82 @@ pub(crate) struct Shared {
     /// the link to it, slower than the changes).
     coalesced: AtomicU64,
     received: AtomicU64,
+    /// Messages refused (not a finite number, out of a point's range, larger than
+    /// `max_payload`, a malformed command).
     rejected: AtomicU64,
+    /// Which refusals are logged.
+    refusals: Mutex<refusals::Refusals>,
     last_error: Mutex<String>,
     format: Format,
     /// Set when the module publishes as a Sparkplug B edge node.
     spb: Option<Spb>,
+}
+
+impl Shared {
+    /// Counts a refused message; logs it (`what`: what was refused and why) if it is the
+    /// first on its topic since a good message, at most one line per topic every 10 s
+    /// (`refusals.rs`): a peer publishing garbage at 1 kHz logs one line, not a thousand.
+    pub(crate) fn refuse(&self, topic: &str, what: impl FnOnce() -> String) {
+        let logged = lock(&self.refusals).refused(topic, Instant::now());
+        if let Some(unlogged) = logged {
+            let more = match unlogged {
+                0 => String::new(),
+                n => format!(", as were {n} more since the last line about it"),
+            };
+            log::warn!(
+                "mqtt {}: topic {topic}: {}; refused{more} (further refusals on this topic are \
+                 only counted until a good message arrives)",
+                self.name,
+                what()
+            );
+        }
+        // Counted once logged: a status that shows the refusal finds its line in the log.
+        self.rejected.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// A good message on `topic`: its next refusal is logged again.
+    pub(crate) fn accepted(&self, topic: &str) {
+        lock(&self.refusals).accepted(topic);
+    }
+
+    #[cfg(test)]
+    pub(crate) fn for_tests() -> Shared {
+        Shared::new(
+            "test".into(),
+            "127.0.0.1:1".into(),
+            0,
+            0,
+            Format::Plain,
+            None,
+        )
+    }
+
+    fn new(
+        name: String,
+        broker: String,
+        published: usize,
+        subscribed: usize,
+        format: Format,
+        spb: Option<Spb>,
+    ) -> Shared {
+        Shared {
+            name,
+            broker,
+            outbox: Mutex::new((0..published).map(|_| Slot::default()).collect()),
+            wake: tokio::sync::Notify::new(),
+            inbox: Mutex::new(vec![None; subscribed]),
+            up: AtomicBool::new(false),
+            outages: AtomicU64::new(0),
+            published: AtomicU64::new(0),
+            coalesced: AtomicU64::new(0),
+            received: AtomicU64::new(0),
+            rejected: AtomicU64::new(0),
+            refusals: Mutex::new(refusals::Refusals::default()),
+            last_error: Mutex::new(String::new()),
+            format,
+            spb,
+        }
+    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -169,36 +245,29 @@ impl Module for Mqtt {
             ));
         }
         let plan = settings::plan(ctx, &self.settings, &prefix)?;
-        let shared = Arc::new(Shared {
-            name: name.clone(),
-            broker: self.settings.broker.to_string(),
-            outbox: Mutex::new(plan.publish.iter().map(|_| Slot::default()).collect()),
-            wake: tokio::sync::Notify::new(),
-            inbox: Mutex::new(vec![None; plan.subscribe.len()]),
-            up: AtomicBool::new(false),
-            outages: AtomicU64::new(0),
-            published: AtomicU64::new(0),
-            coalesced: AtomicU64::new(0),
-            received: AtomicU64::new(0),
-            rejected: AtomicU64::new(0),
-            last_error: Mutex::new(String::new()),
-            format: self.settings.format,
-            spb: spb_node.map(|node| Spb {
-                node,
-                metrics: plan
-                    .publish
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| sparkplug::MetricDef {
-                        name: p.point.clone(),
-                        alias: i as u64 + 1,
-                        datatype: sparkplug::datatype_of(p.handle.kind(), p.handle.bits()),
-                    })
-                    .collect(),
-                bd_seq: AtomicU8::new(0),
-                rebirth: AtomicBool::new(false),
-            }),
+        let spb = spb_node.map(|node| Spb {
+            node,
+            metrics: plan
+                .publish
+                .iter()
+                .enumerate()
+                .map(|(i, p)| sparkplug::MetricDef {
+                    name: p.point.clone(),
+                    alias: i as u64 + 1,
+                    datatype: sparkplug::datatype_of(p.handle.kind(), p.handle.bits()),
+                })
+                .collect(),
+            bd_seq: AtomicU8::new(0),
+            rebirth: AtomicBool::new(false),
         });
+        let shared = Arc::new(Shared::new(
+            name.clone(),
+            self.settings.broker.to_string(),
+            plan.publish.len(),
+            plan.subscribe.len(),
+            self.settings.format,
+            spb,
+        ));
         let client_id = self
             .settings
             .client_id

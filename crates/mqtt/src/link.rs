@@ -1,9 +1,10 @@
 //! The connection to the broker: rumqttc's event loop on a tokio runtime in a thread of its
-//! own, reconnected with back-off; a publisher task that sends the latest value of every
-//! changed point (and all of them after each connection); received values checked against
-//! their points and left for the next scan.
+//! own, through the module's relay (`relay.rs`: oversized messages dropped and counted),
+//! reconnected with back-off; a publisher task that sends the latest value of every changed
+//! point (and all of them after each connection); received values checked against their
+//! points and left for the next scan.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -14,16 +15,61 @@ use petriplc_config::{PointKind, PointValue};
 use petriplc_modules::common::{self, error};
 use petriplc_runtime::module::ModuleError;
 use rumqttc::{
-    AsyncClient, ConnectReturnCode, Event, EventLoop, LastWill, MqttOptions, Packet, QoS,
-    SubscribeFilter, SubscribeReasonCode, TlsConfiguration, Transport,
+    AsyncClient, ConnectReturnCode, ConnectionError, Event, EventLoop, LastWill, MqttOptions,
+    Packet, QoS, StateError, SubscribeFilter, SubscribeReasonCode, Transport,
 };
 use tokio::sync::{oneshot, watch};
 
+use crate::relay::{self, Filter, Relay};
 use crate::settings::{Plan, Settings};
 use crate::{lock, payload, sparkplug, Shared, Spb};
 
 /// The first wait after a failed connection; it doubles up to `backoff_max`.
 const BACKOFF_MIN: Duration = Duration::from_millis(100);
+
+/// How long a connection must last for the back-off to start again from [`BACKOFF_MIN`]:
+/// one that the broker ends sooner (a message it cannot deliver, a client id taken over, an
+/// access rule) is a failed attempt, or the module would reconnect every 100 ms for ever.
+const HEALTHY: Duration = Duration::from_secs(10);
+
+/// The largest packet the module sends (an NBIRTH of many metrics).
+const MAX_OUTGOING: usize = 1 << 20;
+
+/// The wait before each reconnection attempt.
+#[derive(Debug)]
+struct Backoff {
+    next: Duration,
+    max: Duration,
+    /// When the current connection was made (CONNACK).
+    connected: Option<Instant>,
+}
+
+impl Backoff {
+    fn new(max: Duration) -> Backoff {
+        Backoff {
+            next: BACKOFF_MIN,
+            max,
+            connected: None,
+        }
+    }
+
+    fn connected(&mut self, now: Instant) {
+        self.connected = Some(now);
+    }
+
+    /// The wait after a failure at `now`: [`BACKOFF_MIN`] after a connection that lasted
+    /// [`HEALTHY`], else twice the last one, up to the maximum.
+    fn failed(&mut self, now: Instant) -> Duration {
+        if let Some(since) = self.connected.take() {
+            if now.saturating_duration_since(since) >= HEALTHY {
+                self.next = BACKOFF_MIN;
+            }
+        }
+        let wait = self.next;
+        self.next = (self.next * 2).min(self.max);
+        wait
+    }
+}
 
 /// The running network side.
 pub(crate) struct Link {
@@ -54,12 +100,46 @@ impl Link {
     ) -> Result<Link, ModuleError> {
         let name = shared.name.clone();
         let b = &settings.broker;
-        let mut options = MqttOptions::new(client_id, b.host.clone(), b.port);
+        let tls = if b.tls {
+            Some(Arc::new(
+                tls_config(settings, base).map_err(|why| error(&name, why))?,
+            ))
+        } else {
+            None
+        };
+        let mut topics: HashMap<String, Vec<Target>> = HashMap::new();
+        for (i, s) in plan.subscribe.iter().enumerate() {
+            topics.entry(s.topic.clone()).or_default().push(Target {
+                index: i,
+                kind: s.handle.kind(),
+                bits: s.handle.bits(),
+                point: s.point.clone(),
+            });
+        }
+        let mut counted: HashSet<String> = topics.keys().cloned().collect();
+        if let Some(spb) = &shared.spb {
+            counted.insert(spb.node.topic("NCMD"));
+        }
+        let relay = Relay::new(
+            &b.host,
+            b.port,
+            tls,
+            Filter {
+                max_payload: settings.max_payload,
+                topics: counted,
+                shared: Arc::clone(&shared),
+            },
+        )
+        .map_err(|why| error(&name, why))?;
+        // rumqttc speaks MQTT over the relay's Unix socket; the relay reaches the broker.
+        let mut options = MqttOptions::new(client_id, relay.socket().to_string_lossy(), 0);
+        options.set_transport(Transport::Unix);
         options.set_keep_alive(settings.keep_alive);
         options.set_clean_session(true);
         // Retained values tell a reconnecting subscriber the current state; what was in
         // flight when the link broke is superseded by the republish after reconnecting.
-        options.set_max_packet_size(1 << 20, 1 << 20);
+        // Nothing larger than max_payload and a topic comes through the relay.
+        options.set_max_packet_size(settings.max_payload + relay::HEADROOM, MAX_OUTGOING);
         if let Some(user) = &settings.username {
             let password = match &settings.password_file {
                 None => String::new(),
@@ -81,13 +161,6 @@ impl Link {
             };
             options.set_credentials(user.clone(), password);
         }
-        if b.tls {
-            let config = tls_config(settings, base).map_err(|why| error(&name, why))?;
-            options.set_transport(Transport::tls_with_config(TlsConfiguration::Rustls(
-                Arc::new(config),
-            )));
-        }
-        let mut topics: HashMap<String, Vec<(usize, PointKind, u8)>> = HashMap::new();
         let mut filters: Vec<SubscribeFilter> = Vec::new();
         if let Some(spb) = &shared.spb {
             // The will is the NDEATH of this connection's bdSeq (drive() renews it before
@@ -98,12 +171,10 @@ impl Link {
                 QoS::AtLeastOnce,
             ));
         }
-        for (i, s) in plan.subscribe.iter().enumerate() {
-            let entry = topics.entry(s.topic.clone()).or_default();
-            if entry.is_empty() {
+        for s in &plan.subscribe {
+            if !filters.iter().any(|f| f.path == s.topic) {
                 filters.push(SubscribeFilter::new(s.topic.clone(), QoS::AtLeastOnce));
             }
-            entry.push((i, s.handle.kind(), s.handle.bits()));
         }
         let backoff_max = settings.backoff_max;
         let published: Vec<String> = plan.publish.iter().map(|p| p.topic.clone()).collect();
@@ -115,11 +186,9 @@ impl Link {
         let thread = std::thread::Builder::new()
             .name(format!("mqtt {name}"))
             .spawn(move || {
+                let mut relay = relay;
                 let (client, mut eventloop) = AsyncClient::new(options, 256);
-                // Without TCP_NODELAY, Nagle's algorithm and delayed acknowledgements hold a
-                // QoS 1 publish behind the previous one's PUBACK: tens of ms per change.
                 let mut network = rumqttc::NetworkOptions::new();
-                network.set_tcp_nodelay(true);
                 network.set_connection_timeout(5);
                 eventloop.network_options = network;
                 let (conn_tx, conn_rx) = watch::channel(0u64);
@@ -132,6 +201,7 @@ impl Link {
                     ));
                     let link = drive(
                         &mut eventloop,
+                        &mut relay,
                         client.clone(),
                         Arc::clone(&shared),
                         filters,
@@ -144,7 +214,7 @@ impl Link {
                         _ = link => {}
                     }
                     publisher.abort();
-                    goodbye(&mut eventloop, &client, &shared).await;
+                    goodbye(&mut eventloop, &mut relay, &client, &shared).await;
                 });
                 rt.shutdown_timeout(Duration::from_millis(200));
             })
@@ -238,8 +308,14 @@ fn will(spb: &Spb) -> LastWill {
 
 /// At a clean stop while connected: the NDEATH of a Sparkplug B node (the broker sends no
 /// will after a DISCONNECT), then a DISCONNECT so the broker does not wait for the
-/// keep-alive; the event loop is driven until it is sent, 2 s at most.
-async fn goodbye(eventloop: &mut EventLoop, client: &AsyncClient, shared: &Shared) {
+/// keep-alive; the event loop is driven until it is sent and the relay until it has passed
+/// it on, 2 s at most.
+async fn goodbye(
+    eventloop: &mut EventLoop,
+    relay: &mut Relay,
+    client: &AsyncClient,
+    shared: &Shared,
+) {
     if !shared.up.load(Ordering::Acquire) {
         return;
     }
@@ -248,7 +324,8 @@ async fn goodbye(eventloop: &mut EventLoop, client: &AsyncClient, shared: &Share
         let _ = client.try_publish(w.topic, w.qos, w.retain, w.message.to_vec());
     }
     let _ = client.try_disconnect();
-    let _ = tokio::time::timeout(Duration::from_secs(2), async {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    let _ = tokio::time::timeout_at(deadline, async {
         loop {
             match eventloop.poll().await {
                 Ok(Event::Outgoing(rumqttc::Outgoing::Disconnect)) | Err(_) => return,
@@ -257,36 +334,99 @@ async fn goodbye(eventloop: &mut EventLoop, client: &AsyncClient, shared: &Share
         }
     })
     .await;
+    // Closing rumqttc's end lets the relay flush the rest to the broker and close.
+    eventloop.network = None;
+    relay
+        .finish(deadline.saturating_duration_since(tokio::time::Instant::now()))
+        .await;
+}
+
+/// A point that takes the values of a subscribed topic.
+struct Target {
+    /// Its row in the plan's `subscribe` (and in the inbox).
+    index: usize,
+    kind: PointKind,
+    bits: u8,
+    point: String,
+}
+
+/// Hands a message on a subscribed topic to the inbox, or refuses it (counted; the first
+/// refusal on a topic logged).
+fn receive(shared: &Shared, topic: &str, targets: &[Target], bytes: &[u8]) {
+    shared.received.fetch_add(1, Ordering::Relaxed);
+    let number = payload::decode(bytes);
+    let mut refused = None;
+    {
+        let mut inbox = lock(&shared.inbox);
+        for t in targets {
+            match number
+                .clone()
+                .and_then(|n| payload::to_point(n, t.kind, t.bits))
+            {
+                Ok(v) => inbox[t.index] = Some(v),
+                Err(why) => {
+                    refused.get_or_insert((why, t));
+                }
+            }
+        }
+    }
+    match refused {
+        None => shared.accepted(topic),
+        Some((why, t)) => shared.refuse(topic, || {
+            format!(
+                "payload {} {why} for {} point {}",
+                payload::show(bytes),
+                payload::type_name(t.kind, t.bits),
+                t.point
+            )
+        }),
+    }
 }
 
 /// Drives the connection: (re)connects with back-off, subscribes after each connection,
 /// hands received values to the inbox. `conn` counts connections (0: down).
+#[allow(clippy::too_many_arguments)]
 async fn drive(
     eventloop: &mut EventLoop,
+    relay: &mut Relay,
     client: AsyncClient,
     shared: Arc<Shared>,
     filters: Vec<SubscribeFilter>,
-    topics: HashMap<String, Vec<(usize, PointKind, u8)>>,
+    topics: HashMap<String, Vec<Target>>,
     conn: watch::Sender<u64>,
     backoff_max: Duration,
 ) {
     let name = shared.name.clone();
-    let mut backoff = BACKOFF_MIN;
+    let mut backoff = Backoff::new(backoff_max);
     let mut connections = 0u64;
     // When the current outage began and whether it has been logged (once per outage).
     let mut down_since: Option<Instant> = Some(Instant::now());
     let mut logged = false;
-    // Payloads already complained about, per topic: a bad publisher is logged once.
-    let mut complained: HashMap<String, bool> = HashMap::new();
     loop {
-        match eventloop.poll().await {
+        let failure = if eventloop.network.is_none() {
+            // rumqttc connects next: the relay reaches the broker first.
+            relay.open().await.err()
+        } else {
+            None
+        };
+        let event = match failure {
+            Some(why) => Err(why),
+            None => eventloop.poll().await.map_err(|e| match e {
+                // rumqttc sees only its end of the relay closed: the broker's side says
+                // why. A refused CONNACK and the like keep rumqttc's words.
+                ConnectionError::MqttState(StateError::ConnectionAborted | StateError::Io(_))
+                | ConnectionError::Io(_) => relay.ended().unwrap_or_else(|| e.to_string()),
+                e => e.to_string(),
+            }),
+        };
+        match event {
             Ok(Event::Incoming(Packet::ConnAck(ack))) => {
                 if ack.code != ConnectReturnCode::Success {
                     // rumqttc reports a refused CONNACK as an error on the next poll.
                     continue;
                 }
                 connections += 1;
-                backoff = BACKOFF_MIN;
+                backoff.connected(Instant::now());
                 if filters.is_empty() {
                     shared.up.store(true, Ordering::Release);
                 } else if let Err(e) = client.try_subscribe_many(filters.clone()) {
@@ -333,56 +473,36 @@ async fn drive(
                 let spb = shared.spb.as_ref().expect("matched above");
                 shared.received.fetch_add(1, Ordering::Relaxed);
                 match sparkplug::asks_rebirth(&p.payload) {
-                    Ok(true) => {
-                        log::info!("mqtt {name}: rebirth requested (NCMD)");
-                        spb.rebirth.store(true, Ordering::Release);
-                        shared.wake.notify_one();
-                    }
-                    Ok(false) => {}
-                    Err(why) => {
-                        shared.rejected.fetch_add(1, Ordering::Relaxed);
-                        if !complained.contains_key(p.topic.as_str()) {
-                            complained.insert(p.topic.clone(), true);
-                            log::warn!("mqtt {name}: {}: {why} (logged once)", p.topic);
+                    Ok(rebirth) => {
+                        shared.accepted(&p.topic);
+                        if rebirth {
+                            log::info!("mqtt {name}: rebirth requested (NCMD)");
+                            spb.rebirth.store(true, Ordering::Release);
+                            shared.wake.notify_one();
                         }
                     }
+                    Err(why) => shared.refuse(&p.topic, || why),
                 }
             }
             Ok(Event::Incoming(Packet::Publish(p))) => {
-                let Some(targets) = topics.get(p.topic.as_str()) else {
-                    continue;
-                };
-                shared.received.fetch_add(1, Ordering::Relaxed);
-                let number = payload::decode(&p.payload);
-                let mut inbox = lock(&shared.inbox);
-                for &(i, kind, bits) in targets {
-                    match number
-                        .clone()
-                        .and_then(|n| payload::to_point(n, kind, bits))
-                    {
-                        Ok(v) => {
-                            inbox[i] = Some(v);
-                            complained.remove(p.topic.as_str());
-                        }
-                        Err(why) => {
-                            shared.rejected.fetch_add(1, Ordering::Relaxed);
-                            if !complained.contains_key(p.topic.as_str()) {
-                                complained.insert(p.topic.clone(), true);
-                                log::warn!(
-                                    "mqtt {name}: {}: {why}; the point keeps its value (logged \
-                                     once until a good value arrives)",
-                                    p.topic
-                                );
-                            }
-                        }
-                    }
+                // Not a subscribed topic: relay::CUT (an oversized message, counted by the
+                // relay), or nothing the module asked for.
+                if let Some(targets) = topics.get(p.topic.as_str()) {
+                    receive(&shared, &p.topic, targets, &p.payload);
                 }
             }
             Ok(Event::Outgoing(rumqttc::Outgoing::Publish(_))) => {
                 shared.published.fetch_add(1, Ordering::Relaxed);
             }
             Ok(_) => {}
-            Err(e) => {
+            Err(why) => {
+                // The status says why before it says stale (a reader that sees the flag sees
+                // the reason and the outage counted).
+                if down_since.is_none() {
+                    down_since = Some(Instant::now());
+                    shared.outages.fetch_add(1, Ordering::Relaxed);
+                }
+                *lock(&shared.last_error) = why.clone();
                 shared.up.store(false, Ordering::Release);
                 let _ = conn.send(0);
                 if let Some(spb) = &shared.spb {
@@ -391,11 +511,6 @@ async fn drive(
                     let next = spb.bd_seq.load(Ordering::Acquire).wrapping_add(1);
                     spb.bd_seq.store(next, Ordering::Release);
                     eventloop.mqtt_options.set_last_will(will(spb));
-                }
-                let why = e.to_string();
-                if down_since.is_none() {
-                    down_since = Some(Instant::now());
-                    shared.outages.fetch_add(1, Ordering::Relaxed);
                 }
                 if !logged {
                     logged = true;
@@ -406,9 +521,7 @@ async fn drive(
                         backoff_max
                     );
                 }
-                *lock(&shared.last_error) = why;
-                tokio::time::sleep(backoff).await;
-                backoff = (backoff * 2).min(backoff_max);
+                tokio::time::sleep(backoff.failed(Instant::now())).await;
             }
         }
     }
@@ -517,5 +630,38 @@ async fn publish(
         if !sent {
             return;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_back_off_grows_until_a_connection_lasts() {
+        let t0 = Instant::now();
+        let ms = |n: u64| Duration::from_millis(n);
+        let mut b = Backoff::new(Duration::from_secs(5));
+        // The broker away: 0.1, 0.2, 0.4 s ...
+        assert_eq!(b.failed(t0), ms(100));
+        assert_eq!(b.failed(t0), ms(200));
+        assert_eq!(b.failed(t0), ms(400));
+        // Each attempt connects but the link drops at once: still a failure, still growing,
+        // up to the maximum.
+        let mut at = t0;
+        let mut waits = Vec::new();
+        for _ in 0..6 {
+            b.connected(at);
+            at += ms(50);
+            waits.push(b.failed(at));
+        }
+        assert_eq!(waits, [800, 1600, 3200, 5000, 5000, 5000].map(ms));
+        // A connection that lasted HEALTHY starts again from the minimum.
+        b.connected(at);
+        assert_eq!(b.failed(at + HEALTHY), ms(100));
+        assert_eq!(b.failed(at + HEALTHY), ms(200));
+        // A connection just short of it does not.
+        b.connected(at);
+        assert_eq!(b.failed(at + HEALTHY - ms(1)), ms(400));
     }
 }

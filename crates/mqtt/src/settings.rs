@@ -27,6 +27,7 @@ pub const SETTINGS: &[&str] = &[
     "client_key",
     "keep_alive",
     "backoff_max",
+    "max_payload",
     "stale",
     "sparkplug",
 ];
@@ -38,6 +39,27 @@ pub const DEFAULT_PORT: u16 = 1883;
 pub const DEFAULT_TLS_PORT: u16 = 8883;
 pub const DEFAULT_KEEP_ALIVE: Duration = Duration::from_secs(5);
 pub const DEFAULT_BACKOFF_MAX: Duration = Duration::from_secs(5);
+/// The largest payload taken from the broker by default: a point's value is a few bytes, a
+/// gateway's JSON object or a Sparkplug B command a few hundred.
+pub const DEFAULT_MAX_PAYLOAD: usize = 64 * 1024;
+/// The largest `max_payload`: under MQTT's own limit on a packet, 256 MiB.
+pub const MAX_MAX_PAYLOAD: usize = 255 * 1024 * 1024;
+
+/// `65536`, `64 KiB`, `1 MiB`: a size in bytes.
+pub fn parse_size(text: &str) -> Option<usize> {
+    let text = text.trim();
+    let digits = text
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(text.len());
+    let n: usize = text[..digits].parse().ok()?;
+    let unit = match text[digits..].trim() {
+        "" | "B" => 1,
+        "KiB" | "k" | "K" | "kB" | "KB" => 1024,
+        "MiB" | "M" | "MB" => 1024 * 1024,
+        _ => return None,
+    };
+    n.checked_mul(unit)
+}
 
 /// Where the broker is.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -130,6 +152,8 @@ pub struct Settings {
     pub tls: TlsFiles,
     pub keep_alive: Duration,
     pub backoff_max: Duration,
+    /// Larger payloads from the broker are dropped and counted (`relay.rs`).
+    pub max_payload: usize,
     pub stale: Option<String>,
     /// `sparkplug = GROUP/EDGE_NODE`: publish as a Sparkplug B edge node.
     pub sparkplug: Option<Node>,
@@ -231,6 +255,20 @@ impl Settings {
             ));
         }
         let backoff_max = duration("backoff_max", DEFAULT_BACKOFF_MAX, &mut problems);
+        let max_payload = match common::setting(decl, "max_payload") {
+            None => DEFAULT_MAX_PAYLOAD,
+            Some(v) => match parse_size(v) {
+                Some(n) if (16..=MAX_MAX_PAYLOAD).contains(&n) => n,
+                _ => {
+                    problems.push(format!(
+                        "{}`max_payload = {v}`: write a size from 16 bytes to 255 MiB, in bytes \
+                         (65536) or with a unit (64 KiB, 1 MiB)",
+                        at(decl, "max_payload")
+                    ));
+                    DEFAULT_MAX_PAYLOAD
+                }
+            },
+        };
         let path = |s: &str| common::setting(decl, s).map(PathBuf::from);
         let tls = TlsFiles {
             ca_file: path("ca_file"),
@@ -299,6 +337,7 @@ impl Settings {
             tls,
             keep_alive,
             backoff_max,
+            max_payload,
             stale,
             sparkplug,
         })
@@ -497,7 +536,14 @@ pub fn plan(ctx: &InitContext<'_>, settings: &Settings, prefix: &str) -> Result<
 }
 
 fn safe_value(text: &str, kind: PointKind, bits: u8) -> Result<PointValue, String> {
-    payload::decode(text.as_bytes()).and_then(|n| payload::to_point(n, kind, bits))
+    payload::decode(text.as_bytes())
+        .and_then(|n| payload::to_point(n, kind, bits))
+        .map_err(|why| {
+            format!(
+                "`{text}` {why} for a {} point",
+                payload::type_name(kind, bits)
+            )
+        })
 }
 
 #[cfg(test)]
@@ -531,6 +577,17 @@ mod tests {
             Broker::parse("mqtts://h").unwrap().to_string(),
             "mqtts://h:8883"
         );
+    }
+
+    #[test]
+    fn sizes() {
+        assert_eq!(parse_size("65536"), Some(65536));
+        assert_eq!(parse_size("64 KiB"), Some(65536));
+        assert_eq!(parse_size("1MiB"), Some(1 << 20));
+        assert_eq!(parse_size("2 GiB"), None);
+        assert_eq!(parse_size("-1"), None);
+        assert_eq!(parse_size(""), None);
+        assert_eq!(parse_size("99999999999999999999999"), None);
     }
 
     #[test]

@@ -99,10 +99,10 @@ fn points_travel_both_ways_through_the_broker() {
     // A change is published (retained) within a scan or two.
     set("X", PointValue::Unsigned(6));
     set("F", PointValue::Float(-0.1));
-    scan_until(&mut plc, &mut now, "X published", |_| {
-        retained(&broker, "cell/one/X") == ["cell/one/X 6"]
+    // Both, not X then F: F goes out after X, and may not be on the broker yet when X is.
+    scan_until(&mut plc, &mut now, "X and F published", |_| {
+        retained(&broker, "cell/one/#") == ["cell/one/F -0.1", "cell/one/S -12", "cell/one/X 6"]
     });
-    assert_eq!(retained(&broker, "cell/one/F"), ["cell/one/F -0.1"]);
 
     publish(&broker, "other/in", "42");
     publish(&broker, "other/f", "{\"value\": 1.5, \"ts\": 0}");
@@ -120,6 +120,36 @@ fn points_travel_both_ways_through_the_broker() {
     assert_eq!(plc.value("IN"), 42);
     publish(&broker, "other/in", "true");
     scan_until(&mut plc, &mut now, "IN = 1", |p| p.value("IN") == 1);
+    // NaN and the infinities, in every spelling, and numbers beyond a point's range are
+    // refused at the boundary: one NaN in an IEC program spreads through all it computes.
+    let bad = [
+        "NaN",
+        "nan",
+        "-nan",
+        "inf",
+        "-inf",
+        "Infinity",
+        "-Infinity",
+        "1e39",
+        "-1e39",
+        "1e400",
+        "{\"value\": 1e39}",
+    ];
+    for payload in bad {
+        publish(&broker, "other/f", payload);
+    }
+    publish(&broker, "other/in", "inf");
+    publish(&broker, "other/in", "1e10");
+    let refused = 2 + bad.len() + 2;
+    scan_until(&mut plc, &mut now, "non-finite values refused", |p| {
+        p.status("mqtt").contains(&format!(" {refused} rejected"))
+    });
+    assert_eq!(plc.get("INF"), PointValue::Float(1.5));
+    assert_eq!(plc.value("IN"), 1);
+    publish(&broker, "other/f", "-2.25");
+    scan_until(&mut plc, &mut now, "INF = -2.25", |p| {
+        p.get("INF") == PointValue::Float(-2.25)
+    });
     assert!(
         plc.status("mqtt").contains(" up;"),
         "{}",
@@ -377,9 +407,17 @@ fn settings_and_rows_are_checked_at_start_with_file_and_line() {
     check(
         "broker = h\nsubscribe t/m M 2\nsubscribe t/f F\nsubscribe t/g F\n",
         &[
-            "test.conf:9: `subscribe t/m M 2`: 2 does not fit a u1 point",
+            "test.conf:9: `subscribe t/m M 2`: `2` is out of range (0 to 1) for a u1 point",
             "test.conf:11: point `F` is subscribed twice",
         ],
+    );
+    check(
+        "broker = h\nsubscribe t/f F nan\n",
+        &["test.conf:9: `subscribe t/f F nan`: `nan` is not a finite number for a f32 point"],
+    );
+    check(
+        "broker = h\nmax_payload = 10 GiB\npublish A\n",
+        &["test.conf:9: `max_payload = 10 GiB`: write a size from 16 bytes to 255 MiB"],
     );
     check(
         "broker = h\ntopic_prefix = p\npublish M\nsubscribe p/M M\n",
@@ -401,4 +439,106 @@ fn settings_and_rows_are_checked_at_start_with_file_and_line() {
         "broker = h\nusername = u\npassword_file = /nonexistent/pw\npublish A\n",
         &["`password_file = /nonexistent/pw`: cannot read"],
     );
+}
+
+/// `mosquitto_pub` reading one message per line from stdin (`-l`), at QoS 1.
+fn publish_lines(broker: &Broker, topic: &str, lines: &str, retain: bool) {
+    use std::io::Write;
+    let mut c = client("mosquitto_pub", broker);
+    c.args(["-t", topic, "-q", "1", "-l"]);
+    if retain {
+        c.arg("-r");
+    }
+    let mut child = c
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .expect("mosquitto_pub (Debian's mosquitto-clients)");
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(lines.as_bytes())
+        .unwrap();
+    assert!(child.wait().unwrap().success());
+}
+
+#[test]
+fn oversized_messages_are_dropped_and_counted_and_the_link_stays_up() {
+    let broker = Broker::start();
+    // Retained before the PLC subscribes: the broker sends it with every subscription.
+    publish_lines(&broker, "in/x", &format!("{}\n", "7".repeat(101)), true);
+    let mut plc = start(&format!(
+        "[PLC]\nmodule mqtt mqtt\npoint X \"x\" mqtt u16 init 3\npoint Y \"y\" mqtt u16\n\
+         point down \"d\" mqtt\n\
+         [mqtt]\nbroker = {}\nstale = down\nmax_payload = 100\n\
+         subscribe in/x X\nsubscribe in/y Y\n",
+        broker.address()
+    ));
+    let mut now = Duration::ZERO;
+    scan_until(
+        &mut plc,
+        &mut now,
+        "up, the retained message refused",
+        |p| {
+            let s = p.status("mqtt");
+            s.contains(" up;") && s.contains("1 received, 1 rejected")
+        },
+    );
+    // 40 more at QoS 1: each must still be acknowledged, or the broker would stop sending
+    // after its 20 unacknowledged messages, and the good value after them never arrive.
+    let big = format!("{}\n", "8".repeat(101));
+    publish_lines(&broker, "in/x", &big.repeat(40), false);
+    publish(&broker, "in/x", "5");
+    publish(&broker, "in/y", "6");
+    scan_until(&mut plc, &mut now, "X = 5 and Y = 6 after them", |p| {
+        (p.value("X"), p.value("Y")) == (5, 6)
+    });
+    let status = plc.status("mqtt");
+    assert!(
+        status.contains(" up;") && status.contains("43 received, 41 rejected, 0 outages"),
+        "{status}"
+    );
+    // A payload of exactly max_payload is taken.
+    publish(&broker, "in/x", &format!("{:0>100}", 9));
+    scan_until(&mut plc, &mut now, "X = 9", |p| p.value("X") == 9);
+    plc.close();
+}
+
+#[test]
+fn the_back_off_grows_when_each_connection_is_dropped_right_after_connack() {
+    use std::io::{Read, Write};
+    use std::net::TcpListener;
+    use std::sync::{Arc, Mutex};
+    // A broker that accepts every CONNECT and hangs up at once (as mosquitto does when a
+    // second client takes the id, or when a message cannot be delivered).
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let accepted: Arc<Mutex<Vec<Instant>>> = Arc::default();
+    let log = Arc::clone(&accepted);
+    std::thread::spawn(move || {
+        for stream in listener.incoming() {
+            let Ok(mut s) = stream else { return };
+            let mut connect = [0u8; 256];
+            if s.read(&mut connect).unwrap_or(0) == 0 {
+                continue;
+            }
+            log.lock().unwrap().push(Instant::now());
+            let _ = s.write_all(&[0x20, 0x02, 0x00, 0x00]);
+        }
+    });
+    let mut plc = start(&format!(
+        "[PLC]\nmodule mqtt mqtt\npoint X \"x\" mqtt\n\
+         [mqtt]\nbroker = 127.0.0.1:{port}\nbackoff_max = 60\nsubscribe in/x X\n"
+    ));
+    let mut now = Duration::ZERO;
+    scan_until(&mut plc, &mut now, "six connections", |_| {
+        accepted.lock().unwrap().len() >= 6
+    });
+    plc.close();
+    let at = accepted.lock().unwrap().clone();
+    // Each connection failed within HEALTHY of its CONNACK, so the waits kept doubling from
+    // 0.1 s: the fifth was 1.6 s. A lower bound only (a sleep never ends early): before, the
+    // wait went back to 0.1 s at every CONNACK, about 80 connections in 8 s.
+    let gap = at[5] - at[4];
+    assert!(gap >= Duration::from_millis(1600), "{gap:?} between {at:?}");
 }
