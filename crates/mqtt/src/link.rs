@@ -12,7 +12,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use petriplc_config::{PointKind, PointValue};
-use petriplc_modules::common::{self, error};
+use petriplc_modules::common::error;
 use petriplc_runtime::module::ModuleError;
 use rumqttc::{
     AsyncClient, ConnectReturnCode, ConnectionError, Event, EventLoop, LastWill, MqttOptions,
@@ -145,17 +145,10 @@ impl Link {
                 None => String::new(),
                 Some(p) => {
                     let path = base.join(p);
-                    let text = std::fs::read_to_string(&path).map_err(|e| {
-                        error(
-                            &name,
-                            format!(
-                                "`password_file = {}`: cannot read {}: {}",
-                                p.display(),
-                                path.display(),
-                                common::chain(&e)
-                            ),
-                        )
-                    })?;
+                    let text = petriplc_files::read_to_string(&path, petriplc_files::SMALL)
+                        .map_err(|e| {
+                            error(&name, format!("`password_file = {}`: {e}", p.display()))
+                        })?;
                     text.lines().next().unwrap_or("").to_string()
                 }
             };
@@ -231,8 +224,10 @@ fn tls_config(settings: &Settings, base: &Path) -> Result<rustls::ClientConfig, 
     use rustls::pki_types::{CertificateDer, PrivateKeyDer};
     let read_certs = |setting: &str, p: &Path| -> Result<Vec<CertificateDer<'static>>, String> {
         let path = base.join(p);
-        let certs = CertificateDer::pem_file_iter(&path)
-            .and_then(|it| it.collect::<Result<Vec<_>, _>>())
+        let bytes = petriplc_files::read(&path, petriplc_files::SMALL)
+            .map_err(|e| format!("`{setting} = {}`: {e}", p.display()))?;
+        let certs = CertificateDer::pem_slice_iter(&bytes)
+            .collect::<Result<Vec<_>, _>>()
             .map_err(|e| {
                 format!(
                     "`{setting} = {}`: cannot read PEM certificates from {}: {e}",
@@ -279,7 +274,9 @@ fn tls_config(settings: &Settings, base: &Path) -> Result<rustls::ClientConfig, 
         (Some(c), Some(k)) => {
             let certs = read_certs("client_cert", c)?;
             let path = base.join(k);
-            let key = PrivateKeyDer::from_pem_file(&path).map_err(|e| {
+            let bytes = petriplc_files::read(&path, petriplc_files::SMALL)
+                .map_err(|e| format!("`client_key = {}`: {e}", k.display()))?;
+            let key = PrivateKeyDer::from_pem_slice(&bytes).map_err(|e| {
                 format!(
                     "`client_key = {}`: cannot read a PEM private key from {}: {e}",
                     k.display(),
