@@ -28,6 +28,12 @@ fn fragment() -> impl Strategy<Value = String> {
         Just("=".to_string()),
         Just("at".to_string()),
         Just("init".to_string()),
+        // Values that no point may hold, and sizes past every limit.
+        Just("nan".to_string()),
+        Just("-inf".to_string()),
+        Just("1e39".to_string()),
+        Just("99999999999999999999999".to_string()),
+        Just("safe".to_string()),
         Just("NULL".to_string()),
         Just("scan_period".to_string()),
         Just("scan_beg".to_string()),
@@ -70,6 +76,9 @@ fn check(text: &str) {
                 assert!((1..=32).contains(&p.bits), "{text}");
                 if let Some((_, bit)) = p.at {
                     assert!(u32::from(bit) + u32::from(p.bits) <= 32, "{text}");
+                }
+                if let petriplc_config::PointValue::Float(f) = p.init {
+                    assert!(f.is_finite(), "{text}");
                 }
             }
         }
