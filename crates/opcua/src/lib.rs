@@ -77,8 +77,8 @@ pub(crate) struct Shared {
     /// The current value of every variable of the layout, in its order, and what changed.
     values: Mutex<Values>,
     wake: tokio::sync::Notify,
-    /// Client writes since the last scan: (point index, value), in arrival order.
-    writes: Mutex<Vec<(usize, PointValue)>>,
+    /// Client writes the next scan applies.
+    writes: Mutex<Writes>,
     /// The address space exists.
     ready: AtomicBool,
     /// Client writes accepted.
@@ -92,6 +92,44 @@ pub(crate) struct Values {
     pub at: Vec<DateTime>,
     /// Changed since the server last took them.
     pub dirty: Vec<usize>,
+}
+
+/// Client writes since the last scan: the last value per point (a scan applies them in one
+/// go, so an earlier one would be overwritten anyway), which bounds what a client writing
+/// faster than the PLC scans can queue to one value per point.
+pub(crate) struct Writes {
+    /// Per point index.
+    value: Vec<Option<PointValue>>,
+    /// The points written, each once.
+    order: Vec<usize>,
+}
+
+impl Writes {
+    fn new(points: usize) -> Writes {
+        Writes {
+            value: vec![None; points],
+            order: Vec::new(),
+        }
+    }
+
+    pub(crate) fn push(&mut self, point: usize, v: PointValue) {
+        if self.value[point].replace(v).is_none() {
+            self.order.push(point);
+        }
+    }
+
+    /// Whether a write to `point` waits for the next scan.
+    pub(crate) fn pending(&self, point: usize) -> bool {
+        self.value[point].is_some()
+    }
+
+    fn take(&mut self) -> Vec<(usize, PointValue)> {
+        let order = std::mem::take(&mut self.order);
+        order
+            .into_iter()
+            .filter_map(|p| self.value[p].take().map(|v| (p, v)))
+            .collect()
+    }
 }
 
 /// A point of the PLC as the server shows it.
@@ -401,7 +439,7 @@ impl Module for OpcuaServer {
                 dirty: Vec::new(),
             }),
             wake: tokio::sync::Notify::new(),
-            writes: Mutex::new(Vec::new()),
+            writes: Mutex::new(Writes::new(points.len())),
             ready: AtomicBool::new(false),
             written: AtomicU64::new(0),
         });
@@ -515,6 +553,7 @@ impl Module for OpcuaServer {
 
         drop(entered);
         let (h, sh) = (handle.clone(), Arc::clone(&shared));
+        let points_of: Vec<Option<usize>> = layout.vars.iter().map(|v| v.writable).collect();
         let thread_name = name.clone();
         let thread = std::thread::Builder::new()
             .name(format!("opcua {name}"))
@@ -527,7 +566,7 @@ impl Module for OpcuaServer {
                             return;
                         }
                     };
-                    let updater = tokio::spawn(update(h, manager, sh, ids));
+                    let updater = tokio::spawn(update(h, manager, sh, ids, points_of));
                     if let Err(e) = server.run_with(listener).await {
                         log::error!("opcua_server {thread_name}: the server stopped: {e}");
                     }
@@ -570,7 +609,7 @@ impl Module for OpcuaServer {
         let Some(run) = &mut self.run else {
             return Err(error(&self.name, "scanned before init"));
         };
-        let writes = std::mem::take(&mut *lock(&run.shared.writes));
+        let writes = lock(&run.shared.writes).take();
         for (p, v) in writes {
             // Checked against the point when it arrived; an error here would be a bug, not
             // the client's fault, and must not stop the PLC.
@@ -672,11 +711,13 @@ impl Drop for OpcuaServer {
 }
 
 /// Moves changed values into the address space and notifies the monitored items.
+/// `points_of`: per variable, the index of the point clients may write through it.
 async fn update(
     handle: ServerHandle,
     manager: Arc<InMemoryNodeManager<PlcNodes>>,
     shared: Arc<Shared>,
     ids: Vec<NodeId>,
+    points_of: Vec<Option<usize>>,
 ) {
     let mut batch: Vec<(usize, Variant, DateTime)> = Vec::new();
     loop {
@@ -696,21 +737,28 @@ async fn update(
             );
         }
         let now = DateTime::now();
+        // `set_values` runs this iterator under the address space's lock, which a client's
+        // write holds while it shows its value and queues it: a value the scan took before
+        // that write must not replace it (the read-back would go back to the older value
+        // until the next scan applies the write).
         let result = manager.set_values(
             handle.subscriptions(),
-            batch.drain(..).map(|(i, v, at)| {
-                (
-                    &ids[i],
-                    None,
-                    DataValue {
-                        value: Some(v),
-                        status: Some(opcua::types::StatusCode::Good),
-                        source_timestamp: Some(at),
-                        server_timestamp: Some(now),
-                        ..Default::default()
-                    },
-                )
-            }),
+            batch
+                .drain(..)
+                .filter(|(i, _, _)| points_of[*i].is_none_or(|p| !lock(&shared.writes).pending(p)))
+                .map(|(i, v, at)| {
+                    (
+                        &ids[i],
+                        None,
+                        DataValue {
+                            value: Some(v),
+                            status: Some(opcua::types::StatusCode::Good),
+                            source_timestamp: Some(at),
+                            server_timestamp: Some(now),
+                            ..Default::default()
+                        },
+                    )
+                }),
         );
         if let Err(e) = result {
             log::warn!("opcua_server: cannot update the address space: {e}");
