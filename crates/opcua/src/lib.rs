@@ -7,7 +7,7 @@
 //! [opcua]
 //! listen = 127.0.0.1:4840     # default; security None is allowed on loopback only
 //! security = encrypt          # Basic256Sha256 / Aes256-Sha256-RsaPss, Sign & Encrypt
-//! users = opcua.users         # NAME:BCRYPT_HASH lines (htpasswd -B)
+//! users = opcua.users         # NAME:BCRYPT_HASH lines (`petriplc user add`)
 //! anonymous = read            # no (default) | read | write
 //! ```
 //!
@@ -16,6 +16,7 @@
 //! changed values are handed to a task that updates the address space and notifies the
 //! subscriptions, so a slow client never holds a scan.
 
+mod log_policy;
 mod settings;
 mod space;
 mod users;
@@ -42,9 +43,13 @@ use petriplc_runtime::image::Handle;
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use petriplc_runtime::status::PlcStatus;
 
+pub use log_policy::log_policy;
 pub use settings::{Anonymous, Settings, DEFAULT_LISTEN, KIND, SETTINGS};
 use space::{Folder, Layout, PlcNodes, PlcNodesBuilder, Var};
-pub use users::Users;
+pub use users::{
+    check_name, hash_password, may_set, with_user, without_user, Edit, EditError, Users,
+    BCRYPT_PREFIXES, MAX_PASSWORD_BYTES,
+};
 
 /// The module kinds of this crate.
 pub const KINDS: &[&str] = &[KIND];

@@ -349,6 +349,16 @@ impl InMemoryNodeManagerImpl for PlcNodes {
     }
 }
 
+/// A user name a client sent, fit for one log line: control characters escaped (no forged
+/// lines), at most 64 characters.
+fn shown_name(name: &str) -> String {
+    let mut out: String = name.chars().take(64).flat_map(char::escape_debug).collect();
+    if name.chars().nth(64).is_some() {
+        out.push('…');
+    }
+    out
+}
+
 /// Who may connect and what they may do.
 pub struct Auth {
     pub anonymous: Anonymous,
@@ -386,8 +396,9 @@ impl AuthManager for Auth {
             Ok(UserToken(format!("user:{username}")))
         } else {
             log::warn!(
-                "opcua_server {}: refused user `{username}` (unknown user or wrong password)",
-                self.module
+                "opcua_server {}: refused user `{}` (unknown user or wrong password)",
+                self.module,
+                shown_name(username)
             );
             Err(Error::new(
                 StatusCode::BadUserAccessDenied,
@@ -682,6 +693,16 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn user_names_from_clients_are_logged_on_one_short_line() {
+        assert_eq!(shown_name("op"), "op");
+        assert_eq!(shown_name("op\n[ERROR] forged"), "op\\n[ERROR] forged");
+        assert_eq!(
+            shown_name(&"x".repeat(10_000)),
+            format!("{}…", "x".repeat(64))
+        );
     }
 
     #[test]
