@@ -109,9 +109,14 @@ async def mixer(url, plc_id, user, password, seconds):
         out["places"] = len(places)
         state = await objects.get_child([f"{ns}:controller", f"{ns}:Status", f"{ns}:State"])
         scans = await objects.get_child([f"{ns}:controller", f"{ns}:Status", f"{ns}:Scans"])
-        await asyncio.sleep(0.3)
-        expect(await state.read_value() == "running", "controller not running")
-        expect(await scans.read_value() > 0, "controller scans")
+        # The status variables follow the PLC's status file (read every 100 ms): wait for
+        # what is asserted rather than a fixed while, which a loaded machine may outlast.
+        deadline = time.time() + 30
+        while (await state.read_value(), await scans.read_value() > 0) != ("running", True):
+            expect(time.time() < deadline,
+                   f"controller not running: {await state.read_value()}, "
+                   f"{await scans.read_value()} scans")
+            await asyncio.sleep(0.02)
         # Markings are read-only for everyone, and anonymous users may not write at all.
         place = (await marking.get_children())[0]
         await expect_refused(place.write_value(ua.DataValue(ua.Variant(5, ua.VariantType.UInt64))),
