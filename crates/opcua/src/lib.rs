@@ -47,7 +47,7 @@ pub use log_policy::log_policy;
 pub use settings::{Anonymous, Settings, DEFAULT_LISTEN, KIND, SETTINGS};
 use space::{Folder, Layout, PlcNodes, PlcNodesBuilder, Var};
 pub use users::{
-    check_name, hash_password, may_set, with_user, without_user, Edit, EditError, Users,
+    check_name, hash_password, may_set, read_text, with_user, without_user, Edit, EditError, Users,
     BCRYPT_PREFIXES, MAX_PASSWORD_BYTES,
 };
 
@@ -59,6 +59,8 @@ pub const KINDS: &[&str] = &[KIND];
 pub const DEFAULT_SCAN_PERIOD: Duration = Duration::from_millis(10);
 /// The stack's id for the users of the password file.
 const USERS_TOKEN: &str = "users";
+/// The largest certificate or key file read (a 16384-bit RSA key is 13 KB in PEM).
+const MAX_PKI_FILE: u64 = 1 << 20;
 /// How often the PLC's status file (module states, markings) is read again.
 const STATUS_EVERY: Duration = Duration::from_millis(100);
 
@@ -255,6 +257,10 @@ fn certificate(pki: &Path, uri: &str, app: &str, listen: &SocketAddr) -> Result<
     let cert = pki.join("own/cert.der");
     let key = pki.join("private/private.pem");
     let (x509, made) = if cert.exists() && key.exists() {
+        // The stack reads them whole, each time a client connects: a device or a FIFO
+        // there would never end.
+        users::regular_file(&cert, MAX_PKI_FILE)?;
+        users::regular_file(&key, MAX_PKI_FILE)?;
         (CertificateStore::read_cert(&cert)?, false)
     } else {
         let mut addresses = vec![hostname(), "localhost".to_string()];

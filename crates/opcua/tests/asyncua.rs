@@ -314,3 +314,44 @@ fn every_variant_into_every_point_is_converted_exactly_or_refused() {
     assert_eq!(state(&plc, "calc"), "running");
     plc.wait(&AtomicBool::new(true));
 }
+
+/// Issue 27's siblings of `retain_file = /dev/full`: the users file, and the certificate and
+/// key the stack reads at every connection, must be regular files of a sane size; a FIFO
+/// blocked the start for ever and a device would have been read without end.
+#[test]
+fn users_and_certificate_files_must_be_regular_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("fifo");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let start = |section: &str| {
+        let text =
+            format!("[PLC]\nmodule opcua opcua_server\npoint P \"p\" opcua\n[opcua]\n{section}");
+        petriplc_runtime::harness::start_err(&text, dir.path(), registry)
+    };
+    for users in ["/dev/zero", fifo.to_str().unwrap()] {
+        let e = start(&format!(
+            "listen = 127.0.0.1:0\nanonymous = read\nusers = {users}\n"
+        ));
+        assert!(
+            e.contains(&format!(
+                "test.conf:7: `users = {users}`: {users} is not a regular file"
+            )),
+            "{e}"
+        );
+    }
+    let pki = dir.path().join("state/pki");
+    std::fs::create_dir_all(pki.join("own")).unwrap();
+    std::fs::create_dir_all(pki.join("private")).unwrap();
+    std::fs::rename(&fifo, pki.join("own/cert.der")).unwrap();
+    std::fs::write(pki.join("private/private.pem"), "not a key").unwrap();
+    let e = start(&format!(
+        "listen = 127.0.0.1:0\nanonymous = read\nsecurity = encrypt\nstate_dir = {}\n",
+        dir.path().join("state").display()
+    ));
+    assert!(e.contains("own/cert.der is not a regular file"), "{e}");
+    assert!(
+        e.contains("remove own/ and private/ there to make a new one"),
+        "{e}"
+    );
+}

@@ -14,8 +14,6 @@ use petriplc_opcua::Edit;
 use crate::args::{UserAddArgs, UserArgs, UserCommand, UserRemoveArgs};
 use crate::failure::{BadInputExt, Failure, RunExt};
 
-/// The largest users file read: a few thousand users.
-const MAX_FILE: u64 = 1 << 20;
 /// The most bytes of standard input read for the password's line.
 const MAX_LINE: u64 = 4096;
 
@@ -75,36 +73,18 @@ fn remove(args: UserRemoveArgs) -> Result<(), Failure> {
 
 /// The file to write (a symbolic link's target) and its text (empty if it does not exist).
 fn read(file: &Path) -> Result<(PathBuf, String), Failure> {
-    let meta = match fs::metadata(file) {
-        Ok(m) => m,
+    match fs::metadata(file) {
+        Ok(_) => {}
         Err(e) if e.kind() == io::ErrorKind::NotFound => {
             return Ok((file.to_path_buf(), String::new()))
         }
         Err(e) => return Err(anyhow!("cannot read {}: {e}", file.display())).bad_input(),
-    };
-    if !meta.is_file() {
-        return Err(anyhow!(
-            "{} is not a regular file; name the users file to create or change",
-            file.display()
-        ))
-        .bad_input();
-    }
-    if meta.len() > MAX_FILE {
-        return Err(anyhow!(
-            "{} holds {} bytes, more than a users file of {} KiB; is it the right file?",
-            file.display(),
-            meta.len(),
-            MAX_FILE >> 10
-        ))
-        .bad_input();
     }
     let path = fs::canonicalize(file)
         .with_context(|| format!("cannot resolve {}", file.display()))
         .bad_input()?;
-    let mut text = String::new();
-    fs::File::open(&path)
-        .and_then(|f| f.take(MAX_FILE).read_to_string(&mut text))
-        .with_context(|| format!("cannot read {}", file.display()))
+    let text = petriplc_opcua::read_text(&path)
+        .map_err(|e| anyhow!("{e}"))
         .bad_input()?;
     Ok((path, text))
 }
