@@ -50,6 +50,64 @@ pub enum Command {
     stop, 4 when no PLC has that id.\n\n",
         exit_codes!()))]
     Stop(PlcIdArgs),
+    /// Add, replace or remove a user of an OPC UA server's password file (bcrypt hashes).
+    #[command(after_long_help = concat!("Examples:\n  \
+        petriplc user add out/opcua.users operator --replace <<< 'op-pass'\n  \
+        petriplc user add out/opcua.users maint --replace --cost 10 <<< 'maint-pass'\n  \
+        petriplc user remove out/opcua.users maint\n\n\
+    In a terminal, `petriplc user add opcua.users operator` asks for the password twice,\n\
+    without echo; from a pipe or a file it reads the first line of standard input (as\n\
+    above). The file (`users = FILE` of an opcua_server, docs/opcua.md) is created with\n\
+    mode 600 if missing and replaced in one step: a kill leaves the old file or the new\n\
+    one, never half of it. A running PLC reads it at start. 2 when the user exists (add\n\
+    without --replace) or is missing (remove), the name or password is refused, or the\n\
+    file holds bad lines (nothing is changed then).\n\n",
+        exit_codes!()))]
+    User(UserArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct UserArgs {
+    #[command(subcommand)]
+    pub command: UserCommand,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum UserCommand {
+    /// Add a user (or, with --replace, give it a new password); the password is read from
+    /// the terminal without echo, or from the first line of standard input.
+    #[command(after_long_help = concat!("Examples:\n  \
+        petriplc user add out/opcua.users operator --replace <<< 'op-pass'\n\n",
+        exit_codes!()))]
+    Add(UserAddArgs),
+    /// Remove a user.
+    #[command(after_long_help = concat!("Examples:\n  \
+        petriplc user remove out/opcua.users operator\n\n",
+        exit_codes!()))]
+    Remove(UserRemoveArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct UserAddArgs {
+    /// The password file (`users = FILE` of an opcua_server), created if missing.
+    pub file: PathBuf,
+    /// The user name.
+    pub name: String,
+    /// Replace the password of a user who exists (else that is an error); add one who
+    /// does not.
+    #[arg(long)]
+    pub replace: bool,
+    /// bcrypt's cost: 2^COST rounds; each step doubles the time a login and a guess take.
+    #[arg(long, default_value_t = 12, value_parser = clap::value_parser!(u32).range(4..=31))]
+    pub cost: u32,
+}
+
+#[derive(Debug, Args)]
+pub struct UserRemoveArgs {
+    /// The password file.
+    pub file: PathBuf,
+    /// The user name.
+    pub name: String,
 }
 
 /// How names in the PNML file are read.

@@ -7,7 +7,7 @@
 //! [opcua]
 //! listen = 127.0.0.1:4840     # default; security None is allowed on loopback only
 //! security = encrypt          # Basic256Sha256 / Aes256-Sha256-RsaPss, Sign & Encrypt
-//! users = opcua.users         # NAME:BCRYPT_HASH lines (htpasswd -B)
+//! users = opcua.users         # NAME:BCRYPT_HASH lines (`petriplc user add`)
 //! anonymous = read            # no (default) | read | write
 //! ```
 //!
@@ -16,6 +16,7 @@
 //! changed values are handed to a task that updates the address space and notifies the
 //! subscriptions, so a slow client never holds a scan.
 
+mod log_policy;
 mod settings;
 mod space;
 mod users;
@@ -42,9 +43,13 @@ use petriplc_runtime::image::Handle;
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use petriplc_runtime::status::PlcStatus;
 
+pub use log_policy::log_policy;
 pub use settings::{Anonymous, Settings, DEFAULT_LISTEN, KIND, SETTINGS};
 use space::{Folder, Layout, PlcNodes, PlcNodesBuilder, Var};
-pub use users::Users;
+pub use users::{
+    check_name, hash_password, may_set, read_text, with_user, without_user, Edit, EditError, Users,
+    BCRYPT_PREFIXES, MAX_PASSWORD_BYTES,
+};
 
 /// The module kinds of this crate.
 pub const KINDS: &[&str] = &[KIND];
@@ -54,6 +59,8 @@ pub const KINDS: &[&str] = &[KIND];
 pub const DEFAULT_SCAN_PERIOD: Duration = Duration::from_millis(10);
 /// The stack's id for the users of the password file.
 const USERS_TOKEN: &str = "users";
+/// The largest certificate or key file read (a 16384-bit RSA key is 13 KB in PEM).
+const MAX_PKI_FILE: u64 = 1 << 20;
 /// How often the PLC's status file (module states, markings) is read again.
 const STATUS_EVERY: Duration = Duration::from_millis(100);
 
@@ -77,8 +84,8 @@ pub(crate) struct Shared {
     /// The current value of every variable of the layout, in its order, and what changed.
     values: Mutex<Values>,
     wake: tokio::sync::Notify,
-    /// Client writes since the last scan: (point index, value), in arrival order.
-    writes: Mutex<Vec<(usize, PointValue)>>,
+    /// Client writes the next scan applies.
+    writes: Mutex<Writes>,
     /// The address space exists.
     ready: AtomicBool,
     /// Client writes accepted.
@@ -92,6 +99,44 @@ pub(crate) struct Values {
     pub at: Vec<DateTime>,
     /// Changed since the server last took them.
     pub dirty: Vec<usize>,
+}
+
+/// Client writes since the last scan: the last value per point (a scan applies them in one
+/// go, so an earlier one would be overwritten anyway), which bounds what a client writing
+/// faster than the PLC scans can queue to one value per point.
+pub(crate) struct Writes {
+    /// Per point index.
+    value: Vec<Option<PointValue>>,
+    /// The points written, each once.
+    order: Vec<usize>,
+}
+
+impl Writes {
+    fn new(points: usize) -> Writes {
+        Writes {
+            value: vec![None; points],
+            order: Vec::new(),
+        }
+    }
+
+    pub(crate) fn push(&mut self, point: usize, v: PointValue) {
+        if self.value[point].replace(v).is_none() {
+            self.order.push(point);
+        }
+    }
+
+    /// Whether a write to `point` waits for the next scan.
+    pub(crate) fn pending(&self, point: usize) -> bool {
+        self.value[point].is_some()
+    }
+
+    fn take(&mut self) -> Vec<(usize, PointValue)> {
+        let order = std::mem::take(&mut self.order);
+        order
+            .into_iter()
+            .filter_map(|p| self.value[p].take().map(|v| (p, v)))
+            .collect()
+    }
 }
 
 /// A point of the PLC as the server shows it.
@@ -212,6 +257,10 @@ fn certificate(pki: &Path, uri: &str, app: &str, listen: &SocketAddr) -> Result<
     let cert = pki.join("own/cert.der");
     let key = pki.join("private/private.pem");
     let (x509, made) = if cert.exists() && key.exists() {
+        // The stack reads them whole, each time a client connects: a device or a FIFO
+        // there would never end.
+        users::regular_file(&cert, MAX_PKI_FILE)?;
+        users::regular_file(&key, MAX_PKI_FILE)?;
         (CertificateStore::read_cert(&cert)?, false)
     } else {
         let mut addresses = vec![hostname(), "localhost".to_string()];
@@ -401,7 +450,7 @@ impl Module for OpcuaServer {
                 dirty: Vec::new(),
             }),
             wake: tokio::sync::Notify::new(),
-            writes: Mutex::new(Vec::new()),
+            writes: Mutex::new(Writes::new(points.len())),
             ready: AtomicBool::new(false),
             written: AtomicU64::new(0),
         });
@@ -515,6 +564,7 @@ impl Module for OpcuaServer {
 
         drop(entered);
         let (h, sh) = (handle.clone(), Arc::clone(&shared));
+        let points_of: Vec<Option<usize>> = layout.vars.iter().map(|v| v.writable).collect();
         let thread_name = name.clone();
         let thread = std::thread::Builder::new()
             .name(format!("opcua {name}"))
@@ -527,7 +577,7 @@ impl Module for OpcuaServer {
                             return;
                         }
                     };
-                    let updater = tokio::spawn(update(h, manager, sh, ids));
+                    let updater = tokio::spawn(update(h, manager, sh, ids, points_of));
                     if let Err(e) = server.run_with(listener).await {
                         log::error!("opcua_server {thread_name}: the server stopped: {e}");
                     }
@@ -570,7 +620,7 @@ impl Module for OpcuaServer {
         let Some(run) = &mut self.run else {
             return Err(error(&self.name, "scanned before init"));
         };
-        let writes = std::mem::take(&mut *lock(&run.shared.writes));
+        let writes = lock(&run.shared.writes).take();
         for (p, v) in writes {
             // Checked against the point when it arrived; an error here would be a bug, not
             // the client's fault, and must not stop the PLC.
@@ -672,11 +722,13 @@ impl Drop for OpcuaServer {
 }
 
 /// Moves changed values into the address space and notifies the monitored items.
+/// `points_of`: per variable, the index of the point clients may write through it.
 async fn update(
     handle: ServerHandle,
     manager: Arc<InMemoryNodeManager<PlcNodes>>,
     shared: Arc<Shared>,
     ids: Vec<NodeId>,
+    points_of: Vec<Option<usize>>,
 ) {
     let mut batch: Vec<(usize, Variant, DateTime)> = Vec::new();
     loop {
@@ -696,21 +748,28 @@ async fn update(
             );
         }
         let now = DateTime::now();
+        // `set_values` runs this iterator under the address space's lock, which a client's
+        // write holds while it shows its value and queues it: a value the scan took before
+        // that write must not replace it (the read-back would go back to the older value
+        // until the next scan applies the write).
         let result = manager.set_values(
             handle.subscriptions(),
-            batch.drain(..).map(|(i, v, at)| {
-                (
-                    &ids[i],
-                    None,
-                    DataValue {
-                        value: Some(v),
-                        status: Some(opcua::types::StatusCode::Good),
-                        source_timestamp: Some(at),
-                        server_timestamp: Some(now),
-                        ..Default::default()
-                    },
-                )
-            }),
+            batch
+                .drain(..)
+                .filter(|(i, _, _)| points_of[*i].is_none_or(|p| !lock(&shared.writes).pending(p)))
+                .map(|(i, v, at)| {
+                    (
+                        &ids[i],
+                        None,
+                        DataValue {
+                            value: Some(v),
+                            status: Some(opcua::types::StatusCode::Good),
+                            source_timestamp: Some(at),
+                            server_timestamp: Some(now),
+                            ..Default::default()
+                        },
+                    )
+                }),
         );
         if let Err(e) = result {
             log::warn!("opcua_server: cannot update the address space: {e}");

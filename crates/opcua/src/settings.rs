@@ -152,8 +152,8 @@ impl Settings {
         if anonymous == Anonymous::No && users.is_none() {
             problems.push(format!(
                 "nobody could connect: anonymous access is off and there is no `users` file; \
-                 add `users = opcua.users` (lines `NAME:BCRYPT_HASH`, e.g. made by `htpasswd \
-                 -B`) or `anonymous = read` to [{name}]"
+                 add `users = opcua.users` (lines `NAME:BCRYPT_HASH`, made by `petriplc user \
+                 add opcua.users NAME`) or `anonymous = read` to [{name}]"
             ));
         }
         let state_dir = common::setting(decl, "state_dir")

@@ -93,43 +93,58 @@ pub fn variant(v: PointValue, ty: DataTypeId) -> Variant {
     }
 }
 
-/// A written value for a point of `kind` and `bits`: the node's own type, or any integer
-/// type whose value fits (clients often send Int64 for whole numbers); floats only into float
-/// points, and never a value the point cannot hold.
+/// A written value for a point of `kind` and `bits`, converted exactly or refused
+/// (docs/opcua.md, "Writes"): a Boolean into a 1-bit point; an integer of any width whose
+/// value the point holds (into a float point: only if the f32 holds it exactly); a Float or
+/// Double into a float point, rounded to the nearest f32, if finite there. NaN, ±Inf and
+/// values beyond the point's range are `BadOutOfRange` (one NaN reaching an IEC program
+/// would stop it); any other type, Null and arrays are `BadTypeMismatch`.
 pub fn written(v: &Variant, kind: PointKind, bits: u8) -> Result<PointValue, StatusCode> {
-    let int: i64 = match *v {
-        Variant::Boolean(b) => i64::from(b),
-        Variant::SByte(x) => i64::from(x),
-        Variant::Byte(x) => i64::from(x),
-        Variant::Int16(x) => i64::from(x),
-        Variant::UInt16(x) => i64::from(x),
-        Variant::Int32(x) => i64::from(x),
-        Variant::UInt32(x) => i64::from(x),
-        Variant::Int64(x) => x,
-        Variant::UInt64(x) => i64::try_from(x).map_err(|_| StatusCode::BadOutOfRange)?,
-        Variant::Float(f) if kind == PointKind::Float => return Ok(PointValue::Float(f)),
-        Variant::Double(d) if kind == PointKind::Float => {
-            let f = d as f32;
-            if d.is_finite() && !f.is_finite() {
-                return Err(StatusCode::BadOutOfRange);
-            }
-            return Ok(PointValue::Float(f));
+    let int: i128 = match *v {
+        Variant::Boolean(b) if kind == PointKind::Unsigned && bits == 1 => {
+            return Ok(PointValue::Unsigned(u32::from(b)))
         }
+        Variant::SByte(x) => x.into(),
+        Variant::Byte(x) => x.into(),
+        Variant::Int16(x) => x.into(),
+        Variant::UInt16(x) => x.into(),
+        Variant::Int32(x) => x.into(),
+        Variant::UInt32(x) => x.into(),
+        Variant::Int64(x) => x.into(),
+        Variant::UInt64(x) => x.into(),
+        Variant::Float(f) if kind == PointKind::Float => return real(f64::from(f)),
+        Variant::Double(d) if kind == PointKind::Float => return real(d),
         _ => return Err(StatusCode::BadTypeMismatch),
     };
-    if matches!(v, Variant::Boolean(_)) && !(kind == PointKind::Unsigned && bits == 1) {
-        return Err(StatusCode::BadTypeMismatch);
-    }
     let bits = u32::from(bits);
+    let fits = match kind {
+        PointKind::Float => {
+            // |int| <= 2^64 here, so the f32 converts back to i128 exactly.
+            let f = int as f32;
+            return if f as i128 == int {
+                Ok(PointValue::Float(f))
+            } else {
+                Err(StatusCode::BadOutOfRange)
+            };
+        }
+        PointKind::Unsigned => (0..1i128 << bits).contains(&int),
+        PointKind::Signed => (-(1i128 << (bits - 1))..1i128 << (bits - 1)).contains(&int),
+    };
     match kind {
-        PointKind::Float => Ok(PointValue::Float(int as f32)),
-        PointKind::Unsigned if (0..(1i64 << bits)).contains(&int) => {
-            Ok(PointValue::Unsigned(int as u32))
-        }
-        PointKind::Signed if (-(1i64 << (bits - 1))..(1i64 << (bits - 1))).contains(&int) => {
-            Ok(PointValue::Signed(int as i32))
-        }
-        _ => Err(StatusCode::BadOutOfRange),
+        _ if !fits => Err(StatusCode::BadOutOfRange),
+        PointKind::Unsigned => Ok(PointValue::Unsigned(int as u32)),
+        _ => Ok(PointValue::Signed(int as i32)),
+    }
+}
+
+/// A Float or Double for a float point: rounded to the nearest f32; NaN, ±Inf and what only
+/// an f32's Inf would hold refused.
+fn real(d: f64) -> Result<PointValue, StatusCode> {
+    let f = d as f32;
+    if f.is_finite() {
+        Ok(PointValue::Float(f))
+    } else {
+        Err(StatusCode::BadOutOfRange)
     }
 }
 
@@ -302,7 +317,7 @@ impl InMemoryNodeManagerImpl for PlcNodes {
             };
             match written(value, kind, bits) {
                 Ok(pv) => {
-                    lock(&self.shared.writes).push((point, pv));
+                    lock(&self.shared.writes).push(point, pv);
                     self.shared.written.fetch_add(1, Ordering::Relaxed);
                     let shown = variant(pv, var.data_type);
                     let now = DateTime::now();
@@ -332,6 +347,16 @@ impl InMemoryNodeManagerImpl for PlcNodes {
         );
         Ok(())
     }
+}
+
+/// A user name a client sent, fit for one log line: control characters escaped (no forged
+/// lines), at most 64 characters.
+fn shown_name(name: &str) -> String {
+    let mut out: String = name.chars().take(64).flat_map(char::escape_debug).collect();
+    if name.chars().nth(64).is_some() {
+        out.push('…');
+    }
+    out
 }
 
 /// Who may connect and what they may do.
@@ -371,8 +396,9 @@ impl AuthManager for Auth {
             Ok(UserToken(format!("user:{username}")))
         } else {
             log::warn!(
-                "opcua_server {}: refused user `{username}` (unknown user or wrong password)",
-                self.module
+                "opcua_server {}: refused user `{}` (unknown user or wrong password)",
+                self.module,
+                shown_name(username)
             );
             Err(Error::new(
                 StatusCode::BadUserAccessDenied,
@@ -421,6 +447,7 @@ impl AuthManager for Auth {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn check(v: Variant, kind: PointKind, bits: u8, expect: Result<PointValue, StatusCode>) {
         assert_eq!(written(&v, kind, bits), expect, "{v:?} into {kind:?}{bits}");
@@ -482,6 +509,199 @@ mod tests {
             Unsigned,
             32,
             Err(StatusCode::BadOutOfRange),
+        );
+    }
+
+    /// Issue 27: one NaN written by a client stopped the whole PLC (an `iec` module reading
+    /// the point faulted on `temp * 2.0`, `on_failure = stop`).
+    #[test]
+    fn non_finite_values_are_refused_as_out_of_range() {
+        use PointKind::*;
+        let nan = [
+            Variant::Float(f32::NAN),
+            Variant::Float(-f32::NAN),
+            Variant::Float(f32::INFINITY),
+            Variant::Float(f32::NEG_INFINITY),
+            Variant::Double(f64::NAN),
+            Variant::Double(f64::INFINITY),
+            Variant::Double(f64::NEG_INFINITY),
+            // Finite doubles that would be ±Inf in an f32 point.
+            Variant::Double(1e39),
+            Variant::Double(-1e39),
+            Variant::Double(f64::MAX),
+        ];
+        for v in nan {
+            check(v.clone(), Float, 32, Err(StatusCode::BadOutOfRange));
+            // A float is never written into an integer point, whatever its value.
+            check(v, Signed, 32, Err(StatusCode::BadTypeMismatch));
+        }
+        // The largest finite f32 and a double that rounds to it are fine.
+        check(
+            Variant::Float(f32::MAX),
+            Float,
+            32,
+            Ok(PointValue::Float(f32::MAX)),
+        );
+        check(
+            Variant::Double(f64::from(f32::MAX)),
+            Float,
+            32,
+            Ok(PointValue::Float(f32::MAX)),
+        );
+    }
+
+    /// An integer reaches a float point only if the f32 holds it exactly: 16777217 would
+    /// silently become 16777216.
+    #[test]
+    fn integers_into_float_points_must_be_exact() {
+        use PointKind::*;
+        check(
+            Variant::Int32(16_777_216),
+            Float,
+            32,
+            Ok(PointValue::Float(16_777_216.0)),
+        );
+        check(
+            Variant::Int32(-16_777_216),
+            Float,
+            32,
+            Ok(PointValue::Float(-16_777_216.0)),
+        );
+        check(
+            Variant::Int32(16_777_217),
+            Float,
+            32,
+            Err(StatusCode::BadOutOfRange),
+        );
+        check(
+            Variant::Int64(1 << 40),
+            Float,
+            32,
+            Ok(PointValue::Float(1_099_511_627_776.0)),
+        );
+        check(
+            Variant::Int64(i64::MAX),
+            Float,
+            32,
+            Err(StatusCode::BadOutOfRange),
+        );
+        check(
+            Variant::Int64(i64::MIN),
+            Float,
+            32,
+            Ok(PointValue::Float(-9_223_372_036_854_775_808.0)),
+        );
+        check(
+            Variant::UInt64(u64::MAX),
+            Float,
+            32,
+            Err(StatusCode::BadOutOfRange),
+        );
+        check(
+            Variant::UInt64(1 << 63),
+            Float,
+            32,
+            Ok(PointValue::Float(9_223_372_036_854_775_808.0)),
+        );
+    }
+
+    /// Any variant into any point: either refused with one of the two statuses a value can
+    /// earn, the point untouched, or a value the point holds, finite, equal to what was
+    /// sent (a float rounded to the nearest f32).
+    fn any_variant() -> impl Strategy<Value = Variant> {
+        prop_oneof![
+            any::<bool>().prop_map(Variant::Boolean),
+            any::<i8>().prop_map(Variant::SByte),
+            any::<u8>().prop_map(Variant::Byte),
+            any::<i16>().prop_map(Variant::Int16),
+            any::<u16>().prop_map(Variant::UInt16),
+            any::<i32>().prop_map(Variant::Int32),
+            any::<u32>().prop_map(Variant::UInt32),
+            any::<i64>().prop_map(Variant::Int64),
+            any::<u64>().prop_map(Variant::UInt64),
+            (-40i64..40).prop_map(Variant::Int64),
+            any::<f32>().prop_map(Variant::Float),
+            any::<f64>().prop_map(Variant::Double),
+            proptest::num::f32::ANY.prop_map(Variant::Float),
+            proptest::num::f64::ANY.prop_map(Variant::Double),
+            ".{0,40}".prop_map(|s: String| Variant::from(s)),
+            proptest::collection::vec(any::<i32>(), 0..4).prop_map(Variant::from),
+            proptest::collection::vec(any::<f32>(), 0..4).prop_map(Variant::from),
+            Just(Variant::Empty),
+            Just(Variant::from(vec![1u8, 2])),
+        ]
+    }
+
+    fn point() -> impl Strategy<Value = (PointKind, u8)> {
+        prop_oneof![
+            (1u8..=32).prop_map(|b| (PointKind::Unsigned, b)),
+            (1u8..=32).prop_map(|b| (PointKind::Signed, b)),
+            Just((PointKind::Float, 32)),
+        ]
+    }
+
+    /// The exact number a numeric variant carries.
+    fn number(v: &Variant) -> Option<f64> {
+        Some(match *v {
+            Variant::Boolean(b) => f64::from(u8::from(b)),
+            Variant::SByte(x) => x.into(),
+            Variant::Byte(x) => x.into(),
+            Variant::Int16(x) => x.into(),
+            Variant::UInt16(x) => x.into(),
+            Variant::Int32(x) => x.into(),
+            Variant::UInt32(x) => x.into(),
+            Variant::Int64(x) => x as f64,
+            Variant::UInt64(x) => x as f64,
+            Variant::Float(f) => f64::from(f),
+            Variant::Double(d) => f64::from(d as f32),
+            _ => return None,
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn any_variant_is_converted_exactly_or_refused(v in any_variant(), (kind, bits) in point()) {
+            match written(&v, kind, bits) {
+                Err(s) => {
+                    prop_assert!(
+                        s == StatusCode::BadOutOfRange || s == StatusCode::BadTypeMismatch,
+                        "{s}"
+                    );
+                    if s == StatusCode::BadOutOfRange {
+                        prop_assert!(number(&v).is_some(), "{v:?}: out of range, not a number");
+                    }
+                }
+                Ok(pv) => {
+                    let n = number(&v).expect("only numbers are written");
+                    let (got, lo, hi) = match pv {
+                        PointValue::Unsigned(u) => {
+                            (f64::from(u), 0.0, 2f64.powi(i32::from(bits)) - 1.0)
+                        }
+                        PointValue::Signed(i) => {
+                            let half = 2f64.powi(i32::from(bits) - 1);
+                            (f64::from(i), -half, half - 1.0)
+                        }
+                        PointValue::Float(f) => (f64::from(f), f64::from(f32::MIN), f64::from(f32::MAX)),
+                    };
+                    prop_assert!(got.is_finite() && (lo..=hi).contains(&got), "{v:?} -> {pv:?}");
+                    // Integers keep their exact value (compared as i128, not through f64).
+                    match (&v, pv) {
+                        (Variant::Int64(x), PointValue::Float(f)) => prop_assert_eq!(f as i128, i128::from(*x)),
+                        (Variant::UInt64(x), PointValue::Float(f)) => prop_assert_eq!(f as i128, i128::from(*x)),
+                        _ => prop_assert_eq!(got, n, "{:?} -> {:?}", v, pv),
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn user_names_from_clients_are_logged_on_one_short_line() {
+        assert_eq!(shown_name("op"), "op");
+        assert_eq!(shown_name("op\n[ERROR] forged"), "op\\n[ERROR] forged");
+        assert_eq!(
+            shown_name(&"x".repeat(10_000)),
+            format!("{}…", "x".repeat(64))
         );
     }
 

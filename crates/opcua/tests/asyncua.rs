@@ -5,7 +5,8 @@
 //! B1, N1, N2, N3 change, anonymous read-only, a user's write to an owned point (which stops
 //! the PLC through the `shutdown` module) and refusals; and a Sign & Encrypt endpoint with a
 //! certificate made on first start, an operator trusting the client's certificate, and
-//! sessions refused without credentials.
+//! sessions refused without credentials; every kind of variant written into every kind of
+//! point, and non-finite values refused before an `iec` module could read them.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -20,6 +21,7 @@ fn registry(kind: &str) -> Option<petriplc_runtime::module::Factory> {
 
 const KINDS: &[&str] = &[
     "opcua_server",
+    "iec",
     "petrinet",
     "plant",
     "timeline",
@@ -237,5 +239,119 @@ fn settings_are_checked_at_start_with_file_and_line() {
             &format!("cannot listen on 127.0.0.1:{port}"),
             "--set opcua:listen=",
         ],
+    );
+}
+
+/// A PLC whose server owns a point of every kind, `temp` read by an `iec` module that
+/// doubles it into `dbl` (`on_failure = stop`, the default).
+fn values_conf(dir: &Path) -> PathBuf {
+    std::fs::write(
+        dir.join("twice.st"),
+        "PROGRAM twice\nVAR_INPUT\n    temp : REAL;\nEND_VAR\nVAR_OUTPUT\n    dbl : REAL;\n\
+         END_VAR\ndbl := temp * 2.0;\nEND_PROGRAM\n",
+    )
+    .unwrap();
+    let text = format!(
+        "[PLC]\nmodule opcua opcua_server\nmodule calc iec\n\
+         point temp \"temperature\" opcua f32 init 20\npoint dbl \"twice temp\" calc f32\n\
+         point b \"a bool\" opcua u1\npoint u3 \"3 bits\" opcua u3\npoint u8 \"8 bits\" opcua u8\n\
+         point u16 \"16 bits\" opcua u16\npoint u32 \"32 bits\" opcua u32\n\
+         point i1 \"signed bit\" opcua i1\npoint i8 \"signed 8\" opcua i8\n\
+         point i12 \"signed 12\" opcua i12\npoint i16 \"signed 16\" opcua i16\n\
+         point i32 \"signed 32\" opcua i32\npoint f \"a float nobody reads\" opcua f32\n\
+         [calc]\nprogram = twice.st\nscan_period = T#10ms\n\
+         [opcua]\nlisten = 127.0.0.1:0\nanonymous = write\nstate_dir = {}\n",
+        dir.join("state").display()
+    );
+    let conf = dir.join("plc.conf");
+    std::fs::write(&conf, text).unwrap();
+    conf
+}
+
+/// The module's state in the PLC's status.
+fn state(plc: &Plc, module: &str) -> String {
+    plc.status()
+        .modules
+        .iter()
+        .find(|m| m.name == module)
+        .map(|m| m.state.as_str().to_string())
+        .unwrap_or_default()
+}
+
+/// Issue 27: a client's `Float(NaN)` reached an `iec` module, whose `temp * 2.0` faulted and
+/// stopped the whole PLC. NaN, ±Inf and 1e39 (an f32's Inf) are refused with BadOutOfRange;
+/// the module goes on scanning and computes from the next good value.
+#[test]
+fn non_finite_writes_are_refused_and_the_plc_keeps_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plc, url) = start(&values_conf(dir.path()));
+    let plc_id = plc.status().plc_id.clone();
+    let out = run_client(&["nonfinite", &url, &plc_id, "temp", "21.5", "43"]);
+    assert!(out.contains("\"refused\": 6"), "{out}");
+    // The client saw `dbl` computed from 21.5: the module scanned after every write.
+    assert_eq!(state(&plc, "calc"), "running");
+    assert!(!plc.failed());
+    let last = plc.wait(&AtomicBool::new(true));
+    let calc = last.modules.iter().find(|m| m.name == "calc").unwrap();
+    assert_ne!(calc.state.as_str(), "failed", "{calc:?}");
+}
+
+/// Every kind of variant a client can send (integers of every width at their edges, Float and
+/// Double with NaN, ±Inf, out-of-range and tiny values, Boolean, strings, byte strings, other
+/// scalars, Null, arrays) into a point of every kind: converted exactly as docs/opcua.md says,
+/// or refused with its status and the point unchanged (an oracle in the client written from
+/// the documentation).
+#[test]
+fn every_variant_into_every_point_is_converted_exactly_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plc, url) = start(&values_conf(dir.path()));
+    let plc_id = plc.status().plc_id.clone();
+    let out = run_client(&["values", &url, &plc_id]);
+    let json = out.lines().last().unwrap_or_default();
+    for want in ["\"BadOutOfRange\"", "\"BadTypeMismatch\"", "\"good\""] {
+        assert!(json.contains(want), "{want} not in {json}");
+    }
+    assert_eq!(state(&plc, "calc"), "running");
+    plc.wait(&AtomicBool::new(true));
+}
+
+/// Issue 27's siblings of `retain_file = /dev/full`: the users file, and the certificate and
+/// key the stack reads at every connection, must be regular files of a sane size; a FIFO
+/// blocked the start for ever and a device would have been read without end.
+#[test]
+fn users_and_certificate_files_must_be_regular_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("fifo");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let start = |section: &str| {
+        let text =
+            format!("[PLC]\nmodule opcua opcua_server\npoint P \"p\" opcua\n[opcua]\n{section}");
+        petriplc_runtime::harness::start_err(&text, dir.path(), registry)
+    };
+    for users in ["/dev/zero", fifo.to_str().unwrap()] {
+        let e = start(&format!(
+            "listen = 127.0.0.1:0\nanonymous = read\nusers = {users}\n"
+        ));
+        assert!(
+            e.contains(&format!(
+                "test.conf:7: `users = {users}`: {users} is not a regular file"
+            )),
+            "{e}"
+        );
+    }
+    let pki = dir.path().join("state/pki");
+    std::fs::create_dir_all(pki.join("own")).unwrap();
+    std::fs::create_dir_all(pki.join("private")).unwrap();
+    std::fs::rename(&fifo, pki.join("own/cert.der")).unwrap();
+    std::fs::write(pki.join("private/private.pem"), "not a key").unwrap();
+    let e = start(&format!(
+        "listen = 127.0.0.1:0\nanonymous = read\nsecurity = encrypt\nstate_dir = {}\n",
+        dir.path().join("state").display()
+    ));
+    assert!(e.contains("own/cert.der is not a regular file"), "{e}");
+    assert!(
+        e.contains("remove own/ and private/ there to make a new one"),
+        "{e}"
     );
 }

@@ -2,16 +2,21 @@
 
     asyncua_client.py mixer URL PLC_ID USER PASSWORD SECONDS   browse, read, subscribe, write
     asyncua_client.py secure URL PLC_ID USER PASSWORD PKI_DIR  Basic256Sha256 Sign&Encrypt
+    asyncua_client.py values URL PLC_ID                        every variant into every point
+    asyncua_client.py nonfinite URL PLC_ID POINT GOOD DOUBLED  NaN, Inf refused; then GOOD
 
 Prints one JSON object on the last line of standard output; exits 1 with a message when a
 check fails.
 """
 
 import asyncio
+import datetime
 import json
+import math
 import shutil
 import sys
 import time
+import uuid
 from pathlib import Path
 
 from asyncua import Client, ua
@@ -104,9 +109,14 @@ async def mixer(url, plc_id, user, password, seconds):
         out["places"] = len(places)
         state = await objects.get_child([f"{ns}:controller", f"{ns}:Status", f"{ns}:State"])
         scans = await objects.get_child([f"{ns}:controller", f"{ns}:Status", f"{ns}:Scans"])
-        await asyncio.sleep(0.3)
-        expect(await state.read_value() == "running", "controller not running")
-        expect(await scans.read_value() > 0, "controller scans")
+        # The status variables follow the PLC's status file (read every 100 ms): wait for
+        # what is asserted rather than a fixed while, which a loaded machine may outlast.
+        deadline = time.time() + 30
+        while (await state.read_value(), await scans.read_value() > 0) != ("running", True):
+            expect(time.time() < deadline,
+                   f"controller not running: {await state.read_value()}, "
+                   f"{await scans.read_value()} scans")
+            await asyncio.sleep(0.02)
         # Markings are read-only for everyone, and anonymous users may not write at all.
         place = (await marking.get_children())[0]
         await expect_refused(place.write_value(ua.DataValue(ua.Variant(5, ua.VariantType.UInt64))),
@@ -236,12 +246,173 @@ async def secure(url, plc_id, user, password, pki):
     print(json.dumps(out))
 
 
+# The points of the `values` check, owned by the server: name -> (kind, bits).
+POINTS = {
+    "b": ("u", 1), "u3": ("u", 3), "u8": ("u", 8), "u16": ("u", 16), "u32": ("u", 32),
+    "i1": ("i", 1), "i8": ("i", 8), "i12": ("i", 12), "i16": ("i", 16), "i32": ("i", 32),
+    "f": ("f", 32),
+}
+INTS = [ua.VariantType.SByte, ua.VariantType.Byte, ua.VariantType.Int16, ua.VariantType.UInt16,
+        ua.VariantType.Int32, ua.VariantType.UInt32, ua.VariantType.Int64, ua.VariantType.UInt64]
+INT_RANGE = {
+    ua.VariantType.SByte: (-2**7, 2**7 - 1), ua.VariantType.Byte: (0, 2**8 - 1),
+    ua.VariantType.Int16: (-2**15, 2**15 - 1), ua.VariantType.UInt16: (0, 2**16 - 1),
+    ua.VariantType.Int32: (-2**31, 2**31 - 1), ua.VariantType.UInt32: (0, 2**32 - 1),
+    ua.VariantType.Int64: (-2**63, 2**63 - 1), ua.VariantType.UInt64: (0, 2**64 - 1),
+}
+
+
+def f32(x):
+    """x rounded to the nearest f32, or None when that is not finite."""
+    import struct
+    try:
+        y = struct.unpack("<f", struct.pack("<f", x))[0]
+    except OverflowError:
+        return None
+    return y if math.isfinite(y) else None
+
+
+def expected(variant, kind, bits):
+    """What docs/opcua.md says a write of `variant` to a (kind, bits) point gives: the value
+    read back, or the refusal's status name. An oracle written from the documentation, not
+    from the server's code."""
+    t, v = variant.VariantType, variant.Value
+    if variant.is_array or t == ua.VariantType.Null:
+        return "BadTypeMismatch"
+    if t == ua.VariantType.Boolean:
+        return (1 if v else 0) if (kind, bits) == ("u", 1) else "BadTypeMismatch"
+    if t in (ua.VariantType.Float, ua.VariantType.Double):
+        if kind != "f":
+            return "BadTypeMismatch"
+        if not math.isfinite(v):
+            return "BadOutOfRange"
+        y = f32(v)
+        return "BadOutOfRange" if y is None else y
+    if t in INTS:
+        if kind == "f":
+            y = f32(float(v))
+            return y if y is not None and int(y) == v else "BadOutOfRange"
+        lo, hi = (0, 2**bits - 1) if kind == "u" else (-2**(bits - 1), 2**(bits - 1) - 1)
+        return v if lo <= v <= hi else "BadOutOfRange"
+    return "BadTypeMismatch"
+
+
+def variants():
+    """Every kind of variant a client may write, with the values at the edges."""
+    out = [ua.Variant(True, ua.VariantType.Boolean), ua.Variant(False, ua.VariantType.Boolean)]
+    for t in INTS:
+        lo, hi = INT_RANGE[t]
+        for v in sorted({lo, hi, 0, 1, min(hi, 2), min(hi, 5), max(lo, -1), max(lo, -8),
+                         min(hi, 127), min(hi, 128), min(hi, 255), min(hi, 256),
+                         max(lo, -129), min(hi, 2**24), min(hi, 2**24 + 1), min(hi, 2**40)}):
+            out.append(ua.Variant(v, t))
+    for t in (ua.VariantType.Float, ua.VariantType.Double):
+        for v in [0.0, -0.0, 1.5, -2.25, 0.1, 3.4028234663852886e38, float("nan"),
+                  float("inf"), float("-inf")]:
+            out.append(ua.Variant(v, t))
+    for v in [1e39, -1e39, 1e308, 1e-50, 5e-324]:
+        out.append(ua.Variant(v, ua.VariantType.Double))
+    out += [
+        ua.Variant("1", ua.VariantType.String),
+        ua.Variant("x" * 1000, ua.VariantType.String),
+        ua.Variant(b"\x01", ua.VariantType.ByteString),
+        ua.Variant(ua.LocalizedText("1"), ua.VariantType.LocalizedText),
+        ua.Variant(ua.QualifiedName("1", 0), ua.VariantType.QualifiedName),
+        ua.Variant(ua.NodeId(1, 0), ua.VariantType.NodeId),
+        ua.Variant(ua.StatusCode(0), ua.VariantType.StatusCode),
+        ua.Variant(datetime.datetime(2026, 1, 1, tzinfo=datetime.timezone.utc),
+                   ua.VariantType.DateTime),
+        ua.Variant(uuid.UUID(int=1), ua.VariantType.Guid),
+        ua.Variant(None, ua.VariantType.Null),
+        ua.Variant([1, 2], ua.VariantType.Int32),
+        ua.Variant([], ua.VariantType.Int32),
+        ua.Variant([float("nan")], ua.VariantType.Float),
+        ua.Variant([True], ua.VariantType.Boolean),
+    ]
+    return out
+
+
+def same(a, b):
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b and math.copysign(1, a) == math.copysign(1, b)
+    return a == b
+
+
+async def values(url, plc_id):
+    """Writes every variant into every point the server owns: each write either gives the
+    value documented (read back exactly) or is refused with the documented status, the point
+    unchanged."""
+    out = {"good": 0, "refused": {}}
+    async with Client(url=url, timeout=10) as client:
+        ns = await client.get_namespace_index(f"urn:petriplc:{plc_id}")
+        opcua = await client.nodes.objects.get_child([f"{ns}:opcua"])
+        nodes = {name: await opcua.get_child([f"{ns}:{name}"]) for name in POINTS}
+        for name, (kind, bits) in POINTS.items():
+            node = nodes[name]
+            for variant in variants():
+                before = await node.read_value()
+                want = expected(variant, kind, bits)
+                what = f"{variant.VariantType.name} {variant.Value!r:.40} into {name}"
+                try:
+                    await node.write_value(ua.DataValue(variant))
+                    got = None
+                except ua.UaStatusCodeError as e:
+                    got = ua.StatusCode(e.code).name
+                after = await node.read_value()
+                if isinstance(want, str):
+                    expect(got == want, f"{what}: expected {want}, got {got or 'Good'}")
+                    expect(same(after, before), f"{what}: refused, yet {before!r} became {after!r}")
+                    out["refused"][want] = out["refused"].get(want, 0) + 1
+                else:
+                    expect(got is None, f"{what}: expected {want!r}, refused with {got}")
+                    if isinstance(after, bool):
+                        after = int(after)
+                    expect(same(after, want), f"{what}: read back {after!r}, expected {want!r}")
+                    out["good"] += 1
+    print(json.dumps(out))
+
+
+async def nonfinite(url, plc_id, point, good, doubled):
+    """Writes NaN, +-Inf and 1e39 (an f32's Inf) to `point`, each refused with BadOutOfRange,
+    then `good`; waits until the iec module's output `dbl` shows `doubled`: the module scanned
+    after the writes, so it ran through them."""
+    out = {}
+    async with Client(url=url, timeout=10) as client:
+        ns = await client.get_namespace_index(f"urn:petriplc:{plc_id}")
+        node = await client.nodes.objects.get_child([f"{ns}:opcua", f"{ns}:{point}"])
+        dbl = await client.nodes.objects.get_child([f"{ns}:calc", f"{ns}:dbl"])
+        bad = [ua.Variant(float("nan"), ua.VariantType.Float),
+               ua.Variant(float("inf"), ua.VariantType.Float),
+               ua.Variant(float("-inf"), ua.VariantType.Float),
+               ua.Variant(float("nan"), ua.VariantType.Double),
+               ua.Variant(float("-inf"), ua.VariantType.Double),
+               ua.Variant(1e39, ua.VariantType.Double)]
+        for v in bad:
+            await expect_refused(node.write_value(ua.DataValue(v)), "BadOutOfRange",
+                                 f"{v.VariantType.name}({v.Value})")
+        out["refused"] = len(bad)
+        await node.write_value(ua.DataValue(ua.Variant(good, ua.VariantType.Float)))
+        deadline = time.time() + 30
+        while await dbl.read_value() != doubled:
+            expect(time.time() < deadline, f"dbl never became {doubled}: {await dbl.read_value()}")
+            await asyncio.sleep(0.02)
+        value = await node.read_value()
+        expect(value == good, f"{point} reads {value}, expected {good}")
+        out["dbl"] = doubled
+    print(json.dumps(out))
+
+
 def main():
     what = sys.argv[1]
     if what == "mixer":
         asyncio.run(mixer(sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5], float(sys.argv[6])))
     elif what == "secure":
         asyncio.run(secure(sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5], sys.argv[6]))
+    elif what == "values":
+        asyncio.run(values(sys.argv[2], sys.argv[3]))
+    elif what == "nonfinite":
+        asyncio.run(nonfinite(sys.argv[2], sys.argv[3], sys.argv[4], float(sys.argv[5]),
+                              float(sys.argv[6])))
     else:
         fail(f"unknown check {what}")
 

@@ -7,6 +7,7 @@ mod compile;
 mod run;
 mod sim;
 mod step_through;
+mod user;
 
 use std::path::Path;
 
@@ -25,6 +26,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
         Command::Run(args) => run::run(args),
         Command::Status(args) => run::status(args),
         Command::Stop(args) => run::stop(args),
+        Command::User(args) => user::run(args),
     }
 }
 

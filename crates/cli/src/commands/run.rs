@@ -79,6 +79,8 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
         .map_err(|e| not_started(&args, e))?;
     let failed_before = plc.failed();
     let last = plc.wait(&stop);
+    // The counts of rate-limited lines not yet summed up, before the final table.
+    log::logger().flush();
     eprint!("{last}");
     let failed = failed_before || last.modules.iter().any(|m| m.state == ModuleState::Failed);
     if failed {
@@ -238,9 +240,18 @@ fn init_logging(args: &RunArgs, vitrine: bool, plc_id: &str) -> Result<(), Failu
             .bad_input()?;
         loggers.push(WriteLogger::new(level, config, file));
     }
-    CombinedLogger::init(loggers)
+    // Third-party lines at the level they deserve, floods of them rate-limited: one place
+    // for every crate's policy (crates/cli/src/logging.rs).
+    let policed = crate::logging::Policed::new(
+        CombinedLogger::new(loggers),
+        level,
+        vec![petriplc_opcua::log_policy],
+    );
+    log::set_boxed_logger(Box::new(policed))
         .context("cannot start logging")
-        .run_failure()
+        .run_failure()?;
+    log::set_max_level(level);
+    Ok(())
 }
 
 /// `petriplc status`: 0 and the modules' table for a running PLC, 5 for one that exited
