@@ -5,6 +5,7 @@ mod args;
 mod commands;
 mod failure;
 mod heap;
+mod log_queue;
 mod logging;
 mod output;
 mod panic;

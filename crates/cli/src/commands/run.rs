@@ -242,8 +242,13 @@ fn init_logging(args: &RunArgs, vitrine: bool, plc_id: &str) -> Result<(), Failu
     }
     // Third-party lines at the level they deserve, floods of them rate-limited: one place
     // for every crate's policy (crates/cli/src/logging.rs).
+    // Behind a queue, so that a log that cannot be written (a pipe nobody reads) never
+    // holds a module in its scan (crates/cli/src/log_queue.rs).
     let policed = crate::logging::Policed::new(
-        CombinedLogger::new(loggers),
+        Box::new(crate::log_queue::Queued::new(
+            CombinedLogger::new(loggers),
+            level,
+        )),
         level,
         vec![petriplc_opcua::log_policy],
     );
