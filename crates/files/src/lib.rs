@@ -1,9 +1,9 @@
 //! Reading the files a user names — configurations, programs, nets, timelines, password
 //! files — so that a wrong path can never hang or exhaust the machine.
 //!
-//! A path is read only if it is a regular file or a pipe (`petriplc check <(…)`); a folder,
-//! a device (`/dev/zero` would be read without end, a terminal would wait for typing) or a
-//! socket is refused before it is opened. What is read is bounded by [`Limit`]: the most a
+//! A path is read only if it is a regular file; a folder, a pipe (opening one waits for a
+//! writer, for ever if none comes), a device (`/dev/zero` would be read without end, a
+//! terminal would wait for typing) or a socket is refused before it is opened. What is read is bounded by [`Limit`]: the most a
 //! file of that format can sensibly hold, stated once per format, so that a huge file (or a
 //! pipe that never ends) is refused with its size instead of being read into memory.
 //!
@@ -47,7 +47,7 @@ pub const TIMELINE: Limit = Limit {
 };
 /// Small text files of settings: password files, certificates and keys, display screens.
 pub const SMALL: Limit = Limit {
-    bytes: 4 << 20,
+    bytes: 1 << 20,
     what: "a settings file",
 };
 
@@ -98,6 +98,7 @@ impl FileError {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
     Folder,
+    Fifo,
     CharDevice,
     BlockDevice,
     Socket,
@@ -108,6 +109,7 @@ impl fmt::Display for Kind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             Kind::Folder => "a folder",
+            Kind::Fifo => "a pipe (FIFO)",
             Kind::CharDevice => "a character device",
             Kind::BlockDevice => "a block device",
             Kind::Socket => "a socket",
@@ -152,12 +154,13 @@ impl fmt::Display for Reason<'_> {
     }
 }
 
-/// Whether `path` may be read: a regular file or a pipe. Follows symbolic links.
+/// Whether `path` may be read: a regular file of at most `limit` bytes. Follows symbolic
+/// links.
 pub fn check(path: &Path, limit: Limit) -> Result<(), FileError> {
     let meta = std::fs::metadata(path).map_err(|e| error(path, e))?;
     let t = meta.file_type();
-    let kind = if t.is_file() || t.is_fifo() {
-        return if t.is_file() && meta.len() > limit.bytes {
+    let kind = if t.is_file() {
+        return if meta.len() > limit.bytes {
             Err(FileError::TooLarge {
                 path: path.to_path_buf(),
                 size_at_least: meta.len(),
@@ -169,6 +172,8 @@ pub fn check(path: &Path, limit: Limit) -> Result<(), FileError> {
         };
     } else if t.is_dir() {
         Kind::Folder
+    } else if t.is_fifo() {
+        Kind::Fifo
     } else if t.is_char_device() {
         Kind::CharDevice
     } else if t.is_block_device() {
@@ -185,13 +190,13 @@ pub fn check(path: &Path, limit: Limit) -> Result<(), FileError> {
     })
 }
 
-/// The bytes of the file at `path`, refused unless it is a regular file or a pipe of at
-/// most `limit` bytes.
+/// The bytes of the file at `path`, refused unless it is a regular file of at most `limit`
+/// bytes.
 pub fn read(path: &Path, limit: Limit) -> Result<Vec<u8>, FileError> {
     check(path, limit)?;
     let file = File::open(path).map_err(|e| error(path, e))?;
     let mut bytes = Vec::new();
-    // Bounded even if the file grows while it is read, or is a pipe.
+    // Bounded even if the file grows while it is read.
     file.take(limit.bytes + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| error(path, e))?;
@@ -250,7 +255,7 @@ mod tests {
     };
 
     #[test]
-    fn regular_files_and_pipes_are_read_within_their_limit() {
+    fn only_regular_files_are_read_and_within_their_limit() {
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("a.txt");
         std::fs::write(&f, "0123456789").unwrap();
@@ -265,7 +270,7 @@ mod tests {
                 f.display()
             ),
         );
-        // A pipe that never ends is cut at the limit.
+        // A pipe is refused before it is opened: opening it would wait for a writer.
         let mut child = std::process::Command::new("sh")
             .args(["-c", "yes"])
             .stdout(std::process::Stdio::piped())
@@ -276,7 +281,11 @@ mod tests {
             std::os::fd::AsRawFd::as_raw_fd(child.stdout.as_ref().unwrap())
         );
         let e = read(Path::new(&fd), CONFIG).unwrap_err();
-        assert!(matches!(e, FileError::TooLarge { .. }), "{e}");
+        assert!(
+            e.to_string()
+                .ends_with("it is a pipe (FIFO), not a file; name a configuration file"),
+            "{e}"
+        );
         child.kill().unwrap();
         child.wait().unwrap();
     }

@@ -59,8 +59,6 @@ pub const KINDS: &[&str] = &[KIND];
 pub const DEFAULT_SCAN_PERIOD: Duration = Duration::from_millis(10);
 /// The stack's id for the users of the password file.
 const USERS_TOKEN: &str = "users";
-/// The largest certificate or key file read (a 16384-bit RSA key is 13 KB in PEM).
-const MAX_PKI_FILE: u64 = 1 << 20;
 /// How often the PLC's status file (module states, markings) is read again.
 const STATUS_EVERY: Duration = Duration::from_millis(100);
 
@@ -259,8 +257,9 @@ fn certificate(pki: &Path, uri: &str, app: &str, listen: &SocketAddr) -> Result<
     let (x509, made) = if cert.exists() && key.exists() {
         // The stack reads them whole, each time a client connects: a device or a FIFO
         // there would never end.
-        users::regular_file(&cert, MAX_PKI_FILE)?;
-        users::regular_file(&key, MAX_PKI_FILE)?;
+        for f in [&cert, &key] {
+            petriplc_files::check(f, petriplc_files::SMALL).map_err(|e| e.to_string())?;
+        }
         (CertificateStore::read_cert(&cert)?, false)
     } else {
         let mut addresses = vec![hostname(), "localhost".to_string()];

@@ -15,46 +15,9 @@ pub const BCRYPT_PREFIXES: [&str; 4] = ["$2a$", "$2b$", "$2x$", "$2y$"];
 /// being the password's terminating zero byte).
 pub const MAX_PASSWORD_BYTES: usize = 71;
 
-/// The largest users file read: thousands of users.
-pub const MAX_FILE: u64 = 1 << 20;
-
-/// Whether `path` is a regular file of at most `max` bytes, checked before it is opened: a
-/// FIFO would block the open, a device (`/dev/zero`) would never end.
-pub(crate) fn regular_file(path: &Path, max: u64) -> Result<(), String> {
-    let meta =
-        std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    if !meta.is_file() {
-        return Err(format!(
-            "{} is not a regular file; name a file",
-            path.display()
-        ));
-    }
-    if meta.len() > max {
-        return Err(format!(
-            "{} holds {} bytes, more than the {} KiB such a file can need; is it the right file?",
-            path.display(),
-            meta.len(),
-            max >> 10
-        ));
-    }
-    Ok(())
-}
-
-/// The text of a users file: a regular file of at most [`MAX_FILE`] bytes.
+/// The text of a users file: a regular file of at most 1 MiB (thousands of users).
 pub fn read_text(path: &Path) -> Result<String, String> {
-    read_bounded(path, MAX_FILE)
-}
-
-/// The text of a regular file of at most `max` bytes.
-fn read_bounded(path: &Path, max: u64) -> Result<String, String> {
-    use std::io::Read;
-    regular_file(path, max)?;
-    let mut text = String::new();
-    std::fs::File::open(path)
-        // It may have grown since: never more than `max`.
-        .and_then(|f| f.take(max).read_to_string(&mut text))
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    Ok(text)
+    petriplc_files::read_to_string(path, petriplc_files::SMALL).map_err(|e| e.to_string())
 }
 
 /// User name → bcrypt hash.

@@ -335,8 +335,8 @@ fn users_and_certificate_files_must_be_regular_files() {
         ));
         assert!(
             e.contains(&format!(
-                "test.conf:7: `users = {users}`: {users} is not a regular file"
-            )),
+                "test.conf:7: `users = {users}`: cannot read {users}: it is"
+            )) && e.contains(", not a file; name a settings file"),
             "{e}"
         );
     }
@@ -349,7 +349,10 @@ fn users_and_certificate_files_must_be_regular_files() {
         "listen = 127.0.0.1:0\nanonymous = read\nsecurity = encrypt\nstate_dir = {}\n",
         dir.path().join("state").display()
     ));
-    assert!(e.contains("own/cert.der is not a regular file"), "{e}");
+    assert!(
+        e.contains("own/cert.der: it is a pipe (FIFO), not a file"),
+        "{e}"
+    );
     assert!(
         e.contains("remove own/ and private/ there to make a new one"),
         "{e}"
