@@ -89,8 +89,12 @@ impl SourceFile {
             Ok(i) => i,
             Err(i) => i - 1,
         };
-        let start = self.line_starts[line];
+        let mut start = self.line_starts[line];
         let end = floor_char_boundary(&self.text, offset);
+        // A byte order mark before the first line is not a column.
+        if line == 0 && self.text.starts_with('\u{feff}') {
+            start = '\u{feff}'.len_utf8().min(end);
+        }
         let col = self.text[start..end].chars().count() as u32 + 1;
         let col = if line == 0 { col + self.col_base } else { col };
         (line as u32 + 1 + self.line_base, col)
@@ -244,5 +248,13 @@ mod tests {
         check("é\nx", 2, 0, 0, (1, 2));
         check("ab\ncd", 1, 10, 20, (11, 22));
         check("ab\ncd", 3, 10, 20, (12, 1));
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_no_column() {
+        check("\u{feff}ab\ncd", 3, 0, 0, (1, 1));
+        check("\u{feff}ab\ncd", 4, 0, 0, (1, 2));
+        check("\u{feff}ab\ncd", 0, 0, 0, (1, 1));
+        check("\u{feff}ab\ncd", 7, 0, 0, (2, 2));
     }
 }
