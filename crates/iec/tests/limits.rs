@@ -253,3 +253,25 @@ fn build_and_scan_xml(xml: &str) -> String {
         Err(e) => e.to_string(),
     }
 }
+
+/// A source is read only from a regular file: a directory is named as such, once, and a
+/// device is refused before a byte is read (`/dev/zero` has no end).
+#[test]
+fn sources_that_are_not_files_are_refused() {
+    let dir = std::env::temp_dir();
+    let mut s = petriplc_iec::Sources::new();
+    let e = s.add_file(&dir).unwrap_err().to_string();
+    assert_eq!(
+        e,
+        format!(
+            "cannot read {}: it is a directory; name a .st, .il or .xml file",
+            dir.display()
+        )
+    );
+    let e = s.add_file(std::path::Path::new("/dev/zero")).unwrap_err();
+    assert!(
+        e.to_string().ends_with("it is not a regular file (a device or a pipe); name a .st, .il or .xml file"),
+        "{e}"
+    );
+    assert!(std::error::Error::source(&e).is_none());
+}

@@ -94,9 +94,7 @@ fn not_started(args: &RunArgs, e: RunError) -> Failure {
     match e {
         // Compiler style, as for a bad net: one diagnostic per line, then one summary.
         RunError::Config(c) => {
-            for d in &c.diagnostics {
-                eprintln!("{d}");
-            }
+            crate::diagnostics::eprint(&c.to_string());
             let n = c.diagnostics.len();
             Failure::BadInput(anyhow!(
                 "{} is not a valid configuration ({n} problem{}); nothing was started",

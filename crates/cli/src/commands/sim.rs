@@ -28,8 +28,14 @@ fn is_iec(path: &Path) -> bool {
         return true;
     }
     if ext == "xml" {
-        let head = fs::read(path).unwrap_or_default();
-        let head = String::from_utf8_lossy(&head[..head.len().min(4096)]).into_owned();
+        // The start of a regular file only: it may be large, or a pipe that would block.
+        let mut head = Vec::new();
+        if fs::metadata(path).is_ok_and(|m| m.is_file()) {
+            if let Ok(f) = fs::File::open(path) {
+                let _ = std::io::Read::read_to_end(&mut std::io::Read::take(f, 4096), &mut head);
+            }
+        }
+        let head = String::from_utf8_lossy(&head).into_owned();
         return petriplc_iec::syntax::plcopen::is_plcopen(&head);
     }
     false
@@ -395,8 +401,8 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
         None => petriplc_iec::Select::Auto,
     };
     let build = petriplc_iec::build_file(&args.net, &select).bad_input()?;
-    for w in &build.warnings {
-        eprintln!("{w}");
+    if !build.warnings.is_empty() {
+        crate::diagnostics::eprint(&build.warnings.join("\n"));
     }
     let timeline = args
         .inputs
