@@ -142,10 +142,7 @@ pub const CODES: &[(&str, &str)] = &[
         BAD_LINE,
         "a line that is no setting, row, header or directive",
     ),
-    (
-        INCLUDE_TOO_DEEP,
-        "*include nested more than 64 files deep",
-    ),
+    (INCLUDE_TOO_DEEP, "*include nested more than 64 files deep"),
     (UNKNOWN_TABLE, "an unknown table in [PLC]"),
     (
         UNKNOWN_PLC_SETTING,

@@ -72,6 +72,9 @@ pub const MAX_FILE_BYTES: u64 = 16 << 20;
 fn read_text(path: &Path) -> Result<String, String> {
     use std::io::Read;
     let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if meta.is_dir() {
+        return Err("it is a directory; name a configuration file".into());
+    }
     if !meta.is_file() {
         return Err("it is not a regular file".into());
     }
@@ -660,8 +663,9 @@ t.conf:16: error[C007]: `v` is set to `2` here but to `1` at t.conf:15 in [s]: k
         assert_eq!(e.codes(), vec![error::INCLUDE_TOO_DEEP]);
         let msg = e.to_string();
         assert!(
-            msg.contains("f63.conf:1: error[C009]: `*include` nested more than 64 files deep (from")
-                && msg.contains("f0.conf:1)"),
+            msg.contains(
+                "f63.conf:1: error[C009]: `*include` nested more than 64 files deep (from"
+            ) && msg.contains("f0.conf:1)"),
             "{msg}"
         );
     }

@@ -137,11 +137,20 @@ pub const MAX_SHOWN: usize = 60;
 /// Characters kept of a longer one (then `…` and its length).
 const KEPT: usize = 40;
 
-/// A message with every name or source excerpt longer than [`MAX_SHOWN`] characters cut to
-/// its first 40, `…` and its length (`aaaa…(10000 characters)`): a `…`-quoted excerpt as a
-/// whole, and any other run of characters without spaces. A 10 000-character identifier is
-/// then one short line, not a screenful per message.
+/// A message on one line (a source excerpt's line breaks and other control characters become
+/// spaces), with every name or excerpt longer than [`MAX_SHOWN`] characters cut to its first
+/// 40, `…` and its length (`aaaa…(10000 characters)`): a `…`-quoted excerpt as a whole, and
+/// any other run of characters without spaces. A 10 000-character identifier is then one
+/// short line, not a screenful per message.
 pub fn shorten(message: String) -> String {
+    let message = if message.contains(char::is_control) {
+        message
+            .chars()
+            .map(|c| if c.is_control() { ' ' } else { c })
+            .collect()
+    } else {
+        message
+    };
     let long = |s: &str| s.chars().nth(MAX_SHOWN).is_some();
     if !long(&message) {
         return message;
@@ -256,7 +265,11 @@ mod tests {
     #[test]
     fn long_names_and_excerpts_are_cut() {
         let name = "a".repeat(10_000);
-        let d = Diagnostic::error(UNDECLARED, Span::default(), format!("`{name}` is not declared"));
+        let d = Diagnostic::error(
+            UNDECLARED,
+            Span::default(),
+            format!("`{name}` is not declared"),
+        );
         assert_eq!(
             d.message,
             format!("`{}…(10000 characters)` is not declared", "a".repeat(40))
@@ -264,9 +277,19 @@ mod tests {
         let spaced = format!("x := {}", "1 + ".repeat(100));
         let d = Diagnostic::error(SYNTAX, Span::default(), format!("after `{spaced}`: {name}"));
         assert!(d.message.len() < 200, "{}", d.message);
-        assert!(d.message.contains("…(405 characters)`: aaaa"), "{}", d.message);
+        assert!(
+            d.message.contains("…(405 characters)`: aaaa"),
+            "{}",
+            d.message
+        );
+        // An excerpt across lines stays on the diagnostic's line.
+        let d = Diagnostic::error(SYNTAX, Span::default(), "after `a\n   b`, found `1`");
+        assert_eq!(d.message, "after `a    b`, found `1`");
         let short = "`x` is not declared; declare it in VAR".to_string();
-        assert_eq!(Diagnostic::error(UNDECLARED, Span::default(), short.clone()).message, short);
+        assert_eq!(
+            Diagnostic::error(UNDECLARED, Span::default(), short.clone()).message,
+            short
+        );
     }
 
     #[test]

@@ -77,7 +77,11 @@ fn programs_at_every_limit_run_on_a_small_stack() {
     let n = 98;
     let mut s = String::from("TYPE\n");
     for i in 0..n {
-        let inner = if i + 1 == n { "INT".to_string() } else { format!("S{}", i + 1) };
+        let inner = if i + 1 == n {
+            "INT".to_string()
+        } else {
+            format!("S{}", i + 1)
+        };
         s.push_str(&format!("S{i} : STRUCT s : {inner}; END_STRUCT;\n"));
     }
     let path = ".s".repeat(n);
@@ -208,7 +212,10 @@ fn graphical_bodies_at_and_past_their_limits() {
     // The longest chain of elements read (256).
     assert_eq!(build(contacts_in_series(250)), "ok");
     let r = build(contacts_in_series(20_000));
-    assert!(r.contains("error[E054]") && r.contains("more than 256 elements"), "{r}");
+    assert!(
+        r.contains("error[E054]") && r.contains("more than 256 elements"),
+        "{r}"
+    );
     // One input wired to 50 000 branches: an OR a few levels deep, not 50 000.
     let mut ld = String::new();
     ld.push_str(r#"<coil localId="2"><connectionPointIn>"#);
@@ -235,7 +242,10 @@ fn graphical_bodies_at_and_past_their_limits() {
         levels + 2
     ));
     let r = build(ld_project(&ld));
-    assert!(r.contains("error[E054]") && r.contains("more than 200000 values"), "{r}");
+    assert!(
+        r.contains("error[E054]") && r.contains("more than 200000 values"),
+        "{r}"
+    );
 }
 
 /// As [`build_and_scan`], for a PLCopen project.
@@ -270,7 +280,9 @@ fn sources_that_are_not_files_are_refused() {
     );
     let e = s.add_file(std::path::Path::new("/dev/zero")).unwrap_err();
     assert!(
-        e.to_string().ends_with("it is not a regular file (a device or a pipe); name a .st, .il or .xml file"),
+        e.to_string().ends_with(
+            "it is not a regular file (a device or a pipe); name a .st, .il or .xml file"
+        ),
         "{e}"
     );
     assert!(std::error::Error::source(&e).is_none());

@@ -293,7 +293,10 @@ fn long_chains_of_operators_and_accesses_are_bounded() {
     assert!(d.contains("more than 1000 levels deep"), "{d}");
     only_too_deep(&format!("PROGRAM p x := x{}; END_PROGRAM", ".a".repeat(n)));
     only_too_deep(&format!("PROGRAM p x := x{}; END_PROGRAM", "[1]".repeat(n)));
-    only_too_deep(&format!("PROGRAM p x := x{}; END_PROGRAM", ".a[1]".repeat(n)));
+    only_too_deep(&format!(
+        "PROGRAM p x := x{}; END_PROGRAM",
+        ".a[1]".repeat(n)
+    ));
     // Near the limit a chain is read: `x + … + x` with 989 operators.
     check_ok(&format!(
         "PROGRAM p x := {}; END_PROGRAM",
@@ -315,14 +318,30 @@ fn too_deep_is_reported_first_and_alone() {
         "END_IF;\n".repeat(150)
     );
     let d = only_too_deep(&src);
-    assert!(d.starts_with("t.st:101:4: error[E014]: nesting deeper than 100 levels"), "{d}");
+    assert!(
+        d.starts_with("t.st:101:4: error[E014]: nesting deeper than 100 levels"),
+        "{d}"
+    );
     // Errors before the limit are still reported.
-    let src = format!("PROGRAM p\nx := ;\n{}END_PROGRAM\n", "IF x THEN\n".repeat(150));
+    let src = format!(
+        "PROGRAM p\nx := ;\n{}END_PROGRAM\n",
+        "IF x THEN\n".repeat(150)
+    );
     let (_, d) = diags_of(&src);
     let lines: Vec<&str> = d.lines().collect();
     assert_eq!(lines.len(), 2, "{d}");
     assert!(lines[0].starts_with("t.st:2:6: error[E010]"), "{d}");
     assert!(lines[1].contains("error[E014]"), "{d}");
+}
+
+/// Found by fuzzing `check_st`: a statement's target written across lines was quoted with its
+/// line break, splitting one diagnostic over two lines.
+#[test]
+fn a_message_quoting_several_lines_is_one_line() {
+    check_errors(
+        "PROGRAM p x\n   .y 1; END_PROGRAM",
+        &["t.st:2:7: error[E010]: expected `:=` (an assignment) or `(` (a call) after `x    .y`, found the number `1`"],
+    );
 }
 
 #[test]
