@@ -89,7 +89,10 @@ mod tests {
 
     #[test]
     fn recognises_diagnostics_of_every_front_end() {
-        assert_eq!(severity("a.st:1:2: error[E100]: `x` is not declared"), Some("error"));
+        assert_eq!(
+            severity("a.st:1:2: error[E100]: `x` is not declared"),
+            Some("error")
+        );
         assert_eq!(severity("a.pnml:3:4: error[P005]: …"), Some("error"));
         assert_eq!(severity("plc.conf:3: error[C021]: x"), Some("error"));
         assert_eq!(severity("a.st:1:2: warning[W003]: y"), Some("warning"));
@@ -110,7 +113,10 @@ mod tests {
         assert_eq!(lines.len(), 1 + MAX_SHOWN + 2, "{out}");
         assert_eq!(lines[0], "error: module m: a.st does not compile:");
         assert_eq!(lines[MAX_SHOWN], "a.st:49:1: error[E001]: bad");
-        assert_eq!(lines[MAX_SHOWN + 1], "… and 1009 more errors and 1 more warning");
+        assert_eq!(
+            lines[MAX_SHOWN + 1],
+            "… and 1009 more errors and 1 more warning"
+        );
         assert_eq!(lines[MAX_SHOWN + 2], "nothing was started");
         // Later output of the same command is capped too.
         assert_eq!(capped("b.st:1:1: error[E001]: x\n"), "… and 1 more error\n");

@@ -30,9 +30,16 @@ fn refused(args: &[&str], expect: &[&str]) -> String {
     let (code, err) = run(args);
     assert_eq!(code, 2, "{args:?}: {}", &err[..err.len().min(3000)]);
     for e in expect {
-        assert!(err.contains(e), "{args:?}: `{e}` not in {}", &err[..err.len().min(3000)]);
+        assert!(
+            err.contains(e),
+            "{args:?}: `{e}` not in {}",
+            &err[..err.len().min(3000)]
+        );
     }
-    assert!(!err.contains("overflow") && !err.contains("panicked"), "{err}");
+    assert!(
+        !err.contains("overflow") && !err.contains("panicked"),
+        "{err}"
+    );
     err
 }
 
@@ -62,7 +69,14 @@ fn refused_everywhere(source: &Path, expect: &[&str]) {
     );
     let id = format!("deep-{}-{}", std::process::id(), name.replace('.', "-"));
     refused(
-        &["run", conf.to_str().unwrap(), "--for", "1s", "--plc-id", &id],
+        &[
+            "run",
+            conf.to_str().unwrap(),
+            "--for",
+            "1s",
+            "--plc-id",
+            &id,
+        ],
         expect,
     );
     assert_eq!(shm_left(&id), Vec::<String>::new());
@@ -91,7 +105,10 @@ fn function_blocks_10000_deep_are_refused_not_a_crash() {
     let dir = tempfile::tempdir().unwrap();
     let src = write(dir.path(), "fbs.st", &fb_chain(10_000));
     // F99's declaration (line 401): the 101st level.
-    refused_everywhere(&src, &["fbs.st:401:16: error[E116]: `F99` is used more than 100 levels deep"]);
+    refused_everywhere(
+        &src,
+        &["fbs.st:401:16: error[E116]: `F99` is used more than 100 levels deep"],
+    );
 }
 
 #[test]
@@ -102,10 +119,16 @@ fn structures_20000_deep_are_refused_not_a_crash() {
     for i in 0..n - 1 {
         s.push_str(&format!("S{i} : STRUCT s : S{}; END_STRUCT;\n", i + 1));
     }
-    s.push_str(&format!("S{} : STRUCT x : INT; END_STRUCT;\nEND_TYPE\n", n - 1));
+    s.push_str(&format!(
+        "S{} : STRUCT x : INT; END_STRUCT;\nEND_TYPE\n",
+        n - 1
+    ));
     s.push_str("PROGRAM main\nVAR v : S0; END_VAR\nv.s.s.s := v.s.s.s;\nEND_PROGRAM\n");
     let src = write(dir.path(), "structs.st", &s);
-    refused_everywhere(&src, &["structs.st:101:18: error[E116]: `S100` is used more than 100"]);
+    refused_everywhere(
+        &src,
+        &["structs.st:101:18: error[E116]: `S100` is used more than 100"],
+    );
 }
 
 #[test]
@@ -121,7 +144,10 @@ fn deep_expressions_and_arrays_are_refused_not_a_crash() {
             ")".repeat(n)
         ),
     );
-    refused_everywhere(&parens, &["parens.st:3:105: error[E014]: nesting deeper than 100 levels"]);
+    refused_everywhere(
+        &parens,
+        &["parens.st:3:105: error[E014]: nesting deeper than 100 levels"],
+    );
     let chain = write(
         dir.path(),
         "chain.st",
@@ -132,7 +158,10 @@ fn deep_expressions_and_arrays_are_refused_not_a_crash() {
     );
     refused(
         &["check", chain.to_str().unwrap()],
-        &["chain.st:3:", "error[E014]: an expression more than 1000 levels deep"],
+        &[
+            "chain.st:3:",
+            "error[E014]: an expression more than 1000 levels deep",
+        ],
     );
     let arrays = write(
         dir.path(),
@@ -142,15 +171,26 @@ fn deep_expressions_and_arrays_are_refused_not_a_crash() {
             "ARRAY[0..1] OF ".repeat(20_000)
         ),
     );
-    refused_everywhere(&arrays, &["arrays.st:2:", "error[E014]: nesting deeper than 100 levels"]);
+    refused_everywhere(
+        &arrays,
+        &[
+            "arrays.st:2:",
+            "error[E014]: nesting deeper than 100 levels",
+        ],
+    );
     // Named array types, each of the next: their depth, and their size (2^100 elements).
     let mut s = String::from("TYPE\n");
     for i in 0..20_000 {
         s.push_str(&format!("A{i} : ARRAY[0..1] OF A{};\n", i + 1));
     }
-    s.push_str("A20000 : ARRAY[0..1] OF INT;\nEND_TYPE\nPROGRAM main\nVAR v : A0; END_VAR\nEND_PROGRAM\n");
+    s.push_str(
+        "A20000 : ARRAY[0..1] OF INT;\nEND_TYPE\nPROGRAM main\nVAR v : A0; END_VAR\nEND_PROGRAM\n",
+    );
     let named = write(dir.path(), "named.st", &s);
-    refused(&["check", named.to_str().unwrap()], &["named.st:101:", "error[E116]"]);
+    refused(
+        &["check", named.to_str().unwrap()],
+        &["named.st:101:", "error[E116]"],
+    );
     let big = write(
         dir.path(),
         "big.st",
@@ -185,7 +225,10 @@ fn deep_nets_and_guards_are_refused_not_a_crash() {
     for cmd in ["sim", "analyze"] {
         refused(
             &[cmd, pages.to_str().unwrap()],
-            &["pages.pnml:2:", "error[P001]: elements are nested more than 256 deep"],
+            &[
+                "pages.pnml:2:",
+                "error[P001]: elements are nested more than 256 deep",
+            ],
         );
     }
     let guard = |g: &str| {
@@ -198,13 +241,19 @@ fn deep_nets_and_guards_are_refused_not_a_crash() {
         "parens.pnml",
         &guard(&format!("{}B1{}", "(".repeat(100_000), ")".repeat(100_000))),
     );
-    refused(&["sim", parens.to_str().unwrap()], &["parens.pnml:2:", "error[P013]"]);
+    refused(
+        &["sim", parens.to_str().unwrap()],
+        &["parens.pnml:2:", "error[P013]"],
+    );
     let chain = write(
         dir.path(),
         "chain.pnml",
         &guard(&vec!["B1"; 100_000].join(" AND ")),
     );
-    refused(&["sim", chain.to_str().unwrap()], &["chain.pnml:2:", "error[P013]"]);
+    refused(
+        &["sim", chain.to_str().unwrap()],
+        &["chain.pnml:2:", "error[P013]"],
+    );
     // PLCopen XML nested deeper than any project.
     let xml = write(
         dir.path(),
@@ -214,7 +263,10 @@ fn deep_nets_and_guards_are_refused_not_a_crash() {
             "<types>".repeat(100_000)
         ),
     );
-    refused(&["check", xml.to_str().unwrap()], &["deep.xml:1:", "error[E050]"]);
+    refused(
+        &["check", xml.to_str().unwrap()],
+        &["deep.xml:1:", "error[E050]"],
+    );
 }
 
 #[test]
@@ -232,7 +284,14 @@ fn a_long_include_chain_is_refused_not_a_crash() {
     let id = format!("deep-{}-include", std::process::id());
     let first = dir.path().join("c0.conf");
     refused(
-        &["run", first.to_str().unwrap(), "--for", "1s", "--plc-id", &id],
+        &[
+            "run",
+            first.to_str().unwrap(),
+            "--for",
+            "1s",
+            "--plc-id",
+            &id,
+        ],
         &["c63.conf:1: error[C009]: `*include` nested more than 64 files deep"],
     );
     assert_eq!(shm_left(&id), Vec::<String>::new());
@@ -256,8 +315,15 @@ fn a_byte_order_mark_starts_st_and_il_sources() {
     let (code, err) = run(&["check", il.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     // Columns on the first line count from after the mark.
-    let bad = write(dir.path(), "bad.st", "\u{feff}PROGRAM main x := ; END_PROGRAM\n");
-    refused(&["check", bad.to_str().unwrap()], &["bad.st:1:19: error[E010]"]);
+    let bad = write(
+        dir.path(),
+        "bad.st",
+        "\u{feff}PROGRAM main x := ; END_PROGRAM\n",
+    );
+    refused(
+        &["check", bad.to_str().unwrap()],
+        &["bad.st:1:19: error[E010]"],
+    );
 }
 
 #[test]
@@ -291,7 +357,10 @@ fn a_flood_of_errors_is_capped_with_a_count() {
     let err = refused(&["check", garbage.to_str().unwrap()], &[]);
     let lines: Vec<&str> = err.lines().collect();
     assert_eq!(lines.len(), 52, "{err}");
-    assert!(lines[49].starts_with(&format!("{}:50:1: error[E001]", garbage.display())), "{err}");
+    assert!(
+        lines[49].starts_with(&format!("{}:50:1: error[E001]", garbage.display())),
+        "{err}"
+    );
     assert_eq!(lines[50], "… and 1009 more errors");
     assert_eq!(lines[51], "error: 1059 problems found; nothing was run");
     // The same through a module of `run`.
@@ -302,12 +371,26 @@ fn a_flood_of_errors_is_capped_with_a_count() {
     );
     let id = format!("deep-{}-flood", std::process::id());
     let err = refused(
-        &["run", conf.to_str().unwrap(), "--for", "1s", "--plc-id", &id],
+        &[
+            "run",
+            conf.to_str().unwrap(),
+            "--for",
+            "1s",
+            "--plc-id",
+            &id,
+        ],
         &["… and 1009 more errors\n"],
     );
     assert!(err.lines().count() < 60, "{err}");
     // And a flood of IL errors.
-    let il = write(dir.path(), "bad.il", &format!("PROGRAM main\n{}END_PROGRAM\n", "FOO BAR BAZ\n".repeat(100_000)));
+    let il = write(
+        dir.path(),
+        "bad.il",
+        &format!(
+            "PROGRAM main\n{}END_PROGRAM\n",
+            "FOO BAR BAZ\n".repeat(100_000)
+        ),
+    );
     let err = refused(&["check", il.to_str().unwrap()], &[]);
     assert!(err.lines().count() <= 52, "{}", err.lines().count());
 }
@@ -323,7 +406,10 @@ fn long_names_are_shortened_in_messages() {
     );
     let err = refused(
         &["check", src.to_str().unwrap()],
-        &[&format!("`{}…(10000 characters)` is not declared", "a".repeat(40))],
+        &[&format!(
+            "`{}…(10000 characters)` is not declared",
+            "a".repeat(40)
+        )],
     );
     assert!(err.len() < 400, "{err}");
 }

@@ -44,7 +44,9 @@ impl Checker<'_> {
             Type::Array { .. } | Type::Struct { .. } => {
                 self.shapes.get(&ty).copied().unwrap_or(Shape::SCALAR)
             }
-            Type::Fb(FbRef::User(p)) => self.fb_shapes.get(*p as usize).copied().unwrap_or_default(),
+            Type::Fb(FbRef::User(p)) => {
+                self.fb_shapes.get(*p as usize).copied().unwrap_or_default()
+            }
             Type::Fb(FbRef::Native(k)) => Shape {
                 depth: 1,
                 slots: self.natives[*k as usize].vars.len() as u64,
@@ -230,8 +232,10 @@ mod tests {
     #[test]
     fn nesting_of_declared_types_is_bounded_in_either_order() {
         let n = 20_000;
-        let structs = |i: usize, inner: &str| format!("TYPE T{i} : STRUCT s : {inner}; END_STRUCT; END_TYPE");
-        let arrays = |i: usize, inner: &str| format!("TYPE T{i} : ARRAY[0..0] OF {inner}; END_TYPE");
+        let structs =
+            |i: usize, inner: &str| format!("TYPE T{i} : STRUCT s : {inner}; END_STRUCT; END_TYPE");
+        let arrays =
+            |i: usize, inner: &str| format!("TYPE T{i} : ARRAY[0..0] OF {inner}; END_TYPE");
         let aliases = |i: usize, inner: &str| format!("TYPE T{i} : {inner}; END_TYPE");
         let fbs = |i: usize, inner: &str| {
             if inner == "INT" {
@@ -264,17 +268,23 @@ mod tests {
             "PROGRAM main VAR v : ARRAY[0..9999] OF ARRAY[0..9999] OF ARRAY[0..9999] OF INT; END_VAR END_PROGRAM",
         );
         assert!(
-            d.contains("error[E109]: this array takes 1000000000000 values, more than the 100000000"),
+            d.contains(
+                "error[E109]: this array takes 1000000000000 values, more than the 100000000"
+            ),
             "{d}"
         );
         let d = diags(
             "TYPE S : STRUCT a, b : ARRAY[0..99999999] OF INT; END_STRUCT; END_TYPE\n\
              PROGRAM main VAR v : S; END_VAR END_PROGRAM",
         );
-        assert!(d.contains("t.st:1:6: error[E109]: type S takes 200000000 values"), "{d}");
-        let d = diags(
-            "PROGRAM main VAR a, b : ARRAY[0..59999999] OF INT; END_VAR END_PROGRAM",
+        assert!(
+            d.contains("t.st:1:6: error[E109]: type S takes 200000000 values"),
+            "{d}"
         );
-        assert!(d.contains("error[E109]: PROGRAM main takes 120000000 values"), "{d}");
+        let d = diags("PROGRAM main VAR a, b : ARRAY[0..59999999] OF INT; END_VAR END_PROGRAM");
+        assert!(
+            d.contains("error[E109]: PROGRAM main takes 120000000 values"),
+            "{d}"
+        );
     }
 }

@@ -69,7 +69,7 @@ pub struct SourceFile {
 }
 
 /// Bytes between two marks of [`SourceFile::char_marks`].
-const CHUNK: usize = 4096;
+const CHUNK: usize = 256;
 
 /// Characters that start in `bytes` (those that are not UTF-8 continuation bytes).
 fn starts(bytes: &[u8]) -> usize {

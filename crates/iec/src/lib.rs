@@ -96,7 +96,9 @@ fn read_source(path: &Path) -> Result<Vec<u8>, String> {
         return Err(format!("it is a directory; {named}"));
     }
     if !meta.is_file() {
-        return Err(format!("it is not a regular file (a device or a pipe); {named}"));
+        return Err(format!(
+            "it is not a regular file (a device or a pipe); {named}"
+        ));
     }
     let mut bytes = Vec::new();
     std::fs::File::open(path)
