@@ -1,13 +1,23 @@
-//! Fuzzes the PLCopen XML reader and the checker behind it: no input may panic.
+//! Fuzzes the PLCopen XML reader and the checker behind it: no input may panic, and a refused
+//! project has only coded diagnostics. Inputs are amplified (`amplify.rs`): elements, types
+//! and values nested deep, LD networks long and wide.
 
 #![no_main]
 
+#[path = "amplify.rs"]
+mod amplify;
+
 use libfuzzer_sys::fuzz_target;
-use petriplc_iec::{check, Natives, Sources};
+use petriplc_iec::{check, IecError, Natives, Sources};
 
 fuzz_target!(|data: &[u8]| {
-    let text = String::from_utf8_lossy(data);
+    let data = amplify::amplify(data, amplify::XML);
+    let text = String::from_utf8_lossy(&data);
     let mut s = Sources::new();
     s.add_text("fuzz.xml", &text);
-    let _ = check(&s, &Natives::default());
+    if let Err(IecError::Invalid(lines)) = check(&s, &Natives::default()) {
+        for l in lines.lines().filter(|l| *l != "no project") {
+            assert!(amplify::is_coded(l), "{l}");
+        }
+    }
 });

@@ -3,6 +3,7 @@
 
 mod args;
 mod commands;
+mod diagnostics;
 mod failure;
 mod heap;
 mod log_queue;
@@ -30,34 +31,33 @@ fn main() -> ExitCode {
     }
 }
 
-/// Prints an error for a person: file diagnostics one per line, compiler style, then a
-/// closing line; anything else as `error: ` and its chain of causes.
+/// Prints an error for a person: file diagnostics one per line, compiler style (at most
+/// [`diagnostics::MAX_SHOWN`], then their count), then a closing line; anything else as
+/// `error: ` and its chain of causes.
 fn report(error: &anyhow::Error) {
     match error
         .downcast_ref::<PnmlError>()
         .map(PnmlError::diagnostics)
     {
         Some(diagnostics) if !diagnostics.is_empty() => {
-            for d in diagnostics {
-                eprintln!("{d}");
-            }
+            let lines: Vec<String> = diagnostics.iter().map(ToString::to_string).collect();
             let n = diagnostics.len();
             let file = &diagnostics[0].file;
-            eprintln!(
-                "error: {file} is not a valid net ({n} problem{}); nothing was run",
+            diagnostics::eprint(&format!(
+                "{}\nerror: {file} is not a valid net ({n} problem{}); nothing was run",
+                lines.join("\n"),
                 if n == 1 { "" } else { "s" }
-            );
+            ));
         }
         _ => match error.downcast_ref::<petriplc_iec::IecError>() {
             Some(petriplc_iec::IecError::Invalid(lines)) => {
-                eprintln!("{lines}");
                 let n = lines.lines().filter(|l| l.contains(": error[")).count();
-                eprintln!(
-                    "error: {n} problem{} found; nothing was run",
+                diagnostics::eprint(&format!(
+                    "{lines}\nerror: {n} problem{} found; nothing was run",
                     if n == 1 { "" } else { "s" }
-                );
+                ));
             }
-            _ => eprintln!("error: {error:#}"),
+            _ => diagnostics::eprint(&format!("error: {error:#}")),
         },
     }
 }

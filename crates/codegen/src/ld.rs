@@ -49,6 +49,10 @@ use crate::CodegenError;
 /// The most products a guard's sum of products may have before LD gives up on it.
 const MAX_PRODUCTS: usize = 64;
 
+/// Sub-expressions expanded for one guard at most: an XOR expands both of its operands
+/// twice, so a chain of XORs doubles the work at every operator however few branches result.
+const MAX_EXPANSIONS: usize = 100_000;
+
 /// Writes the LD project for `p`.
 pub fn project(p: &Program, created: &str) -> Result<String, CodegenError> {
     check(p)?;
@@ -410,7 +414,8 @@ type Literal = (usize, bool);
 /// contacts.
 fn guard(p: &Program, t: usize, positive: bool) -> Result<Circuit, CodegenError> {
     let tc = &p.transitions[t];
-    let products = dnf(p, tc, &tc.guard, positive)?;
+    let mut budget = MAX_EXPANSIONS;
+    let products = dnf(p, tc, &tc.guard, positive, &mut budget)?;
     Ok(parallel(products.into_iter().map(|prod| {
         series(
             prod.into_iter()
@@ -425,7 +430,19 @@ fn dnf(
     tc: &crate::lower::TransitionCode,
     e: &Expr<usize>,
     positive: bool,
+    budget: &mut usize,
 ) -> Result<Vec<Vec<Literal>>, CodegenError> {
+    if *budget == 0 {
+        return Err(CodegenError::Unsupported {
+            lang: "LD",
+            what: format!(
+                "the guard of transition {} ({}) as contacts: expanding it takes more than {MAX_EXPANSIONS} steps",
+                tc.label, tc.guard_text
+            ),
+            hint: "simplify the guard (fewer XORs), or use --lang st, il or c".into(),
+        });
+    }
+    *budget -= 1;
     let unsupported = |what: String| CodegenError::Unsupported {
         lang: "LD",
         what,
@@ -457,11 +474,11 @@ fn dnf(
             }
             vec![vec![(*s, !positive)]]
         }
-        Expr::Not(e) => dnf(p, tc, e, !positive)?,
+        Expr::Not(e) => dnf(p, tc, e, !positive, budget)?,
         Expr::And(a, b) | Expr::Or(a, b) => {
             let and = matches!(e, Expr::And(..)) == positive;
-            let a = dnf(p, tc, a, positive)?;
-            let b = dnf(p, tc, b, positive)?;
+            let a = dnf(p, tc, a, positive, budget)?;
+            let b = dnf(p, tc, b, positive, budget)?;
             if and {
                 product(&a, &b)
             } else {
@@ -469,8 +486,8 @@ fn dnf(
             }
         }
         Expr::Xor(a, b) => {
-            let (ap, an) = (dnf(p, tc, a, true)?, dnf(p, tc, a, false)?);
-            let (bp, bn) = (dnf(p, tc, b, true)?, dnf(p, tc, b, false)?);
+            let (ap, an) = (dnf(p, tc, a, true, budget)?, dnf(p, tc, a, false, budget)?);
+            let (bp, bn) = (dnf(p, tc, b, true, budget)?, dnf(p, tc, b, false, budget)?);
             if positive {
                 sum(product(&ap, &bn), product(&an, &bp))
             } else {

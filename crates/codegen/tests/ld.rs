@@ -223,6 +223,30 @@ fn comparisons_and_integer_signals_are_refused() {
     ));
 }
 
+/// A chain of XORs expands each operand twice: refused past a bound on the work, however
+/// few branches it would give (`B0 XOR TRUE XOR TRUE …` is one contact), rather than 2^40
+/// steps.
+#[test]
+fn xor_chains_are_refused_in_bounded_work() {
+    let guard = std::iter::once("B0")
+        .chain(std::iter::repeat_n("TRUE", 39))
+        .collect::<Vec<_>>()
+        .join(" XOR ");
+    let n = net(&format!(
+        "s B0 in bool\np a 1\np b 0\nt t1 a -> b if {guard}"
+    ));
+    match ld_of(&n, &Options::of(&n)).unwrap_err() {
+        CodegenError::Unsupported { what, hint, .. } => {
+            assert!(what.contains("more than 100000 steps"), "{what}");
+            assert!(hint.contains("fewer XORs"), "{hint}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // A few XORs are still contacts.
+    let n = net("s B0 in bool\ns B1 in bool\np a 1\np b 0\nt t1 a -> b if B0 XOR B1 XOR TRUE");
+    valid(&n, &Options::of(&n));
+}
+
 #[test]
 fn until_stable_is_refused() {
     let n = net("evolve until-stable\np a 1\np b 0\nt t1 a -> b");

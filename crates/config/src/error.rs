@@ -74,6 +74,7 @@ pub const OUTSIDE_SECTION: &str = "C005";
 pub const BAD_DIRECTIVE: &str = "C006";
 pub const CONFLICTING_SETTING: &str = "C007";
 pub const BAD_LINE: &str = "C008";
+pub const INCLUDE_TOO_DEEP: &str = "C009";
 
 // Layer 2: the [PLC] tables.
 pub const UNKNOWN_TABLE: &str = "C010";
@@ -141,6 +142,7 @@ pub const CODES: &[(&str, &str)] = &[
         BAD_LINE,
         "a line that is no setting, row, header or directive",
     ),
+    (INCLUDE_TOO_DEEP, "*include nested more than 64 files deep"),
     (UNKNOWN_TABLE, "an unknown table in [PLC]"),
     (
         UNKNOWN_PLC_SETTING,

@@ -14,7 +14,8 @@
 //!   prefix is an error rather than silently landing in `[PLC]`.
 //! - `*include FILE` is relative to the including file's directory. A file already read is
 //!   not read again (MatPLC's rule), but a file that includes itself, directly or through
-//!   others, is an error naming the chain. Only regular files are read.
+//!   others, is an error naming the chain. Only regular files are read, and includes nest
+//!   at most [`MAX_INCLUDE_DEPTH`] files deep (each level is a level of recursion here).
 //! - A setting given twice in one section must have the same value both times.
 //! - Files that are not UTF-8 are read as Latin-1 (MatPLC's demos have `º` in comments).
 
@@ -31,6 +32,9 @@ pub struct RawConfig {
     pub file: String,
     pub sections: BTreeMap<String, Section>,
 }
+
+/// Files a chain of `*include`s may go through (the first file counts).
+pub const MAX_INCLUDE_DEPTH: usize = 64;
 
 /// Reads `path` and the files it includes into sections.
 pub fn read_raw(path: &Path) -> Result<RawConfig, ConfigError> {
@@ -60,14 +64,30 @@ pub fn parse_raw_str(text: &str, file: &str, include_dir: &Path) -> Result<RawCo
     Reader::run(text, file, include_dir, id)
 }
 
+/// The largest configuration file read (MatPLC's are a few KiB).
+pub const MAX_FILE_BYTES: u64 = 16 << 20;
+
 /// The bytes of a regular file as text; devices and directories are refused so an include
-/// of `/dev/zero` cannot hang the reader.
+/// of `/dev/zero` cannot hang the reader, and a file is read up to [`MAX_FILE_BYTES`].
 fn read_text(path: &Path) -> Result<String, String> {
+    use std::io::Read;
     let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if meta.is_dir() {
+        return Err("it is a directory; name a configuration file".into());
+    }
     if !meta.is_file() {
         return Err("it is not a regular file".into());
     }
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(format!(
+            "it is larger than {} MiB, more than a configuration can be",
+            MAX_FILE_BYTES >> 20
+        ));
+    }
     Ok(match String::from_utf8(bytes) {
         Ok(s) => s,
         Err(e) => e.into_bytes().iter().map(|&b| char::from(b)).collect(),
@@ -192,6 +212,19 @@ impl Reader {
             return;
         }
         if self.read.contains(&id) {
+            return;
+        }
+        if self.stack.len() >= MAX_INCLUDE_DEPTH {
+            let first = &self.stack[0];
+            self.diags.push(Diagnostic::new(
+                origin,
+                error::INCLUDE_TOO_DEEP,
+                format!(
+                    "`*include` nested more than {MAX_INCLUDE_DEPTH} files deep (from {}:{}); \
+                     include the files from one file rather than each from the one before",
+                    first.name, first.line
+                ),
+            ));
             return;
         }
         match read_text(&path) {
@@ -614,6 +647,34 @@ t.conf:16: error[C007]: `v` is set to `2` here but to `1` at t.conf:15 in [s]: k
             "t.conf:3: error[C001]: cannot read included file `/nonexistent-dir/other.conf`: \
              No such file or directory (os error 2); check the name (it is relative to the \
              directory of `t.conf`)",
+        );
+    }
+
+    #[test]
+    fn long_include_chains_are_refused_at_the_limit() {
+        let dir = tempfile::tempdir().unwrap();
+        let write_chain = |n: usize| {
+            for i in 0..n {
+                let next = if i + 1 < n {
+                    format!("*include f{}.conf\n", i + 1)
+                } else {
+                    "[PLC]\nplc_id = deep\n".to_string()
+                };
+                std::fs::write(dir.path().join(format!("f{i}.conf")), next).unwrap();
+            }
+        };
+        write_chain(MAX_INCLUDE_DEPTH);
+        let raw = read_raw(&dir.path().join("f0.conf")).unwrap();
+        assert_eq!(raw.sections["PLC"].pairs[0].1.value, "deep");
+        write_chain(10_000);
+        let e = read_raw(&dir.path().join("f0.conf")).unwrap_err();
+        assert_eq!(e.codes(), vec![error::INCLUDE_TOO_DEEP]);
+        let msg = e.to_string();
+        assert!(
+            msg.contains(
+                "f63.conf:1: error[C009]: `*include` nested more than 64 files deep (from"
+            ) && msg.contains("f0.conf:1)"),
+            "{msg}"
         );
     }
 

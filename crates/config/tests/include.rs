@@ -143,7 +143,7 @@ fn unreadable_files() {
     assert_eq!(
         err.to_string(),
         format!(
-            "m.conf:1: error[C001]: cannot read included file `{}`: it is not a regular file\n\
+            "m.conf:1: error[C001]: cannot read included file `{}`: it is a directory; name a configuration file\n\
              m.conf:2: error[C001]: cannot read included file `/dev/zero`: it is not a regular file",
             d.join("dir.conf").display()
         )

@@ -64,6 +64,53 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Extreme sizes and values: names and numbers thousands of characters long, values a
+    /// float cannot hold, thousands of rows; every problem a coded diagnostic on its line.
+    #[test]
+    fn hostile_sizes_never_panic(
+        n in prop_oneof![1usize..100, 1_000usize..20_000],
+        value in prop::sample::select(vec![
+            "NaN", "inf", "-inf", "1e39", "1e400", "-0", "99999999999999999999999", "0x", "T#9999999999999d",
+        ]),
+        shape in 0u8..5,
+    ) {
+        let text = match shape {
+            0 => format!("[PLC]\nmodule m shutdown\npoint {} \"d\" m\n", "p".repeat(n)),
+            1 => format!("[PLC]\nmodule m shutdown\npoint p \"d\" m f32 init {value}\n"),
+            2 => format!("[PLC]\nmodule m shutdown\npoint p \"d\" m u16 init {}\n", "9".repeat(n)),
+            3 => format!("[PLC]\nmodule m shutdown\n{}", (0..n).map(|i| format!("point p{i} \"d\" m\n")).collect::<String>()),
+            _ => format!("[PLC]\nmodule m shutdown\nplace {}\n[m]\nscan_period = {value}\n", "q".repeat(n)),
+        };
+        check(&text);
+    }
+
+    /// Chains of `*include` of any length, some in a circle: every chain read or refused
+    /// (C002 for a circle, C009 past the depth limit), never a stack overflow.
+    #[test]
+    fn include_chains_of_any_length(n in prop_oneof![1usize..70, 100usize..3_000], back in any::<Option<usize>>()) {
+        let dir = tempfile::tempdir().unwrap();
+        for i in 0..n {
+            let text = match (i + 1 < n, back) {
+                (true, _) => format!("*include c{}.conf\n", i + 1),
+                (false, Some(b)) => format!("*include c{}.conf\n", b % n),
+                (false, None) => "[PLC]\nmodule m shutdown\n".into(),
+            };
+            std::fs::write(dir.path().join(format!("c{i}.conf")), text).unwrap();
+        }
+        match petriplc_config::read_file(&dir.path().join("c0.conf")) {
+            Ok(_) => prop_assert!(n <= petriplc_config::raw::MAX_INCLUDE_DEPTH && back.is_none()),
+            Err(e) => {
+                let codes = e.codes();
+                prop_assert!(codes == vec!["C002"] || codes == vec!["C009"], "{e}");
+                prop_assert_eq!(codes[0] == "C009", n > petriplc_config::raw::MAX_INCLUDE_DEPTH);
+            }
+        }
+    }
+}
+
 fn check(text: &str) {
     let lines = text.lines().count().max(1);
     match parse_str(text, "p.conf", Path::new("/nonexistent-dir")) {

@@ -5,10 +5,12 @@
 use std::collections::HashMap;
 
 use petriplc_iec_syntax::ast::{self, Element, Ident, Init, Library, PouKind, TypeSpec, VarKind};
+use petriplc_iec_syntax::depth::{Depth, MAX_TYPE_DEPTH};
 use petriplc_iec_syntax::diag::{self, Diagnostics};
 use petriplc_iec_syntax::source::Span;
 
 use crate::ir::{self, GlobalId, NativeSig, PouId, Var, VarClass, VarId};
+use crate::limits::Shape;
 use crate::stdlib;
 use crate::types::{ids, Elem, FbRef, Field, Type, TypeId, TypeTable, MAX_STRING_LEN};
 use crate::value::Value;
@@ -72,6 +74,16 @@ pub(crate) struct Checker<'a> {
     edges: HashMap<PouId, Vec<(VarId, ast::Edge)>>,
     /// Calls between POUs (caller, callee, where), for recursion.
     pub calls: Vec<(Option<PouId>, PouId, Span)>,
+    /// Named types and function block interfaces being resolved inside each other, and
+    /// their names (`limits.rs`).
+    pub(crate) nesting: Depth,
+    pub(crate) nest_path: Vec<String>,
+    /// E116 is reported once: one cause, not a report per level.
+    pub(crate) too_deep_reported: bool,
+    /// Depth and size of every array and structure type.
+    pub(crate) shapes: HashMap<TypeId, Shape>,
+    /// Per POU: depth and size of its variables (a function block's instance).
+    pub(crate) fb_shapes: Vec<Shape>,
 }
 
 impl<'a> Checker<'a> {
@@ -102,6 +114,11 @@ impl<'a> Checker<'a> {
             enum_values: HashMap::new(),
             edges: HashMap::new(),
             calls: Vec::new(),
+            nesting: Depth::new(MAX_TYPE_DEPTH),
+            nest_path: Vec::new(),
+            too_deep_reported: false,
+            shapes: HashMap::new(),
+            fb_shapes: Vec::new(),
         }
     }
 
@@ -227,6 +244,7 @@ impl<'a> Checker<'a> {
                         runnable: matches!(p.body, ast::Body::St(_) | ast::Body::Il { .. }),
                     });
                     self.pou_state.push(State::Todo);
+                    self.fb_shapes.push(Shape::default());
                 }
                 Element::Configuration(_) | Element::Globals(_) => {}
             }
@@ -261,6 +279,9 @@ impl<'a> Checker<'a> {
                     d.name.name
                 ),
             );
+            return Some((ids::ERROR, None));
+        }
+        if !self.enter_type(&d.name.name, use_span) {
             return Some((ids::ERROR, None));
         }
         self.type_busy.push(key.to_string());
@@ -303,8 +324,14 @@ impl<'a> Checker<'a> {
                         );
                     }
                 }
+                let parts: Vec<TypeId> = out.iter().map(|f| f.ty).collect();
                 self.types.set(id, Type::Struct { name, fields: out });
-                (id, None)
+                let what = format!("type {}", d.name.name);
+                if self.record_shape(id, &parts, 1, &what, d.name.span) {
+                    (id, None)
+                } else {
+                    (ids::ERROR, None)
+                }
             }
             TypeSpec::Enum { values, base, .. } => {
                 let id = self.enum_type(&d.name.name, values, base.as_ref(), &mut cx);
@@ -316,6 +343,7 @@ impl<'a> Checker<'a> {
             default = self.initial_value(init, id, &mut cx);
         }
         self.type_busy.pop();
+        self.leave_type();
         self.type_done
             .insert(key.to_string(), (id, default.clone()));
         Some((id, default))
@@ -450,6 +478,9 @@ impl<'a> Checker<'a> {
                     return (ids::ERROR, None);
                 }
                 let id = self.types.array(dims, et);
+                if !self.record_shape(id, &[et], count, "this array", spec.span()) {
+                    return (ids::ERROR, None);
+                }
                 let default = edef
                     .filter(|_| count <= 1_000_000)
                     .map(|v| Value::Array(vec![v; count as usize]));
@@ -780,6 +811,8 @@ impl<'a> Checker<'a> {
             }
             for d in &b.vars {
                 let (ty, def) = self.resolve_spec(&d.ty, &mut cx);
+                let first = d.names.first().map_or("", |n| n.name.as_str());
+                let ty = self.var_type_fits(ty, first, d.span);
                 let init = match &d.init {
                     Some(i) => self.initial_value(i, ty, &mut cx),
                     None => def,
@@ -814,6 +847,11 @@ impl<'a> Checker<'a> {
                 }
             }
         }
+        if let Some(at) = self.globals.first().map(|g| g.span) {
+            let vars = std::mem::take(&mut self.globals);
+            self.frame_shape(&vars, "the global variables", at);
+            self.globals = vars;
+        }
     }
 
     // ---- POU interfaces ----
@@ -833,8 +871,11 @@ impl<'a> Checker<'a> {
             }
             State::Todo => {}
         }
-        self.pou_state[p as usize] = State::Busy;
         let ast = self.pou_asts[p as usize];
+        if !self.enter_type(&ast.name.name, ast.name.span) {
+            return;
+        }
+        self.pou_state[p as usize] = State::Busy;
         let mut cx = Cx::global();
         cx.pou = Some(p);
         cx.kind = Some(ast.kind);
@@ -904,11 +945,15 @@ impl<'a> Checker<'a> {
                 });
             }
         }
+        let what = format!("{} {}", ast.kind.keyword(), ast.name.name);
+        let (shape, _) = self.frame_shape(&vars, &what, ast.name.span);
+        self.fb_shapes[p as usize] = shape;
         let pou = &mut self.pous[p as usize];
         pou.vars = vars;
         pou.result = result;
         self.pou_state[p as usize] = State::Done;
         self.edges.insert(p, edges);
+        self.leave_type();
     }
 
     fn var_block(
@@ -983,6 +1028,13 @@ impl<'a> Checker<'a> {
                     "a FUNCTION has no memory between calls and cannot hold a function block instance; make it a FUNCTION_BLOCK",
                 );
             }
+            // A reference (VAR_EXTERNAL, VAR_IN_OUT) takes no storage of its own.
+            let ty = if matches!(b.kind, VarKind::External | VarKind::InOut) {
+                ty
+            } else {
+                let first = d.names.first().map_or("", |n| n.name.as_str());
+                self.var_type_fits(ty, first, d.span)
+            };
             let init = match &d.init {
                 Some(i) => {
                     if matches!(b.kind, VarKind::External | VarKind::InOut) {

@@ -9,10 +9,17 @@
 //! The current result is undefined at the start of a body, after CAL (and the input
 //! operators that call), after an unconditional JMP or RET, and at a label unless the code
 //! after the label uses it (then every jump to the label and the fall-through store it).
+//!
+//! Long bodies stay cheap and shallow: a current result folded more than [`FOLD_DEPTH`]
+//! operators deep is stored in a hidden variable and folding starts again from it (as the IL
+//! accumulator would hold it), parenthesised operations nest at most
+//! [`MAX_NESTING`](petriplc_iec_syntax::depth::MAX_NESTING) deep (`E014`), and jumps become
+//! IF only that deep.
 
 use std::collections::HashMap;
 
 use petriplc_iec_syntax::ast::{self, IlCond, IlInstr, IlKind, IlOp};
+use petriplc_iec_syntax::depth::MAX_NESTING;
 use petriplc_iec_syntax::diag;
 use petriplc_iec_syntax::source::Span;
 
@@ -21,6 +28,13 @@ use crate::expr::err;
 use crate::ir::{Expr, ExprKind, Place, Root, Stmt, StmtKind, UnaryOp, Var, VarClass, VarId};
 use crate::types::{ids, Type, TypeId};
 use crate::value::Value;
+
+/// The deepest current result kept as an expression; a deeper one is stored in a hidden
+/// variable. Folding `LD a / ADD b / ADD c …` into one expression is what makes IL as fast as
+/// ST, and a few dozen operators are far more than a rung of IL holds; unbounded, 100 000
+/// instructions would make a tree 100 000 deep (and copying it at every instruction, quadratic
+/// time).
+pub(crate) const FOLD_DEPTH: usize = 32;
 
 /// The current result, or why there is none.
 #[derive(Clone, Debug)]
@@ -73,6 +87,9 @@ struct Il<'x> {
     out: Vec<Stmt>,
     labels: HashMap<String, Label>,
     open: Vec<Open>,
+    /// `OP(` past the nesting limit (reported once), whose `)` are skipped.
+    refused_open: usize,
+    too_deep: bool,
     /// After an unconditional JMP or RET, until a label.
     dead: bool,
     cx: &'x mut Cx,
@@ -145,11 +162,16 @@ fn cond_name(base: &str, cond: IlCond) -> String {
 /// Jumps over straight code become IF: `JMPCN l … l:` is `IF c THEN … END_IF` when nothing
 /// else jumps to `l` and no label or jump lies between, so structured IL compiles to exactly
 /// what the same logic in ST does (the VM's fused instructions apply alike).
+///
+/// IFs made this way nest at most [`MAX_NESTING`] deep (deeper jumps stay jumps), which also
+/// bounds the passes: each pass turns the innermost jumps left into IFs.
 fn structure(mut v: Vec<Stmt>) -> Vec<Stmt> {
+    let mut depth: Vec<usize> = v.iter().map(nesting).collect();
     loop {
         let mut refs: HashMap<u32, usize> = HashMap::new();
         count_jumps(&v, &mut refs);
         let mut out = Vec::with_capacity(v.len());
+        let mut out_depth = Vec::with_capacity(v.len());
         let mut changed = false;
         let mut i = 0;
         while i < v.len() {
@@ -165,7 +187,8 @@ fn structure(mut v: Vec<Stmt>) -> Vec<Stmt> {
                         refs.get(label) == Some(&1)
                             && matches!(v[j].kind, StmtKind::Label(l) if l == *label)
                     });
-                if let Some(j) = end {
+                let inner = end.map(|j| 1 + depth[i + 1..j].iter().copied().max().unwrap_or(0));
+                if let (Some(j), Some(d)) = (end, inner.filter(|&d| d <= MAX_NESTING)) {
                     // The body runs when the jump is not taken.
                     let run = if let (true, ExprKind::Unary(UnaryOp::Not, inner)) = (*flag, &c.kind)
                     {
@@ -186,18 +209,40 @@ fn structure(mut v: Vec<Stmt>) -> Vec<Stmt> {
                         },
                         span: v[i].span,
                     });
+                    out_depth.push(d);
                     changed = true;
                     i = j + 1;
                     continue;
                 }
             }
             out.push(v[i].clone());
+            out_depth.push(depth[i]);
             i += 1;
         }
         v = out;
+        depth = out_depth;
         if !changed {
             return v;
         }
+    }
+}
+
+/// How many IFs deep a statement is (those lowering makes are shallow).
+fn nesting(s: &Stmt) -> usize {
+    match &s.kind {
+        StmtKind::If {
+            branches,
+            else_body,
+        } => {
+            1 + branches
+                .iter()
+                .flat_map(|(_, b)| b)
+                .chain(else_body)
+                .map(nesting)
+                .max()
+                .unwrap_or(0)
+        }
+        _ => 0,
     }
 }
 
@@ -267,6 +312,8 @@ impl Checker<'_> {
             out: Vec::new(),
             labels,
             open: Vec::new(),
+            refused_open: 0,
+            too_deep: false,
             dead: false,
             cx,
         };
@@ -344,6 +391,11 @@ impl Checker<'_> {
                 operand,
             } => self.il_op(il, *op, *negated, *deferred, operand.as_ref(), span),
             IlKind::Close => {
+                if il.refused_open > 0 {
+                    il.refused_open -= 1;
+                    il.cr = Cr::Value(err(span));
+                    return;
+                }
                 let Some(o) = il.open.pop() else {
                     self.error(
                         diag::IL_PARENS,
@@ -383,7 +435,7 @@ impl Checker<'_> {
                 };
                 let bin = o.op.binary().expect("a deferred operator is binary");
                 let x = self.binary_checked(bin, saved, inner, o.span.to(span));
-                il.cr = Cr::Value(x);
+                il.cr = Cr::Value(self.il_bounded(il, x, span));
             }
             IlKind::Jump { cond, label } => {
                 if !il.open.is_empty() {
@@ -555,6 +607,19 @@ impl Checker<'_> {
             op.name().to_string()
         };
         if deferred {
+            if il.open.len() >= MAX_NESTING || il.refused_open > 0 {
+                if !il.too_deep {
+                    il.too_deep = true;
+                    self.error(
+                        diag::TOO_DEEP,
+                        span,
+                        format!("parenthesised operations nested more than {MAX_NESTING} deep; store intermediate results with ST"),
+                    );
+                }
+                il.refused_open += 1;
+                il.cr = Cr::Value(err(span));
+                return;
+            }
             let saved = std::mem::replace(&mut il.cr, Cr::None("after `(`"));
             il.open.push(Open {
                 op,
@@ -703,7 +768,8 @@ impl Checker<'_> {
                 let Some(cr) = self.il_take(il, "NOT", span) else {
                     return;
                 };
-                il.cr = Cr::Value(self.il_not(cr, span));
+                let x = self.il_not(cr, span);
+                il.cr = Cr::Value(self.il_bounded(il, x, span));
             }
             _ => {
                 let Some(x) = operand else { return };
@@ -726,7 +792,7 @@ impl Checker<'_> {
                 };
                 let bin = op.binary().expect("an operator with an operand");
                 let r = self.binary_checked(bin, cr, y, span);
-                il.cr = Cr::Value(r);
+                il.cr = Cr::Value(self.il_bounded(il, r, span));
             }
         }
     }
@@ -903,6 +969,16 @@ impl Checker<'_> {
                 let held = self.il_materialise(il, e, span);
                 il.open[i].saved = Cr::Value(held);
             }
+        }
+    }
+
+    /// A current result just folded, stored in a hidden variable when it has grown deeper than
+    /// [`FOLD_DEPTH`].
+    fn il_bounded(&mut self, il: &mut Il<'_>, x: Expr, span: Span) -> Expr {
+        if x.depth() > FOLD_DEPTH {
+            self.il_materialise(il, x, span)
+        } else {
+            x
         }
     }
 

@@ -130,3 +130,71 @@ proptest::proptest! {
         let _ = run(&src);
     }
 }
+
+/// The deepest expression and the deepest IF nesting of a lowered body.
+fn measure(body: &[ir::Stmt]) -> (usize, usize) {
+    let mut most = (0, 0);
+    let mut todo: Vec<(&ir::Stmt, usize)> = body.iter().map(|s| (s, 0)).collect();
+    while let Some((s, d)) = todo.pop() {
+        match &s.kind {
+            ir::StmtKind::Assign { value, .. } => most.0 = most.0.max(value.depth()),
+            ir::StmtKind::If {
+                branches,
+                else_body,
+            } => {
+                most.1 = most.1.max(d + 1);
+                for (c, b) in branches {
+                    most.0 = most.0.max(c.depth());
+                    todo.extend(b.iter().map(|s| (s, d + 1)));
+                }
+                todo.extend(else_body.iter().map(|s| (s, d + 1)));
+            }
+            _ => {}
+        }
+    }
+    most
+}
+
+#[test]
+fn long_bodies_lower_to_shallow_trees() {
+    // 100 000 operations on the current result: folded in steps, not one tree 100 000 deep
+    // (the input's size bounds the work; a quadratic lowering would not end in a test run).
+    let body = format!("LD x\n{}ST x", "ADD 1\nMUL x\n".repeat(50_000));
+    let (p, d) = run(&prog("x : INT;", &body));
+    assert_eq!(d, "");
+    let p = p.unwrap();
+    let (expr, ifs) = measure(&p.pous[0].body);
+    assert!(expr <= crate::il::FOLD_DEPTH + 2, "{expr}");
+    assert_eq!(ifs, 0);
+    // Jumps over jumps 300 deep: IFs 100 deep, the rest stay jumps.
+    let n = 300;
+    let mut body = String::new();
+    for i in 0..n {
+        body.push_str(&format!("LD c\nJMPCN l{i}\n"));
+    }
+    body.push_str("LD 1\nST x\n");
+    for i in (0..n).rev() {
+        body.push_str(&format!("l{i}:\n"));
+    }
+    body.push_str("LD x\nST x");
+    let (p, d) = run(&prog("x : INT; c : BOOL;", &body));
+    assert_eq!(d, "");
+    let (_, ifs) = measure(&p.unwrap().pous[0].body);
+    assert_eq!(ifs, petriplc_iec_syntax::depth::MAX_NESTING);
+}
+
+#[test]
+fn parenthesised_operations_nest_100_deep() {
+    let ok = 100;
+    check_il(
+        "x : INT;",
+        &format!("LD x\n{}{}ST x", "ADD( x\n".repeat(ok), ")\n".repeat(ok)),
+        &[],
+    );
+    let n = 20_000;
+    check_il(
+        "x : INT;",
+        &format!("LD x\n{}{}ST x", "ADD( x\n".repeat(n), ")\n".repeat(n)),
+        &["t.il:106:1: error[E014]: parenthesised operations nested more than 100 deep"],
+    );
+}

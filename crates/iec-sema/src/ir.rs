@@ -213,6 +213,41 @@ pub struct Expr {
     pub span: Span,
 }
 
+impl Expr {
+    /// Levels of the tree, subscripts and call arguments included (counted without
+    /// recursion, so any tree can be measured).
+    pub fn depth(&self) -> usize {
+        fn place<'e>(p: &'e Place, d: usize, todo: &mut Vec<(&'e Expr, usize)>) {
+            for s in &p.path {
+                if let Step::Index(ix) = s {
+                    todo.extend(ix.iter().map(|i| (i, d)));
+                }
+            }
+        }
+        let mut most = 0;
+        let mut todo = vec![(self, 1)];
+        while let Some((e, d)) = todo.pop() {
+            most = most.max(d);
+            match &e.kind {
+                ExprKind::Const(_) => {}
+                ExprKind::Load(p) => place(p, d + 1, &mut todo),
+                ExprKind::Unary(_, x) | ExprKind::Convert(x) | ExprKind::Trunc(x) => {
+                    todo.push((x, d + 1))
+                }
+                ExprKind::Binary(_, a, b) => todo.extend([(&**a, d + 1), (&**b, d + 1)]),
+                ExprKind::Call(c) => {
+                    todo.extend(c.inputs.iter().map(|(_, x)| (x, d + 1)));
+                    for (_, p) in c.in_outs.iter().chain(&c.outputs) {
+                        place(p, d + 1, &mut todo);
+                    }
+                }
+                ExprKind::Builtin(_, args) => todo.extend(args.iter().map(|x| (x, d + 1))),
+            }
+        }
+        most
+    }
+}
+
 #[derive(Clone, Debug)]
 pub enum ExprKind {
     Const(Value),

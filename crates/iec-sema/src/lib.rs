@@ -13,6 +13,7 @@ mod consts;
 mod expr;
 mod il;
 pub mod ir;
+mod limits;
 pub mod ops;
 mod stdlib;
 mod stmt;

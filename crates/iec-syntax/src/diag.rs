@@ -36,6 +36,7 @@ codes! {
     MISSING_END = "E011": "a block without its END_ keyword",
     MISSING_SEMI = "E012": "a statement or declaration without its `;`",
     EMPTY_SOURCE = "E013": "a source without any declaration",
+    TOO_DEEP = "E014": "statements, expressions, ARRAY types, initial values or IL parenthesised operations nested deeper than the engine reads (100 levels; an expression's tree 1000)",
     IL_SYNTAX = "E020": "an Instruction List line that is not an instruction: an unknown operator, a missing or extra operand, a modifier the operator does not take",
     IL_PARENS = "E021": "a `)` without its deferred operation, or a deferred operation without its `)`",
     XML = "E050": "malformed XML",
@@ -59,6 +60,7 @@ codes! {
     OUT_OF_RANGE = "E113": "a constant outside the range of its type",
     BAD_INDEX = "E114": "an index or subscript that does not fit the array",
     BAD_INITIAL = "E115": "an initial value that does not fit its variable",
+    TYPE_TOO_DEEP = "E116": "types inside types (STRUCT fields, ARRAY elements, function block instances, type names) more than 100 levels deep",
     NOT_ASSIGNABLE = "E120": "an assignment to something that cannot be written",
     ASSIGN_CONSTANT = "E121": "an assignment to a CONSTANT",
     ASSIGN_INPUT = "E122": "an assignment to an input of the POU",
@@ -102,7 +104,7 @@ impl Diagnostic {
             code,
             severity: Severity::Error,
             span,
-            message: message.into(),
+            message: shorten(message.into()),
         }
     }
 
@@ -111,7 +113,7 @@ impl Diagnostic {
             code,
             severity: Severity::Warning,
             span,
-            message: message.into(),
+            message: shorten(message.into()),
         }
     }
 
@@ -128,6 +130,63 @@ impl Diagnostic {
             self.message
         )
     }
+}
+
+/// Characters of a name or excerpt a message shows in full.
+pub const MAX_SHOWN: usize = 60;
+/// Characters kept of a longer one (then `…` and its length).
+const KEPT: usize = 40;
+
+/// A message on one line (a source excerpt's line breaks and other control characters become
+/// spaces), with every name or excerpt longer than [`MAX_SHOWN`] characters cut to its first
+/// 40, `…` and its length (`aaaa…(10000 characters)`): a `…`-quoted excerpt as a whole, and
+/// any other run of characters without spaces. A 10 000-character identifier is then one
+/// short line, not a screenful per message.
+pub fn shorten(message: String) -> String {
+    let message = if message.contains(char::is_control) {
+        message
+            .chars()
+            .map(|c| if c.is_control() { ' ' } else { c })
+            .collect()
+    } else {
+        message
+    };
+    let long = |s: &str| s.chars().nth(MAX_SHOWN).is_some();
+    if !long(&message) {
+        return message;
+    }
+    let cut = |s: &str| {
+        let n = s.chars().count();
+        if n <= MAX_SHOWN {
+            return s.to_string();
+        }
+        let kept: String = s.chars().take(KEPT).collect();
+        format!("{kept}…({n} characters)")
+    };
+    // Quoted excerpts first (they may hold spaces), then every word outside them.
+    let mut out = String::with_capacity(message.len().min(4096));
+    for (k, part) in message.split('`').enumerate() {
+        if k > 0 {
+            out.push('`');
+        }
+        let quoted = k % 2 == 1 && message.split('`').count() > k + 1;
+        if quoted {
+            out.push_str(&cut(part));
+            continue;
+        }
+        let mut word = String::new();
+        for c in part.chars() {
+            if c.is_whitespace() {
+                out.push_str(&cut(&word));
+                word.clear();
+                out.push(c);
+            } else {
+                word.push(c);
+            }
+        }
+        out.push_str(&cut(&word));
+    }
+    out
 }
 
 /// Diagnostics collected by a stage, in the order found.
@@ -201,6 +260,36 @@ mod tests {
             assert!(code.0.len() == 4 && (code.0.starts_with('E') || code.0.starts_with('W')));
             assert!(!title.is_empty());
         }
+    }
+
+    #[test]
+    fn long_names_and_excerpts_are_cut() {
+        let name = "a".repeat(10_000);
+        let d = Diagnostic::error(
+            UNDECLARED,
+            Span::default(),
+            format!("`{name}` is not declared"),
+        );
+        assert_eq!(
+            d.message,
+            format!("`{}…(10000 characters)` is not declared", "a".repeat(40))
+        );
+        let spaced = format!("x := {}", "1 + ".repeat(100));
+        let d = Diagnostic::error(SYNTAX, Span::default(), format!("after `{spaced}`: {name}"));
+        assert!(d.message.len() < 200, "{}", d.message);
+        assert!(
+            d.message.contains("…(405 characters)`: aaaa"),
+            "{}",
+            d.message
+        );
+        // An excerpt across lines stays on the diagnostic's line.
+        let d = Diagnostic::error(SYNTAX, Span::default(), "after `a\n   b`, found `1`");
+        assert_eq!(d.message, "after `a    b`, found `1`");
+        let short = "`x` is not declared; declare it in VAR".to_string();
+        assert_eq!(
+            Diagnostic::error(UNDECLARED, Span::default(), short.clone()).message,
+            short
+        );
     }
 
     #[test]

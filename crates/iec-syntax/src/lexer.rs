@@ -285,6 +285,10 @@ impl Lexer<'_, '_> {
     }
 
     fn run(&mut self) {
+        // Editors on Windows may start a file with a byte order mark; it is not text.
+        if self.text.starts_with('\u{feff}') {
+            self.pos = '\u{feff}'.len_utf8();
+        }
         while self.pos < self.src.len() {
             let start = self.pos;
             let b = self.src[self.pos];

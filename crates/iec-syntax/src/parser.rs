@@ -3,16 +3,19 @@
 //! `< > <= >=`, `= <>`, `AND &`, `XOR`, `OR`).
 //!
 //! A syntax error is reported and the parser resynchronises at the next `;`, `END_…` or
-//! declaration keyword, so one run reports every error of a file. Nesting is bounded
-//! ([`MAX_DEPTH`]) so no input can exhaust the stack.
+//! declaration keyword, so one run reports every error of a file. Nesting (statements,
+//! parentheses, `ARRAY … OF`, initial values) and the depth of an expression's tree are
+//! bounded ([`crate::depth`]) so no input can exhaust the stack: the first level too deep is
+//! reported (`E014`) and the rest of the source skipped, without a report per open block.
 
 use crate::ast::*;
+use crate::depth::{Depth, MAX_EXPR_DEPTH, MAX_NESTING};
 use crate::diag::{self, Code, Diagnostics};
 use crate::lexer::{self, Kw, Tok, Token};
 use crate::source::{FileId, Span};
 
 /// Deepest nesting of expressions and statements accepted.
-pub const MAX_DEPTH: usize = 100;
+pub const MAX_DEPTH: usize = MAX_NESTING;
 
 /// Parses a Structured Text source (any number of TYPE blocks, POUs, configurations and
 /// global variable lists). Problems go to `diags`; the tree holds what could be read.
@@ -105,7 +108,13 @@ struct Parser<'a, 'd> {
     text: &'a str,
     toks: Vec<Token>,
     pos: usize,
-    depth: usize,
+    /// Nesting of statements, parentheses, types and initial values.
+    nest: Depth,
+    /// Depth of the expression tree being built (operators in a row count too).
+    tree: Depth,
+    /// A nesting limit was passed: the rest of the source was skipped, so what is found
+    /// missing at its end is not reported.
+    too_deep: bool,
     /// The token at which the last missing-END error was reported, so the stray keyword
     /// found there is not reported again.
     reported_at: usize,
@@ -123,7 +132,9 @@ impl<'a, 'd> Parser<'a, 'd> {
             text,
             toks,
             pos: 0,
-            depth: 0,
+            nest: Depth::new(MAX_NESTING),
+            tree: Depth::new(MAX_EXPR_DEPTH),
+            too_deep: false,
             reported_at: usize::MAX,
             il: false,
             tok_lines: Vec::new(),
@@ -207,11 +218,12 @@ impl<'a, 'd> Parser<'a, 'd> {
     fn quiet_at(&self, t: &Token) -> bool {
         t.tok == Tok::Error
             || (t.tok == Tok::Eof
-                && self
-                    .diags
-                    .items
-                    .iter()
-                    .any(|d| d.code == diag::UNTERMINATED_COMMENT))
+                && (self.too_deep
+                    || self
+                        .diags
+                        .items
+                        .iter()
+                        .any(|d| d.code == diag::UNTERMINATED_COMMENT)))
     }
 
     fn expect(&mut self, t: &Tok, what: &str) -> PResult<Token> {
@@ -275,26 +287,57 @@ impl<'a, 'd> Parser<'a, 'd> {
         Err(self.expected(what))
     }
 
+    /// One level of nesting deeper (a statement, a parenthesis, a type, an initial value).
+    /// Callers `leave()` whether what they parse inside succeeds or not.
     fn enter(&mut self) -> PResult<()> {
-        self.depth += 1;
-        if self.depth > MAX_DEPTH {
-            let span = self.peek().span;
-            self.error_at(
-                diag::SYNTAX,
-                span,
-                format!(
-                    "nesting deeper than {MAX_DEPTH} levels; split the expression or statement"
-                ),
-            );
-            // Skip to the end: nothing sensible can follow at this depth.
-            self.pos = self.toks.len() - 1;
-            return Err(Reported);
+        if !self.nest.enter() {
+            return Err(self.too_deep(format!(
+                "nesting deeper than {MAX_NESTING} levels; split the expression or statement"
+            )));
+        }
+        if !self.tree.enter() {
+            self.nest.leave();
+            return Err(self.too_deep_tree());
         }
         Ok(())
     }
 
     fn leave(&mut self) {
-        self.depth -= 1;
+        self.nest.leave();
+        self.tree.leave();
+    }
+
+    /// One more operator or access in a row (`… + x`, `….f`, `…[i]`): a level of the tree,
+    /// not of nesting. The caller leaves as many levels as it took, however it ends.
+    fn link(&mut self, links: &mut usize) -> PResult<()> {
+        if !self.tree.enter() {
+            return Err(self.too_deep_tree());
+        }
+        *links += 1;
+        Ok(())
+    }
+
+    fn unlink(&mut self, links: usize) {
+        for _ in 0..links {
+            self.tree.leave();
+        }
+    }
+
+    fn too_deep_tree(&mut self) -> Reported {
+        self.too_deep(format!(
+            "an expression more than {MAX_EXPR_DEPTH} levels deep (operators, fields or \
+             subscripts in a row); split it with intermediate variables"
+        ))
+    }
+
+    /// Reports the limit passed and skips to the end: nothing sensible follows at this depth,
+    /// and the blocks left open are not reported one by one.
+    fn too_deep(&mut self, msg: String) -> Reported {
+        let span = self.peek().span;
+        self.error_at(diag::TOO_DEEP, span, msg);
+        self.too_deep = true;
+        self.pos = self.toks.len() - 1;
+        Reported
     }
 
     fn is_top_start(&self) -> bool {
@@ -422,6 +465,13 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     /// A type specification; `in_type` allows STRUCT.
     fn type_spec(&mut self, in_type: bool) -> PResult<TypeSpec> {
+        self.enter()?;
+        let r = self.type_spec_inner(in_type);
+        self.leave();
+        r
+    }
+
+    fn type_spec_inner(&mut self, in_type: bool) -> PResult<TypeSpec> {
         let start = self.peek().span;
         match self.peek().tok.clone() {
             Tok::Kw(Kw::Array) => {
@@ -572,6 +622,13 @@ impl<'a, 'd> Parser<'a, 'd> {
     }
 
     fn init(&mut self) -> PResult<Init> {
+        self.enter()?;
+        let r = self.init_inner();
+        self.leave();
+        r
+    }
+
+    fn init_inner(&mut self) -> PResult<Init> {
         let start = self.peek().span;
         if self.at(&Tok::LBracket) {
             self.bump();
@@ -874,6 +931,9 @@ impl<'a, 'd> Parser<'a, 'd> {
         }
         if self.eat_kw(Kw::EndVar).is_none() {
             let t2 = self.peek().clone();
+            if self.quiet_at(&t2) {
+                return Err(Reported);
+            }
             let msg = format!(
                 "{} block has no END_VAR; found {}",
                 self.text_of(t.span),
@@ -1265,6 +1325,9 @@ impl<'a, 'd> Parser<'a, 'd> {
                 let body = self.statements(&[]);
                 if self.eat_kw(Kw::Until).is_none() {
                     let t = self.peek().clone();
+                    if self.quiet_at(&t) {
+                        return Err(Reported);
+                    }
                     let msg = format!("this REPEAT has no UNTIL; found {}", self.describe(&t));
                     self.error_at(diag::MISSING_END, start, msg);
                     return Err(Reported);
@@ -1329,6 +1392,9 @@ impl<'a, 'd> Parser<'a, 'd> {
     fn expect_end(&mut self, kw: Kw, start: Span, what: &str) -> PResult<()> {
         if self.eat_kw(kw).is_none() {
             let t = self.peek().clone();
+            if self.quiet_at(&t) {
+                return Err(Reported);
+            }
             let msg = format!(
                 "this {what} has no {}; found {}",
                 kw.text(),
@@ -1495,12 +1561,20 @@ impl<'a, 'd> Parser<'a, 'd> {
     }
 
     fn binary(&mut self, min: u8) -> PResult<Expr> {
+        let mut links = 0;
+        let r = self.binary_chain(min, &mut links);
+        self.unlink(links);
+        r
+    }
+
+    fn binary_chain(&mut self, min: u8, links: &mut usize) -> PResult<Expr> {
         let mut lhs = self.unary()?;
         while let Some((op, bp)) = self.binary_op() {
             if bp <= min {
                 break;
             }
             self.bump();
+            self.link(links)?;
             self.enter()?;
             let rhs = self.binary(bp);
             self.leave();
@@ -1536,8 +1610,18 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     /// A primary followed by `.field`, `.3`, `[i]` and `(args)`.
     fn postfix(&mut self) -> PResult<Expr> {
+        let mut links = 0;
+        let r = self.postfix_chain(&mut links);
+        self.unlink(links);
+        r
+    }
+
+    fn postfix_chain(&mut self, links: &mut usize) -> PResult<Expr> {
         let mut e = self.primary()?;
         loop {
+            if matches!(self.peek().tok, Tok::Dot | Tok::LBracket | Tok::LParen) {
+                self.link(links)?;
+            }
             match self.peek().tok {
                 Tok::Dot => {
                     self.bump();

@@ -61,6 +61,19 @@ pub struct SourceFile {
     /// For a text taken from an element of a graphical body (LD, SFC): the element, printed
     /// in messages instead of a line and column (`LD contact localId 3 (start)`).
     pub element: Option<String>,
+    /// Characters before every [`CHUNK`]th byte, so that a column is counted from the nearest
+    /// mark rather than from its line's start: a megabyte on one line with an error every few
+    /// bytes would otherwise take quadratic time to render. Empty for ASCII text, whose
+    /// columns are byte offsets.
+    char_marks: Vec<u32>,
+}
+
+/// Bytes between two marks of [`SourceFile::char_marks`].
+const CHUNK: usize = 256;
+
+/// Characters that start in `bytes` (those that are not UTF-8 continuation bytes).
+fn starts(bytes: &[u8]) -> usize {
+    bytes.iter().filter(|&&b| b & 0xC0 != 0x80).count()
 }
 
 impl SourceFile {
@@ -72,6 +85,16 @@ impl SourceFile {
                 .filter(|&(_, b)| b == b'\n')
                 .map(|(i, _)| i + 1),
         );
+        let char_marks = if text.is_ascii() {
+            Vec::new()
+        } else {
+            let mut marks = vec![0u32];
+            for chunk in text.as_bytes().chunks(CHUNK) {
+                let last = *marks.last().unwrap_or(&0);
+                marks.push(last + starts(chunk) as u32);
+            }
+            marks
+        };
         SourceFile {
             name,
             text,
@@ -79,7 +102,17 @@ impl SourceFile {
             line_base,
             col_base,
             element: None,
+            char_marks,
         }
+    }
+
+    /// Characters before byte `at` (a character boundary).
+    fn chars_before(&self, at: usize) -> usize {
+        if self.char_marks.is_empty() {
+            return at;
+        }
+        let k = at / CHUNK;
+        self.char_marks[k] as usize + starts(&self.text.as_bytes()[k * CHUNK..at])
     }
 
     /// 1-based line and column (in characters) of a byte offset.
@@ -89,9 +122,13 @@ impl SourceFile {
             Ok(i) => i,
             Err(i) => i - 1,
         };
-        let start = self.line_starts[line];
+        let mut start = self.line_starts[line];
         let end = floor_char_boundary(&self.text, offset);
-        let col = self.text[start..end].chars().count() as u32 + 1;
+        // A byte order mark before the first line is not a column.
+        if line == 0 && self.text.starts_with('\u{feff}') {
+            start = '\u{feff}'.len_utf8().min(end);
+        }
+        let col = (self.chars_before(end) - self.chars_before(start)) as u32 + 1;
         let col = if line == 0 { col + self.col_base } else { col };
         (line as u32 + 1 + self.line_base, col)
     }
@@ -244,5 +281,23 @@ mod tests {
         check("é\nx", 2, 0, 0, (1, 2));
         check("ab\ncd", 1, 10, 20, (11, 22));
         check("ab\ncd", 3, 10, 20, (12, 1));
+    }
+
+    #[test]
+    fn columns_of_long_lines_count_characters() {
+        let text = format!("{}é{}x", "a".repeat(5000), "é".repeat(5000));
+        let at = text.len() - 1;
+        check(&text, at, 0, 0, (1, 10_002));
+        check(&text, 5000, 0, 0, (1, 5001));
+        check(&text, 5002, 0, 0, (1, 5002));
+        check(&"a".repeat(10_000), 9_999, 0, 0, (1, 10_000));
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_no_column() {
+        check("\u{feff}ab\ncd", 3, 0, 0, (1, 1));
+        check("\u{feff}ab\ncd", 4, 0, 0, (1, 2));
+        check("\u{feff}ab\ncd", 0, 0, 0, (1, 1));
+        check("\u{feff}ab\ncd", 7, 0, 0, (2, 2));
     }
 }

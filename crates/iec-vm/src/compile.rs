@@ -322,6 +322,11 @@ impl<'p> Compiler<'p> {
         reserved: Option<usize>,
     ) -> Result<usize, CompileError> {
         let p = self.p.pou(pou);
+        // The checker bounds every type; instances of function blocks whose frames hold
+        // temporaries and constants besides can still add up past what slots can address.
+        if layout::frame_slots(self.p, &self.sizes, pou) > u64::from(MAX_OFF) {
+            return Err(CompileError::TooLarge);
+        }
         let layout = self.layout(pou);
         let rel = p.kind == PouKind::FunctionBlock;
         let unit = Unit {
@@ -531,13 +536,16 @@ impl<'p> Compiler<'p> {
         let mut global_addr = Vec::new();
         for g in &self.p.globals {
             global_addr.push(addr as u32);
-            addr += self.sizes.of(self.p, g.ty).unwrap_or(1) as u64;
+            addr = addr.saturating_add(self.sizes.of_wide(self.p, g.ty));
+            if addr > MAX_OFF as u64 {
+                return Err(CompileError::TooLarge);
+            }
         }
         let mut frame_addr = vec![0u32; self.units.len()];
         for (i, u) in self.units.iter().enumerate() {
             if !u.rel {
-                frame_addr[i] = addr as u32;
-                addr += u.size() as u64;
+                frame_addr[i] = addr.min(MAX_OFF as u64) as u32;
+                addr = addr.saturating_add(u.size() as u64);
             }
         }
         if addr > MAX_OFF as u64 {

@@ -41,6 +41,21 @@ impl Sizes {
         })
     }
 
+    /// Slots a value of `ty` takes, without overflow (a function block not compiled counts as
+    /// one slot, as its frame does in [`frame_layout`]).
+    pub fn of_wide(&self, project: &Project, ty: TypeId) -> u64 {
+        match project.types.get(ty) {
+            Type::Array { elem, .. } => project
+                .types
+                .element_count(ty)
+                .saturating_mul(self.of_wide(project, *elem)),
+            Type::Struct { fields, .. } => fields
+                .iter()
+                .fold(0u64, |t, f| t.saturating_add(self.of_wide(project, f.ty))),
+            _ => self.of(project, ty).map_or(1, u64::from),
+        }
+    }
+
     /// Offset of each field of a structure.
     pub fn field_offsets(&self, project: &Project, ty: TypeId) -> Vec<u32> {
         let mut out = Vec::new();
@@ -61,6 +76,20 @@ pub struct FrameLayout {
     pub offsets: Vec<Option<u32>>,
     /// Slots of the variables.
     pub vars: u32,
+}
+
+/// Slots of a POU's variables, without overflow (what [`frame_layout`] would lay out).
+pub fn frame_slots(project: &Project, sizes: &Sizes, pou: u32) -> u64 {
+    project
+        .pou(pou)
+        .vars
+        .iter()
+        .map(|v| match v.class {
+            VarClass::External(_) => 0,
+            VarClass::InOut => 1,
+            _ => sizes.of_wide(project, v.ty),
+        })
+        .fold(0u64, u64::saturating_add)
 }
 
 /// Lays out a POU's variables; in-outs take one slot (a pointer).

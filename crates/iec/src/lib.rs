@@ -28,15 +28,16 @@ pub struct Sources {
     pub diags: Diagnostics,
 }
 
+/// The largest source file read (positions in a source are 32-bit; no program is near this).
+pub const MAX_SOURCE_BYTES: u64 = 256 << 20;
+
 /// Why sources could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum IecError {
-    #[error("cannot read {path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A source file that cannot be read, and why (said once: the reason is not also the
+    /// error's source, which would print it twice in a chain of causes).
+    #[error("cannot read {path}: {reason}")]
+    Io { path: String, reason: String },
     /// Every error, rendered `file:line:col: error[Ennn]: …`, one per line.
     #[error("{0}")]
     Invalid(String),
@@ -51,10 +52,12 @@ impl Sources {
 
     /// Adds a file: a PLCopen XML project when it looks like one, Instruction List when its
     /// name ends in `.il`, Structured Text otherwise.
+    /// Only a regular file of at most [`MAX_SOURCE_BYTES`] is read: a directory, a device
+    /// (`/dev/zero` would never end) or a pipe is refused with what to name instead.
     pub fn add_file(&mut self, path: &Path) -> Result<(), IecError> {
-        let text = std::fs::read(path).map_err(|source| IecError::Io {
+        let text = read_source(path).map_err(|reason| IecError::Io {
             path: path.display().to_string(),
-            source,
+            reason,
         })?;
         let text = String::from_utf8_lossy(&text).into_owned();
         self.add_text(&path.display().to_string(), &text);
@@ -82,6 +85,32 @@ impl Sources {
     pub fn render(&self, diags: &Diagnostics) -> String {
         diags.render(&self.map)
     }
+}
+
+/// The bytes of a source file, or why not (for a person).
+fn read_source(path: &Path) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let named = "name a .st, .il or .xml file";
+    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if meta.is_dir() {
+        return Err(format!("it is a directory; {named}"));
+    }
+    if !meta.is_file() {
+        return Err(format!(
+            "it is not a regular file (a device or a pipe); {named}"
+        ));
+    }
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > MAX_SOURCE_BYTES {
+        return Err(format!(
+            "it is larger than {} MiB, more than a source can be",
+            MAX_SOURCE_BYTES >> 20
+        ));
+    }
+    Ok(bytes)
 }
 
 /// What to run.

@@ -494,10 +494,17 @@ type MakeBinary = fn(Box<Expr<String>>, Box<Expr<String>>) -> Expr<String>;
 /// enough that the recursive parser, evaluator and printer cannot exhaust the stack.
 pub const MAX_DEPTH: usize = 64;
 
+/// How deep a guard's tree may be, operators in a row counted (`a AND b AND …` is a tree as
+/// deep as it has operators): every pass over a guard (evaluation, printing, analysis) is
+/// recursive.
+pub const MAX_TREE: usize = 1000;
+
 struct Parser {
     toks: Vec<(Tok, usize)>,
     pos: usize,
     depth: usize,
+    /// Levels of the tree being built: nesting and operators in a row.
+    tree: usize,
 }
 
 impl Parser {
@@ -527,13 +534,25 @@ impl Parser {
         next: fn(&mut Self) -> Result<Expr<String>, GuardError>,
         make: MakeBinary,
     ) -> Result<Expr<String>, GuardError> {
-        let mut lhs = next(self)?;
-        while *self.peek() == op {
-            self.bump();
-            let rhs = next(self)?;
-            lhs = make(Box::new(lhs), Box::new(rhs));
-        }
-        Ok(lhs)
+        let mut links = 0;
+        let r = (|| {
+            let mut lhs = next(self)?;
+            while *self.peek() == op {
+                if self.tree == MAX_TREE {
+                    return Err(self.error(format!(
+                        "the guard has more than {MAX_TREE} operators in a row; simplify it"
+                    )));
+                }
+                self.tree += 1;
+                links += 1;
+                self.bump();
+                let rhs = next(self)?;
+                lhs = make(Box::new(lhs), Box::new(rhs));
+            }
+            Ok(lhs)
+        })();
+        self.tree -= links;
+        r
     }
     fn or(&mut self) -> Result<Expr<String>, GuardError> {
         self.binary(Tok::Or, Self::xor, Expr::Or)
@@ -605,8 +624,10 @@ impl Parser {
             });
         }
         self.depth += 1;
+        self.tree += 1;
         let r = f(self);
         self.depth -= 1;
+        self.tree -= 1;
         r
     }
     fn unary(&mut self) -> Result<Expr<String>, GuardError> {
@@ -661,6 +682,7 @@ pub fn parse(text: &str) -> Result<Expr<String>, GuardError> {
         toks,
         pos: 0,
         depth: 0,
+        tree: 0,
     };
     let e = p.or()?;
     if *p.peek() != Tok::End {
@@ -743,6 +765,27 @@ mod tests {
             "99999999999999999999 < x",
             "error: column 1: the number 99999999999999999999 is too large",
         );
+    }
+
+    #[test]
+    fn long_chains_of_operators_are_bounded() {
+        for op in ["AND", "OR", "XOR"] {
+            let long = vec!["a"; 100_000].join(&format!(" {op} "));
+            let e = parse(&long).unwrap_err();
+            assert!(
+                e.message.contains("more than 1000 operators in a row"),
+                "{op}: {e:?}"
+            );
+            assert_eq!(e.column, 1000 * (op.len() + 3) + 3, "{op}");
+            // Within the limit a chain is read, evaluated, printed and flattened.
+            let ok = vec!["a"; MAX_TREE].join(&format!(" {op} "));
+            let e = parse(&ok).unwrap();
+            e.eval(&|_: &String| 1);
+            assert_eq!(e.to_iec(&|s: &String| s.clone()).len(), ok.len());
+        }
+        // A chain in parentheses counts while the chain around it is being read.
+        let inner = vec!["a"; 990].join(" OR ");
+        assert!(parse(&format!("{} AND ({inner})", vec!["a"; 20].join(" AND "))).is_err());
     }
 
     #[test]

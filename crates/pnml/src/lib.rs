@@ -45,9 +45,13 @@ pub struct Document {
     pub layout: Layout,
 }
 
-/// Reads the one net of a PNML file.
+/// The largest PNML file read (a net of a million nodes is a few hundred MiB).
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
+/// Reads the one net of a PNML file. Only a regular file of at most [`MAX_FILE_BYTES`] is
+/// read: a directory, a device (`/dev/zero` would never end) or a pipe is refused.
 pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<Document, PnmlError> {
-    let bytes = std::fs::read(path).map_err(|source| PnmlError::Io {
+    let bytes = read_bounded(path).map_err(|source| PnmlError::Io {
         path: path.to_path_buf(),
         source,
     })?;
@@ -56,6 +60,30 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<Document, PnmlError>
         Ok(text) => read_str(text, &source, opts),
         Err(e) => Err(read::not_utf8(&bytes, &e, &source)),
     }
+}
+
+fn read_bounded(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::{Error, Read};
+    let meta = std::fs::metadata(path)?;
+    if meta.is_dir() {
+        return Err(Error::other("it is a directory; name a PNML file"));
+    }
+    if !meta.is_file() {
+        return Err(Error::other(
+            "it is not a regular file (a device or a pipe); name a PNML file",
+        ));
+    }
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(Error::other(format!(
+            "it is larger than {} MiB, more than a PNML file petriplc reads",
+            MAX_FILE_BYTES >> 20
+        )));
+    }
+    Ok(bytes)
 }
 
 /// Reads the one net of a PNML document; `source` names it in diagnostics.

@@ -98,6 +98,44 @@ proptest! {
         }
     }
 
+    /// Sizes and depths far past any real file: elements nested 20 000 deep, ids, numbers
+    /// and guards thousands of characters long, guards nested or chained past their limits,
+    /// durations a float cannot hold. Refused with coded, positioned, short diagnostics (the
+    /// work bounded by the document's size).
+    #[test]
+    fn hostile_sizes_are_refused_with_codes(
+        shape in 0u8..8,
+        n in prop_oneof![1usize..300, 1_000usize..20_000],
+        sipn in any::<bool>(),
+    ) {
+        let head = r#"<pnml><net id="n" type="http://www.pnml.org/version-2009/grammar/ptnet"><page id="g">"#;
+        let tool = |inner: String| format!(r#"<toolspecific tool="petriplc" version="1">{inner}</toolspecific>"#);
+        let body = match shape {
+            0 => "<page>".repeat(n),
+            1 => format!(r#"<place id="{}"/>"#, "p".repeat(n)),
+            2 => format!(r#"<place id="p"><initialMarking><text>{}</text></initialMarking></place>"#, "9".repeat(n)),
+            3 => format!(r#"<transition id="t">{}</transition>"#, tool(format!("<guard>{}B1{}</guard>", "(".repeat(n), ")".repeat(n)))),
+            4 => format!(r#"<transition id="t">{}</transition>"#, tool(format!("<guard>{}</guard>", vec!["B1"; n].join(" AND ")))),
+            5 => format!(r#"<transition id="t">{}</transition>"#, tool(format!("<guard>{}B1</guard>", "NOT ".repeat(n)))),
+            6 => {
+                let delay = ["NaN s", "inf", "1e400", "-1s", "T#99999999999999999999d", "1e-400"][n % 6];
+                format!(r#"<place id="p"/><transition id="t"/><arc id="a" source="p" target="t">{}</arc>"#, tool(format!("<delay>{delay}</delay>")))
+            }
+            _ => format!(r#"<place id="p"><name><text>{}</text></name></place>"#, "é".repeat(n)),
+        };
+        let text = format!("{head}{body}</page></net></pnml>");
+        let naming = if sipn { Naming::Sipn } else { Naming::Plain };
+        if let Err(e) = read_str(&text, "h.pnml", &ReadOptions { naming }) {
+            let lines = text.lines().count();
+            for d in e.diagnostics() {
+                prop_assert!(d.code.len() == 4 && d.code.starts_with('P'), "{d}");
+                prop_assert!(d.line >= 1 && d.column >= 1 && d.line as usize <= lines + 1, "{d}");
+                prop_assert!(d.to_string().len() < 1000, "{} bytes", d.to_string().len());
+            }
+            prop_assert!(e.diagnostics().len() <= 4, "{}", e.diagnostics().len());
+        }
+    }
+
     #[test]
     fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
         let text = String::from_utf8_lossy(&bytes);

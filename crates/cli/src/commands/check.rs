@@ -11,8 +11,8 @@ pub fn run(args: CheckArgs) -> Result<(), Failure> {
         sources.add_file(f).bad_input()?;
     }
     let checked = petriplc_iec::check(&sources, &Natives::default()).bad_input()?;
-    for w in &checked.warnings {
-        eprintln!("{w}");
+    if !checked.warnings.is_empty() {
+        crate::diagnostics::eprint(&checked.warnings.join("\n"));
     }
     let pous = checked.project.pous.len();
     let programs = checked.project.programs().count();

@@ -95,23 +95,26 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
 /// refused it.
 fn not_started(args: &RunArgs, e: RunError) -> Failure {
     match e {
-        // Compiler style, as for a bad net: one problem per line, then one summary.
+        // Compiler style, as for a bad net: one problem per line (diagnostics capped, as
+        // every command prints them), then one summary.
         e @ (RunError::Config(_) | RunError::Many(_)) if e.kind() == NotStarted::BadInput => {
             let mut n = 0;
+            let mut text = String::new();
             for p in e.problems() {
                 match p {
                     RunError::Config(c) => {
                         for d in &c.diagnostics {
-                            eprintln!("{d}");
+                            text.push_str(&format!("{d}\n"));
                             n += 1;
                         }
                     }
                     other => {
-                        eprintln!("error: {other}");
+                        text.push_str(&format!("error: {other}\n"));
                         n += 1;
                     }
                 }
             }
+            crate::diagnostics::eprint(text.trim_end());
             Failure::BadInput(anyhow!(
                 "{} is not a valid configuration ({n} problem{}); nothing was started",
                 args.config.display(),

@@ -401,8 +401,8 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
         None => petriplc_iec::Select::Auto,
     };
     let build = petriplc_iec::build_file(&args.net, &select).bad_input()?;
-    for w in &build.warnings {
-        eprintln!("{w}");
+    if !build.warnings.is_empty() {
+        crate::diagnostics::eprint(&build.warnings.join("\n"));
     }
     let timeline = args
         .inputs

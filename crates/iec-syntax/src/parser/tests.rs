@@ -242,6 +242,123 @@ fn deep_nesting_is_refused_not_a_crash() {
     assert!(d.contains("nesting deeper than"), "{d}");
 }
 
+/// The one diagnostic of `src`, which must be the nesting limit's.
+fn only_too_deep(src: &str) -> String {
+    let (_, d) = diags_of(src);
+    let lines: Vec<&str> = d.lines().collect();
+    assert_eq!(lines.len(), 1, "{}", lines[..lines.len().min(5)].join("\n"));
+    assert!(lines[0].contains("error[E014]"), "{d}");
+    d
+}
+
+#[test]
+fn every_kind_of_nesting_is_bounded() {
+    let n = 20_000;
+    // ARRAY OF ARRAY OF …
+    let d = only_too_deep(&format!(
+        "PROGRAM p VAR v : {}INT; END_VAR END_PROGRAM",
+        "ARRAY[0..1] OF ".repeat(n)
+    ));
+    assert!(d.contains("nesting deeper than 100 levels"), "{d}");
+    // STRUCT in STRUCT: each one refused (E109), then the limit.
+    let (_, d) = diags_of(&format!("TYPE s : {}END_TYPE", "STRUCT a : ".repeat(n)));
+    assert!(d.lines().count() <= 100, "{d}");
+    assert!(d.lines().last().unwrap().contains("error[E014]"), "{d}");
+    // Initial values of arrays and structures.
+    only_too_deep(&format!(
+        "PROGRAM p VAR v : INT := {}1{}; END_VAR END_PROGRAM",
+        "[".repeat(n),
+        "]".repeat(n)
+    ));
+    only_too_deep(&format!(
+        "PROGRAM p VAR v : s := {}1{}; END_VAR END_PROGRAM",
+        "(a := ".repeat(n),
+        ")".repeat(n)
+    ));
+    // Arguments of calls in calls.
+    only_too_deep(&format!(
+        "PROGRAM p x := {}1{}; END_PROGRAM",
+        "f(".repeat(n),
+        ")".repeat(n)
+    ));
+}
+
+#[test]
+fn long_chains_of_operators_and_accesses_are_bounded() {
+    let n = 100_000;
+    let d = only_too_deep(&format!(
+        "PROGRAM p x := {}; END_PROGRAM",
+        vec!["x"; n].join(" + ")
+    ));
+    assert!(d.contains("more than 1000 levels deep"), "{d}");
+    only_too_deep(&format!("PROGRAM p x := x{}; END_PROGRAM", ".a".repeat(n)));
+    only_too_deep(&format!("PROGRAM p x := x{}; END_PROGRAM", "[1]".repeat(n)));
+    only_too_deep(&format!(
+        "PROGRAM p x := x{}; END_PROGRAM",
+        ".a[1]".repeat(n)
+    ));
+    // Near the limit a chain is read: `x + … + x` with 989 operators.
+    check_ok(&format!(
+        "PROGRAM p x := {}; END_PROGRAM",
+        vec!["x"; 990].join(" + ")
+    ));
+    check_ok(&format!(
+        "PROGRAM p x := {}1{}; END_PROGRAM",
+        "(".repeat(98),
+        ")".repeat(98)
+    ));
+}
+
+#[test]
+fn too_deep_is_reported_first_and_alone() {
+    // 150 nested IFs: the cause, not 99 IFs "without END_IF" before it.
+    let src = format!(
+        "PROGRAM p\n{}x := 1;\n{}END_PROGRAM\n",
+        "IF x THEN\n".repeat(150),
+        "END_IF;\n".repeat(150)
+    );
+    let d = only_too_deep(&src);
+    assert!(
+        d.starts_with("t.st:101:4: error[E014]: nesting deeper than 100 levels"),
+        "{d}"
+    );
+    // Errors before the limit are still reported.
+    let src = format!(
+        "PROGRAM p\nx := ;\n{}END_PROGRAM\n",
+        "IF x THEN\n".repeat(150)
+    );
+    let (_, d) = diags_of(&src);
+    let lines: Vec<&str> = d.lines().collect();
+    assert_eq!(lines.len(), 2, "{d}");
+    assert!(lines[0].starts_with("t.st:2:6: error[E010]"), "{d}");
+    assert!(lines[1].contains("error[E014]"), "{d}");
+}
+
+/// Found by fuzzing `check_st`: a statement's target written across lines was quoted with its
+/// line break, splitting one diagnostic over two lines.
+#[test]
+fn a_message_quoting_several_lines_is_one_line() {
+    check_errors(
+        "PROGRAM p x\n   .y 1; END_PROGRAM",
+        &["t.st:2:7: error[E010]: expected `:=` (an assignment) or `(` (a call) after `x    .y`, found the number `1`"],
+    );
+}
+
+#[test]
+fn a_byte_order_mark_is_accepted_and_columns_stay_right() {
+    check_ok("\u{feff}PROGRAM p VAR x : INT; END_VAR x := 1; END_PROGRAM");
+    check_errors(
+        "\u{feff}PROGRAM p x := ; END_PROGRAM",
+        &["t.st:1:16: error[E010]: expected an expression, found `;`"],
+    );
+    let mut map = SourceMap::new();
+    let text = "\u{feff}PROGRAM p\nVAR x : INT; END_VAR\nLD 1\nST x\nEND_PROGRAM\n";
+    let f = map.add("t.il", text);
+    let mut d = Diagnostics::new();
+    parse_il(f, text, &mut d);
+    assert_eq!(d.render(&map), "");
+}
+
 proptest::proptest! {
     #[test]
     fn never_panics(src in "[A-Za-z0-9_:=;().,\\[\\]#%'\"*+/<>&^ \n-]{0,200}") {

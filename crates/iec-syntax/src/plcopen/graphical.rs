@@ -36,6 +36,11 @@ use crate::xml::Element as X;
 /// here and a level of nesting in the checker).
 const MAX_CHAIN: usize = 256;
 
+/// The most values one body may compute. A function's result is inlined where it is used, so
+/// functions feeding each other on two wires each double the work: past this, the body is
+/// refused rather than expanded for ever.
+const MAX_WORK: usize = 200_000;
+
 /// The hidden structure type of SFC steps.
 pub(super) const STEP_TYPE: &str = "__SFC_STEP";
 
@@ -123,12 +128,26 @@ fn and(a: Expr, b: Expr) -> Expr {
         bin(BinaryOp::And, a, b)
     }
 }
-fn any(mut es: Vec<Expr>, span: Span) -> Expr {
-    if es.is_empty() {
-        return boolean(false, span);
+/// `op` over terms: from left to right as written for a few, as a balanced tree for many, so
+/// that an input wired to thousands of branches (or a step with thousands of transitions)
+/// gives a tree a dozen levels deep rather than thousands.
+fn fold_terms(op: BinaryOp, mut es: Vec<Expr>) -> Option<Expr> {
+    const IN_A_ROW: usize = 8;
+    if es.len() <= IN_A_ROW {
+        let mut es = es.into_iter();
+        let first = es.next()?;
+        return Some(es.fold(first, |a, b| bin(op, a, b)));
     }
-    let first = es.remove(0);
-    es.into_iter().fold(first, |a, b| bin(BinaryOp::Or, a, b))
+    let right = es.split_off(es.len() / 2);
+    Some(bin(op, fold_terms(op, es)?, fold_terms(op, right)?))
+}
+fn any(es: Vec<Expr>, span: Span) -> Expr {
+    fold_terms(BinaryOp::Or, es).unwrap_or_else(|| boolean(false, span))
+}
+/// The AND of the terms, TRUE ones dropped.
+fn all(es: Vec<Expr>, span: Span) -> Expr {
+    let es = es.into_iter().filter(|e| !is_true(e)).collect();
+    fold_terms(BinaryOp::And, es).unwrap_or_else(|| boolean(true, span))
 }
 fn assign(target: Expr, value: Expr) -> Stmt {
     let span = target.span;
@@ -242,6 +261,8 @@ struct Lower<'r, 'a, 'x> {
     declared: HashSet<String>,
     /// Prefix of hidden names (`__g`, or `__g_<action>_` for a nested body).
     prefix: String,
+    /// Values computed so far (bounded by [`MAX_WORK`]).
+    work: usize,
 }
 
 /// The expression text an element holds (`<variable>`, `<expression>`) and where it starts.
@@ -278,6 +299,7 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
             vars: Vec::new(),
             declared: HashSet::new(),
             prefix: "__g".into(),
+            work: 0,
         };
         for i in 0..l.els.len() {
             let el = l.els[i];
@@ -458,6 +480,17 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
             return Some(e.clone());
         }
         let block = self.els[i].name == "block";
+        self.work += 1;
+        if self.work > MAX_WORK {
+            if self.work == MAX_WORK + 1 {
+                self.error(
+                    i,
+                    diag::GRAPHICAL,
+                    format!("this body computes more than {MAX_WORK} values (function results used several times are inlined at every use); store shared results in variables"),
+                );
+            }
+            return None;
+        }
         if self.visiting.len() > MAX_CHAIN {
             self.error(
                 i,
@@ -1097,16 +1130,17 @@ pub(super) fn sfc(r: &mut Reader, pou: &str, pou_el: &X, body: &X) -> Lowered {
         let id = local_id(l.els[t]).unwrap_or(t as u64);
         let cond = condition(&mut l, pou_el, t);
         let Some(cond) = cond else { continue };
-        let mut e = boolean(true, span);
-        for s in &pre[&t] {
-            e = and(e, field(svar[s].0.clone(), "X"));
-        }
-        e = and(e, cond);
+        let mut terms: Vec<Expr> = pre[&t]
+            .iter()
+            .map(|s| field(svar[s].0.clone(), "X"))
+            .collect();
+        terms.push(cond);
         for &u in &done {
             if pre[&u].iter().any(|s| pre[&t].contains(s)) {
-                e = and(e, not(fire[&u].clone()));
+                terms.push(not(fire[&u].clone()));
             }
         }
+        let e = all(terms, span);
         let f = l.hidden(&format!("__t{id}"), "BOOL", None, span);
         l.stmts.push(assign(f.clone(), e));
         fire.insert(t, f);

@@ -269,6 +269,20 @@ arc a2 t1->p2 normal"#,
         );
     }
 
+    /// The deepest pages the XML reader lets through are read (the page walk is recursive)
+    /// on a test thread's 2 MiB stack in a debug build, the smallest the readers run on.
+    #[test]
+    fn pages_as_deep_as_xml_allows_are_read() {
+        let n = crate::xml::MAX_DEPTH - 6;
+        let open: String = (0..n).map(|i| format!("<page id=\"q{i}\">")).collect();
+        let text = page(&format!(
+            "{open}<place id=\"deep\"><initialMarking><text>1</text></initialMarking></place>{}",
+            "</page>".repeat(n)
+        ));
+        let doc = read_str(&text, "t.pnml", &ReadOptions::default()).unwrap();
+        assert_eq!(doc.net.places()[0].id, "deep");
+    }
+
     #[test]
     fn survives_hostile_nesting() {
         let deep = format!("<pnml>{}", "<page>".repeat(50_000));
@@ -317,6 +331,17 @@ arc a2 t1->p2 normal"#,
                 "could not read `{}`: No such file or directory (os error 2)",
                 missing.display()
             )
+        );
+        // A directory or a device is refused before anything is read (`/dev/zero` has no
+        // end).
+        let cause = |path: &std::path::Path| {
+            let err = crate::read_file(path, &ReadOptions::default()).unwrap_err();
+            std::error::Error::source(&err).unwrap().to_string()
+        };
+        assert_eq!(cause(&dir), "it is a directory; name a PNML file");
+        assert_eq!(
+            cause(std::path::Path::new("/dev/zero")),
+            "it is not a regular file (a device or a pipe); name a PNML file"
         );
         let latin1 = dir.join("latin1.pnml");
         std::fs::write(&latin1, b"<pnml>\n<net name=\"caf\xe9\"/></pnml>").unwrap();
