@@ -64,30 +64,14 @@ pub fn parse_raw_str(text: &str, file: &str, include_dir: &Path) -> Result<RawCo
     Reader::run(text, file, include_dir, id)
 }
 
-/// The largest configuration file read (MatPLC's are a few KiB).
-pub const MAX_FILE_BYTES: u64 = 16 << 20;
+/// The largest file read: [`petriplc_files::CONFIG`].
+pub const MAX_FILE_BYTES: u64 = petriplc_files::CONFIG.bytes;
 
 /// The bytes of a regular file as text; devices and directories are refused so an include
 /// of `/dev/zero` cannot hang the reader, and a file is read up to [`MAX_FILE_BYTES`].
 fn read_text(path: &Path) -> Result<String, String> {
-    use std::io::Read;
-    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
-    if meta.is_dir() {
-        return Err("it is a directory; name a configuration file".into());
-    }
-    if !meta.is_file() {
-        return Err("it is not a regular file".into());
-    }
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes))
-        .map_err(|e| e.to_string())?;
-    if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(format!(
-            "it is larger than {} MiB, more than a configuration can be",
-            MAX_FILE_BYTES >> 20
-        ));
-    }
+    let bytes = petriplc_files::read(path, petriplc_files::CONFIG).map_err(|e| e.reason())?;
+    // MatPLC's files are Latin-1 at times: bytes that are not UTF-8 are read as Latin-1.
     Ok(match String::from_utf8(bytes) {
         Ok(s) => s,
         Err(e) => e.into_bytes().iter().map(|&b| char::from(b)).collect(),
@@ -190,11 +174,15 @@ impl Reader {
         let id = match std::fs::canonicalize(&path) {
             Ok(id) => id,
             Err(e) => {
+                let why = match e.kind() {
+                    std::io::ErrorKind::NotFound => "no such file".to_string(),
+                    _ => e.to_string(),
+                };
                 self.diags.push(Diagnostic::new(
                     origin,
                     error::UNREADABLE,
                     format!(
-                        "cannot read included file `{shown}`: {e}; check the name (it is \
+                        "cannot read included file `{shown}`: {why}; check the name (it is \
                          relative to the directory of `{}`)",
                         origin.file
                     ),
@@ -645,7 +633,7 @@ t.conf:16: error[C007]: `v` is set to `2` here but to `1` at t.conf:15 in [s]: k
         check(
             "[PLC]\n\n*include \"other.conf\"\n",
             "t.conf:3: error[C001]: cannot read included file `/nonexistent-dir/other.conf`: \
-             No such file or directory (os error 2); check the name (it is relative to the \
+             no such file; check the name (it is relative to the \
              directory of `t.conf`)",
         );
     }

@@ -127,7 +127,7 @@ fn missing_include_names_file_and_line() {
     assert_eq!(
         diag.message,
         format!(
-            "cannot read included file `{}`: No such file or directory (os error 2); check the \
+            "cannot read included file `{}`: no such file; check the \
              name (it is relative to the directory of `main.conf`)",
             d.join("nowhere.conf").display()
         )
@@ -144,7 +144,7 @@ fn unreadable_files() {
         err.to_string(),
         format!(
             "m.conf:1: error[C001]: cannot read included file `{}`: it is a directory; name a configuration file\n\
-             m.conf:2: error[C001]: cannot read included file `/dev/zero`: it is not a regular file",
+             m.conf:2: error[C001]: cannot read included file `/dev/zero`: it is a device, not a regular file; name a configuration file",
             d.join("dir.conf").display()
         )
     );
@@ -152,7 +152,7 @@ fn unreadable_files() {
     assert_eq!(
         read_file(&missing).unwrap_err().to_string(),
         format!(
-            "{}: error[C001]: cannot read the configuration: No such file or directory (os error 2)",
+            "{}: error[C001]: cannot read the configuration: no such file",
             missing.display()
         )
     );

@@ -60,7 +60,7 @@ fn every_reference_file_reads_at_layer_one_or_misses_its_include() {
                 e.to_string(),
                 format!(
                     "{REFERENCE}/{name}:{line}: error[C001]: cannot read included file \
-                     `{REFERENCE}/vitrine.conf`: No such file or directory (os error 2); check \
+                     `{REFERENCE}/vitrine.conf`: no such file; check \
                      the name (it is relative to the directory of `{REFERENCE}/{name}`)"
                 ),
             ),

@@ -32,12 +32,12 @@ pub const CONFIG: Limit = Limit {
 /// IEC 61131-3 sources: Structured Text, Instruction List, PLCopen XML projects (all of
 /// OSCAT's libraries together are about 4 MiB).
 pub const IEC_SOURCE: Limit = Limit {
-    bytes: 128 << 20,
-    what: "an IEC 61131-3 source",
+    bytes: 256 << 20,
+    what: "a .st, .il or .xml file",
 };
 /// PNML nets (the largest P/T models of the Model Checking Contest are tens of MiB).
 pub const PNML: Limit = Limit {
-    bytes: 512 << 20,
+    bytes: 1 << 30,
     what: "a PNML file",
 };
 /// Timelines of inputs (CSV).
@@ -54,27 +54,23 @@ pub const SMALL: Limit = Limit {
 /// Why a file could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum FileError {
-    #[error("cannot read {}: no such file", .path.display())]
+    #[error("cannot read {}: {}", .path.display(), self.reason())]
     NotFound { path: PathBuf },
-    #[error("cannot read {}: it is {kind}, not a file; name {what}", .path.display())]
+    #[error("cannot read {}: {}", .path.display(), self.reason())]
     NotAFile {
         path: PathBuf,
         kind: Kind,
         what: &'static str,
     },
-    #[error(
-        "cannot read {}: it is larger than {} ({}), more than {what} can sensibly hold; check \
-         the path",
-        .path.display(), Size(*limit), Size(*size_at_least)
-    )]
+    #[error("cannot read {}: {}", .path.display(), self.reason())]
     TooLarge {
         path: PathBuf,
-        /// The file's size, or what was read before giving up (a pipe).
+        /// The file's size, or what was read before giving up (it grew while read).
         size_at_least: u64,
         limit: u64,
         what: &'static str,
     },
-    #[error("cannot read {}: {}", .path.display(), Reason(.source))]
+    #[error("cannot read {}: {}", .path.display(), self.reason())]
     Io {
         path: PathBuf,
         #[source]
@@ -83,6 +79,26 @@ pub enum FileError {
 }
 
 impl FileError {
+    /// What is wrong, without the file's name (for messages that name it already):
+    /// `it is a directory; name a PNML file`.
+    pub fn reason(&self) -> String {
+        match self {
+            FileError::NotFound { .. } => "no such file".to_string(),
+            FileError::NotAFile { kind, what, .. } => format!("it is {kind}; name {what}"),
+            FileError::TooLarge {
+                size_at_least,
+                limit,
+                what,
+                ..
+            } => format!(
+                "it is larger than {} ({}), more than {what} can sensibly be; check the path",
+                Size(*limit),
+                Size(*size_at_least)
+            ),
+            FileError::Io { source, .. } => Reason(source).to_string(),
+        }
+    }
+
     /// The file the error is about.
     pub fn path(&self) -> &Path {
         match self {
@@ -108,11 +124,11 @@ pub enum Kind {
 impl fmt::Display for Kind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Kind::Folder => "a folder",
-            Kind::Fifo => "a pipe (FIFO)",
-            Kind::CharDevice => "a character device",
-            Kind::BlockDevice => "a block device",
-            Kind::Socket => "a socket",
+            Kind::Folder => "a directory",
+            Kind::Fifo => "a pipe (FIFO), not a regular file",
+            Kind::CharDevice => "a device, not a regular file",
+            Kind::BlockDevice => "a block device, not a regular file",
+            Kind::Socket => "a socket, not a regular file",
             Kind::Other => "not a regular file",
         })
     }
@@ -266,7 +282,7 @@ mod tests {
             TINY,
             &format!(
                 "cannot read {}: it is larger than 10 bytes (11 bytes), more than a tiny file \
-                 can sensibly hold; check the path",
+                 can sensibly be; check the path",
                 f.display()
             ),
         );
@@ -283,7 +299,7 @@ mod tests {
         let e = read(Path::new(&fd), CONFIG).unwrap_err();
         assert!(
             e.to_string()
-                .ends_with("it is a pipe (FIFO), not a file; name a configuration file"),
+                .ends_with("it is a pipe (FIFO), not a regular file; name a configuration file"),
             "{e}"
         );
         child.kill().unwrap();
@@ -297,15 +313,15 @@ mod tests {
             dir.path(),
             CONFIG,
             &format!(
-                "cannot read {}: it is a folder, not a file; name a configuration file",
+                "cannot read {}: it is a directory; name a configuration file",
                 dir.path().display()
             ),
         );
         check_read(
             Path::new("/dev/zero"),
             IEC_SOURCE,
-            "cannot read /dev/zero: it is a character device, not a file; name an IEC \
-             61131-3 source",
+            "cannot read /dev/zero: it is a device, not a regular file; name a .st, .il or \
+             .xml file",
         );
         check_read(
             &dir.path().join("nope.st"),

@@ -28,8 +28,8 @@ pub struct Sources {
     pub diags: Diagnostics,
 }
 
-/// The largest source file read (positions in a source are 32-bit; no program is near this).
-pub const MAX_SOURCE_BYTES: u64 = 256 << 20;
+/// The largest file read: [`petriplc_files::IEC_SOURCE`].
+pub const MAX_SOURCE_BYTES: u64 = petriplc_files::IEC_SOURCE.bytes;
 
 /// Why sources could not be used.
 #[derive(Debug, thiserror::Error)]
@@ -89,28 +89,7 @@ impl Sources {
 
 /// The bytes of a source file, or why not (for a person).
 fn read_source(path: &Path) -> Result<Vec<u8>, String> {
-    use std::io::Read;
-    let named = "name a .st, .il or .xml file";
-    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
-    if meta.is_dir() {
-        return Err(format!("it is a directory; {named}"));
-    }
-    if !meta.is_file() {
-        return Err(format!(
-            "it is not a regular file (a device or a pipe); {named}"
-        ));
-    }
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes))
-        .map_err(|e| e.to_string())?;
-    if bytes.len() as u64 > MAX_SOURCE_BYTES {
-        return Err(format!(
-            "it is larger than {} MiB, more than a source can be",
-            MAX_SOURCE_BYTES >> 20
-        ));
-    }
-    Ok(bytes)
+    petriplc_files::read(path, petriplc_files::IEC_SOURCE).map_err(|e| e.reason())
 }
 
 /// What to run.

@@ -280,9 +280,8 @@ fn sources_that_are_not_files_are_refused() {
     );
     let e = s.add_file(std::path::Path::new("/dev/zero")).unwrap_err();
     assert!(
-        e.to_string().ends_with(
-            "it is not a regular file (a device or a pipe); name a .st, .il or .xml file"
-        ),
+        e.to_string()
+            .ends_with("it is a device, not a regular file; name a .st, .il or .xml file"),
         "{e}"
     );
     assert!(std::error::Error::source(&e).is_none());

@@ -45,8 +45,8 @@ pub struct Document {
     pub layout: Layout,
 }
 
-/// The largest PNML file read (a net of a million nodes is a few hundred MiB).
-pub const MAX_FILE_BYTES: u64 = 1 << 30;
+/// The largest file read: [`petriplc_files::PNML`].
+pub const MAX_FILE_BYTES: u64 = petriplc_files::PNML.bytes;
 
 /// Reads the one net of a PNML file. Only a regular file of at most [`MAX_FILE_BYTES`] is
 /// read: a directory, a device (`/dev/zero` would never end) or a pipe is refused.
@@ -63,27 +63,13 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<Document, PnmlError>
 }
 
 fn read_bounded(path: &Path) -> std::io::Result<Vec<u8>> {
-    use std::io::{Error, Read};
-    let meta = std::fs::metadata(path)?;
-    if meta.is_dir() {
-        return Err(Error::other("it is a directory; name a PNML file"));
-    }
-    if !meta.is_file() {
-        return Err(Error::other(
-            "it is not a regular file (a device or a pipe); name a PNML file",
-        ));
-    }
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)?
-        .take(MAX_FILE_BYTES + 1)
-        .read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(Error::other(format!(
-            "it is larger than {} MiB, more than a PNML file petriplc reads",
-            MAX_FILE_BYTES >> 20
-        )));
-    }
-    Ok(bytes)
+    petriplc_files::read(path, petriplc_files::PNML).map_err(|e| match e {
+        petriplc_files::FileError::Io { source, .. } => source,
+        e if matches!(e, petriplc_files::FileError::NotFound { .. }) => {
+            std::io::Error::new(std::io::ErrorKind::NotFound, e.reason())
+        }
+        e => std::io::Error::other(e.reason()),
+    })
 }
 
 /// Reads the one net of a PNML document; `source` names it in diagnostics.
