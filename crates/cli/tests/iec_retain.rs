@@ -68,6 +68,32 @@ fn stored(path: &Path) -> Vec<(String, i64)> {
         .collect()
 }
 
+/// Runs the PLC of `conf` until `done` holds, then kills it with SIGKILL.
+fn kill_9_once(conf: &Path, id: &str, done: impl Fn() -> bool) {
+    let mut plc = petriplc()
+        .arg("run")
+        .arg(conf)
+        .args(["--plc-id", id, "--log-level", "warn"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while !done() {
+        if let Some(exit) = plc.try_wait().unwrap() {
+            let out = plc.wait_with_output().unwrap();
+            panic!(
+                "the PLC exited ({exit}):\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        assert!(started.elapsed() < SAFETY_NET, "nothing retained in time");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    plc.kill().unwrap();
+    plc.wait().unwrap();
+}
+
 fn value(entries: &[(String, i64)], name: &str) -> Option<i64> {
     entries.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
 }
@@ -82,31 +108,9 @@ fn var_retain_survives_kill_9_and_a_changed_declaration_is_refused() {
     let id = format!("iecret-{}", std::process::id());
 
     // Run until the file holds a count of at least 50, then kill -9.
-    let mut plc = petriplc()
-        .arg("run")
-        .arg(&conf)
-        .args(["--plc-id", &id, "--log-level", "warn"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let started = Instant::now();
-    loop {
-        if value(&stored(&retain), "logic/main.total").is_some_and(|t| t >= 50) {
-            break;
-        }
-        if let Some(exit) = plc.try_wait().unwrap() {
-            let out = plc.wait_with_output().unwrap();
-            panic!(
-                "the PLC exited ({exit}):\n{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        assert!(started.elapsed() < SAFETY_NET, "nothing retained in time");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    plc.kill().unwrap();
-    plc.wait().unwrap();
+    kill_9_once(&conf, &id, || {
+        value(&stored(&retain), "logic/main.total").is_some_and(|t| t >= 50)
+    });
     let at_kill = stored(&retain);
     let total = value(&at_kill, "logic/main.total").unwrap();
     // The CTU instance is stored whole; its count follows the total.
@@ -213,22 +217,9 @@ fn a_plain_output_driving_a_retentive_point_goes_on_from_its_stored_value() {
     .unwrap();
     let retain = dir.path().join("state/plc.retain");
     let id = format!("iecpt-{}", std::process::id());
-    let mut plc = petriplc()
-        .arg("run")
-        .arg(&conf)
-        .args(["--plc-id", &id, "--log-level", "warn"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let started = Instant::now();
-    while stored_point(&retain, "batches").is_none_or(|b| b < 197) {
-        assert!(plc.try_wait().unwrap().is_none(), "the PLC exited");
-        assert!(started.elapsed() < SAFETY_NET, "nothing retained in time");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    plc.kill().unwrap();
-    plc.wait().unwrap();
+    kill_9_once(&conf, &id, || {
+        stored_point(&retain, "batches").is_some_and(|b| b >= 197)
+    });
     let at_kill = stored_point(&retain, "batches").unwrap();
 
     let out = petriplc()

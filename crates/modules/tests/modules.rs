@@ -221,7 +221,7 @@ fn petrinet_errors_name_the_signal_the_point_and_the_fix() {
     let e = start_err(&mixer(MIXER_POINTS, "net = nope.pnml"), &dir);
     assert!(
         e.starts_with("module ctl: net `nope.pnml`: could not read `")
-            && e.contains("nope.pnml`: No such file"),
+            && e.contains("nope.pnml`: no such file"),
         "{e}"
     );
     // A net read with the wrong naming has no signals the points could match, but its
@@ -458,7 +458,7 @@ fn timeline_errors() {
     let e = start_err(&text(ok, "file = /dev/zero"), dir.path());
     assert_eq!(
         e,
-        "module t: cannot read /dev/zero: it is a character device, not a file; name a timeline"
+        "module t: cannot read /dev/zero: it is a device, not a regular file; name a timeline"
     );
     assert_eq!(
         start_err(
