@@ -350,7 +350,7 @@ fn users_and_certificate_files_must_be_regular_files() {
         dir.path().join("state").display()
     ));
     assert!(
-        e.contains("own/cert.der: it is a pipe (FIFO), not a file"),
+        e.contains("own/cert.der: it is a pipe (FIFO), not a regular file"),
         "{e}"
     );
     assert!(
