@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Modbus TCP server throughput and latency: petriplc's modbus_server module (a PLC running
 # bench/modbus/plc.conf, release) against the libmodbus server
-# ../shared/bench/anchors/modbus_server.c (cc -O2), in the same run. A load generator
+# testdata/anchors/modbus_server.c (cc -O2), in the same run. A load generator
 # (crates/modbus/examples/modbus_load.rs: one blocking connection per client, requests back to
 # back) reads 10 holding registers with 1 and with 16 concurrent clients. Runs are interleaved
 # (anchor, petriplc, anchor, ...) so machine noise hits both; the table shows medians over RUNS
@@ -19,7 +19,7 @@ cd "$(dirname "$0")/.."
 RUNS=${RUNS:-3}
 CLIENTS=${CLIENTS:-"1 16"}
 SECONDS_PER_RUN=5
-ANCHORS=../shared/bench/anchors
+ANCHORS=testdata/anchors
 for arg in "$@"; do
   case "$arg" in
     --quick) SECONDS_PER_RUN=1 ;;

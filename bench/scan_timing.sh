@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Scan-timing lateness: petriplc's Period (crates/runtime/examples/cyclic.rs, release) against
-# the bare clock_nanosleep(TIMER_ABSTIME) loop ../shared/bench/anchors/cyclic.c (cc -O2), in the
+# the bare clock_nanosleep(TIMER_ABSTIME) loop testdata/anchors/cyclic.c (cc -O2), in the
 # same run. Both wake at every deadline of a 1 ms period for SECONDS and report lateness
 # (wake-up time - deadline) p50/p99/max over all wake-ups. Runs are interleaved (anchor,
 # petriplc, anchor, ...) so machine noise hits both; the table shows medians over RUNS runs and
@@ -17,7 +17,7 @@ RUNS=${RUNS:-3}
 PERIOD_US=${PERIOD_US:-1000}
 SECONDS_PER_RUN=10
 RT=${RT:-}
-ANCHORS=../shared/bench/anchors
+ANCHORS=testdata/anchors
 for arg in "$@"; do
   case "$arg" in
     --quick) SECONDS_PER_RUN=2 ;;

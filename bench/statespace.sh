@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # State-space exploration speed and memory: petriplc (release, all cores) against the plain C
-# breadth-first anchor (../shared/bench/anchors/naive_bfs.c, cc -O2), measured in the same run
+# breadth-first anchor (testdata/anchors/naive_bfs.c, cc -O2), measured in the same run
 # on the same models. Each model is run RUNS times, interleaved (anchor, analyze, search), so
 # machine noise hits all three; the tables show medians of states/s and of peak RSS
 # (`/usr/bin/time -v`):
@@ -19,8 +19,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 RUNS=${RUNS:-3}
-MCC=../shared/data/mcc
-ANCHORS=../shared/bench/anchors
+MCC=testdata/mcc
+ANCHORS=testdata/anchors
 MODELS=("$@")
 [ ${#MODELS[@]} -gt 0 ] || MODELS=(Kanban-PT-00005 FMS-PT-00005 MAPK-PT-00008)
 

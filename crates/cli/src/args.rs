@@ -247,8 +247,8 @@ pub struct SimArgs {
 #[derive(Debug, Args)]
 #[command(after_long_help = concat!("Examples:\n  \
     petriplc check examples/chaser/chaser.st\n  \
-    petriplc check \\\n      \
-        ../shared/schemas/plcopen/samples/plcopen_Standard_Function_Blocks.xml\n\n\
+    petriplc compile examples/mixer/mixer.pnml --names sipn --lang ld \\\n      \
+        --out out/mixer-ld.xml && petriplc check out/mixer-ld.xml\n\n\
     Every problem is printed at once as `file:line:col: error[Ennn]: message`\n\
     (codes in docs/iec.md): 0 when there is no error (warnings may be printed),\n\
     2 otherwise.\n\n",

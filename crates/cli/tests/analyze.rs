@@ -6,7 +6,7 @@ use predicates::prelude::*;
 use serde_json::Value;
 
 const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-const MCC: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/mcc");
+const MCC: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/mcc");
 
 fn petriplc(args: &[&str]) -> Command {
     let mut cmd = Command::cargo_bin("petriplc").unwrap();

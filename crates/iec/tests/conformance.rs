@@ -479,7 +479,7 @@ fn every_graphical_corpus_project_gives_its_expected_values() {
 fn graphical_corpus_projects_are_valid_tc6_xml() {
     let schema = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/schemas/plcopen/tc6_xml_v201.xsd"
+        "/../../testdata/schemas/plcopen/tc6_xml_v201.xsd"
     );
     let files = graphical_corpus();
     let out = Command::new("xmllint")

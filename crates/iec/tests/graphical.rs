@@ -100,28 +100,6 @@ fn sfc_structure_errors_name_the_element() {
 }
 
 #[test]
-fn beremiz_traffic_light_sfc_is_checked() {
-    // The project's HMI types come from Beremiz's SVGHMI library, which is not in the file;
-    // the SFC function block itself checks.
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/schemas/plcopen/samples/exemples_svghmi_traffic_light.xml"
-    );
-    let mut s = Sources::new();
-    s.add_file(std::path::Path::new(path)).unwrap();
-    let Err(e) = check(&s, &Natives::default()) else {
-        panic!("the HMI types are missing, so the check fails");
-    };
-    let e = e.to_string();
-    assert!(
-        e.lines()
-            .filter(|l| l.contains("error["))
-            .all(|l| l.contains("unknown type `HMI_BOOL`")),
-        "{e}"
-    );
-}
-
-#[test]
 fn a_very_long_rung_is_refused_not_a_stack_overflow() {
     let mut body =
         String::from(r#"<leftPowerRail localId="1"><position x="0" y="0"/></leftPowerRail>"#);

@@ -1,16 +1,16 @@
-//! Every Model Checking Contest net in ../shared/data/mcc reads with the place, transition
+//! Every Model Checking Contest net in testdata/mcc reads with the place, transition
 //! and arc counts INDEX.tsv gives, writes back as valid PNML and reads back equal.
 
 mod common;
 
 use petriplc_pnml::{read_file, read_str, write_string, ReadOptions};
 
-const MCC: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/mcc");
+const MCC: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/mcc");
 
 #[test]
 fn every_mcc_model_reads_writes_validates_and_reads_back() {
     let index = std::fs::read_to_string(format!("{MCC}/INDEX.tsv")).unwrap_or_else(|e| {
-        panic!("{MCC}/INDEX.tsv: {e} (../shared must sit beside the checkout)")
+        panic!("{MCC}/INDEX.tsv: {e} (testdata/mcc is part of the repository)")
     });
     let mut lines = index.lines().filter(|l| !l.trim().is_empty());
     let header: Vec<&str> = lines

@@ -1,4 +1,4 @@
-//! The bare-loop measurement of `../shared/bench/anchors/cyclic.c`, taken through [`Period`]:
+//! The bare-loop measurement of `testdata/anchors/cyclic.c`, taken through [`Period`]:
 //! wake up at every deadline of a fixed period and record how late each wake-up was.
 //!
 //! Usage: `cyclic PERIOD_US SECONDS [--rt PRIORITY]`. Prints on stdout, in cyclic.c's format,

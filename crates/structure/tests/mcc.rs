@@ -1,4 +1,4 @@
-//! Invariants of every model in ../shared/data/mcc: each P-invariant is a true conservation
+//! Invariants of every model in testdata/mcc: each P-invariant is a true conservation
 //! law (yᵀC = 0, and y·M stays y·M0 along a random run), each T-invariant has Cx = 0, the
 //! structural bounds are at least the MCC's known place bounds, the four unbounded models
 //! are not shown bounded, and the models whose computation hits the limits are the expected
@@ -15,10 +15,7 @@ use petriplc_structure::{
 };
 
 fn mcc_dir() -> PathBuf {
-    PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/mcc"
-    ))
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/mcc"))
 }
 
 /// Enough for every model but the few listed in `EXPECT_INCOMPLETE`, and small enough that
@@ -50,7 +47,7 @@ const EXPECT_INCOMPLETE: [(&str, bool, bool); 5] = [
 
 fn models() -> Vec<(String, Net)> {
     let mut dirs: Vec<PathBuf> = std::fs::read_dir(mcc_dir())
-        .expect("../shared/data/mcc sits beside the checkout")
+        .expect("testdata/mcc, part of the repository")
         .map(|e| e.unwrap().path())
         .filter(|p| p.join("model.pnml").exists())
         .collect();

@@ -9,6 +9,10 @@
 //! s NAME in|out bool|int                 a signal declaration
 //! step sequential | evolve until-stable  the net's scan options
 //! ```
+//!
+//! [`data`] says where tests find their data files.
+
+pub mod data;
 
 use std::time::Duration;
 

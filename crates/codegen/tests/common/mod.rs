@@ -1,5 +1,5 @@
 //! Helpers shared by the code generation tests: the examples as nets, and validation of
-//! PLCopen XML with xmllint against the TC6 v2.01 schema in ../shared.
+//! PLCopen XML with xmllint against the TC6 v2.01 schema in testdata/schemas/plcopen.
 #![allow(dead_code)]
 
 pub mod random;
@@ -12,7 +12,7 @@ use petriplc_pnml::{Naming, ReadOptions};
 
 pub const SCHEMA: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/schemas/plcopen/tc6_xml_v201.xsd"
+    "/../../testdata/schemas/plcopen/tc6_xml_v201.xsd"
 );
 pub const EXAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
 

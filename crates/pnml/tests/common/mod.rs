@@ -1,4 +1,4 @@
-//! Helpers shared by the integration tests: where the shared material is, xmllint, and
+//! Helpers shared by the integration tests: where the test data is (testdata/), xmllint, and
 //! random valid nets.
 
 // Each test crate uses a different part of these helpers.
@@ -9,8 +9,8 @@ pub mod nets;
 use std::io::Write;
 use std::process::{Command, Stdio};
 
-/// The shared PNML grammars (../shared beside the checkout).
-pub const SCHEMAS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/schemas/pnml");
+/// The PNML grammars (testdata/schemas/pnml).
+pub const SCHEMAS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/schemas/pnml");
 /// petriplc's own grammar for nets with read arcs.
 pub const READ_SCHEMA: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),

@@ -1,11 +1,11 @@
-//! The Model Checking Contest models in ../shared/data/mcc and their known answers, shared by
+//! The Model Checking Contest models in testdata/mcc and their known answers, shared by
 //! the debug suite (tests/mcc.rs) and the release-only suite (tests/mcc_big.rs).
 
 use std::path::{Path, PathBuf};
 
 use petriplc_reach::{coverability, explore, properties, ExploreOptions};
 
-pub const MCC: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/mcc");
+pub const MCC: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/mcc");
 
 /// Models up to this many states run in the debug suite.
 pub const SMALL: u64 = 100_000;
@@ -72,7 +72,7 @@ impl Expect {
 /// Every model folder, by name.
 pub fn models() -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(MCC)
-        .expect("../shared/data/mcc beside the checkout")
+        .expect("testdata/mcc, part of the repository")
         .filter_map(|e| e.ok())
         .filter(|e| e.path().join("model.pnml").is_file())
         .map(|e| e.file_name().to_string_lossy().into_owned())
