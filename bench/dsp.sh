@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# The dsp module's scan cost: petriplc-dsp's criterion benchmark (crates/dsp/benches/chain.rs:
+# The dsp module's scan cost: petriplc-dsp's criterion benchmark (crates/base/dsp/benches/chain.rs:
 # a chain of 1000 mixed blocks, and filters with 1000 second-order sections in all), the whole
-# module scan with its points (crates/modules/benches/dsp_module.rs, through the harness:
+# module scan with its points (crates/plc/modules/benches/dsp_module.rs, through the harness:
 # update(), scan, update() on a real process image) against,
 # in the same run, a plain C cascade of sections stepped sample by sample
 # (bench/dsp/sos_anchor.c, cc -O2: the floor) and SciPy's sosfilt on a whole array (its C

@@ -2,7 +2,7 @@
 # Modbus TCP server throughput and latency: petriplc's modbus_server module (a PLC running
 # bench/modbus/plc.conf, release) against the libmodbus server
 # testdata/anchors/modbus_server.c (cc -O2), in the same run. A load generator
-# (crates/modbus/examples/modbus_load.rs: one blocking connection per client, requests back to
+# (crates/io/modbus/examples/modbus_load.rs: one blocking connection per client, requests back to
 # back) reads 10 holding registers with 1 and with 16 concurrent clients. Runs are interleaved
 # (anchor, petriplc, anchor, ...) so machine noise hits both; the table shows medians over RUNS
 # runs, and the ratios petriplc/anchor of throughput and p99 latency against the goals (16

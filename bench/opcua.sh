@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # OPC UA server figures beside the Modbus server's, in the same run and the same PLC
 # (bench/opcua/plc.conf, release): reads of ten points per request with 1 and 10 clients
-# (crates/opcua/examples/opcua_load.rs: async-opcua's client, one session per client,
-# requests back to back; crates/modbus/examples/modbus_load.rs: FC 3 of ten registers, one
+# (crates/io/opcua/examples/opcua_load.rs: async-opcua's client, one session per client,
+# requests back to back; crates/io/modbus/examples/modbus_load.rs: FC 3 of ten registers, one
 # connection per client), and the subscription latency from the scan that changes a point to
 # the client's notification (source timestamp to arrival, same clock). Runs are interleaved
 # (Modbus, OPC UA, Modbus, ...) so machine noise hits both; medians over RUNS runs.

@@ -5,7 +5,7 @@
 #     (cc -O2, -DPETRIPLC_MAIN: its software-in-the-loop main, same timeline, same trace);
 #     the two traces must be identical. Goal: <= 2x.
 #  2. 1000 mixer copies where one copy's input changes per scan: the incremental scanner
-#     (crates/sim/examples/scan-copies.rs, what `petriplc sim` and the petrinet module run)
+#     (crates/petri/sim/examples/scan-copies.rs, what `petriplc sim` and the petrinet module run)
 #     against the generated C's step() on the same schedule (bench/scan/driver.c), time per
 #     scan of the scan loop; both print a checksum of the final marking, which must agree.
 #     Goal: faster than the C (ratio < 1). The reference evaluator is shown for comparison.

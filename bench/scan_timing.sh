@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Scan-timing lateness: petriplc's Period (crates/runtime/examples/cyclic.rs, release) against
+# Scan-timing lateness: petriplc's Period (crates/plc/runtime/examples/cyclic.rs, release) against
 # the bare clock_nanosleep(TIMER_ABSTIME) loop testdata/anchors/cyclic.c (cc -O2), in the
 # same run. Both wake at every deadline of a 1 ms period for SECONDS and report lateness
 # (wake-up time - deadline) p50/p99/max over all wake-ups. Runs are interleaved (anchor,

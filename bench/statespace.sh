@@ -8,7 +8,7 @@
 #     invariants, boundedness, exploration, deadlocks, liveness, reversibility, home
 #     markings, the report): states / wall-clock seconds of the process. Goal: >= 3x the
 #     anchor's states/s and peak memory <= the anchor's.
-#  2. the search alone (crates/reach/examples/reach-bench): both tools' own timing of the
+#  2. the search alone (crates/petri/reach/examples/reach-bench): both tools' own timing of the
 #     search, without reading the model. Goal: keep >= 3x.
 # The anchor's states/s is its own timing of its search (without reading its input), which
 # favours it against the whole command.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # update() of a module map against memcpy of the same words, in the same process, in turns
-# (crates/runtime/examples/update-ratio.rs): the module owns a quarter of the 32-bit points,
+# (crates/plc/runtime/examples/update-ratio.rs): the module owns a quarter of the 32-bit points,
 # interleaved (word i owned by module i mod 4, the worst case) or as one block; nothing
 # changes between updates (a steady scan), except in `interleaved-changed`, where every word
 # is rewritten (untimed) before each update and each memcpy. Prints the medians and the

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Where the Modbus TCP server spends its time with 16 clients: `perf record` of the PLC running
-# bench/modbus/plc.conf while crates/modbus/examples/modbus_load keeps 16 connections busy,
+# bench/modbus/plc.conf while crates/io/modbus/examples/modbus_load keeps 16 connections busy,
 # then a summary of the profile (self time by symbol, and the callers of the top ones).
 # Writes OUT (default out/modbus-profile.txt); the summary of the figures in docs/modbus.md
 # and docs/performance.md is bench/modbus/profile-16-clients.txt.

@@ -1,5 +1,5 @@
 /* The generated C's side of bench/scan.sh: the C that `petriplc compile --lang c` writes for
- * N mixer copies (crates/sim/examples/scan-copies.rs), scanned on the schedule scan-copies
+ * N mixer copies (crates/petri/sim/examples/scan-copies.rs), scanned on the schedule scan-copies
  * uses (scan k changes one input of copy k mod N), timing the scan loop alone.
  * Build: cc -O2 -DPETRIPLC_MAIN -DGENERATED='"mixers.c"' -o driver driver.c
  * Usage: driver SCANS */

@@ -3,7 +3,7 @@
 #
 #   bash examples/c-module/run.sh [petriplc run options, e.g. --for 5s or --plc-id demo]
 #
-# 1. libpetriplc (the C API, crates/capi) with cargo, in target/c-module/, 2. blinker linked
+# 1. libpetriplc (the C API, crates/plc/capi) with cargo, in target/c-module/, 2. blinker linked
 # statically against it into out/c-module/, 3. `petriplc run examples/c-module/plc.conf` with
 # your options.
 # `petriplc` is the one on your PATH (cargo install --path crates/cli), else it is built.
@@ -18,7 +18,7 @@ echo "== cargo build -p petriplc-capi (into $target/c-module)" >&2
 CARGO_TARGET_DIR="$target/c-module" cargo build --quiet -p petriplc-capi
 mkdir -p out/c-module
 echo "== cc blinker.c -> out/c-module/blinker" >&2
-cc -std=c99 -Wall -Wextra -O2 -I crates/capi/include examples/c-module/blinker.c \
+cc -std=c99 -Wall -Wextra -O2 -I crates/plc/capi/include examples/c-module/blinker.c \
    "$target/c-module/debug/libpetriplc.a" -lpthread -ldl -lm -o out/c-module/blinker
 
 if command -v petriplc >/dev/null 2>&1; then

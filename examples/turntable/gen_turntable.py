@@ -117,7 +117,7 @@ Inputs (input places, read and inhibitor arcs only): the controller's MR, ML (eq
 BB (eq. 2). Outputs: SR, SL (eq. 3, 4), SWP (eq. 5).
 
 The continuous state is abstracted to regions; the built-in plant `turntable` integrates it
-and crates/closedloop/tests/turntable.rs checks scan by scan that every change of the
+and crates/petri/closedloop/tests/turntable.rs checks scan by scan that every change of the
 continuous plant is a firing sequence of this net, within its delays and deadlines.
   angle α:  right (SR band, |α| <= B_α/2) - between - left (SL band, |α - 90°| <= B_α/2)
   belt x:   free (no workpiece) | M_minus (x < -B_x/2) - M_centre_from_minus /

@@ -105,7 +105,7 @@ fn expected(src: &str) -> Vec<(usize, usize)> {
 }
 
 fn main() {
-    let corpus = files(Path::new("crates/iec/tests/corpus"), "st");
+    let corpus = files(Path::new("crates/compiler/iec/tests/corpus"), "st");
     let errors = files(Path::new("bench/iec-parsers/errors"), "st");
     let sources: Vec<(PathBuf, String)> = corpus
         .iter()
@@ -183,7 +183,7 @@ fn main() {
     }
     // PLCopen XML: the samples, what `petriplc compile` writes and a CODESYS-style export.
     let mut xml = files(Path::new("../shared/schemas/plcopen/samples"), "xml");
-    xml.extend(files(Path::new("crates/iec/tests/data"), "xml"));
+    xml.extend(files(Path::new("crates/compiler/iec/tests/data"), "xml"));
     let mut ours = 0;
     let mut theirs = 0;
     let mut their_st = 0;

@@ -194,7 +194,7 @@ fn never_needs_a_plant() {
 }
 
 const OBSERVED_TANK: &str = "examples/mixer/tank-observed.pnml";
-const WRONG_MIXER: &str = "crates/closedloop/tests/data/mixer-wrong.pnml";
+const WRONG_MIXER: &str = "crates/petri/closedloop/tests/data/mixer-wrong.pnml";
 
 #[test]
 fn closed_loop_proves_the_valves_exclusive() {

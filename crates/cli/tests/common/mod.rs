@@ -19,7 +19,7 @@ pub fn c_module(dir: &Path, name: &str, source: &str, flags: &[&str]) -> PathBuf
     let file = dir.join(format!("{name}.c"));
     fs::write(&file, source).unwrap();
     let program = dir.join(name);
-    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../capi/include");
+    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../plc/capi/include");
     let out = Command::new("cc")
         .args(["-std=c99"])
         .args(flags)
