@@ -24,7 +24,9 @@ const PATIENCE: Duration = Duration::from_secs(15);
 fn python() -> PathBuf {
     std::env::var_os("PETRIPLC_PYTHON")
         .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../target/py/bin/python"))
+        .unwrap_or_else(|| {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../target/py/bin/python")
+        })
 }
 
 /// The Python host: its JSON lines arrive on a channel.

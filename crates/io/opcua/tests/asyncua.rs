@@ -32,7 +32,9 @@ const KINDS: &[&str] = &[
 fn python() -> PathBuf {
     std::env::var_os("PETRIPLC_PYTHON")
         .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../target/py/bin/python"))
+        .unwrap_or_else(|| {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../target/py/bin/python")
+        })
 }
 
 fn script() -> PathBuf {

@@ -15,7 +15,10 @@ use petriplc_structure::{
 };
 
 fn mcc_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../testdata/mcc"))
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../testdata/mcc"
+    ))
 }
 
 /// Enough for every model but the few listed in `EXPECT_INCOMPLETE`, and small enough that

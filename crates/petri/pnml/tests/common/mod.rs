@@ -10,7 +10,10 @@ use std::io::Write;
 use std::process::{Command, Stdio};
 
 /// The PNML grammars (testdata/schemas/pnml).
-pub const SCHEMAS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../testdata/schemas/pnml");
+pub const SCHEMAS: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../../testdata/schemas/pnml"
+);
 /// petriplc's own grammar for nets with read arcs.
 pub const READ_SCHEMA: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
