@@ -269,3 +269,48 @@ fn a_stuck_scan_on_the_soft_plc_names_its_file_and_line() {
         .unwrap();
     assert!(at.split('.').nth(1).is_none_or(|f| f.len() <= 3), "{log}");
 }
+
+/// Issue 28: `petriplc sim PROGRAM --plant turntable --plant-set K_alpha=45` silently ignored
+/// the setting (the CLI read --plant-set only for nets). Programs and nets now build their
+/// plant the same way: a setting is taken, a wrong one refused.
+#[test]
+fn plant_settings_apply_to_a_program_as_to_a_net() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = file(
+        &dir,
+        "p.st",
+        "PROGRAM main\nVAR_OUTPUT ML, MR : BOOL; END_VAR\nML := FALSE;\nEND_PROGRAM\n",
+    );
+    let run = |sets: &[&str]| {
+        let mut args = vec![
+            "sim",
+            prog.as_str(),
+            "--plant",
+            "turntable",
+            "--until",
+            "0.1",
+        ];
+        for s in sets {
+            args.extend(["--plant-set", s]);
+        }
+        petriplc().args(&args).assert()
+    };
+    run(&["K_alpha=45"]).success();
+    run(&["speed=3"]).code(2).stderr(predicate::str::contains(
+        "the turntable has no setting `speed`",
+    ));
+    run(&["K_alpha=fast"])
+        .code(2)
+        .stderr(predicate::str::contains(
+            "turntable setting `K_alpha = fast`",
+        ));
+    // Without a plant, a setting has nothing to apply to: the usage error names --plant.
+    petriplc()
+        .args(["sim", &prog, "--until", "0.1", "--plant-set", "L=3"])
+        .assert()
+        .code(2)
+        .stderr(
+            predicate::str::contains("required arguments were not provided")
+                .and(predicate::str::contains("--plant <NAME|PNML>")),
+        );
+}

@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use indicatif::{ProgressBar, ProgressStyle};
-use petriplc_net::ScanOptions;
+use petriplc_net::{Net, ScanOptions};
 use petriplc_pnml::ReadOptions;
 use petriplc_sim::{NetPlant, Plant, PlotOptions, SimOptions, Simulation, Timeline};
 
@@ -58,37 +58,8 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         .map(Timeline::read_file)
         .transpose()
         .bad_input()?;
-    // A plant net is read with the plain convention: its signals are declared in the file.
-    let plant_net = match &args.plant {
-        Some(spec) if is_net_path(spec) => Some(
-            petriplc_pnml::read_file(Path::new(spec), &ReadOptions::default())
-                .bad_input()?
-                .net,
-        ),
-        _ => None,
-    };
-    let settings: Vec<(&str, &str)> = args
-        .plant_set
-        .iter()
-        .map(|(k, v)| (k.as_str(), v.as_str()))
-        .collect();
-    let plant: Option<Box<dyn Plant + '_>> = match (&args.plant, &plant_net) {
-        (None, _) => None,
-        (Some(_), Some(_)) if !settings.is_empty() => {
-            return Err(anyhow!(
-                "--plant-set applies to a built-in plant; a plant net's behaviour is in its file"
-            ))
-            .bad_input()
-        }
-        (Some(_), Some(net)) => Some(Box::new(NetPlant::new(net, ScanOptions::of(net)))),
-        (Some(name), None) => Some(
-            petriplc_sim::builtin_with(name, &settings)
-                .map_err(|e| anyhow!("--plant-set: {e}"))
-                .bad_input()?
-                .ok_or_else(|| unknown_plant(name))
-                .bad_input()?,
-        ),
-    };
+    let plant_net = plant_net(&args)?;
+    let plant = plant(&args, plant_net.as_ref())?;
     let scan = ScanOptions {
         step: args.step.map_or(net.step, Into::into),
         evolve: args.evolve.map_or(net.evolve, Into::into),
@@ -410,23 +381,8 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
         .map(Timeline::read_file)
         .transpose()
         .bad_input()?;
-    let plant_net = match &args.plant {
-        Some(spec) if is_net_path(spec) => Some(
-            petriplc_pnml::read_file(Path::new(spec), &ReadOptions::default())
-                .bad_input()?
-                .net,
-        ),
-        _ => None,
-    };
-    let plant: Option<Box<dyn Plant + '_>> = match (&args.plant, &plant_net) {
-        (None, _) => None,
-        (Some(_), Some(net)) => Some(Box::new(NetPlant::new(net, ScanOptions::of(net)))),
-        (Some(name), None) => Some(
-            petriplc_sim::builtin(name)
-                .ok_or_else(|| unknown_plant(name))
-                .bad_input()?,
-        ),
-    };
+    let plant_net = plant_net(&args)?;
+    let plant = plant(&args, plant_net.as_ref())?;
     let until = until_of(&args, timeline.as_ref())?;
     let options = petriplc_iec::sim::SimOptions {
         period: args.period,
@@ -504,6 +460,48 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
 fn is_net_path(spec: &str) -> bool {
     let lower = spec.to_ascii_lowercase();
     lower.ends_with(".pnml") || lower.ends_with(".xml") || spec.contains(std::path::MAIN_SEPARATOR)
+}
+
+/// The plant net `--plant FILE.pnml` names, read with the plain convention (its signals are
+/// declared in the file); `None` for a built-in plant or none.
+fn plant_net(args: &SimArgs) -> Result<Option<Net>, Failure> {
+    match &args.plant {
+        Some(spec) if is_net_path(spec) => Ok(Some(
+            petriplc_pnml::read_file(Path::new(spec), &ReadOptions::default())
+                .bad_input()?
+                .net,
+        )),
+        _ => Ok(None),
+    }
+}
+
+/// The plant `--plant` and `--plant-set` ask for, for a net and for an IEC program alike: the
+/// plant net (`net`, from [`plant_net`]) or a built-in plant with its settings.
+fn plant<'a>(args: &SimArgs, net: Option<&'a Net>) -> Result<Option<Box<dyn Plant + 'a>>, Failure> {
+    let settings: Vec<(&str, &str)> = args
+        .plant_set
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.as_str()))
+        .collect();
+    match (&args.plant, net) {
+        (None, _) if !settings.is_empty() => Err(anyhow!(
+            "--plant-set applies to a plant: add --plant NAME (one of the built-in plants)"
+        ))
+        .bad_input(),
+        (None, _) => Ok(None),
+        (Some(_), Some(_)) if !settings.is_empty() => Err(anyhow!(
+            "--plant-set applies to a built-in plant; a plant net's behaviour is in its file"
+        ))
+        .bad_input(),
+        (Some(_), Some(net)) => Ok(Some(Box::new(NetPlant::new(net, ScanOptions::of(net))))),
+        (Some(name), None) => Ok(Some(
+            petriplc_sim::builtin_with(name, &settings)
+                .map_err(|e| anyhow!("--plant-set: {e}"))
+                .bad_input()?
+                .ok_or_else(|| unknown_plant(name))
+                .bad_input()?,
+        )),
+    }
 }
 
 fn unknown_plant(name: &str) -> anyhow::Error {
