@@ -1,7 +1,8 @@
-//! Every documented command, run as written: each ```sh block of README.md, docs/*.md and
-//! examples/*/README.md, and every example of every subcommand's `--help`, from the
-//! repository root with `petriplc` on the PATH meaning the binary under test. Documents added
-//! later are picked up by these globs; the convention (docs/ARCHITECTURE.md, Testing):
+//! Every documented command, run as written: each ```sh block of README.md, CONTRIBUTING.md,
+//! docs/*.md, examples/*/README.md and the crate groups' READMEs, and every example of every
+//! subcommand's `--help`, from the repository root with `petriplc` on the PATH meaning the
+//! binary under test. Documents added later are picked up by these globs; the convention
+//! (CONTRIBUTING.md, "Documented commands are tests"):
 //!
 //! - a ```sh block is run, line by line (`\` continues a line); any other language (```text
 //!   for synopses and output samples) is not run, and every fence must name its language;
@@ -467,11 +468,19 @@ fn run_document(name: &str, commands: &[Cmd]) -> Vec<String> {
     failures
 }
 
-/// README.md, docs/*.md and examples/*/README.md, relative to the root, sorted.
+/// README.md, CONTRIBUTING.md, docs/*.md, examples/*/README.md and the crate groups'
+/// crates/README.md and crates/*/README.md, relative to the root, sorted.
 fn documents() -> Vec<String> {
     let root = root();
-    let mut docs = vec!["README.md".to_string()];
-    let mut more = Vec::new();
+    let mut docs = vec!["README.md".to_string(), "CONTRIBUTING.md".to_string()];
+    let mut more = vec!["crates/README.md".to_string()];
+    for entry in fs::read_dir(root.join("crates")).unwrap() {
+        let p = entry.unwrap().path().join("README.md");
+        if p.is_file() {
+            let dir = p.parent().unwrap().file_name().unwrap().to_string_lossy();
+            more.push(format!("crates/{dir}/README.md"));
+        }
+    }
     for entry in fs::read_dir(root.join("docs")).unwrap() {
         let p = entry.unwrap().path();
         if p.extension().is_some_and(|e| e == "md") {

@@ -260,7 +260,8 @@ fn c_module_runs_free_on_its_scan_period() {
         let n = plc.global.read_point(&plc.layout, scans);
         let l = plc.global.read_point(&plc.layout, lamp);
         lamps_seen[usize::from(l == petriplc_config::PointValue::Unsigned(1))] = true;
-        if n == petriplc_config::PointValue::Unsigned(21) {
+        // At least 21: a poller descheduled for longer than a period misses single values.
+        if matches!(n, petriplc_config::PointValue::Unsigned(k) if k >= 21) {
             break;
         }
         if let Some(status) = child.try_wait().unwrap() {
