@@ -11,7 +11,7 @@ use petriplc_net::{
 use crate::diag::{self, Code, Diagnostic, LineIndex, Location, Severity};
 use crate::layout::{Extras, Layout};
 use crate::vocab;
-use crate::xml::{self, Element};
+use crate::xml::{self, Element, LeadingBlanks};
 use crate::{Document, Naming, PnmlError, ReadOptions};
 
 /// Reads one net from `text`; `source` names the file in diagnostics.
@@ -23,8 +23,12 @@ pub(crate) fn read(text: &str, source: &str, opts: &ReadOptions) -> Result<Docum
     } else {
         0
     };
-    match xml::parse(text.get(base..).unwrap_or(""), base) {
+    match xml::parse_at(text.get(base..).unwrap_or(""), base, LeadingBlanks::Keep) {
         Ok(root) => r.document(&root),
+        Err(e) if e.message.starts_with("elements are nested") => {
+            let msg = format!("{}; PNML needs far fewer", e.message);
+            r.error(diag::XML, e.offset, None, msg)
+        }
         Err(e) => r.error(diag::XML, e.offset, None, e.message),
     }
     r.finish()
