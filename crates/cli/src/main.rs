@@ -32,7 +32,7 @@ fn main() -> ExitCode {
 }
 
 /// Prints an error for a person: file diagnostics one per line, compiler style (at most
-/// [`diagnostics::MAX_SHOWN`], then their count), then a closing line; anything else as
+/// [`petriplc_diag::cap::MAX_PRINTED`], then their count), then a closing line; anything else as
 /// `error: ` and its chain of causes.
 fn report(error: &anyhow::Error) {
     match error
@@ -42,7 +42,7 @@ fn report(error: &anyhow::Error) {
         Some(diagnostics) if !diagnostics.is_empty() => {
             let lines: Vec<String> = diagnostics.iter().map(ToString::to_string).collect();
             let n = diagnostics.len();
-            let file = &diagnostics[0].file;
+            let file = &diagnostics[0].span.file;
             diagnostics::eprint(&format!(
                 "{}\nerror: {file} is not a valid net ({n} problem{}); nothing was run",
                 lines.join("\n"),

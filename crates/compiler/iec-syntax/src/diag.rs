@@ -3,19 +3,13 @@
 //! statements and calls, `E4xx` configurations, `E9xx` what the engine does not support yet;
 //! `Wxxx` warnings. [`CODES`] lists them all with a title, for the documentation.
 
-use std::fmt;
-
 use crate::source::{SourceMap, Span};
 
-/// A stable diagnostic code such as `E110`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct Code(pub &'static str);
+pub use petriplc_diag::{shorten, Code, Label, Severity, MAX_SHOWN};
 
-impl fmt::Display for Code {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.0)
-    }
-}
+/// One problem, where it is (a byte span, turned into a line and column by the
+/// [`SourceMap`] when rendered), and what to write instead.
+pub type Diagnostic = petriplc_diag::Diagnostic<Span>;
 
 macro_rules! codes {
     ($($name:ident = $code:literal : $title:literal,)*) => {
@@ -82,113 +76,6 @@ codes! {
     UNUSED_RESULT = "W003": "a function call whose result is thrown away",
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Severity {
-    Error,
-    Warning,
-}
-
-/// One problem, where it is, and what to write instead.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Diagnostic {
-    pub code: Code,
-    pub severity: Severity,
-    pub span: Span,
-    /// What is wrong and what to write instead.
-    pub message: String,
-}
-
-impl Diagnostic {
-    pub fn error(code: Code, span: Span, message: impl Into<String>) -> Self {
-        Diagnostic {
-            code,
-            severity: Severity::Error,
-            span,
-            message: shorten(message.into()),
-        }
-    }
-
-    pub fn warning(code: Code, span: Span, message: impl Into<String>) -> Self {
-        Diagnostic {
-            code,
-            severity: Severity::Warning,
-            span,
-            message: shorten(message.into()),
-        }
-    }
-
-    /// `file:line:col: error[E110]: message`.
-    pub fn render(&self, map: &SourceMap) -> String {
-        let kind = match self.severity {
-            Severity::Error => "error",
-            Severity::Warning => "warning",
-        };
-        format!(
-            "{}: {kind}[{}]: {}",
-            map.position(self.span),
-            self.code,
-            self.message
-        )
-    }
-}
-
-/// Characters of a name or excerpt a message shows in full.
-pub const MAX_SHOWN: usize = 60;
-/// Characters kept of a longer one (then `…` and its length).
-const KEPT: usize = 40;
-
-/// A message on one line (a source excerpt's line breaks and other control characters become
-/// spaces), with every name or excerpt longer than [`MAX_SHOWN`] characters cut to its first
-/// 40, `…` and its length (`aaaa…(10000 characters)`): a `…`-quoted excerpt as a whole, and
-/// any other run of characters without spaces. A 10 000-character identifier is then one
-/// short line, not a screenful per message.
-pub fn shorten(message: String) -> String {
-    let message = if message.contains(char::is_control) {
-        message
-            .chars()
-            .map(|c| if c.is_control() { ' ' } else { c })
-            .collect()
-    } else {
-        message
-    };
-    let long = |s: &str| s.chars().nth(MAX_SHOWN).is_some();
-    if !long(&message) {
-        return message;
-    }
-    let cut = |s: &str| {
-        let n = s.chars().count();
-        if n <= MAX_SHOWN {
-            return s.to_string();
-        }
-        let kept: String = s.chars().take(KEPT).collect();
-        format!("{kept}…({n} characters)")
-    };
-    // Quoted excerpts first (they may hold spaces), then every word outside them.
-    let mut out = String::with_capacity(message.len().min(4096));
-    for (k, part) in message.split('`').enumerate() {
-        if k > 0 {
-            out.push('`');
-        }
-        let quoted = k % 2 == 1 && message.split('`').count() > k + 1;
-        if quoted {
-            out.push_str(&cut(part));
-            continue;
-        }
-        let mut word = String::new();
-        for c in part.chars() {
-            if c.is_whitespace() {
-                out.push_str(&cut(&word));
-                word.clear();
-                out.push(c);
-            } else {
-                word.push(c);
-            }
-        }
-        out.push_str(&cut(&word));
-    }
-    out
-}
-
 /// Diagnostics collected by a stage, in the order found.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Diagnostics {
@@ -237,7 +124,7 @@ impl Diagnostics {
         self
     }
 
-    /// One rendered line per diagnostic.
+    /// One rendered line per diagnostic (and one per secondary label or help).
     pub fn render(&self, map: &SourceMap) -> String {
         let mut out = String::new();
         for d in &self.items {
@@ -260,36 +147,6 @@ mod tests {
             assert!(code.0.len() == 4 && (code.0.starts_with('E') || code.0.starts_with('W')));
             assert!(!title.is_empty());
         }
-    }
-
-    #[test]
-    fn long_names_and_excerpts_are_cut() {
-        let name = "a".repeat(10_000);
-        let d = Diagnostic::error(
-            UNDECLARED,
-            Span::default(),
-            format!("`{name}` is not declared"),
-        );
-        assert_eq!(
-            d.message,
-            format!("`{}…(10000 characters)` is not declared", "a".repeat(40))
-        );
-        let spaced = format!("x := {}", "1 + ".repeat(100));
-        let d = Diagnostic::error(SYNTAX, Span::default(), format!("after `{spaced}`: {name}"));
-        assert!(d.message.len() < 200, "{}", d.message);
-        assert!(
-            d.message.contains("…(405 characters)`: aaaa"),
-            "{}",
-            d.message
-        );
-        // An excerpt across lines stays on the diagnostic's line.
-        let d = Diagnostic::error(SYNTAX, Span::default(), "after `a\n   b`, found `1`");
-        assert_eq!(d.message, "after `a    b`, found `1`");
-        let short = "`x` is not declared; declare it in VAR".to_string();
-        assert_eq!(
-            Diagnostic::error(UNDECLARED, Span::default(), short.clone()).message,
-            short
-        );
     }
 
     #[test]

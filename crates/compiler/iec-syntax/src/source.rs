@@ -5,8 +5,6 @@
 //! body, placed at the line and column where the body starts in the XML file, so messages
 //! about it point into the XML file.
 
-use std::fmt;
-
 /// Index of a source in its [`SourceMap`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct FileId(pub u32);
@@ -244,22 +242,12 @@ impl SourceMap {
     }
 }
 
-/// A resolved position, printed `file:line:col`.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Position {
-    pub file: String,
-    pub line: u32,
-    pub column: u32,
-    /// The element of a graphical body, printed instead of the line and column.
-    pub element: Option<String>,
-}
+/// A resolved position, printed `file:line:col` (or `file: element` in a graphical body).
+pub use petriplc_diag::Location as Position;
 
-impl fmt::Display for Position {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match &self.element {
-            Some(e) => write!(f, "{}: {e}", self.file),
-            None => write!(f, "{}:{}:{}", self.file, self.line, self.column),
-        }
+impl petriplc_diag::Locate<Span> for SourceMap {
+    fn locate(&self, span: &Span) -> Position {
+        self.position(*span)
     }
 }
 

@@ -2,32 +2,15 @@
 //! error type.
 
 use std::cell::Cell;
-use std::fmt;
 use std::path::PathBuf;
 
-/// One problem found in a file, at a 1-based line and column (counted in characters).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Diagnostic {
-    /// A stable code such as `"P012"`; [`CODES`] lists them all.
-    pub code: &'static str,
-    pub file: String,
-    pub line: u32,
-    pub column: u32,
-    /// The id of the element the problem is about, when it has one.
-    pub element: Option<String>,
-    /// What is wrong and how to fix it; it names the element itself.
-    pub message: String,
-}
+use petriplc_diag::Lines;
+pub use petriplc_diag::{Code, Location, Severity};
 
-impl fmt::Display for Diagnostic {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}:{}:{}: error[{}]: {}",
-            self.file, self.line, self.column, self.code, self.message
-        )
-    }
-}
+/// One problem found in a file, at a 1-based line and column (counted in characters), with
+/// the id of the element it is about in `element` when it has one; its code is one of
+/// [`CODES`].
+pub type Diagnostic = petriplc_diag::Diagnostic<Location>;
 
 /// Why a file could not be read or written.
 #[derive(Debug, thiserror::Error)]
@@ -56,20 +39,6 @@ impl PnmlError {
             PnmlError::Invalid(d) => d,
             _ => &[],
         }
-    }
-}
-
-struct Lines<'a>(&'a [Diagnostic]);
-
-impl fmt::Display for Lines<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, d) in self.0.iter().enumerate() {
-            if i > 0 {
-                f.write_str("\n")?;
-            }
-            write!(f, "{d}")?;
-        }
-        Ok(())
     }
 }
 
@@ -206,13 +175,14 @@ mod tests {
 
     #[test]
     fn displays_one_line_per_diagnostic() {
-        let d = |line, code, message: &str| Diagnostic {
-            code,
-            file: "n.pnml".into(),
-            line,
-            column: 3,
-            element: Some("a7".into()),
-            message: message.into(),
+        let d = |line, code, message: &str| {
+            Diagnostic::new(
+                Severity::Error,
+                Code(code),
+                Location::new("n.pnml", line, 3),
+                message,
+            )
+            .with_element("a7")
         };
         let e = PnmlError::Invalid(vec![
             d(4, ARC_ENDS, "arc `a7`: bad"),

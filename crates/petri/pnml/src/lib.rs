@@ -16,7 +16,7 @@ use std::path::Path;
 
 use petriplc_net::Net;
 
-pub use diag::{Diagnostic, PnmlError, CODES};
+pub use diag::{Diagnostic, Location, PnmlError, CODES};
 pub use layout::{Extras, Layout};
 
 /// How names carry meaning.

@@ -8,10 +8,10 @@ use petriplc_net::{
     time, ArcKind, ArcSpec, Evolution, PlaceSpec, SignalDirection, SignalType, StepRule,
 };
 
-use crate::diag::{self, Diagnostic, LineIndex};
+use crate::diag::{self, Code, Diagnostic, LineIndex, Location, Severity};
 use crate::layout::{Extras, Layout};
 use crate::vocab;
-use crate::xml::{self, Element};
+use crate::xml::{self, Element, LeadingBlanks};
 use crate::{Document, Naming, PnmlError, ReadOptions};
 
 /// Reads one net from `text`; `source` names the file in diagnostics.
@@ -23,8 +23,12 @@ pub(crate) fn read(text: &str, source: &str, opts: &ReadOptions) -> Result<Docum
     } else {
         0
     };
-    match xml::parse(text.get(base..).unwrap_or(""), base) {
+    match xml::parse_at(text.get(base..).unwrap_or(""), base, LeadingBlanks::Keep) {
         Ok(root) => r.document(&root),
+        Err(e) if e.message.starts_with("elements are nested") => {
+            let msg = format!("{}; PNML needs far fewer", e.message);
+            r.error(diag::XML, e.offset, None, msg)
+        }
         Err(e) => r.error(diag::XML, e.offset, None, e.message),
     }
     r.finish()
@@ -35,14 +39,12 @@ pub(crate) fn not_utf8(bytes: &[u8], err: &std::str::Utf8Error, source: &str) ->
     let valid = bytes.get(..err.valid_up_to()).unwrap_or(&[]);
     let text = std::str::from_utf8(valid).unwrap_or("");
     let (line, column) = LineIndex::new(text).position(text.len());
-    PnmlError::Invalid(vec![Diagnostic {
-        code: diag::XML,
-        file: source.to_string(),
-        line,
-        column,
-        element: None,
-        message: "the file is not UTF-8 text; save it as UTF-8".into(),
-    }])
+    PnmlError::Invalid(vec![Diagnostic::new(
+        Severity::Error,
+        Code(diag::XML),
+        Location::new(source, line, column),
+        "the file is not UTF-8 text; save it as UTF-8",
+    )])
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -134,6 +136,8 @@ struct Problem {
     code: &'static str,
     element: Option<String>,
     message: String,
+    /// Another place that explains this one (byte offset and why), a secondary label.
+    label: Option<(usize, &'static str)>,
 }
 
 /// Remembers which once-only children an element has had, to report repeats.
@@ -240,7 +244,23 @@ impl<'a> Reader<'a> {
             code,
             element: element.map(str::to_string),
             message,
+            label: None,
         });
+    }
+
+    /// As [`Reader::error`], with a secondary label at byte offset `other`.
+    fn error_with(
+        &mut self,
+        code: &'static str,
+        at: usize,
+        element: Option<&str>,
+        message: String,
+        other: (usize, &'static str),
+    ) {
+        self.error(code, at, element, message);
+        if let Some(p) = self.diags.last_mut() {
+            p.label = Some(other);
+        }
     }
 
     fn document(&mut self, root: &Element) {
@@ -368,7 +388,8 @@ impl<'a> Reader<'a> {
                 kind.noun(),
                 first.kind.noun()
             );
-            self.error(diag::DUPLICATE_ID, el.start, Some(id), msg);
+            let first = (first.at, "the element that has this id first");
+            self.error_with(diag::DUPLICATE_ID, el.start, Some(id), msg, first);
             return None;
         }
         self.ids.insert(id.to_string(), Node { kind, at: el.start });

@@ -93,7 +93,7 @@ proptest! {
         if let Err(e) = read_str(&text, "m.pnml", &ReadOptions { naming }) {
             // Every diagnostic has a position inside the file.
             for d in e.diagnostics() {
-                prop_assert!(d.line >= 1 && d.column >= 1 && d.line as usize <= text.lines().count() + 1);
+                prop_assert!(d.span.line >= 1 && d.span.column >= 1 && d.span.line as usize <= text.lines().count() + 1);
             }
         }
     }
@@ -128,8 +128,8 @@ proptest! {
         if let Err(e) = read_str(&text, "h.pnml", &ReadOptions { naming }) {
             let lines = text.lines().count();
             for d in e.diagnostics() {
-                prop_assert!(d.code.len() == 4 && d.code.starts_with('P'), "{d}");
-                prop_assert!(d.line >= 1 && d.column >= 1 && d.line as usize <= lines + 1, "{d}");
+                prop_assert!(d.code.0.len() == 4 && d.code.0.starts_with('P'), "{d}");
+                prop_assert!(d.span.line >= 1 && d.span.column >= 1 && d.span.line as usize <= lines + 1, "{d}");
                 prop_assert!(d.to_string().len() < 1000, "{} bytes", d.to_string().len());
             }
             prop_assert!(e.diagnostics().len() <= 4, "{}", e.diagnostics().len());

@@ -3,37 +3,31 @@
 
 use std::fmt;
 
+use petriplc_diag::{Code, Located, Location, Severity};
+
 use crate::model::Origin;
 
-/// One problem, at the file and line where it was written.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Diagnostic {
-    /// Line 0 means the file as a whole (it could not be read at all).
-    pub origin: Origin,
-    /// A stable code such as `"C021"`; [`CODES`] lists them all.
-    pub code: &'static str,
-    /// What is wrong and how to fix it.
-    pub message: String,
+/// One problem, at the file and line where it was written (line 0: the file as a whole, it
+/// could not be read at all); its code is one of [`CODES`], its message says what is wrong
+/// and how to fix it.
+pub type Diagnostic = petriplc_diag::Diagnostic<Origin>;
+
+/// An error at `origin`, its message kept whole (it may name a file).
+pub(crate) fn diagnostic(
+    origin: &Origin,
+    code: &'static str,
+    message: impl Into<String>,
+) -> Diagnostic {
+    Diagnostic::new(Severity::Error, Code(code), origin.clone(), message)
 }
 
-impl Diagnostic {
-    pub(crate) fn new(origin: &Origin, code: &'static str, message: impl Into<String>) -> Self {
-        Diagnostic {
-            origin: origin.clone(),
-            code,
-            message: message.into(),
-        }
-    }
-}
-
-impl fmt::Display for Diagnostic {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.origin.line == 0 {
-            write!(f, "{}: ", self.origin.file)?;
-        } else {
-            write!(f, "{}: ", self.origin)?;
-        }
-        write!(f, "error[{}]: {}", self.code, self.message)
+impl Located for Origin {
+    fn location(&self) -> Location {
+        Location::new(
+            self.file.clone(),
+            u32::try_from(self.line).unwrap_or(u32::MAX),
+            0,
+        )
     }
 }
 
@@ -47,7 +41,7 @@ pub struct ConfigError {
 impl ConfigError {
     /// The codes in order, for tests and tools that only care which checks fired.
     pub fn codes(&self) -> Vec<&'static str> {
-        self.diagnostics.iter().map(|d| d.code).collect()
+        self.diagnostics.iter().map(|d| d.code.0).collect()
     }
 }
 
@@ -241,13 +235,12 @@ mod tests {
         let err = ConfigError {
             diagnostics: diags
                 .iter()
-                .map(|&(file, line, code, msg)| Diagnostic {
-                    origin: Origin {
+                .map(|&(file, line, code, msg)| {
+                    let origin = Origin {
                         file: file.into(),
                         line,
-                    },
-                    code,
-                    message: msg.into(),
+                    };
+                    diagnostic(&origin, code, msg)
                 })
                 .collect(),
         };

@@ -22,7 +22,7 @@ pub(crate) fn parse_point(
     diags: &mut Vec<Diagnostic>,
 ) -> Option<PointDecl> {
     let before = diags.len();
-    let mut err = |code, msg: String| diags.push(Diagnostic::new(origin, code, msg));
+    let mut err = |code, msg: String| diags.push(error::diagnostic(origin, code, msg));
     let [name, description, owner, rest @ ..] = cells else {
         err(
             error::POINT_SHAPE,
@@ -108,7 +108,7 @@ pub(crate) fn parse_point(
     if diags.len() > before {
         return None;
     }
-    let mut err = |code, msg: String| diags.push(Diagnostic::new(origin, code, msg));
+    let mut err = |code, msg: String| diags.push(error::diagnostic(origin, code, msg));
 
     let literal = match init.map(parse_literal).transpose() {
         Ok(l) => l,

@@ -44,7 +44,7 @@ pub fn read_raw(path: &Path) -> Result<RawConfig, ConfigError> {
         line: 0,
     };
     let text = read_text(path).map_err(|why| ConfigError {
-        diagnostics: vec![Diagnostic::new(
+        diagnostics: vec![error::diagnostic(
             &origin,
             error::UNREADABLE,
             format!("cannot read the configuration: {why}"),
@@ -149,7 +149,7 @@ impl Reader {
                 }
                 Ok(Line::Entry(prefix, entry)) => {
                     let Some(target) = prefix.or_else(|| section.clone()) else {
-                        self.diags.push(Diagnostic::new(
+                        self.diags.push(error::diagnostic(
                             &origin,
                             error::OUTSIDE_SECTION,
                             "this line is outside any section (sections do not carry over \
@@ -161,7 +161,7 @@ impl Reader {
                     self.add(target, entry, origin);
                 }
                 Err((code, message)) => {
-                    self.diags.push(Diagnostic::new(&origin, code, message));
+                    self.diags.push(error::diagnostic(&origin, code, message));
                 }
             }
         }
@@ -178,7 +178,7 @@ impl Reader {
                     std::io::ErrorKind::NotFound => "no such file".to_string(),
                     _ => e.to_string(),
                 };
-                self.diags.push(Diagnostic::new(
+                self.diags.push(error::diagnostic(
                     origin,
                     error::UNREADABLE,
                     format!(
@@ -192,7 +192,7 @@ impl Reader {
         };
         if let Some(k) = self.stack.iter().position(|f| f.id.as_ref() == Some(&id)) {
             let chain = self.chain(k);
-            self.diags.push(Diagnostic::new(
+            self.diags.push(error::diagnostic(
                 origin,
                 error::CIRCULAR_INCLUDE,
                 format!("circular include: {chain}; remove one of these `*include` lines"),
@@ -204,7 +204,7 @@ impl Reader {
         }
         if self.stack.len() >= MAX_INCLUDE_DEPTH {
             let first = &self.stack[0];
-            self.diags.push(Diagnostic::new(
+            self.diags.push(error::diagnostic(
                 origin,
                 error::INCLUDE_TOO_DEEP,
                 format!(
@@ -220,7 +220,7 @@ impl Reader {
                 let sub = path.parent().unwrap_or(Path::new("")).to_path_buf();
                 self.file(&text, &shown, &sub, Some(id));
             }
-            Err(why) => self.diags.push(Diagnostic::new(
+            Err(why) => self.diags.push(error::diagnostic(
                 origin,
                 error::UNREADABLE,
                 format!("cannot read included file `{shown}`: {why}"),
@@ -267,7 +267,7 @@ impl Reader {
                 let setting = Setting { value, origin };
                 match self.first_set.get(&(section.clone(), name.clone())) {
                     Some(first) if first.value != setting.value => {
-                        self.diags.push(Diagnostic::new(
+                        self.diags.push(error::diagnostic(
                             &setting.origin,
                             error::CONFLICTING_SETTING,
                             format!(

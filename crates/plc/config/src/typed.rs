@@ -138,7 +138,7 @@ struct Builder {
 
 impl Builder {
     fn err(&mut self, origin: &Origin, code: &'static str, message: impl Into<String>) {
-        self.diags.push(Diagnostic::new(origin, code, message));
+        self.diags.push(error::diagnostic(origin, code, message));
     }
 
     fn row(&mut self, row: &Row) {
@@ -359,15 +359,21 @@ impl Builder {
         let mut diags = Vec::new();
         for p in &self.points {
             if let Some(o) = first.get(p.name.as_str()) {
-                diags.push(Diagnostic::new(
-                    &p.origin,
-                    error::DUPLICATE_POINT,
-                    format!(
-                        "point {} is declared twice (first at {o}): a point has one owner and \
+                diags.push(
+                    error::diagnostic(
+                        &p.origin,
+                        error::DUPLICATE_POINT,
+                        format!(
+                            "point {} is declared twice (first at {o}): a point has one owner and \
                          one place, so rename or remove one of them",
-                        p.name
+                            p.name
+                        ),
+                    )
+                    .with_label(
+                        (*o).clone(),
+                        format!("point {} first declared here", p.name),
                     ),
-                ));
+                );
             } else {
                 first.insert(&p.name, &p.origin);
             }
@@ -375,7 +381,7 @@ impl Builder {
         let modules: HashSet<&str> = self.modules.iter().map(|m| m.name.as_str()).collect();
         for p in &self.points {
             if !modules.contains(p.owner.as_str()) {
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     &p.origin,
                     error::UNKNOWN_OWNER,
                     format!(
@@ -400,10 +406,11 @@ impl Builder {
             for (j, b) in points.iter().enumerate() {
                 for a in &points[..j] {
                     if mask(a) & mask(b) != 0 && a.name != b.name {
-                        diags.push(Diagnostic::new(
-                            &b.origin,
-                            error::OVERLAPPING_POINTS,
-                            format!(
+                        diags.push(
+                            error::diagnostic(
+                                &b.origin,
+                                error::OVERLAPPING_POINTS,
+                                format!(
                                 "point {} (bits {}) overlaps point {} (bits {}, at {}) in word \
                                  {word}: each bit has one writer, so move one of them",
                                 b.name,
@@ -412,7 +419,12 @@ impl Builder {
                                 bit_range(a),
                                 a.origin
                             ),
-                        ));
+                            )
+                            .with_label(
+                                a.origin.clone(),
+                                format!("point {} declared here", a.name),
+                            ),
+                        );
                     }
                 }
             }
@@ -425,22 +437,28 @@ impl Builder {
         let mut diags = Vec::new();
         for m in &self.modules {
             if m.name.eq_ignore_ascii_case("PLC") || m.name == NULL {
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     &m.origin,
                     error::RESERVED_NAME,
                     format!("`{}` is reserved: give the module another name", m.name),
                 ));
             }
             if let Some(o) = first.get(m.name.as_str()) {
-                diags.push(Diagnostic::new(
-                    &m.origin,
-                    error::DUPLICATE_MODULE,
-                    format!(
-                        "module {} is declared twice (first at {o}): module names name their \
+                diags.push(
+                    error::diagnostic(
+                        &m.origin,
+                        error::DUPLICATE_MODULE,
+                        format!(
+                            "module {} is declared twice (first at {o}): module names name their \
                          sections, so rename or remove one of them",
-                        m.name
+                            m.name
+                        ),
+                    )
+                    .with_label(
+                        (*o).clone(),
+                        format!("module {} first declared here", m.name),
                     ),
-                ));
+                );
             } else {
                 first.insert(&m.name, &m.origin);
             }
@@ -450,7 +468,7 @@ impl Builder {
         for r in &self.synch.rules {
             for name in [&r.from, &r.to] {
                 if !modules.contains(name.as_str()) {
-                    diags.push(Diagnostic::new(
+                    diags.push(error::diagnostic(
                         &r.origin,
                         error::UNKNOWN_SYNCH_MODULE,
                         format!(
@@ -464,7 +482,7 @@ impl Builder {
         }
         for (name, o) in &self.synch.starts {
             if !modules.contains(name.as_str()) {
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     o,
                     error::UNKNOWN_SYNCH_MODULE,
                     format!(
@@ -483,7 +501,7 @@ impl Builder {
         let mut first: HashMap<&str, (&Origin, &str)> = HashMap::new();
         for (name, o, kind) in &self.nodes {
             if name == NULL {
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     o,
                     error::RESERVED_NAME,
                     format!(
@@ -491,14 +509,17 @@ impl Builder {
                     ),
                 ));
             } else if let Some((at, was)) = first.get(name.as_str()) {
-                diags.push(Diagnostic::new(
-                    o,
-                    error::DUPLICATE_NODE,
-                    format!(
-                        "`{name}` is already declared as a {was} at {at}: places and \
+                diags.push(
+                    error::diagnostic(
+                        o,
+                        error::DUPLICATE_NODE,
+                        format!(
+                            "`{name}` is already declared as a {was} at {at}: places and \
                          transitions share one set of names, so rename one of them"
-                    ),
-                ));
+                        ),
+                    )
+                    .with_label((*at).clone(), format!("the {was} `{name}` declared here")),
+                );
             } else {
                 first.insert(name, (o, *kind));
             }
@@ -508,7 +529,7 @@ impl Builder {
             let mut kinds = Vec::new();
             for end in [&a.from, &a.to] {
                 if end == NULL {
-                    diags.push(Diagnostic::new(
+                    diags.push(error::diagnostic(
                         &a.origin,
                         error::UNKNOWN_ARC_END,
                         "an arc cannot touch `NULL` (the null transition never fires anything): \
@@ -517,7 +538,7 @@ impl Builder {
                 } else if let Some((_, kind)) = first.get(end.as_str()) {
                     kinds.push(*kind);
                 } else {
-                    diags.push(Diagnostic::new(
+                    diags.push(error::diagnostic(
                         &a.origin,
                         error::UNKNOWN_ARC_END,
                         format!(
@@ -529,7 +550,7 @@ impl Builder {
             }
             let [from, to] = kinds[..] else { continue };
             if from == to {
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     &a.origin,
                     error::ARC_SAME_KIND,
                     format!(
@@ -539,7 +560,7 @@ impl Builder {
                     ),
                 ));
             } else if a.weight == 0 && from == "transition" {
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     &a.origin,
                     error::ZERO_WEIGHT_FROM_TRANSITION,
                     format!(
@@ -592,7 +613,7 @@ impl Builder {
                     continue;
                 }
                 let mut bad = |code, msg: String| {
-                    diags.push(Diagnostic::new(
+                    diags.push(error::diagnostic(
                         &s.origin,
                         code,
                         format!("`{key} = {}` for module {}: {msg}", s.value, m.name),
@@ -694,7 +715,7 @@ impl Builder {
             if decl.on_failure != OnFailure::Restart {
                 for key in ["restart_delay", "restart_delay_max", "restart_limit"] {
                     if let Some(s) = settings.get(key) {
-                        diags.push(Diagnostic::new(
+                        diags.push(error::diagnostic(
                             &s.origin,
                             error::BAD_RESTART,
                             format!(
@@ -712,7 +733,7 @@ impl Builder {
                     .get("restart_delay")
                     .or(settings.get("restart_delay_max"));
                 if let Some(s) = s {
-                    diags.push(Diagnostic::new(
+                    diags.push(error::diagnostic(
                         &s.origin,
                         error::BAD_RESTART,
                         format!(
@@ -741,7 +762,7 @@ impl Builder {
                     .min_by_key(|o| (o.file.clone(), o.line))
                     .cloned()
                     .unwrap_or_default();
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     &o,
                     error::SECTION_CASE,
                     format!("section [{name}] would be ignored: section names are case-sensitive, write [PLC]"),
@@ -755,7 +776,7 @@ impl Builder {
                 .map(|m| format!(" (did you mean {}?)", m.name))
                 .unwrap_or_default();
             for (key, s) in &section.pairs {
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     &s.origin,
                     error::UNDECLARED_MODULE_SETTING,
                     format!(
@@ -765,7 +786,7 @@ impl Builder {
                 ));
             }
             for row in &section.rows {
-                diags.push(Diagnostic::new(
+                diags.push(error::diagnostic(
                     &row.origin,
                     error::UNDECLARED_MODULE_SETTING,
                     format!(
@@ -909,6 +930,7 @@ module b /usr/bin/my prog [] Some(250ms) Isolate None Ignore None None ["locatio
              [Plc]\nx = 1\n",
             "t.conf:3: error[C030]: a module needs a name and a kind or program: `module NAME KIND-or-PATH [args]`
 t.conf:4: error[C031]: module a is declared twice (first at t.conf:2): module names name their sections, so rename or remove one of them
+t.conf:2: note: module a first declared here
 t.conf:5: error[C032]: `NULL` is reserved: give the module another name
 t.conf:6: error[C032]: `plc` is reserved: give the module another name
 t.conf:8: error[C034]: `scan_period = fast` for module a: `fast` is not a duration: write a number with a unit (`30s`, `500ms`, `1m30s`), plain seconds (`1.5`) or an IEC literal (`T#1m30s`)
@@ -990,9 +1012,12 @@ t.conf:14: error[C029]: module c: restart_delay (20s) is longer than restart_del
             "[PLC]\nmodule m x\npoint a \"A\" m at 0.0 4\npoint b \"B\" m at 0.3\npoint c \"C\" m at 1\n\
              point d \"D\" m at 1.31\npoint a \"A again\" m\npoint e \"E\" nobody\npoint f \"F\" m at 0.4 28\n",
             "t.conf:7: error[C021]: point a is declared twice (first at t.conf:3): a point has one owner and one place, so rename or remove one of them
+t.conf:3: note: point a first declared here
 t.conf:8: error[C022]: the owner of point e, `nobody`, is not a declared module: add `module nobody KIND-or-PATH` to [PLC] or give the point another owner (declared modules: m)
 t.conf:4: error[C028]: point b (bits 3) overlaps point a (bits 0-3, at t.conf:3) in word 0: each bit has one writer, so move one of them
-t.conf:6: error[C028]: point d (bits 31) overlaps point c (bits 0-31, at t.conf:5) in word 1: each bit has one writer, so move one of them",
+t.conf:3: note: point a declared here
+t.conf:6: error[C028]: point d (bits 31) overlaps point c (bits 0-31, at t.conf:5) in word 1: each bit has one writer, so move one of them
+t.conf:5: note: point c declared here",
         );
         check(
             "[PLC]\nmodule m x\npoint a \"A\" m at 0.0 4\npoint b \"B\" m at 0.4 28\npoint c \"\" m\npoint d \"\" m\n",
@@ -1044,7 +1069,9 @@ t.conf:14: error[C043]: `arc` takes three words, `arc FROM ARROW TO` (e.g. `arc 
 t.conf:15: error[C044]: `=>` is not an arrow: write `->` for weight 1 or `-N->` for weight N
 t.conf:7: error[C032]: `NULL` is reserved for the null transition: give the transition another name
 t.conf:10: error[C042]: `P2` is already declared as a place at t.conf:8: places and transitions share one set of names, so rename one of them
+t.conf:8: note: the place `P2` declared here
 t.conf:11: error[C042]: `T` is already declared as a transition at t.conf:9: places and transitions share one set of names, so rename one of them
+t.conf:9: note: the transition `T` declared here
 t.conf:12: error[C045]: the arc names `P`, which is neither a place nor a transition: declare it with `place P` or `transition P`
 t.conf:16: error[C045]: the arc names `X`, which is neither a place nor a transition: declare it with `place X` or `transition X`
 t.conf:17: error[C045]: an arc cannot touch `NULL` (the null transition never fires anything): declare a transition and use it

@@ -157,7 +157,7 @@ fn typed_outcome_of_some_reference_files() {
     // it: an error, as every setting nobody reads.
     let tank = read_file(&file("demo-tank_hmiViewer-matplc.conf")).unwrap_err();
     assert_eq!(tank.codes(), ["C012", "C012"]);
-    assert_eq!(tank.diagnostics[0].origin.line, 11);
+    assert_eq!(tank.diagnostics[0].span.line, 11);
     assert!(tank.diagnostics[0]
         .message
         .starts_with("`confmap_key = 20` in [PLC]: nothing reads this setting"));
@@ -174,7 +174,7 @@ fn typed_outcome_of_some_reference_files() {
     // gtk2 renamed its module hmi_gtk2 but still sets hmi_gtk's period.
     let gtk2 = read_file(&file("demo-basic_dsp_gtk2-matplc.conf")).unwrap_err();
     assert_eq!(gtk2.codes(), ["C011", "C033", "C033"]);
-    assert_eq!(gtk2.diagnostics[1].origin.line, 35);
+    assert_eq!(gtk2.diagnostics[1].span.line, 35);
     assert!(gtk2.diagnostics[1]
         .message
         .starts_with("`scan_period` is set for `hmi_gtk`"));

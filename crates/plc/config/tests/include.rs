@@ -121,7 +121,7 @@ fn missing_include_names_file_and_line() {
     assert_eq!(err.diagnostics.len(), 1);
     let diag = &err.diagnostics[0];
     assert_eq!(
-        (diag.origin.file.as_str(), diag.origin.line, diag.code),
+        (diag.span.file.as_str(), diag.span.line, diag.code.0),
         ("main.conf", 3, "C001")
     );
     assert_eq!(
@@ -167,5 +167,5 @@ fn sections_do_not_continue_into_an_included_file() {
     let b = d.join("b.conf").display().to_string();
     let err = read_file(&d.join("a.conf")).unwrap_err();
     assert_eq!(err.codes(), ["C005"]);
-    assert_eq!(err.diagnostics[0].origin.to_string(), format!("{b}:2"));
+    assert_eq!(err.diagnostics[0].span.to_string(), format!("{b}:2"));
 }

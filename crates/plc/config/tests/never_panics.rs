@@ -132,8 +132,8 @@ fn check(text: &str) {
         Err(e) => {
             assert!(!e.diagnostics.is_empty());
             for d in &e.diagnostics {
-                assert_eq!(d.origin.file, "p.conf");
-                assert!((1..=lines).contains(&d.origin.line), "{d} in\n{text}");
+                assert_eq!(d.span.file, "p.conf");
+                assert!((1..=lines).contains(&d.span.line), "{d} in\n{text}");
             }
         }
     }

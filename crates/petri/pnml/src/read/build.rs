@@ -7,7 +7,7 @@ use petriplc_net::guard::Expr;
 use petriplc_net::{ModelError, NetBuilder, SignalDirection, TransitionSpec};
 
 use super::{shown, starts_with_default, Kind, Reader, RefRead, SignalUse};
-use crate::diag::{self, Diagnostic, LineIndex};
+use crate::diag::{self, Code, Diagnostic, LineIndex, Location, Severity};
 use crate::{Document, Naming, PnmlError};
 
 impl Reader<'_> {
@@ -156,15 +156,16 @@ impl Reader<'_> {
                 let lines = LineIndex::new(self.src);
                 let file = self.file;
                 let diags = self.diags.into_iter().map(|p| {
-                    let (line, column) = lines.position(p.at);
-                    Diagnostic {
-                        code: p.code,
-                        file: file.to_string(),
-                        line,
-                        column,
-                        element: p.element,
-                        message: p.message,
+                    let at = |offset| {
+                        let (line, column) = lines.position(offset);
+                        Location::new(file, line, column)
+                    };
+                    let mut d = Diagnostic::new(Severity::Error, Code(p.code), at(p.at), p.message);
+                    d.element = p.element;
+                    if let Some((other, text)) = p.label {
+                        d = d.with_label(at(other), text);
                     }
+                    d
                 });
                 Err(PnmlError::Invalid(diags.collect()))
             }
@@ -222,10 +223,29 @@ impl Reader<'_> {
                 }
                 let located: Vec<_> = errors.iter().map(|e| self.locate(e, &uses)).collect();
                 for (e, (code, at, element)) in errors.iter().zip(located) {
-                    self.error(code, at, Some(&element), e.to_string());
+                    match self.other_end(e) {
+                        Some(end) => self.error_with(code, at, Some(&element), e.to_string(), end),
+                        None => self.error(code, at, Some(&element), e.to_string()),
+                    }
                 }
                 None
             }
+        }
+    }
+
+    /// For an arc joining two places or two transitions, where its target is: the arc is
+    /// reported at itself, the two ends are what must change.
+    fn other_end(&self, e: &ModelError) -> Option<(usize, &'static str)> {
+        match e {
+            ModelError::PlaceToPlace { target_id, .. } => Some((
+                self.ids.get(target_id.as_str())?.at,
+                "its target, also a place",
+            )),
+            ModelError::TransitionToTransition { target_id, .. } => Some((
+                self.ids.get(target_id.as_str())?.at,
+                "its target, also a transition",
+            )),
+            _ => None,
         }
     }
 

@@ -78,7 +78,17 @@ fn render(result: Result<Document, PnmlError>) -> String {
             let lines: Vec<String> = e
                 .diagnostics()
                 .iter()
-                .map(|d| format!("{d} [{}]", d.element.as_deref().unwrap_or("-")))
+                .map(|d| {
+                    // The element after the diagnostic's own line, before its notes.
+                    let shown = d.to_string();
+                    let (line, notes) = shown.split_once('\n').unwrap_or((&shown, ""));
+                    let el = d.element.as_deref().unwrap_or("-");
+                    if notes.is_empty() {
+                        format!("{line} [{el}]")
+                    } else {
+                        format!("{line} [{el}]\n{notes}")
+                    }
+                })
                 .collect();
             lines.join("\n")
         }
@@ -179,9 +189,11 @@ arc a2 t1->p2 normal"#,
             ),
             "t.pnml:3:1: error[P005]: this `<place>` has no `id` attribute; every place needs an id of its own [-]\n\
              t.pnml:4:1: error[P006]: id `p1` of this transition is already the id of the place at line 2, column 1; every element needs its own id [p1]\n\
+             t.pnml:2:1: note: the element that has this id first\n\
              t.pnml:5:1: error[P005]: arc `a1` has no `source` attribute; give the id of the place or transition it starts from or goes to [a1]\n\
              t.pnml:6:1: error[P005]: arc `a2` has no `target` attribute; give the id of the place or transition it starts from or goes to [a2]\n\
-             t.pnml:7:1: error[P006]: id `pg` of this page is already the id of the page at line 1, column 127; every element needs its own id [pg]",
+             t.pnml:7:1: error[P006]: id `pg` of this page is already the id of the page at line 1, column 127; every element needs its own id [pg]\n\
+             t.pnml:1:127: note: the element that has this id first",
         );
     }
 
@@ -201,7 +213,9 @@ arc a2 t1->p2 normal"#,
             ),
             "t.pnml:6:1: error[P012]: arc `a1`: its target `nowhere` is not a place or transition of this net [a1]\n\
              t.pnml:7:1: error[P012]: arc `a2` joins two places (`p1` → `p2`); an arc joins a place and a transition [a2]\n\
+             t.pnml:3:1: note: its target, also a place\n\
              t.pnml:8:1: error[P012]: arc `a3` joins two transitions (`t1` → `t2`); an arc joins a place and a transition [a3]\n\
+             t.pnml:5:1: note: its target, also a transition\n\
              t.pnml:9:1: error[P012]: arc `a4`: its source `pg` is not a place or transition of this net [a4]",
         );
     }
