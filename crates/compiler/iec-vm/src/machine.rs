@@ -906,7 +906,7 @@ impl Machine {
                 };
                 let r = match (value, e) {
                     (Value::Int(i), _) if e.is_integral() && !(e.is_duration() || e.is_date()) => {
-                        if !petriplc_iec_sema::value::fits(*i, e) {
+                        if !petriplc_iec_sema::types::fits(*i, e) {
                             return Err(format!("{i} does not fit {}", e.name()));
                         }
                         Value::Int(*i)

@@ -8,7 +8,7 @@ use petriplc_iec_syntax::source::Span;
 use crate::check::{Checker, Cx};
 use crate::ir::{Expr, ExprKind, Place, Root, VarClass};
 use crate::stdlib;
-use crate::types::{ids, Elem, Type, TypeId, TypeTable, MAX_STRING_LEN};
+use crate::types::{fits, ids, Elem, Type, TypeId, TypeTable, MAX_STRING_LEN};
 use crate::value::{self, Value};
 
 use super::{err, konst};
@@ -35,7 +35,7 @@ impl<'a> Checker<'a> {
                 if !e.is_integral() || e.is_duration() || e.is_date() {
                     return self.bad_prefix(t);
                 }
-                if !value::fits(*value, e) {
+                if !fits(*value, e) {
                     self.error(
                         diag::OUT_OF_RANGE,
                         span,
