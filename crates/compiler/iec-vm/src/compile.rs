@@ -26,6 +26,8 @@ mod fused;
 mod link;
 mod place;
 mod statement;
+#[cfg(test)]
+mod tests;
 mod unit;
 
 const TAG: u32 = 0xC000_0000;
