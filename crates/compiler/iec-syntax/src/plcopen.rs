@@ -500,9 +500,9 @@ impl Reader<'_> {
             }
             "LD" | "SFC" | "FBD" => {
                 let lowered = if lang.name != "SFC" {
-                    graphical::ld(self, &name.name, lang)
+                    graphical::ld::ld(self, &name.name, lang)
                 } else {
-                    graphical::sfc(self, &name.name, pou, lang)
+                    graphical::sfc::sfc(self, &name.name, pou, lang)
                 };
                 self.hidden = lowered.vars;
                 self.steps |= lowered.steps;
