@@ -1,4 +1,5 @@
-//! Built-in functions: arithmetic, selection, bit-string and string functions with their argument rules.
+//! Built-in functions: arithmetic, selection, bit-string and string functions with their
+//! argument rules.
 
 use petriplc_iec_syntax::ast;
 use petriplc_iec_syntax::diag;

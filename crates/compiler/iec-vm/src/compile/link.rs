@@ -1,4 +1,5 @@
-//! Linking: memory laid out, the units' tagged operands relocated to absolute slots, instances placed.
+//! Linking: memory laid out, the units' tagged operands relocated to absolute slots, instances
+//! placed.
 
 use crate::ext::ExtOp;
 use crate::op::Op;

@@ -1,4 +1,5 @@
-//! Places: where a variable, element or field lives, loads, stores, copies and conversions between slots.
+//! Places: where a variable, element or field lives, loads, stores, copies and conversions
+//! between slots.
 
 use petriplc_iec_sema::ir::{self, Expr, Place, Root, Step, VarClass};
 use petriplc_iec_sema::types::{FbRef, Type, TypeId};

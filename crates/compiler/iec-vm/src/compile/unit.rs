@@ -1,4 +1,5 @@
-//! Units: function blocks in dependency order, each POU and the configuration's glue compiled, frame templates and initial values.
+//! Units: function blocks in dependency order, each POU and the configuration's glue compiled,
+//! frame templates and initial values.
 
 use petriplc_iec_sema::ir::{PouId, PouKind, VarClass};
 use petriplc_iec_sema::types::{FbRef, Type, TypeId};

@@ -1,4 +1,5 @@
-//! The values of a network: connections OR-ed, contacts, variables, blocks called once and their outputs (LD and FBD alike).
+//! The values of a network: connections OR-ed, contacts, variables, blocks called once and
+//! their outputs (LD and FBD alike).
 
 use crate::ast::*;
 use crate::diag::{self};

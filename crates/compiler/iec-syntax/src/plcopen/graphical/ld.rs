@@ -1,4 +1,5 @@
-//! LD and FBD bodies: the elements that act (coils, calls, output variables, returns) in execution order; nested bodies of SFC actions and transitions.
+//! LD and FBD bodies: the elements that act (coils, calls, output variables, returns) in
+//! execution order; nested bodies of SFC actions and transitions.
 
 use std::collections::HashSet;
 

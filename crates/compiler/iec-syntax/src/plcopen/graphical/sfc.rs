@@ -1,4 +1,5 @@
-//! SFC bodies: steps and their times, transitions cleared on the steps active at the start of the scan, the evolution, and actions by qualifier.
+//! SFC bodies: steps and their times, transitions cleared on the steps active at the start of
+//! the scan, the evolution, and actions by qualifier.
 
 use std::collections::{HashMap, HashSet};
 
