@@ -559,12 +559,7 @@ fn associations(
 
 /// Every action run by its qualifiers: N, P, P0, P1, L and D while their step is, S and R
 /// through a stored flag.
-fn actions(
-    l: &mut Lower,
-    targets: Vec<(String, Target, Span)>,
-    assocs: &[Assoc],
-    svar: &StepVars,
-) {
+fn actions(l: &mut Lower, targets: Vec<(String, Target, Span)>, assocs: &[Assoc], svar: &StepVars) {
     for (k, (_, target, span)) in targets.into_iter().enumerate() {
         let mut on = Vec::new();
         let mut set = Vec::new();
