@@ -192,7 +192,9 @@ fn faults_are_the_vms() {
 fn the_vm_runs_what_is_not_compiled() {
     let source = program("n : DINT; b : BOOL;", "n := n + 2; b := n > 3;");
     let e = engine(&source, 1);
-    let err = compile_limited(&e, 1).err().expect("over the limit");
+    let Err(err) = compile_limited(&e, 1) else {
+        panic!("machine code over the limit")
+    };
     assert!(err.to_string().contains("the VM runs faster"), "{err}");
     assert!(compile(&e).is_ok());
     let mut m = Machine::new(e.clone());
