@@ -11,7 +11,6 @@ use petriplc_iec_syntax::diag::{self, Diagnostics};
 use petriplc_iec_syntax::source::Span;
 
 use crate::ir::{self, GlobalId, NativeSig, PouId, Var, VarId};
-use crate::limits::Shape;
 use crate::stdlib;
 use crate::types::{Elem, TypeId, TypeTable};
 use crate::value::Value;
@@ -20,6 +19,19 @@ use crate::Options;
 mod body;
 mod interface;
 mod resolve;
+
+/// How many types deep a type is, and how many slots its values take (a string 1 + a slot per
+/// 8 bytes, as the VM stores it; a function block instance its variables): the checker
+/// keeps one per type and per function block, `limits.rs` bounds them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Shape {
+    pub depth: u32,
+    pub slots: u64,
+}
+
+impl Shape {
+    pub(crate) const SCALAR: Shape = Shape { depth: 0, slots: 1 };
+}
 
 /// Where an expression is checked.
 pub(crate) struct Cx {
