@@ -358,8 +358,7 @@ impl<'a, 'd> Parser<'a, 'd> {
 mod config;
 mod decl;
 mod expr;
-mod il;
-pub use il::parse_il_body;
+pub mod il;
 mod pou;
 mod stmt;
 

@@ -493,7 +493,7 @@ impl Reader<'_> {
                 let (text, at) = text_of(lang);
                 let f = self.embed(&text, at.unwrap_or(lang.start));
                 if lang.name == "IL" {
-                    let code = parser::parse_il_body(f, &text, self.diags);
+                    let code = parser::il::parse_il_body(f, &text, self.diags);
                     return Body::Il { code, span };
                 }
                 Body::St(parser::parse_body(f, &text, self.diags))
