@@ -913,3 +913,6 @@ struct Env {
     /// `mem + base` in bytes: the frame.
     fp: Value,
 }
+
+#[cfg(test)]
+mod tests;

@@ -9,8 +9,8 @@ use petriplc_iec_syntax::lexer::NANOS_PER_DAY;
 use crate::check::Checker;
 use crate::ir::{Builtin, Expr, ExprKind};
 use crate::ops::{self, OpError};
-use crate::types::{ids, Elem, Type, TypeId};
-use crate::value::{fits, Value};
+use crate::types::{fits, ids, Elem, Type, TypeId};
+use crate::value::Value;
 
 /// How a value of a type is computed with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -13,25 +13,13 @@ use petriplc_iec_syntax::depth::MAX_TYPE_DEPTH;
 use petriplc_iec_syntax::diag;
 use petriplc_iec_syntax::source::Span;
 
-use crate::check::Checker;
+use crate::check::{Checker, Shape};
 use crate::ir::{Var, VarClass};
 use crate::types::{FbRef, Type, TypeId};
 
 /// The most slots (64-bit words) a value of one type, a POU's variables or the global
 /// variables may take.
 pub const MAX_SLOTS: u64 = 100_000_000;
-
-/// How many types deep a type is, and how many slots its values take (a string 1 + a slot per
-/// 8 bytes, as the VM stores it; a function block instance its variables).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct Shape {
-    pub depth: u32,
-    pub slots: u64,
-}
-
-impl Shape {
-    const SCALAR: Shape = Shape { depth: 0, slots: 1 };
-}
 
 impl Checker<'_> {
     /// The shape of a resolved type (a function block's once its interface is resolved).

@@ -17,8 +17,8 @@ use std::fmt;
 use petriplc_iec_syntax::ast::BinaryOp;
 use petriplc_iec_syntax::lexer::{self, NANOS_PER_DAY};
 
-use crate::types::Elem;
-use crate::value::{fits, to_real, wrap, Value};
+use crate::types::{fits, wrap, Elem};
+use crate::value::{to_real, Value};
 
 /// Why an operation has no value.
 #[derive(Clone, Debug, PartialEq, Eq)]

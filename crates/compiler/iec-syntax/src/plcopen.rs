@@ -493,16 +493,16 @@ impl Reader<'_> {
                 let (text, at) = text_of(lang);
                 let f = self.embed(&text, at.unwrap_or(lang.start));
                 if lang.name == "IL" {
-                    let code = parser::parse_il_body(f, &text, self.diags);
+                    let code = parser::il::parse_il_body(f, &text, self.diags);
                     return Body::Il { code, span };
                 }
                 Body::St(parser::parse_body(f, &text, self.diags))
             }
             "LD" | "SFC" | "FBD" => {
                 let lowered = if lang.name != "SFC" {
-                    graphical::ld(self, &name.name, lang)
+                    graphical::ld::ld(self, &name.name, lang)
                 } else {
-                    graphical::sfc(self, &name.name, pou, lang)
+                    graphical::sfc::sfc(self, &name.name, pou, lang)
                 };
                 self.hidden = lowered.vars;
                 self.steps |= lowered.steps;

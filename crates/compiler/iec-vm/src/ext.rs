@@ -4,8 +4,8 @@
 
 use petriplc_iec_sema::ir::Builtin;
 use petriplc_iec_sema::ops::{self, OpError};
-use petriplc_iec_sema::types::Elem;
-use petriplc_iec_sema::value::{fits, wrap, Value};
+use petriplc_iec_sema::types::{fits, wrap, Elem};
+use petriplc_iec_sema::value::Value;
 use petriplc_iec_syntax::ast::BinaryOp;
 use petriplc_iec_syntax::lexer::NANOS_PER_DAY;
 

@@ -16,11 +16,13 @@ pub mod layout;
 mod machine;
 pub mod native;
 pub mod op;
+mod vars;
 
 pub use compile::{CompileError, InstanceSpec};
 pub use exec::FaultKind;
 pub use machine::{
-    display, string_literal, Backend, Compiled, Compiler, Engine, Fault, Machine, Ran, RetainImage,
-    Retained, Scanner, VarRef, DEFAULT_ITERATIONS,
+    display, string_literal, Backend, Compiled, Compiler, Engine, Fault, Machine, Ran, Scanner,
+    DEFAULT_ITERATIONS,
 };
 pub use native::{NativeCtx, NativeFb};
+pub use vars::{RetainImage, Retained, VarRef};

@@ -15,6 +15,7 @@ use crate::compile::{self, Code, CompileError, InstanceSpec};
 use crate::exec::{self, Budget, FaultKind, RawFault};
 use crate::ext;
 use crate::native::{self, NativeFb};
+use crate::vars::{split_path, RetainImage, Retained, Segment, VarRef};
 
 /// A run-time fault, located: the POU, its file and line, what happened with which values.
 #[derive(Clone, Debug, PartialEq)]
@@ -599,57 +600,6 @@ fn gcd(a: i64, b: i64) -> i64 {
     }
 }
 
-/// A variable in a machine's memory.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct VarRef {
-    pub addr: u32,
-    pub ty: TypeId,
-    pub class: VarClass,
-}
-
-/// A retentive variable: where it is and what it is.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Retained {
-    pub path: String,
-    pub addr: u32,
-    pub len: u32,
-    pub type_name: String,
-}
-
-/// The values of the retentive variables, by path and type, for the PLC's retentive store.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct RetainImage {
-    pub entries: Vec<(String, String, Vec<u64>)>,
-}
-
-enum Segment {
-    Name(String),
-    Index(Vec<i64>),
-}
-
-fn split_path(path: &str) -> Option<Vec<Segment>> {
-    let mut out = Vec::new();
-    let mut rest = path.trim();
-    while !rest.is_empty() {
-        if let Some(r) = rest.strip_prefix('.') {
-            rest = r;
-            continue;
-        }
-        if let Some(r) = rest.strip_prefix('[') {
-            let end = r.find(']')?;
-            let idx: Option<Vec<i64>> =
-                r[..end].split(',').map(|s| s.trim().parse().ok()).collect();
-            out.push(Segment::Index(idx?));
-            rest = &r[end + 1..];
-            continue;
-        }
-        let end = rest.find(['.', '[']).unwrap_or(rest.len());
-        out.push(Segment::Name(rest[..end].trim().to_string()));
-        rest = &rest[end..];
-    }
-    Some(out)
-}
-
 /// A running copy of an engine: its memory and task clocks.
 pub struct Machine {
     engine: Arc<Engine>,
@@ -906,7 +856,7 @@ impl Machine {
                 };
                 let r = match (value, e) {
                     (Value::Int(i), _) if e.is_integral() && !(e.is_duration() || e.is_date()) => {
-                        if !petriplc_iec_sema::value::fits(*i, e) {
+                        if !petriplc_iec_sema::types::fits(*i, e) {
                             return Err(format!("{i} does not fit {}", e.name()));
                         }
                         Value::Int(*i)

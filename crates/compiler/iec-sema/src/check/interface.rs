@@ -1,0 +1,387 @@
+//! Global variables and POU interfaces: variable blocks resolved, recursive FB containment found.
+
+use petriplc_iec_syntax::ast::{self, Element, PouKind, VarKind};
+use petriplc_iec_syntax::diag;
+
+use crate::ir::{GlobalId, PouId, Var, VarClass, VarId};
+use crate::types::{ids, FbRef, Type};
+
+use super::{Checker, Cx, State};
+
+impl<'a> Checker<'a> {
+    pub(super) fn collect_globals(&mut self) {
+        let lib = self.lib;
+        let mut blocks: Vec<(&ast::VarBlock, bool)> = Vec::new();
+        for el in &lib.elements {
+            match el {
+                Element::Globals(b) => blocks.push((b, true)),
+                Element::Configuration(c) => {
+                    blocks.extend(c.globals.iter().map(|b| (b, false)));
+                    for r in &c.resources {
+                        blocks.extend(r.globals.iter().map(|b| (b, false)));
+                    }
+                }
+                _ => {}
+            }
+        }
+        let mut cx = Cx::global();
+        for (b, direct) in blocks {
+            if b.kind != VarKind::Global {
+                self.error(
+                    diag::UNSUPPORTED,
+                    b.span,
+                    format!(
+                        "{} blocks are not supported in a configuration; use VAR_GLOBAL",
+                        b.kind.keyword()
+                    ),
+                );
+                continue;
+            }
+            for d in &b.vars {
+                let (ty, def) = self.resolve_spec(&d.ty, &mut cx);
+                let first = d.names.first().map_or("", |n| n.name.as_str());
+                let ty = self.var_type_fits(ty, first, d.span);
+                let init = match &d.init {
+                    Some(i) => self.initial_value(i, ty, &mut cx),
+                    None => def,
+                };
+                if b.constant && d.init.is_none() {
+                    self.error(
+                        diag::BAD_DECLARATION,
+                        d.span,
+                        "a VAR_GLOBAL CONSTANT needs its value: write `name : TYPE := value;`",
+                    );
+                }
+                for n in &d.names {
+                    let key = n.key();
+                    if let Some(&g) = self.global_names.get(&key) {
+                        let prev = self.globals[g as usize].span;
+                        self.duplicate(n, prev);
+                        continue;
+                    }
+                    let g = self.globals.len() as GlobalId;
+                    self.globals.push(Var {
+                        name: n.name.clone(),
+                        ty,
+                        class: VarClass::Global,
+                        init: init.clone(),
+                        constant: b.constant,
+                        retain: b.retain == ast::Retain::Retain,
+                        location: d.location.as_ref().map(|l| l.text.clone()),
+                        span: n.span,
+                    });
+                    self.global_direct.push(direct);
+                    self.global_names.insert(key, g);
+                }
+            }
+        }
+        if let Some(at) = self.globals.first().map(|g| g.span) {
+            let vars = std::mem::take(&mut self.globals);
+            self.frame_shape(&vars, "the global variables", at);
+            self.globals = vars;
+        }
+    }
+
+    // ---- POU interfaces ----
+
+    /// Resolves a POU's variables (once; detects function blocks that contain themselves).
+    pub fn interface(&mut self, p: PouId) {
+        match self.pou_state[p as usize] {
+            State::Done => return,
+            State::Busy => {
+                let name = self.pou_asts[p as usize].name.clone();
+                self.error(
+                    diag::RECURSION,
+                    name.span,
+                    format!("function block {} contains an instance of itself (directly or through another function block)", name.name),
+                );
+                return;
+            }
+            State::Todo => {}
+        }
+        let ast = self.pou_asts[p as usize];
+        if !self.enter_type(&ast.name.name, ast.name.span) {
+            return;
+        }
+        self.pou_state[p as usize] = State::Busy;
+        let mut cx = Cx::global();
+        cx.pou = Some(p);
+        cx.kind = Some(ast.kind);
+        cx.const_only = true;
+        let mut result = None;
+        let order = [
+            VarKind::Input,
+            VarKind::InOut,
+            VarKind::Output,
+            VarKind::Local,
+            VarKind::Temp,
+            VarKind::External,
+            VarKind::Global,
+            VarKind::Other,
+        ];
+        if ast.kind == PouKind::Function {
+            let ty = match &ast.return_type {
+                Some(t) => self.resolve_spec(t, &mut cx).0,
+                None => ids::ERROR,
+            };
+            if let Type::Fb(_) = self.types.get(ty) {
+                self.error(
+                    diag::BAD_DECLARATION,
+                    ast.name.span,
+                    "a function cannot return a function block instance",
+                );
+            }
+            result = Some(0);
+            cx.vars.push(Var {
+                name: ast.name.name.clone(),
+                ty,
+                class: VarClass::Result,
+                init: None,
+                constant: false,
+                retain: false,
+                location: None,
+                span: ast.name.span,
+            });
+            cx.names.insert(ast.name.key(), 0);
+        }
+        let mut edges: Vec<(VarId, ast::Edge)> = Vec::new();
+        // Parameters in declaration order (positional arguments follow it), then the rest.
+        let param = |k: VarKind| matches!(k, VarKind::Input | VarKind::InOut | VarKind::Output);
+        for b in ast.var_blocks.iter().filter(|b| param(b.kind)) {
+            self.var_block(ast, b, &mut cx, &mut edges);
+        }
+        for kind in order.into_iter().filter(|k| !param(*k)) {
+            for b in ast.var_blocks.iter().filter(|b| b.kind == kind) {
+                self.var_block(ast, b, &mut cx, &mut edges);
+            }
+        }
+        let mut vars = std::mem::take(&mut cx.vars);
+        // R_EDGE / F_EDGE inputs keep their previous raw value (and a copy of the raw one).
+        for (v, _) in &edges {
+            for suffix in ["$prev", "$raw"] {
+                let name = format!("{}{suffix}", vars[*v as usize].name);
+                let span = vars[*v as usize].span;
+                vars.push(Var {
+                    name,
+                    ty: ids::BOOL,
+                    class: VarClass::Hidden,
+                    init: None,
+                    constant: false,
+                    retain: false,
+                    location: None,
+                    span,
+                });
+            }
+        }
+        let what = format!("{} {}", ast.kind.keyword(), ast.name.name);
+        let (shape, _) = self.frame_shape(&vars, &what, ast.name.span);
+        self.fb_shapes[p as usize] = shape;
+        let pou = &mut self.pous[p as usize];
+        pou.vars = vars;
+        pou.result = result;
+        self.pou_state[p as usize] = State::Done;
+        self.edges.insert(p, edges);
+        self.leave_type();
+    }
+
+    fn var_block(
+        &mut self,
+        pou: &ast::Pou,
+        b: &ast::VarBlock,
+        cx: &mut Cx,
+        edges: &mut Vec<(VarId, ast::Edge)>,
+    ) {
+        let allowed = match pou.kind {
+            PouKind::Program => !matches!(b.kind, VarKind::Global | VarKind::Other),
+            PouKind::FunctionBlock => !matches!(b.kind, VarKind::Global | VarKind::Other),
+            PouKind::Function => matches!(
+                b.kind,
+                VarKind::Input
+                    | VarKind::Output
+                    | VarKind::InOut
+                    | VarKind::Local
+                    | VarKind::Temp
+                    | VarKind::External
+            ),
+        };
+        if !allowed {
+            self.error(
+                diag::BAD_DECLARATION,
+                b.span,
+                format!(
+                    "{} is not allowed in a {}; {}",
+                    b.kind.keyword(),
+                    pou.kind.keyword(),
+                    if b.kind == VarKind::Global {
+                        "declare global variables in the CONFIGURATION (or a top-level VAR_GLOBAL list) and use VAR_EXTERNAL here"
+                    } else {
+                        "use VAR, VAR_INPUT, VAR_OUTPUT, VAR_IN_OUT or VAR_TEMP"
+                    }
+                ),
+            );
+            return;
+        }
+        if b.retain == ast::Retain::Retain
+            && (matches!(b.kind, VarKind::Temp | VarKind::InOut | VarKind::External)
+                || pou.kind == PouKind::Function)
+        {
+            self.error(
+                diag::BAD_DECLARATION,
+                b.span,
+                "RETAIN applies to VAR, VAR_INPUT, VAR_OUTPUT and VAR_GLOBAL of programs and function blocks",
+            );
+        }
+        if b.constant && !matches!(b.kind, VarKind::Local | VarKind::External | VarKind::Global) {
+            self.error(
+                diag::BAD_DECLARATION,
+                b.span,
+                "CONSTANT applies to VAR, VAR_EXTERNAL and VAR_GLOBAL blocks",
+            );
+        }
+        for d in &b.vars {
+            let (ty, def) = self.resolve_spec(&d.ty, cx);
+            if let Type::Fb(FbRef::User(q)) = *self.types.get(ty) {
+                self.interface(q);
+                if pou.kind == PouKind::Function {
+                    self.error(
+                        diag::BAD_DECLARATION,
+                        d.span,
+                        "a FUNCTION has no memory between calls and cannot hold a function block instance; make it a FUNCTION_BLOCK",
+                    );
+                }
+            } else if matches!(self.types.get(ty), Type::Fb(_)) && pou.kind == PouKind::Function {
+                self.error(
+                    diag::BAD_DECLARATION,
+                    d.span,
+                    "a FUNCTION has no memory between calls and cannot hold a function block instance; make it a FUNCTION_BLOCK",
+                );
+            }
+            // A reference (VAR_EXTERNAL, VAR_IN_OUT) takes no storage of its own.
+            let ty = if matches!(b.kind, VarKind::External | VarKind::InOut) {
+                ty
+            } else {
+                let first = d.names.first().map_or("", |n| n.name.as_str());
+                self.var_type_fits(ty, first, d.span)
+            };
+            let init = match &d.init {
+                Some(i) => {
+                    if matches!(b.kind, VarKind::External | VarKind::InOut) {
+                        self.error(
+                            diag::BAD_DECLARATION,
+                            i.span(),
+                            format!("{} variables take no initial value: they refer to another variable", b.kind.keyword()),
+                        );
+                        None
+                    } else {
+                        self.initial_value(i, ty, cx)
+                    }
+                }
+                None => def,
+            };
+            if let Some(edge) = d.edge {
+                if ty != ids::BOOL || b.kind != VarKind::Input {
+                    self.error(
+                        diag::BAD_DECLARATION,
+                        d.span,
+                        "R_EDGE and F_EDGE apply to BOOL inputs (VAR_INPUT x : BOOL R_EDGE;)",
+                    );
+                } else if pou.kind == PouKind::Function {
+                    self.error(
+                        diag::BAD_DECLARATION,
+                        d.span,
+                        "a FUNCTION has no memory to detect edges; use a FUNCTION_BLOCK",
+                    );
+                } else {
+                    for k in 0..d.names.len() {
+                        edges.push(((cx.vars.len() + k) as VarId, edge));
+                    }
+                }
+            }
+            if b.constant && d.init.is_none() && b.kind == VarKind::Local {
+                self.error(
+                    diag::BAD_DECLARATION,
+                    d.span,
+                    "a CONSTANT needs its value: write `name : TYPE := value;`",
+                );
+            }
+            if d.location.is_some() && !matches!(b.kind, VarKind::Local | VarKind::Global) {
+                self.error(
+                    diag::BAD_DECLARATION,
+                    d.span,
+                    "only VAR and VAR_GLOBAL variables can be located with AT",
+                );
+            }
+            if d.location.is_some() && pou.kind != PouKind::Program {
+                self.error(
+                    diag::BAD_DECLARATION,
+                    d.span,
+                    "located variables (AT) belong in programs and configurations",
+                );
+            }
+            for (k, n) in d.names.iter().enumerate() {
+                let key = n.key();
+                if cx.names.contains_key(&key) {
+                    let first = cx.vars[cx.names[&key] as usize].span;
+                    self.duplicate(n, first);
+                    let _ = k;
+                    edges.clear();
+                    continue;
+                }
+                let class = match b.kind {
+                    VarKind::Input => VarClass::Input,
+                    VarKind::Output => VarClass::Output,
+                    VarKind::InOut => VarClass::InOut,
+                    VarKind::Temp => VarClass::Temp,
+                    VarKind::External => match self.global_names.get(&key) {
+                        Some(&g) => {
+                            let gv = &self.globals[g as usize];
+                            if gv.ty != ty && ty != ids::ERROR && gv.ty != ids::ERROR {
+                                let (a, bn) = (self.types.name(ty), self.types.name(gv.ty));
+                                self.error(
+                                    diag::EXTERNAL_MISMATCH,
+                                    n.span,
+                                    format!("VAR_EXTERNAL {} is {a} but the global variable is {bn}; declare it with the global's type", n.name),
+                                );
+                            } else if gv.constant && !b.constant {
+                                self.error(
+                                    diag::EXTERNAL_MISMATCH,
+                                    n.span,
+                                    format!("global {} is CONSTANT; declare it in VAR_EXTERNAL CONSTANT", n.name),
+                                );
+                            }
+                            VarClass::External(g)
+                        }
+                        None => {
+                            self.error(
+                                diag::EXTERNAL_MISMATCH,
+                                n.span,
+                                format!("VAR_EXTERNAL {} has no VAR_GLOBAL of that name; declare `{} : {}` in the CONFIGURATION's VAR_GLOBAL", n.name, n.name, self.types.name(ty)),
+                            );
+                            VarClass::Local
+                        }
+                    },
+                    _ => VarClass::Local,
+                };
+                let constant = b.constant
+                    || matches!(class, VarClass::External(g) if self.globals[g as usize].constant);
+                let init = if let VarClass::External(g) = class {
+                    self.globals[g as usize].init.clone()
+                } else {
+                    init.clone()
+                };
+                let id = cx.vars.len() as VarId;
+                cx.vars.push(Var {
+                    name: n.name.clone(),
+                    ty,
+                    class,
+                    init,
+                    constant,
+                    retain: b.retain == ast::Retain::Retain,
+                    location: d.location.as_ref().map(|l| l.text.clone()),
+                    span: n.span,
+                });
+                cx.names.insert(key, id);
+            }
+        }
+    }
+}

@@ -1,0 +1,414 @@
+//! Calls in expressions: user functions and their arguments bound to parameters.
+
+use petriplc_iec_syntax::ast::{self, ExprKind as A};
+use petriplc_iec_syntax::diag;
+
+use crate::check::{Checker, Cx};
+use crate::ir::{Expr, ExprKind, FnCall, VarClass, VarId};
+use crate::types::{ids, Type, TypeId};
+
+use super::{err, konst, Bound};
+
+impl<'a> Checker<'a> {
+    pub(super) fn call_expr(
+        &mut self,
+        call: &ast::Call,
+        cx: &mut Cx,
+        expected: Option<TypeId>,
+    ) -> Expr {
+        let span = call.span;
+        let A::Name(name) = &call.callee.kind else {
+            self.error(
+                diag::NOT_CALLABLE,
+                call.callee.span,
+                "only functions can be called in an expression; a function block instance is called as a statement (inst(…);) and its outputs read as inst.Q",
+            );
+            return err(span);
+        };
+        if cx.const_only {
+            // Conversions and a few functions of constants fold; anything else is not constant.
+        }
+        let key = name.key();
+        if let Some(&p) = self.pou_names.get(&key) {
+            let kind = self.pou_asts[p as usize].kind;
+            if kind != crate::ir::PouKind::Function {
+                self.error(
+                    diag::NOT_CALLABLE,
+                    name.span,
+                    format!("{} is a {}; declare an instance (VAR x : {}; END_VAR) and call it as a statement", name.name, kind.keyword(), name.name),
+                );
+                return err(span);
+            }
+            return self.fn_call(p, call, cx);
+        }
+        if let Some(place) = self.var_place(name, cx) {
+            let what = if matches!(self.types.get(place.ty), Type::Fb(_)) {
+                "a function block instance is called as a statement (inst(…);), not in an expression; read its outputs as inst.Q"
+            } else {
+                "this is a variable, not a function"
+            };
+            self.error(
+                diag::NOT_CALLABLE,
+                name.span,
+                format!("`{}`: {what}", name.name),
+            );
+            return err(span);
+        }
+        if let Some(x) = self.std_call(name, call, cx, expected) {
+            return x;
+        }
+        let hint = if self.native_names.contains_key(&key) {
+            format!("; {} is a function block: declare an instance (VAR t : {}; END_VAR) and call it as a statement", name.name, name.name)
+        } else {
+            "; declare it as a FUNCTION".into()
+        };
+        self.error(
+            diag::UNKNOWN_POU,
+            name.span,
+            format!("unknown function `{}`{hint}", name.name),
+        );
+        err(span)
+    }
+
+    /// A call of a user FUNCTION.
+    fn fn_call(&mut self, p: crate::ir::PouId, call: &ast::Call, cx: &mut Cx) -> Expr {
+        let span = call.span;
+        self.interface(p);
+        if Some(p) == cx.pou {
+            self.error(
+                diag::RECURSION,
+                span,
+                format!(
+                    "{} calls itself; IEC 61131-3 does not allow recursion",
+                    self.pous[p as usize].name
+                ),
+            );
+            return err(span);
+        }
+        if !self.pous[p as usize].runnable {
+            let n = self.pous[p as usize].name.clone();
+            self.error(
+                diag::UNSUPPORTED,
+                span,
+                format!("{n} is not written in Structured Text or Instruction List and cannot be called yet"),
+            );
+            return err(span);
+        }
+        let pou = self.pous[p as usize].clone();
+        let Some(bound) = self.bind_args(&pou.name, &pou.vars, call, cx, false) else {
+            return err(span);
+        };
+        let mut inputs = Vec::new();
+        for (i, v) in pou.vars.iter().enumerate() {
+            if v.class == VarClass::Input {
+                let given = bound.inputs.iter().find(|(k, _)| *k == i as VarId);
+                let e = match given {
+                    Some((_, e)) => e.clone(),
+                    None => konst(
+                        v.init.clone().unwrap_or_else(|| self.default_value(v.ty)),
+                        v.ty,
+                        span,
+                    ),
+                };
+                inputs.push((i as VarId, e));
+            }
+        }
+        let ty = pou.result.map_or(ids::VOID, |r| pou.vars[r as usize].ty);
+        self.calls.push((cx.pou, p, span));
+        Expr {
+            kind: ExprKind::Call(FnCall {
+                pou: p,
+                inputs,
+                in_outs: bound.in_outs,
+                outputs: bound
+                    .outputs
+                    .into_iter()
+                    .map(|(v, pl, _)| (v, pl))
+                    .collect(),
+            }),
+            ty,
+            span,
+        }
+    }
+
+    /// Binds a call's arguments to parameters (`vars`): formal (by name) or positional (in
+    /// declaration order), never mixed. `fb`: a function block call (inputs not given keep
+    /// their values; in-outs must be given).
+    pub fn bind_args(
+        &mut self,
+        callee: &str,
+        vars: &[crate::ir::Var],
+        call: &ast::Call,
+        cx: &mut Cx,
+        fb: bool,
+    ) -> Option<Bound> {
+        let mut out = Bound::default();
+        let formal = call.args.iter().any(|a| a.name.is_some());
+        let positional = call.args.iter().any(|a| a.name.is_none());
+        if formal && positional {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                call.span,
+                format!("the call of {callee} mixes named (x := …) and positional arguments; name them all"),
+            );
+            return None;
+        }
+        let params: Vec<(VarId, &crate::ir::Var)> = vars
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| {
+                matches!(
+                    v.class,
+                    VarClass::Input | VarClass::InOut | VarClass::Output
+                )
+            })
+            .map(|(i, v)| (i as VarId, v))
+            .collect();
+        let mut ok = true;
+        let mut given: Vec<VarId> = Vec::new();
+        for (k, a) in call.args.iter().enumerate() {
+            let Some(param) = self.arg_param(callee, &params, k, a) else {
+                ok = false;
+                continue;
+            };
+            let (id, var) = param;
+            if given.contains(&id) {
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    a.span,
+                    format!("parameter `{}` is given twice", var.name),
+                );
+                ok = false;
+                continue;
+            }
+            given.push(id);
+            let bound = match var.class {
+                VarClass::Input => self.bind_input(callee, param, a, cx, &mut out),
+                VarClass::InOut => self.bind_in_out(callee, param, a, cx, &mut out),
+                VarClass::Output => self.bind_output(callee, param, a, cx, &mut out),
+                _ => true,
+            };
+            ok &= bound;
+        }
+        for (id, var) in &params {
+            if var.class == VarClass::InOut && !given.contains(id) {
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    call.span,
+                    format!(
+                        "in-out `{}` of {callee} must be given in every call ({} := variable)",
+                        var.name, var.name
+                    ),
+                );
+                ok = false;
+            }
+        }
+        let _ = fb;
+        ok.then_some(out)
+    }
+
+    /// Whether a value of type `from` may be stored in `to` (same type, widening, any
+    /// string into any string).
+    pub fn assignable(&self, from: TypeId, to: TypeId) -> bool {
+        if from == to {
+            return true;
+        }
+        match (self.types.get(from), self.types.get(to)) {
+            (Type::Str { .. }, Type::Str { .. }) => true,
+            (Type::Elem(a), Type::Elem(b)) => a.widens_to(*b),
+            (Type::Subrange { base, .. }, Type::Elem(b)) => base.widens_to(*b),
+            (Type::Elem(a), Type::Subrange { base, .. }) => a.widens_to(*base),
+            (Type::Subrange { base: a, .. }, Type::Subrange { base, .. }) => a.widens_to(*base),
+            _ => false,
+        }
+    }
+
+    /// `coerce` for a value stored into a place of type `to` (literals typed, widening).
+    pub fn assign_coerce(&mut self, x: Expr, to: TypeId, what: &str) -> Expr {
+        self.coerce(x, to, what)
+    }
+
+    /// The parameter argument number `k`, `a`, binds to (by name or by position); `None`
+    /// once told why there is none.
+    fn arg_param<'v>(
+        &mut self,
+        callee: &str,
+        params: &[(VarId, &'v crate::ir::Var)],
+        k: usize,
+        a: &ast::Arg,
+    ) -> Option<(VarId, &'v crate::ir::Var)> {
+        Some(match &a.name {
+            Some(n) => {
+                if n.is("EN") || n.is("ENO") {
+                    self.error(
+                        diag::UNSUPPORTED,
+                        n.span,
+                        "EN/ENO are not supported; call the function under an IF instead",
+                    );
+                    return None;
+                }
+                match params
+                    .iter()
+                    .find(|(_, v)| v.name.eq_ignore_ascii_case(&n.name))
+                {
+                    Some(p) => *p,
+                    None => {
+                        self.error(
+                            diag::BAD_ARGUMENTS,
+                            n.span,
+                            format!(
+                                "{callee} has no parameter `{}`; its parameters are {}",
+                                n.name,
+                                param_list(params)
+                            ),
+                        );
+                        return None;
+                    }
+                }
+            }
+            None => match params.get(k) {
+                Some(p) => *p,
+                None => {
+                    self.error(
+                        diag::BAD_ARGUMENTS,
+                        a.span,
+                        format!(
+                            "{callee} takes {} argument(s) ({}), this is argument {}",
+                            params.len(),
+                            param_list(params),
+                            k + 1
+                        ),
+                    );
+                    return None;
+                }
+            },
+        })
+    }
+
+    /// An input: its value checked and converted to the parameter's type.
+    /// False once an error is told.
+    fn bind_input(
+        &mut self,
+        callee: &str,
+        (id, var): (VarId, &crate::ir::Var),
+        a: &ast::Arg,
+        cx: &mut Cx,
+        out: &mut Bound,
+    ) -> bool {
+        if a.output {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                a.span,
+                format!("`{}` is an input of {callee}: give it with `:=`", var.name),
+            );
+            return false;
+        }
+        let Some(v) = &a.value else { return true };
+        let x = self.expr(v, cx, Some(var.ty));
+        let x = self.assign_coerce(x, var.ty, &format!("argument `{}`", var.name));
+        if x.ty == ids::ERROR {
+            return false;
+        }
+        out.inputs.push((id, x));
+        true
+    }
+
+    /// An in-out: a writable variable of the parameter's exact type.
+    /// False once an error is told.
+    fn bind_in_out(
+        &mut self,
+        callee: &str,
+        (id, var): (VarId, &crate::ir::Var),
+        a: &ast::Arg,
+        cx: &mut Cx,
+        out: &mut Bound,
+    ) -> bool {
+        if a.output {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                a.span,
+                format!(
+                    "`{}` is an in-out of {callee}: give a variable with `:=`",
+                    var.name
+                ),
+            );
+            return false;
+        }
+        let Some(v) = &a.value else { return true };
+        let Some(pl) = self.place(v, cx, true) else {
+            return false;
+        };
+        if !self.writable(&pl, cx, v.span) {
+            return false;
+        }
+        if pl.ty != var.ty && pl.ty != ids::ERROR {
+            let (a1, b1) = (self.types.name(pl.ty), self.types.name(var.ty));
+            self.error(
+                diag::TYPE_MISMATCH,
+                v.span,
+                format!("in-out `{}` is {b1}; this variable is {a1} (an in-out is passed by reference, so the types must be the same)", var.name),
+            );
+            return false;
+        }
+        out.in_outs.push((id, pl));
+        true
+    }
+
+    /// An output connected with `=>`: a writable variable it can be stored in.
+    /// False once an error is told.
+    fn bind_output(
+        &mut self,
+        callee: &str,
+        (id, var): (VarId, &crate::ir::Var),
+        a: &ast::Arg,
+        cx: &mut Cx,
+        out: &mut Bound,
+    ) -> bool {
+        if !a.output && a.name.is_some() {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                a.span,
+                format!(
+                    "`{}` is an output of {callee}: connect it with `=>` ({} => variable)",
+                    var.name, var.name
+                ),
+            );
+            return false;
+        }
+        let Some(v) = &a.value else { return true };
+        let Some(pl) = self.place(v, cx, true) else {
+            return false;
+        };
+        if !self.writable(&pl, cx, v.span) {
+            return false;
+        }
+        if a.negated && var.ty != ids::BOOL {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                a.span,
+                "NOT … => applies to BOOL outputs",
+            );
+            return false;
+        }
+        let assignable = self.assignable(var.ty, pl.ty);
+        if !assignable {
+            let (a1, b1) = (self.types.name(var.ty), self.types.name(pl.ty));
+            self.error(
+                diag::TYPE_MISMATCH,
+                v.span,
+                format!("output `{}` is {a1} and cannot be stored in {b1}", var.name),
+            );
+            return false;
+        }
+        out.outputs.push((id, pl, a.negated));
+        true
+    }
+}
+
+/// The names of `ps`, for messages.
+fn param_list(ps: &[(VarId, &crate::ir::Var)]) -> String {
+    ps.iter()
+        .map(|(_, v)| v.name.clone())
+        .collect::<Vec<_>>()
+        .join(", ")
+}

@@ -1,0 +1,503 @@
+//! Operators with the standard's type rules: unary, binary, unification and implicit conversions.
+
+use petriplc_iec_syntax::ast::{self, BinaryOp, ExprKind as A, UnaryOp};
+use petriplc_iec_syntax::diag;
+use petriplc_iec_syntax::source::Span;
+
+use crate::check::{Checker, Cx};
+use crate::ir::{Expr, ExprKind};
+use crate::types::{ids, Elem, Type, TypeId, TypeTable};
+use crate::value::{self, Value};
+
+use super::{conversion_hint, err, konst};
+
+impl<'a> Checker<'a> {
+    pub(super) fn unary(
+        &mut self,
+        op: UnaryOp,
+        inner: &ast::Expr,
+        cx: &mut Cx,
+        expected: Option<TypeId>,
+        span: Span,
+    ) -> Expr {
+        let x = self.expr(inner, cx, expected);
+        if x.ty == ids::ERROR {
+            return x;
+        }
+        match op {
+            UnaryOp::Plus => {
+                if self.numeric_or_lit(x.ty) || self.duration(x.ty) {
+                    Expr { span, ..x }
+                } else {
+                    self.op_error("+", x.ty, None, span);
+                    err(span)
+                }
+            }
+            UnaryOp::Neg => {
+                match (&x.kind, self.types.get(x.ty)) {
+                    (ExprKind::Const(Value::Int(v)), Type::IntLit) => {
+                        return konst(Value::Int(-v), ids::INT_LIT, span)
+                    }
+                    (ExprKind::Const(Value::Real(v)), Type::RealLit) => {
+                        return konst(Value::Real(-v), ids::REAL_LIT, span)
+                    }
+                    _ => {}
+                }
+                let ok = match self.types.elem(x.ty) {
+                    Some(e) => e.is_signed() || e.is_real() || e.is_duration(),
+                    None => false,
+                };
+                if !ok {
+                    let t = self.types.name(x.ty);
+                    self.error(
+                        diag::OPERAND_TYPE,
+                        span,
+                        format!("`-` negates signed integers, reals and durations, not {t}"),
+                    );
+                    return err(span);
+                }
+                let ty = self.base_type(x.ty);
+                self.fold(Expr {
+                    kind: ExprKind::Unary(op, Box::new(x)),
+                    ty,
+                    span,
+                })
+            }
+            UnaryOp::Not => {
+                let x = if self.types.get(x.ty) == &Type::IntLit {
+                    match expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_bitstring()))
+                    {
+                        Some(t) => self.coerce(x, t, "the operand of NOT"),
+                        None => x,
+                    }
+                } else {
+                    x
+                };
+                let ok = self.types.elem(x.ty).is_some_and(|e| e.is_bit());
+                if !ok {
+                    let t = self.types.name(x.ty);
+                    self.error(
+                        diag::OPERAND_TYPE,
+                        span,
+                        format!("NOT applies to BOOL and bit strings (BYTE, WORD, DWORD, LWORD), not {t}"),
+                    );
+                    return err(span);
+                }
+                let ty = self.base_type(x.ty);
+                self.fold(Expr {
+                    kind: ExprKind::Unary(op, Box::new(x)),
+                    ty,
+                    span,
+                })
+            }
+        }
+    }
+
+    /// A subrange's base type (operations compute in the base type).
+    pub fn base_type(&self, ty: TypeId) -> TypeId {
+        match self.types.get(ty) {
+            Type::Subrange { base, .. } => TypeTable::elem_id(*base),
+            _ => ty,
+        }
+    }
+
+    pub(super) fn numeric_or_lit(&self, ty: TypeId) -> bool {
+        matches!(self.types.get(ty), Type::IntLit | Type::RealLit)
+            || self.types.elem(ty).is_some_and(|e| e.is_num())
+    }
+
+    fn duration(&self, ty: TypeId) -> bool {
+        self.types.elem(ty).is_some_and(|e| e.is_duration())
+    }
+
+    fn op_error(&mut self, op: &str, a: TypeId, b: Option<TypeId>, span: Span) {
+        let an = self.types.name(a);
+        let msg = match b {
+            Some(b) => {
+                let bn = self.types.name(b);
+                let hint = conversion_hint(&self.types, a, b);
+                format!("`{op}` cannot combine {an} and {bn}{hint}")
+            }
+            None => format!("`{op}` does not apply to {an}"),
+        };
+        self.error(diag::OPERAND_TYPE, span, msg);
+    }
+
+    pub fn binary(
+        &mut self,
+        op: BinaryOp,
+        a: &ast::Expr,
+        b: &ast::Expr,
+        cx: &mut Cx,
+        expected: Option<TypeId>,
+        span: Span,
+    ) -> Expr {
+        let hint = if op.is_comparison() { None } else { expected };
+        let mut x = self.expr(a, cx, hint);
+        let mut y = self.expr(
+            b,
+            cx,
+            hint.or(Some(x.ty))
+                .filter(|t| *t != ids::INT_LIT && *t != ids::REAL_LIT),
+        );
+        if x.ty == ids::INT_LIT
+            && self.types.get(y.ty) != &Type::IntLit
+            && matches!(self.types.get(y.ty), Type::Enum { .. })
+        {
+            // keep
+        }
+        if matches!(self.types.get(x.ty), Type::Enum { .. })
+            || matches!(self.types.get(y.ty), Type::Enum { .. })
+        {
+            // Re-resolve a bare enumeration value against the other side's type.
+            if matches!(a.kind, A::Name(_)) && !matches!(self.types.get(x.ty), Type::Enum { .. }) {
+                x = self.expr(a, cx, Some(y.ty));
+            }
+            if matches!(b.kind, A::Name(_)) && !matches!(self.types.get(y.ty), Type::Enum { .. }) {
+                y = self.expr(b, cx, Some(x.ty));
+            }
+        }
+        self.binary_checked(op, x, y, span)
+    }
+
+    /// Types an operator over checked operands.
+    pub fn binary_checked(&mut self, op: BinaryOp, x: Expr, y: Expr, span: Span) -> Expr {
+        if x.ty == ids::ERROR || y.ty == ids::ERROR {
+            return err(span);
+        }
+        let (xe, ye) = (self.types.elem(x.ty), self.types.elem(y.ty));
+        // Time arithmetic with mixed types.
+        use BinaryOp::*;
+        use Elem::*;
+        let mixed = match (op, xe, ye) {
+            (Add, Some(Tod), Some(Time | Ltime)) => Some(ids::TOD),
+            (Add, Some(Dt), Some(Time | Ltime)) => Some(ids::DT),
+            (Sub, Some(Tod), Some(Time | Ltime)) => Some(ids::TOD),
+            (Sub, Some(Dt), Some(Time | Ltime)) => Some(ids::DT),
+            (Sub, Some(Date), Some(Date)) => Some(ids::TIME),
+            (Sub, Some(Tod), Some(Tod)) => Some(ids::TIME),
+            (Sub, Some(Dt), Some(Dt)) => Some(ids::TIME),
+            _ => None,
+        };
+        if let Some(ty) = mixed {
+            return self.fold(Expr {
+                kind: ExprKind::Binary(op, Box::new(x), Box::new(y)),
+                ty,
+                span,
+            });
+        }
+        if matches!(op, Mul | Div) && xe.is_some_and(|e| e.is_duration()) {
+            // TIME * ANY_NUM, TIME / ANY_NUM.
+            let y = match self.types.get(y.ty) {
+                Type::IntLit => self.coerce(y, ids::LINT, "the factor"),
+                Type::RealLit => self.coerce(y, ids::LREAL, "the factor"),
+                _ => y,
+            };
+            if !self.types.elem(y.ty).is_some_and(|e| e.is_num()) {
+                self.op_error(op.text(), x.ty, Some(y.ty), span);
+                return err(span);
+            }
+            let ty = x.ty;
+            return self.fold(Expr {
+                kind: ExprKind::Binary(op, Box::new(x), Box::new(y)),
+                ty,
+                span,
+            });
+        }
+        if op == Power {
+            let x = match self.types.get(x.ty) {
+                Type::IntLit | Type::RealLit => self.coerce(x, ids::LREAL, "the base"),
+                _ => x,
+            };
+            let y = match self.types.get(y.ty) {
+                Type::IntLit => self.coerce(y, ids::DINT, "the exponent"),
+                Type::RealLit => self.coerce(y, ids::LREAL, "the exponent"),
+                _ => y,
+            };
+            let (xe, ye) = (self.types.elem(x.ty), self.types.elem(y.ty));
+            if !xe.is_some_and(|e| e.is_real()) || !ye.is_some_and(|e| e.is_num()) {
+                let an = self.types.name(x.ty);
+                self.error(
+                    diag::OPERAND_TYPE,
+                    span,
+                    format!("`**` (EXPT) raises REAL or LREAL to a number; this base is {an} (convert it, e.g. INT_TO_REAL(x) ** 2)"),
+                );
+                return err(span);
+            }
+            let ty = x.ty;
+            return self.fold(Expr {
+                kind: ExprKind::Binary(op, Box::new(x), Box::new(y)),
+                ty,
+                span,
+            });
+        }
+        let Some((x, y, t)) = self.unify(x, y, op.text(), span) else {
+            return err(span);
+        };
+        let tt = self.types.get(t).clone();
+        let elem = self.types.elem(t);
+        let ok = match op {
+            Or | Xor | And => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_bit()),
+            Eq | Ne => true,
+            Lt | Le | Gt | Ge => !matches!(
+                tt,
+                Type::Enum { .. } | Type::Struct { .. } | Type::Array { .. } | Type::Fb(_)
+            ),
+            Add | Sub => {
+                matches!(tt, Type::IntLit | Type::RealLit)
+                    || elem.is_some_and(|e| e.is_num() || e.is_duration())
+            }
+            Mul | Div => {
+                matches!(tt, Type::IntLit | Type::RealLit) || elem.is_some_and(|e| e.is_num())
+            }
+            Mod => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_int()),
+            Power => true,
+        };
+        let ok = ok
+            && !matches!(
+                tt,
+                Type::Struct { .. } | Type::Array { .. } | Type::Fb(_) | Type::Void
+            );
+        if !ok {
+            let tn = self.types.name(t);
+            let what = match op {
+                Or | Xor | And => "BOOL and bit strings",
+                Add | Sub => "numbers and durations",
+                Mul | Div => "numbers",
+                Mod => "integers",
+                _ => "elementary values and strings",
+            };
+            self.error(
+                diag::OPERAND_TYPE,
+                span,
+                format!("`{}` applies to {what}, not {tn}", op.text()),
+            );
+            return err(span);
+        }
+        let ty = if op.is_comparison() { ids::BOOL } else { t };
+        self.fold(Expr {
+            kind: ExprKind::Binary(op, Box::new(x), Box::new(y)),
+            ty,
+            span,
+        })
+    }
+
+    /// Brings two operands to one type (literals take the other side's type, elementary
+    /// types widen); `None` after reporting a mismatch.
+    pub fn unify(
+        &mut self,
+        x: Expr,
+        y: Expr,
+        op: &str,
+        span: Span,
+    ) -> Option<(Expr, Expr, TypeId)> {
+        let (tx, ty) = (self.base_type(x.ty), self.base_type(y.ty));
+        let lit = |t: TypeId| t == ids::INT_LIT || t == ids::REAL_LIT;
+        if tx == ty {
+            return Some((x, y, tx));
+        }
+        if lit(tx) && lit(ty) {
+            let x = self.coerce(x, ids::REAL_LIT, op);
+            let y = self.coerce(y, ids::REAL_LIT, op);
+            return Some((x, y, ids::REAL_LIT));
+        }
+        if lit(tx) {
+            let x = self.coerce_quiet(x, ty)?;
+            return Some((x, y, ty));
+        }
+        if lit(ty) {
+            let y = self.coerce_quiet(y, tx)?;
+            return Some((x, y, tx));
+        }
+        // Strings of any lengths compare and combine.
+        if let (Type::Str { len: a }, Type::Str { len: b }) =
+            (self.types.get(tx), self.types.get(ty))
+        {
+            let t = self.types.string((*a).max(*b));
+            return Some((x, y, t));
+        }
+        match (self.types.elem(tx), self.types.elem(ty)) {
+            (Some(a), Some(b)) if a.widens_to(b) => {
+                let x = self.convert(x, ty);
+                Some((x, y, ty))
+            }
+            (Some(a), Some(b)) if b.widens_to(a) => {
+                let y = self.convert(y, tx);
+                Some((x, y, tx))
+            }
+            _ => {
+                self.op_error(op, x.ty, Some(y.ty), span);
+                None
+            }
+        }
+    }
+
+    /// `coerce` that reports a literal out of range but not other mismatches.
+    fn coerce_quiet(&mut self, x: Expr, to: TypeId) -> Option<Expr> {
+        let span = x.span;
+        let r = self.coerce(x, to, "this operand");
+        (r.ty != ids::ERROR).then_some(r).or_else(|| {
+            let _ = span;
+            None
+        })
+    }
+
+    fn convert(&self, x: Expr, to: TypeId) -> Expr {
+        let span = x.span;
+        if let ExprKind::Const(v) = &x.kind {
+            if let Some(v) = self.convert_const(v, x.ty, to) {
+                return konst(v, to, span);
+            }
+        }
+        Expr {
+            kind: ExprKind::Convert(Box::new(x)),
+            ty: to,
+            span,
+        }
+    }
+
+    pub(super) fn widen_to_lint(&mut self, x: Expr) -> Expr {
+        if x.ty == ids::LINT {
+            return x;
+        }
+        if x.ty == ids::INT_LIT {
+            return self.coerce(x, ids::LINT, "the subscript");
+        }
+        self.convert(x, ids::LINT)
+    }
+
+    /// Converts an expression to `to` where the standard converts implicitly; otherwise
+    /// reports a mismatch naming the conversion to write.
+    pub fn coerce(&mut self, x: Expr, to: TypeId, what: &str) -> Expr {
+        let span = x.span;
+        if x.ty == ids::ERROR || to == ids::ERROR {
+            return err(span);
+        }
+        if x.ty == to {
+            return x;
+        }
+        let from_t = self.types.get(x.ty).clone();
+        let to_t = self.types.get(to).clone();
+        match (&from_t, &to_t) {
+            (Type::IntLit, Type::IntLit) | (Type::RealLit, Type::RealLit) => return x,
+            (Type::IntLit, Type::RealLit) => {
+                let v = x.const_int().unwrap_or(0);
+                return konst(Value::Real(v as f64), ids::REAL_LIT, span);
+            }
+            (Type::IntLit, _) => {
+                let v = x.const_int().unwrap_or(0);
+                let target = match &to_t {
+                    Type::Elem(e) => Some((*e, None)),
+                    Type::Subrange { base, lo, hi } => Some((*base, Some((*lo, *hi)))),
+                    _ => None,
+                };
+                match target {
+                    Some((e, sub)) if e.is_int() || e.is_bitstring() || e == Elem::Bool => {
+                        let (lo, hi) = sub.unwrap_or(e.range());
+                        if v < lo || v > hi {
+                            self.error(
+                                diag::OUT_OF_RANGE,
+                                span,
+                                format!(
+                                    "{v} does not fit {} ({lo}..{hi}){}",
+                                    self.types.name(to),
+                                    if e == Elem::Bool {
+                                        "; write TRUE or FALSE"
+                                    } else {
+                                        ""
+                                    }
+                                ),
+                            );
+                            return err(span);
+                        }
+                        return konst(Value::Int(v), to, span);
+                    }
+                    Some((e, _)) if e.is_real() => {
+                        let f = v as f64;
+                        let f = if e == Elem::Real {
+                            value::to_real(f)
+                        } else {
+                            f
+                        };
+                        return konst(Value::Real(f), to, span);
+                    }
+                    _ => {}
+                }
+            }
+            (Type::RealLit, Type::Elem(e)) if e.is_real() => {
+                let f = x.const_real().unwrap_or(0.0);
+                let f = if *e == Elem::Real {
+                    value::to_real(f)
+                } else {
+                    f
+                };
+                if !f.is_finite() {
+                    self.error(
+                        diag::OUT_OF_RANGE,
+                        span,
+                        format!("this value does not fit {}", e.name()),
+                    );
+                    return err(span);
+                }
+                return konst(Value::Real(f), to, span);
+            }
+            (Type::Str { .. }, Type::Str { len }) => {
+                if let ExprKind::Const(Value::Str(s)) = &x.kind {
+                    if s.len() > *len as usize {
+                        self.error(
+                            diag::OUT_OF_RANGE,
+                            span,
+                            format!(
+                                "this string has {} characters; {} holds {len}",
+                                s.len(),
+                                self.types.name(to)
+                            ),
+                        );
+                        return err(span);
+                    }
+                    return konst(Value::Str(s.clone()), to, span);
+                }
+                return Expr {
+                    kind: ExprKind::Convert(Box::new(x)),
+                    ty: to,
+                    span,
+                };
+            }
+            (Type::Elem(a), Type::Elem(b)) if a.widens_to(*b) => return self.convert(x, to),
+            (Type::Subrange { base, .. }, Type::Elem(b)) if base.widens_to(*b) => {
+                return self.convert(x, to)
+            }
+            (Type::Elem(a), Type::Subrange { base, lo, hi })
+            | (Type::Subrange { base: a, .. }, Type::Subrange { base, lo, hi })
+                if a.widens_to(*base) =>
+            {
+                if let Some(v) = x.const_int() {
+                    if v < *lo || v > *hi {
+                        self.error(
+                            diag::OUT_OF_RANGE,
+                            span,
+                            format!("{v} is outside {}", self.types.name(to)),
+                        );
+                        return err(span);
+                    }
+                    return konst(Value::Int(v), to, span);
+                }
+                // Checked when the program runs.
+                return Expr {
+                    kind: ExprKind::Convert(Box::new(x)),
+                    ty: to,
+                    span,
+                };
+            }
+            _ => {}
+        }
+        let (a, b) = (self.types.name(x.ty), self.types.name(to));
+        let hint = conversion_hint(&self.types, x.ty, to);
+        self.error(
+            diag::TYPE_MISMATCH,
+            span,
+            format!("{what} is {a} but {b} is needed{hint}"),
+        );
+        err(span)
+    }
+}

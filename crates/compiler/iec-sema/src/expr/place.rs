@@ -1,0 +1,365 @@
+//! Places: what can be read or written (variables, fields, elements, bits, instance members).
+
+use petriplc_iec_syntax::ast::{self, ExprKind as A};
+use petriplc_iec_syntax::diag;
+use petriplc_iec_syntax::source::Span;
+
+use crate::check::{Checker, Cx};
+use crate::ir::{Place, Root, Step, VarClass, VarId};
+use crate::types::{ids, FbRef, Type, TypeId, TypeTable};
+use crate::value::Value;
+
+impl<'a> Checker<'a> {
+    /// Resolves something that can be read (or written, with `write`): a variable, a field,
+    /// an array element, a bit, an instance's input or output.
+    pub fn place(&mut self, e: &ast::Expr, cx: &mut Cx, write: bool) -> Option<Place> {
+        match &e.kind {
+            A::Paren(inner) if !write => self.place(inner, cx, write),
+            A::Name(id) => self.name_place(id, cx),
+            A::Field(base, f) => self.field_place(e, base, f, cx, write),
+            A::Index(base, idx) => self.index_place(e, base, idx, cx, write),
+            A::Bit(base, n) => self.bit_place(e, base, n, cx, write),
+            _ => {
+                self.error(
+                    diag::NOT_ASSIGNABLE,
+                    e.span,
+                    if write {
+                        "only a variable, an array element, a field or a bit can be assigned"
+                    } else {
+                        "this is not a variable"
+                    },
+                );
+                None
+            }
+        }
+    }
+
+    /// A variable by name; an enumeration value or an unknown name is told.
+    fn name_place(&mut self, id: &ast::Ident, cx: &mut Cx) -> Option<Place> {
+        let p = self.var_place(id, cx);
+        if p.is_none() {
+            if self.enum_values.contains_key(&id.key()) {
+                self.error(
+                    diag::NOT_ASSIGNABLE,
+                    id.span,
+                    format!("`{}` is an enumeration value, not a variable", id.name),
+                );
+            } else {
+                self.undeclared(id, cx);
+            }
+        }
+        p
+    }
+
+    /// `base.f`: a structure's field or a function block instance's input or output.
+    fn field_place(
+        &mut self,
+        e: &ast::Expr,
+        base: &ast::Expr,
+        f: &ast::Ident,
+        cx: &mut Cx,
+        write: bool,
+    ) -> Option<Place> {
+        let mut p = self.place(base, cx, write)?;
+        let span = e.span;
+        match self.types.get(p.ty).clone() {
+            Type::Struct { fields, name } => {
+                let Some(i) = fields
+                    .iter()
+                    .position(|x| x.name.eq_ignore_ascii_case(&f.name))
+                else {
+                    self.error(
+                        diag::NO_FIELD,
+                        f.span,
+                        format!(
+                            "structure {name} has no field `{}`; its fields are {}",
+                            f.name,
+                            fields
+                                .iter()
+                                .map(|x| x.name.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    );
+                    return None;
+                };
+                p.path.push(Step::Field(i as u32));
+                p.ty = fields[i].ty;
+                p.span = span;
+                Some(p)
+            }
+            Type::Fb(fb) => {
+                let (i, ty, class, fb_name) = self.fb_member(fb, f)?;
+                match class {
+                    VarClass::Input | VarClass::Output | VarClass::InOut => {}
+                    _ => {
+                        self.error(
+                            diag::NO_FIELD,
+                            f.span,
+                            format!("`{}` is internal to {fb_name}; only its inputs and outputs can be used from outside", f.name),
+                        );
+                        return None;
+                    }
+                }
+                if write && class == VarClass::Output {
+                    self.error(
+                        diag::NOT_ASSIGNABLE,
+                        span,
+                        format!(
+                            "`{}` is an output of {fb_name}: only the function block writes it",
+                            f.name
+                        ),
+                    );
+                    return None;
+                }
+                if write && class == VarClass::InOut {
+                    self.error(
+                        diag::NOT_ASSIGNABLE,
+                        span,
+                        format!(
+                            "`{}` is an in-out of {fb_name}: connect it in the call",
+                            f.name
+                        ),
+                    );
+                    return None;
+                }
+                p.path.push(Step::Member(i));
+                p.ty = ty;
+                p.span = span;
+                Some(p)
+            }
+            Type::Error => None,
+            _ => {
+                let t = self.types.name(p.ty);
+                self.error(
+                    diag::NO_FIELD,
+                    f.span,
+                    format!("`{}` of type {t} has no fields", self.src_text(base)),
+                );
+                None
+            }
+        }
+    }
+
+    /// `base[i, …]`: an array element; constant subscripts are checked against the bounds.
+    fn index_place(
+        &mut self,
+        e: &ast::Expr,
+        base: &ast::Expr,
+        idx: &[ast::Expr],
+        cx: &mut Cx,
+        write: bool,
+    ) -> Option<Place> {
+        let mut p = self.place(base, cx, write)?;
+        let Type::Array { dims, elem } = self.types.get(p.ty).clone() else {
+            if p.ty != ids::ERROR {
+                let t = self.types.name(p.ty);
+                self.error(
+                    diag::BAD_INDEX,
+                    e.span,
+                    format!("only arrays are indexed; this is {t}"),
+                );
+            }
+            return None;
+        };
+        if idx.len() != dims.len() {
+            self.error(
+                diag::BAD_INDEX,
+                e.span,
+                format!(
+                    "this array has {} dimension(s); give {} subscript(s)",
+                    dims.len(),
+                    dims.len()
+                ),
+            );
+            return None;
+        }
+        let mut subs = Vec::new();
+        for (i, (ie, (lo, hi))) in idx.iter().zip(&dims).enumerate() {
+            let x = self.expr(ie, cx, Some(ids::DINT));
+            if x.ty == ids::ERROR {
+                return None;
+            }
+            if !self.is_integral(x.ty) {
+                let t = self.types.name(x.ty);
+                self.error(
+                    diag::BAD_INDEX,
+                    ie.span,
+                    format!("a subscript is an integer, not {t}"),
+                );
+                return None;
+            }
+            if let Some(Value::Int(v)) = self.eval_const(&x) {
+                if v < *lo as i128 || v > *hi as i128 {
+                    self.error(
+                        diag::BAD_INDEX,
+                        ie.span,
+                        format!("subscript {v} is outside dimension {} ({lo}..{hi})", i + 1),
+                    );
+                    return None;
+                }
+            }
+            let x = self.widen_to_lint(x);
+            subs.push(x);
+        }
+        p.path.push(Step::Index(subs));
+        p.ty = elem;
+        p.span = e.span;
+        Some(p)
+    }
+
+    /// `base.n`: a bit of a bit string or an integer.
+    fn bit_place(
+        &mut self,
+        e: &ast::Expr,
+        base: &ast::Expr,
+        n: &u32,
+        cx: &mut Cx,
+        write: bool,
+    ) -> Option<Place> {
+        let mut p = self.place(base, cx, write)?;
+        let Some(el) = self
+            .types
+            .elem(p.ty)
+            .filter(|e| e.is_bitstring() || e.is_int())
+        else {
+            if p.ty != ids::ERROR {
+                let t = self.types.name(p.ty);
+                self.error(
+                    diag::BAD_INDEX,
+                    e.span,
+                    format!("bit access (.{n}) applies to bit strings and integers, not {t}"),
+                );
+            }
+            return None;
+        };
+        if *n >= el.bits() {
+            self.error(
+                diag::BAD_INDEX,
+                e.span,
+                format!(
+                    "{} has bits 0 to {}; .{n} does not exist",
+                    el.name(),
+                    el.bits() - 1
+                ),
+            );
+            return None;
+        }
+        p.path.push(Step::Bit(*n));
+        p.ty = ids::BOOL;
+        p.span = e.span;
+        Some(p)
+    }
+
+    fn src_text(&self, e: &ast::Expr) -> String {
+        match &e.kind {
+            A::Name(i) => i.name.clone(),
+            _ => "this".into(),
+        }
+    }
+
+    /// A member of a function block type: index, type, class, the FB's name.
+    pub fn fb_member(
+        &mut self,
+        fb: FbRef,
+        f: &ast::Ident,
+    ) -> Option<(VarId, TypeId, VarClass, String)> {
+        match fb {
+            FbRef::User(p) => {
+                self.interface(p);
+                let pou = &self.pous[p as usize];
+                let name = pou.name.clone();
+                match pou.var_by_name(&f.name) {
+                    Some(i) if pou.vars[i as usize].class != VarClass::Hidden => {
+                        let v = &pou.vars[i as usize];
+                        Some((i, v.ty, v.class, name))
+                    }
+                    _ => {
+                        self.error(
+                            diag::NO_FIELD,
+                            f.span,
+                            format!("function block {name} has no input or output `{}`", f.name),
+                        );
+                        None
+                    }
+                }
+            }
+            FbRef::Native(k) => {
+                let sig = &self.natives[k as usize];
+                let name = sig.name.clone();
+                match sig.var_by_name(&f.name) {
+                    Some(i) => {
+                        let v = &sig.vars[i as usize];
+                        let class = match v.kind {
+                            crate::ir::NativeVarKind::Input => VarClass::Input,
+                            crate::ir::NativeVarKind::Output => VarClass::Output,
+                            crate::ir::NativeVarKind::State => VarClass::Local,
+                        };
+                        Some((i, TypeTable::elem_id(v.ty), class, name))
+                    }
+                    None => {
+                        let list: Vec<&str> = sig
+                            .vars
+                            .iter()
+                            .filter(|v| v.kind != crate::ir::NativeVarKind::State)
+                            .map(|v| v.name.as_str())
+                            .collect();
+                        self.error(
+                            diag::NO_FIELD,
+                            f.span,
+                            format!(
+                                "{name} has no input or output `{}`; it has {}",
+                                f.name,
+                                list.join(", ")
+                            ),
+                        );
+                        None
+                    }
+                }
+            }
+        }
+    }
+
+    /// A place that may be written here: reports why not otherwise.
+    pub fn writable(&mut self, p: &Place, cx: &Cx, span: Span) -> bool {
+        let var = self.var_of(p, cx).clone();
+        if matches!(self.types.get(p.ty), Type::Fb(_)) {
+            self.error(
+                diag::NOT_ASSIGNABLE,
+                span,
+                "a function block instance cannot be assigned; call it or set its inputs",
+            );
+            return false;
+        }
+        if var.constant {
+            self.error(
+                diag::ASSIGN_CONSTANT,
+                span,
+                format!("`{}` is a CONSTANT and cannot be assigned; declare it in VAR (without CONSTANT) to change it", var.name),
+            );
+            return false;
+        }
+        if let Root::Var(v) = p.root {
+            if var.class == VarClass::Input && cx.pou.is_some() {
+                let member_of_instance = p.path.iter().any(|s| matches!(s, Step::Member(_)));
+                if !member_of_instance {
+                    self.error(
+                        diag::ASSIGN_INPUT,
+                        span,
+                        format!("`{}` is an input of this POU and cannot be assigned here; copy it into a local variable (VAR) and change that", var.name),
+                    );
+                    return false;
+                }
+            }
+            if p.path.is_empty() && cx.for_vars.contains(&v) {
+                self.error(
+                    diag::ASSIGN_LOOP_VAR,
+                    span,
+                    format!("`{}` controls the FOR loop around this statement and must not be assigned in its body; use another variable", var.name),
+                );
+                return false;
+            }
+        }
+        true
+    }
+}

@@ -1,0 +1,422 @@
+//! Standard functions: arguments bound by name, typed conversions (`X_TO_Y`, `TRUNC`).
+
+use petriplc_iec_syntax::ast::{self, BinaryOp, UnaryOp};
+use petriplc_iec_syntax::diag;
+use petriplc_iec_syntax::source::Span;
+
+use crate::check::{Checker, Cx};
+use crate::ir::{Builtin, Expr, ExprKind};
+use crate::stdlib;
+use crate::types::{ids, Elem, Type, TypeId, TypeTable};
+
+use super::{err, StdArg};
+
+impl<'a> Checker<'a> {
+    /// Binds a standard function's arguments to its parameter names; `extensible`: the
+    /// last name repeats with increasing numbers.
+    pub(super) fn std_args<'e>(
+        &mut self,
+        fname: &str,
+        call: &'e ast::Call,
+        params: &[&str],
+        min: usize,
+        extensible: bool,
+    ) -> Option<Vec<StdArg<'e>>> {
+        let formal = call.args.iter().any(|a| a.name.is_some());
+        let mut out: Vec<Option<StdArg<'e>>> = Vec::new();
+        for (k, a) in call.args.iter().enumerate() {
+            if a.output {
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    a.span,
+                    format!("{fname} has no outputs to connect"),
+                );
+                return None;
+            }
+            let idx = match &a.name {
+                None if formal => {
+                    self.error(
+                        diag::BAD_ARGUMENTS,
+                        call.span,
+                        format!("the call of {fname} mixes named and positional arguments"),
+                    );
+                    return None;
+                }
+                None => k,
+                Some(n) => {
+                    let key = n.key();
+                    match params.iter().position(|p| *p == key) {
+                        Some(i) => i,
+                        None if extensible => {
+                            // IN1, IN2, … beyond the listed names.
+                            let last = params.last().copied().unwrap_or("IN");
+                            let stem = last.trim_end_matches(|c: char| c.is_ascii_digit());
+                            let first_num: usize = last[stem.len()..].parse().unwrap_or(0);
+                            match key.strip_prefix(stem).and_then(|d| d.parse::<usize>().ok()) {
+                                Some(d) if d >= first_num => params.len() - 1 + (d - first_num),
+                                _ => {
+                                    self.error(
+                                        diag::BAD_ARGUMENTS,
+                                        n.span,
+                                        format!("{fname} has no parameter `{}`; its parameters are {}, …", n.name, params.join(", ")),
+                                    );
+                                    return None;
+                                }
+                            }
+                        }
+                        None => {
+                            self.error(
+                                diag::BAD_ARGUMENTS,
+                                n.span,
+                                format!(
+                                    "{fname} has no parameter `{}`; its parameters are {}",
+                                    n.name,
+                                    params.join(", ")
+                                ),
+                            );
+                            return None;
+                        }
+                    }
+                }
+            };
+            if !extensible && idx >= params.len() {
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    a.span,
+                    format!(
+                        "{fname} takes {} argument(s) ({})",
+                        params.len(),
+                        params.join(", ")
+                    ),
+                );
+                return None;
+            }
+            if out.len() <= idx {
+                out.resize_with(idx + 1, || None);
+            }
+            if out[idx].is_some() {
+                self.error(diag::BAD_ARGUMENTS, a.span, "this parameter is given twice");
+                return None;
+            }
+            let Some(v) = a.value.as_ref() else {
+                self.error(diag::BAD_ARGUMENTS, a.span, "give this parameter a value");
+                return None;
+            };
+            out[idx] = Some(StdArg {
+                expr: v,
+                span: a.span,
+            });
+        }
+        let n = out.len();
+        if n < min || out.iter().any(|a| a.is_none()) {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                call.span,
+                format!(
+                    "{fname} takes {}{} argument(s) ({}{})",
+                    if extensible { "at least " } else { "" },
+                    min,
+                    params.join(", "),
+                    if extensible { ", …" } else { "" }
+                ),
+            );
+            return None;
+        }
+        Some(out.into_iter().flatten().collect())
+    }
+
+    /// A standard function call, or `None` when `name` is not one.
+    pub(super) fn std_call(
+        &mut self,
+        name: &ast::Ident,
+        call: &ast::Call,
+        cx: &mut Cx,
+        expected: Option<TypeId>,
+    ) -> Option<Expr> {
+        let key = name.key();
+        let span = call.span;
+        let f = key.as_str();
+        use BinaryOp::*;
+        // Operators as functions.
+        let op = match f {
+            "ADD" | "ADD_TIME" | "ADD_LTIME" | "ADD_TOD_TIME" | "ADD_DT_TIME" => Some((Add, true)),
+            "MUL" | "MUL_TIME" | "MUL_LTIME" => Some((Mul, true)),
+            "SUB" | "SUB_TIME" | "SUB_LTIME" | "SUB_TOD_TIME" | "SUB_DT_TIME" | "SUB_DATE_DATE"
+            | "SUB_TOD_TOD" | "SUB_DT_DT" => Some((Sub, false)),
+            "DIV" | "DIV_TIME" | "DIV_LTIME" => Some((Div, false)),
+            "MOD" => Some((Mod, false)),
+            "AND" => Some((And, true)),
+            "OR" => Some((Or, true)),
+            "XOR" => Some((Xor, true)),
+            "EXPT" => Some((Power, false)),
+            _ => None,
+        };
+        if let Some((op, ext)) = op {
+            let args = self.std_args(f, call, &["IN1", "IN2"], 2, ext)?;
+            let mut acc = self.expr(args[0].expr, cx, expected);
+            for a in &args[1..] {
+                let y = self.expr(a.expr, cx, expected);
+                acc = self.binary_checked(op, acc, y, span);
+            }
+            acc.span = span;
+            return Some(acc);
+        }
+        let cmp = match f {
+            "GT" => Some(Gt),
+            "GE" => Some(Ge),
+            "EQ" => Some(Eq),
+            "LE" => Some(Le),
+            "LT" => Some(Lt),
+            "NE" => Some(Ne),
+            _ => None,
+        };
+        if let Some(op) = cmp {
+            let ext = op != Ne;
+            let args = self.std_args(f, call, &["IN1", "IN2"], 2, ext)?;
+            let xs: Vec<Expr> = args.iter().map(|a| self.expr(a.expr, cx, None)).collect();
+            let mut acc: Option<Expr> = None;
+            for w in xs.windows(2) {
+                let c = self.binary_checked(op, w[0].clone(), w[1].clone(), span);
+                acc = Some(match acc {
+                    None => c,
+                    Some(a) => self.binary_checked(And, a, c, span),
+                });
+            }
+            return acc;
+        }
+        match f {
+            "NOT" => {
+                let args = self.std_args(f, call, &["IN"], 1, false)?;
+                return Some(self.unary(UnaryOp::Not, args[0].expr, cx, expected, span));
+            }
+            "MOVE" => {
+                let args = self.std_args(f, call, &["IN"], 1, false)?;
+                return Some(self.expr(args[0].expr, cx, expected));
+            }
+            _ => {}
+        }
+        if let Some((from, to, trunc)) = stdlib::conversion_of(f) {
+            if f == "TRUNC" {
+                // handled below
+            } else {
+                return Some(self.conversion(name, call, cx, from, &to, trunc));
+            }
+        }
+        let b = match f {
+            "ABS" => Builtin::Abs,
+            "SQRT" => Builtin::Sqrt,
+            "LN" => Builtin::Ln,
+            "LOG" => Builtin::Log,
+            "EXP" => Builtin::Exp,
+            "SIN" => Builtin::Sin,
+            "COS" => Builtin::Cos,
+            "TAN" => Builtin::Tan,
+            "ASIN" => Builtin::Asin,
+            "ACOS" => Builtin::Acos,
+            "ATAN" => Builtin::Atan,
+            "ATAN2" => Builtin::Atan2,
+            "SEL" => Builtin::Sel,
+            "MAX" => Builtin::Max,
+            "MIN" => Builtin::Min,
+            "LIMIT" => Builtin::Limit,
+            "MUX" => Builtin::Mux,
+            "SHL" => Builtin::Shl,
+            "SHR" => Builtin::Shr,
+            "ROL" => Builtin::Rol,
+            "ROR" => Builtin::Ror,
+            "LEN" => Builtin::Len,
+            "LEFT" => Builtin::Left,
+            "RIGHT" => Builtin::Right,
+            "MID" => Builtin::Mid,
+            "CONCAT" => Builtin::Concat,
+            "INSERT" => Builtin::Insert,
+            "DELETE" => Builtin::Delete,
+            "REPLACE" => Builtin::Replace,
+            "FIND" => Builtin::Find,
+            "CONCAT_DATE_TOD" => Builtin::ConcatDateTod,
+            "TRUNC" => {
+                let args = self.std_args(f, call, &["IN"], 1, false)?;
+                let x = self.expr(args[0].expr, cx, None);
+                let to = expected
+                    .filter(|t| self.types.elem(*t).is_some_and(|e| e.is_int()))
+                    .unwrap_or(ids::DINT);
+                return Some(self.trunc(x, to, span));
+            }
+            _ => return None,
+        };
+        Some(self.builtin(b, f, call, cx, expected))
+    }
+
+    fn trunc(&mut self, x: Expr, to: TypeId, span: Span) -> Expr {
+        if x.ty == ids::ERROR {
+            return x;
+        }
+        let x = if x.ty == ids::REAL_LIT || x.ty == ids::INT_LIT {
+            self.coerce(x, ids::LREAL, "TRUNC's input")
+        } else {
+            x
+        };
+        if !self.types.elem(x.ty).is_some_and(|e| e.is_real()) {
+            let t = self.types.name(x.ty);
+            self.error(
+                diag::TYPE_MISMATCH,
+                span,
+                format!("TRUNC takes REAL or LREAL, not {t}"),
+            );
+            return err(span);
+        }
+        self.fold(Expr {
+            kind: ExprKind::Trunc(Box::new(x)),
+            ty: to,
+            span,
+        })
+    }
+
+    fn conversion(
+        &mut self,
+        name: &ast::Ident,
+        call: &ast::Call,
+        cx: &mut Cx,
+        from: Option<String>,
+        to: &str,
+        trunc: bool,
+    ) -> Expr {
+        let span = call.span;
+        let f = name.key();
+        let Some(args) = self.std_args(&f, call, &["IN"], 1, false) else {
+            return err(span);
+        };
+        let to_ty = match self.conv_type(to) {
+            Some(t) => t,
+            None => {
+                self.error(
+                    diag::UNKNOWN_POU,
+                    name.span,
+                    format!(
+                        "unknown function `{}`: {to} is not an elementary type",
+                        name.name
+                    ),
+                );
+                return err(span);
+            }
+        };
+        let from_ty = match &from {
+            Some(fr) => match self.conv_type(fr) {
+                Some(t) => Some(t),
+                None => {
+                    self.error(
+                        diag::UNKNOWN_POU,
+                        name.span,
+                        format!(
+                            "unknown function `{}`: {fr} is not an elementary type",
+                            name.name
+                        ),
+                    );
+                    return err(span);
+                }
+            },
+            None => None,
+        };
+        let x = self.expr(args[0].expr, cx, from_ty);
+        if x.ty == ids::ERROR {
+            return x;
+        }
+        let x = match from_ty {
+            Some(ft) => {
+                // The argument must be of the named type (or widen to it).
+                let from_elem = self.types.elem(ft);
+                let ok_same = self.base_type(x.ty) == ft
+                    || matches!(
+                        (self.types.get(x.ty), self.types.get(ft)),
+                        (Type::Str { .. }, Type::Str { .. })
+                    );
+                if ok_same
+                    || matches!(self.types.get(x.ty), Type::IntLit | Type::RealLit)
+                    || self.assignable(x.ty, ft)
+                {
+                    self.coerce(x, ft, &format!("the argument of {}", name.name))
+                } else {
+                    let (a, b) = (self.types.name(x.ty), self.types.name(ft));
+                    let _ = from_elem;
+                    self.error(
+                        diag::TYPE_MISMATCH,
+                        args[0].span,
+                        format!("{} converts {b}, and this argument is {a}; use {a}_TO_{to} (or TO_{to})", name.name),
+                    );
+                    return err(span);
+                }
+            }
+            None => match self.types.get(x.ty) {
+                Type::IntLit => self.coerce(x, ids::LINT, "the argument"),
+                Type::RealLit => self.coerce(x, ids::LREAL, "the argument"),
+                _ => x,
+            },
+        };
+        if x.ty == ids::ERROR {
+            return x;
+        }
+        if trunc {
+            return self.trunc(x, to_ty, span);
+        }
+        if !self.convertible(x.ty, to_ty) {
+            let (a, b) = (self.types.name(x.ty), self.types.name(to_ty));
+            self.error(
+                diag::TYPE_MISMATCH,
+                span,
+                format!("{a} cannot be converted to {b}"),
+            );
+            return err(span);
+        }
+        let x = if let Type::Enum { .. } = self.types.get(x.ty) {
+            x
+        } else {
+            x
+        };
+        self.fold(Expr {
+            kind: ExprKind::Convert(Box::new(x)),
+            ty: to_ty,
+            span,
+        })
+    }
+
+    fn conv_type(&mut self, name: &str) -> Option<TypeId> {
+        if let Some(e) = Elem::from_name(name) {
+            return Some(TypeTable::elem_id(e));
+        }
+        (name == "STRING").then_some(ids::STRING)
+    }
+
+    /// Whether the explicit conversion functions convert `from` to `to`.
+    fn convertible(&self, from: TypeId, to: TypeId) -> bool {
+        let s = |t: TypeId| matches!(self.types.get(t), Type::Str { .. });
+        if s(from) && s(to) {
+            return true;
+        }
+        let fe = self.types.elem(from).or(match self.types.get(from) {
+            Type::Enum { .. } => Some(Elem::Dint),
+            _ => None,
+        });
+        let te = self.types.elem(to);
+        match (fe, te) {
+            (Some(a), Some(b)) => {
+                let date = |e: Elem| e.is_date();
+                // Dates convert among themselves (DT → DATE, DT → TOD) and to/from integers.
+                if date(a) && date(b) {
+                    return a == b || a == Elem::Dt;
+                }
+                if (a.is_duration() || date(a)) && b.is_real()
+                    || (b.is_duration() || date(b)) && a.is_real()
+                {
+                    return a.is_duration() || b.is_duration();
+                }
+                if a.is_duration() && date(b) || date(a) && b.is_duration() {
+                    return false;
+                }
+                true
+            }
+            (Some(_), None) if s(to) => true,
+            (None, Some(_)) if s(from) => true,
+            _ => false,
+        }
+    }
+}

@@ -1,0 +1,317 @@
+//! POUs (programs, functions, function blocks) and their variable blocks.
+
+use crate::ast::*;
+use crate::diag;
+use crate::lexer::{Kw, Tok};
+use crate::source::Span;
+
+use super::{PResult, Parser, Reported};
+
+impl<'a, 'd> Parser<'a, 'd> {
+    pub(super) fn pou(&mut self, kind: PouKind) -> PResult<Pou> {
+        let start = self.bump().span;
+        let name = self.ident("the POU's name")?;
+        let return_type = if kind == PouKind::Function {
+            if self.eat(&Tok::Colon).is_some() {
+                Some(self.type_spec(false)?)
+            } else {
+                let span = self.peek().span;
+                self.error_at(
+                    diag::SYNTAX,
+                    span,
+                    format!(
+                        "a FUNCTION declares its result type: FUNCTION {} : INT",
+                        name.name
+                    ),
+                );
+                None
+            }
+        } else {
+            None
+        };
+        let end_kw = match kind {
+            PouKind::Program => Kw::EndProgram,
+            PouKind::FunctionBlock => Kw::EndFunctionBlock,
+            PouKind::Function => Kw::EndFunction,
+        };
+        let mut var_blocks = Vec::new();
+        while self.is_var_block_start() {
+            let s = self.pos;
+            match self.var_block() {
+                Ok(b) => var_blocks.push(b),
+                Err(Reported) => {
+                    // Skip to END_VAR (or the body).
+                    if self.pos == s {
+                        self.bump();
+                    }
+                    while !self.at_kw(Kw::EndVar) && !self.is_top_start() && !self.at_kw(end_kw) {
+                        self.bump();
+                    }
+                    self.eat_kw(Kw::EndVar);
+                    self.eat(&Tok::Semi);
+                }
+            }
+        }
+        if self.il {
+            let body_start = self.peek().span;
+            let code = self.il_instructions(end_kw);
+            let body = Body::Il {
+                code,
+                span: body_start.at_start(),
+            };
+            return self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw);
+        }
+        let mut body = self.statements(&[end_kw]);
+        // A stray END_WHILE, ELSE, UNTIL…: report it (unless a missing END_ was reported
+        // there) and go on with the statements after it.
+        while let Tok::Kw(
+            k @ (Kw::EndIf
+            | Kw::Elsif
+            | Kw::Else
+            | Kw::EndCase
+            | Kw::EndFor
+            | Kw::EndWhile
+            | Kw::Until
+            | Kw::EndRepeat),
+        ) = self.peek().tok
+        {
+            if self.pos != self.reported_at {
+                let span = self.peek().span;
+                self.error_at(
+                    diag::SYNTAX,
+                    span,
+                    format!("`{}` does not close any open statement here", k.text()),
+                );
+            }
+            self.bump();
+            self.eat(&Tok::Semi);
+            body.extend(self.statements(&[end_kw]));
+        }
+        self.pou_end(
+            kind,
+            name,
+            return_type,
+            var_blocks,
+            Body::St(body),
+            start,
+            end_kw,
+        )
+    }
+
+    /// The `END_…` of a POU, and the POU.
+    #[allow(clippy::too_many_arguments)]
+    fn pou_end(
+        &mut self,
+        kind: PouKind,
+        name: Ident,
+        return_type: Option<TypeSpec>,
+        var_blocks: Vec<VarBlock>,
+        body: Body,
+        start: Span,
+        end_kw: Kw,
+    ) -> PResult<Pou> {
+        let end = match self.eat_kw(end_kw) {
+            Some(t) => t.span,
+            None => {
+                let t = self.peek().clone();
+                if self.quiet_at(&t) {
+                    return Err(Reported);
+                }
+                let msg = format!(
+                    "{} {} has no {}; found {}",
+                    kind.keyword(),
+                    name.name,
+                    end_kw.text(),
+                    self.describe(&t)
+                );
+                self.error_at(diag::MISSING_END, t.span, msg);
+                return Err(Reported);
+            }
+        };
+        self.eat(&Tok::Semi);
+        Ok(Pou {
+            kind,
+            name,
+            return_type,
+            var_blocks,
+            body,
+            span: start.to(end),
+        })
+    }
+
+    fn is_var_block_start(&self) -> bool {
+        matches!(
+            self.peek().tok,
+            Tok::Kw(
+                Kw::Var
+                    | Kw::VarInput
+                    | Kw::VarOutput
+                    | Kw::VarInOut
+                    | Kw::VarTemp
+                    | Kw::VarExternal
+                    | Kw::VarGlobal
+                    | Kw::VarAccess
+                    | Kw::VarConfig
+            )
+        )
+    }
+
+    pub(super) fn var_block(&mut self) -> PResult<VarBlock> {
+        let t = self.bump();
+        let kind = match t.tok {
+            Tok::Kw(Kw::Var) => VarKind::Local,
+            Tok::Kw(Kw::VarInput) => VarKind::Input,
+            Tok::Kw(Kw::VarOutput) => VarKind::Output,
+            Tok::Kw(Kw::VarInOut) => VarKind::InOut,
+            Tok::Kw(Kw::VarTemp) => VarKind::Temp,
+            Tok::Kw(Kw::VarExternal) => VarKind::External,
+            Tok::Kw(Kw::VarGlobal) => VarKind::Global,
+            _ => VarKind::Other,
+        };
+        let mut constant = false;
+        let mut retain = Retain::Unspecified;
+        loop {
+            if self.eat_kw(Kw::Constant).is_some() {
+                constant = true;
+            } else if self.eat_kw(Kw::Retain).is_some() {
+                retain = Retain::Retain;
+            } else if self.eat_kw(Kw::NonRetain).is_some() {
+                retain = Retain::NonRetain;
+            } else if self.at(&Tok::Ident)
+                && ["PERSISTENT"]
+                    .iter()
+                    .any(|w| self.text_of(self.peek().span).eq_ignore_ascii_case(w))
+            {
+                // TwinCAT's PERSISTENT: kept like RETAIN.
+                self.bump();
+                retain = Retain::Retain;
+            } else {
+                break;
+            }
+        }
+        let mut vars = Vec::new();
+        if kind == VarKind::Other {
+            self.error_at(
+                diag::UNSUPPORTED,
+                t.span,
+                format!(
+                    "{} blocks are not supported; declare the variables in VAR_GLOBAL",
+                    self.text_of(t.span)
+                ),
+            );
+            while !self.at_kw(Kw::EndVar) && !self.is_top_start() {
+                self.bump();
+            }
+        } else {
+            while !self.at_kw(Kw::EndVar) && !self.is_top_start() && !self.is_var_block_start() {
+                let s = self.pos;
+                if matches!(
+                    self.peek().tok,
+                    Tok::Kw(
+                        Kw::EndProgram
+                            | Kw::EndFunction
+                            | Kw::EndFunctionBlock
+                            | Kw::EndConfiguration
+                            | Kw::EndResource
+                    )
+                ) {
+                    break;
+                }
+                if self.looks_like_statement() {
+                    let span = self.peek().span;
+                    self.error_at(
+                        diag::MISSING_END,
+                        span,
+                        format!("the {} block before this statement has no END_VAR; close it with END_VAR", self.text_of(t.span)),
+                    );
+                    return Ok(VarBlock {
+                        kind,
+                        constant,
+                        retain,
+                        vars,
+                        span: t.span.to(self.prev_span()),
+                    });
+                }
+                match self.var_decl() {
+                    Ok(d) => vars.push(d),
+                    Err(Reported) => self.sync_decl(s),
+                }
+            }
+        }
+        if self.eat_kw(Kw::EndVar).is_none() {
+            let t2 = self.peek().clone();
+            if self.quiet_at(&t2) {
+                return Err(Reported);
+            }
+            let msg = format!(
+                "{} block has no END_VAR; found {}",
+                self.text_of(t.span),
+                self.describe(&t2)
+            );
+            self.error_at(diag::MISSING_END, t2.span, msg);
+            return Err(Reported);
+        }
+        self.eat(&Tok::Semi);
+        Ok(VarBlock {
+            kind,
+            constant,
+            retain,
+            vars,
+            span: t.span.to(self.prev_span()),
+        })
+    }
+
+    pub(super) fn var_decl(&mut self) -> PResult<VarDecl> {
+        let start = self.peek().span;
+        let mut names = Vec::new();
+        if self.at_kw(Kw::At) {
+            let t = self.peek().clone();
+            self.error_at(
+                diag::UNSUPPORTED,
+                t.span,
+                "a located variable needs a name: write `name AT %IX0.0 : BOOL;`",
+            );
+            return Err(Reported);
+        }
+        loop {
+            names.push(self.ident("a variable name")?);
+            if self.eat(&Tok::Comma).is_none() {
+                break;
+            }
+        }
+        let location = if self.eat_kw(Kw::At).is_some() {
+            match self.peek().tok.clone() {
+                Tok::Direct(text) => {
+                    let t = self.bump();
+                    Some(Location { text, span: t.span })
+                }
+                _ => return Err(self.expected("a location such as %IX0.1 or %point after AT")),
+            }
+        } else {
+            None
+        };
+        self.expect(&Tok::Colon, "`:` and the variable's type")?;
+        let ty = self.type_spec(false)?;
+        let edge = if self.eat_kw(Kw::REdge).is_some() {
+            Some(Edge::Rising)
+        } else if self.eat_kw(Kw::FEdge).is_some() {
+            Some(Edge::Falling)
+        } else {
+            None
+        };
+        let init = if self.eat(&Tok::Assign).is_some() {
+            Some(self.init()?)
+        } else {
+            None
+        };
+        self.expect_semi()?;
+        Ok(VarDecl {
+            names,
+            location,
+            ty,
+            init,
+            edge,
+            span: start.to(self.prev_span()),
+        })
+    }
+}

@@ -1,0 +1,152 @@
+//! Built-in functions: the standard library's numeric, bit-string, selection and string functions.
+
+use petriplc_iec_sema::ir::{Builtin, Expr};
+use petriplc_iec_sema::types::{Elem, TypeId};
+use petriplc_iec_syntax::source::Span;
+
+use crate::ext::{ExtOp, Kind};
+
+use super::{elem_or_dint, kind, str_cap, CompileError, Fx, R};
+
+impl<'c, 'p> Fx<'c, 'p> {
+    pub(super) fn builtin(
+        &mut self,
+        b: Builtin,
+        args: &[Expr],
+        ty: TypeId,
+        want: Option<u32>,
+        span: Span,
+    ) -> R<u32> {
+        let p = self.p();
+        let mut xs = Vec::with_capacity(args.len());
+        for a in args {
+            xs.push(self.expr(a, None)?);
+        }
+        let k = kind(p, ty);
+        let re = elem_or_dint(p, ty);
+        let cap = str_cap(p, ty);
+        let d = self.builtin_result(b, k, ty, want, span);
+        let Some(op) = Self::builtin_op(b, d, xs, k, re, cap) else {
+            return Err(CompileError::Unsupported(format!(
+                "{} as a builtin",
+                b.name()
+            )));
+        };
+        self.ext(op, span);
+        Ok(d)
+    }
+
+    /// Where the result of `b` goes: a string buffer for string results, else `want` or a
+    /// temporary.
+    fn builtin_result(
+        &mut self,
+        b: Builtin,
+        k: Kind,
+        ty: TypeId,
+        want: Option<u32>,
+        span: Span,
+    ) -> u32 {
+        match b {
+            Builtin::Len | Builtin::Find => want.unwrap_or_else(|| self.temp(1)),
+            Builtin::Left
+            | Builtin::Right
+            | Builtin::Mid
+            | Builtin::Concat
+            | Builtin::Insert
+            | Builtin::Delete
+            | Builtin::Replace => self.string_buffer(ty, span),
+            _ if k == Kind::S => self.string_buffer(ty, span),
+            _ => want.unwrap_or_else(|| self.temp(1)),
+        }
+    }
+
+    /// The instruction computing `b` over the argument slots `xs` into `d`, for a result of
+    /// kind `k`, element `re` and string capacity `cap`; `None` for the conversions the checker
+    /// lowers otherwise.
+    fn builtin_op(b: Builtin, d: u32, xs: Vec<u32>, k: Kind, re: Elem, cap: u32) -> Option<ExtOp> {
+        Some(match b {
+            Builtin::Abs if re.is_real() => ExtOp::Math {
+                f: Builtin::Abs,
+                d,
+                s: xs[0],
+                e: re,
+            },
+            Builtin::Abs => ExtOp::AbsI { d, s: xs[0], e: re },
+            Builtin::Sqrt
+            | Builtin::Ln
+            | Builtin::Log
+            | Builtin::Exp
+            | Builtin::Sin
+            | Builtin::Cos
+            | Builtin::Tan
+            | Builtin::Asin
+            | Builtin::Acos
+            | Builtin::Atan => ExtOp::Math {
+                f: b,
+                d,
+                s: xs[0],
+                e: re,
+            },
+            Builtin::Atan2 => ExtOp::Atan2 {
+                d,
+                y: xs[0],
+                x: xs[1],
+                e: re,
+            },
+            Builtin::Max | Builtin::Min => ExtOp::MinMax {
+                max: b == Builtin::Max,
+                d,
+                args: xs,
+                kind: k,
+                cap,
+            },
+            Builtin::Limit => ExtOp::Limit {
+                d,
+                mn: xs[0],
+                x: xs[1],
+                mx: xs[2],
+                kind: k,
+                cap,
+            },
+            Builtin::Sel | Builtin::Mux => ExtOp::Select {
+                mux: b == Builtin::Mux,
+                d,
+                k: xs[0],
+                args: xs[1..].to_vec(),
+                kind: k,
+                cap,
+            },
+            Builtin::Shl | Builtin::Shr | Builtin::Rol | Builtin::Ror => ExtOp::Shift {
+                f: b,
+                d,
+                s: xs[0],
+                n: xs[1],
+                e: re,
+            },
+            Builtin::Len | Builtin::Find => ExtOp::Str {
+                f: b,
+                d,
+                args: xs,
+                cap: 0,
+            },
+            Builtin::Left
+            | Builtin::Right
+            | Builtin::Mid
+            | Builtin::Concat
+            | Builtin::Insert
+            | Builtin::Delete
+            | Builtin::Replace => ExtOp::Str {
+                f: b,
+                d,
+                args: xs,
+                cap,
+            },
+            Builtin::ConcatDateTod => ExtOp::ConcatDateTod {
+                d,
+                a: xs[0],
+                b: xs[1],
+            },
+            Builtin::DtToTod | Builtin::DtToDate | Builtin::Expt => return None,
+        })
+    }
+}

@@ -1,0 +1,533 @@
+//! Expressions: literals, places, unary and binary operators, conversions, string buffers.
+
+use petriplc_iec_sema::ir::{BinaryOp, Expr, ExprKind, UnaryOp};
+use petriplc_iec_sema::types::{Elem, Type, TypeId};
+use petriplc_iec_sema::value::Value;
+use petriplc_iec_syntax::source::Span;
+
+use crate::ext::{self, ExtOp, Kind};
+use crate::layout;
+use crate::op::{int_class, Arith, Cmp, IntClass, Op};
+
+use super::{
+    elem_or_dint, is_string, kind, raw_const, scalar, str_cap, CompileError, Fx, Loc, R, SYM,
+};
+
+impl<'c, 'p> Fx<'c, 'p> {
+    /// Computes `e`; returns the slot holding its value (a pointer for strings and other
+    /// aggregates). With `want`, the last instruction writes there when it can.
+    pub(super) fn expr(&mut self, e: &Expr, want: Option<u32>) -> R<u32> {
+        let span = e.span;
+        let p = self.p();
+        match &e.kind {
+            ExprKind::Const(v) => {
+                if let Value::Str(s) = v {
+                    let mut slots =
+                        vec![0u64; layout::string_slots(s.len().max(1) as u32) as usize];
+                    ext::write_str(&mut slots, 0, s, s.len() as u32);
+                    let c = self.const_block(&slots);
+                    let d = self.temp(1);
+                    self.emit(Op::Lea { d, s: c }, span);
+                    return Ok(d);
+                }
+                if !scalar(p, e.ty) {
+                    // An aggregate constant (never produced by the checker for expressions).
+                    return Err(CompileError::Unsupported("aggregate constant".into()));
+                }
+                let raw = raw_const(p, v, e.ty);
+                match want {
+                    Some(d) => {
+                        self.emit(Op::MovK { d, k: raw }, span);
+                        Ok(d)
+                    }
+                    None => Ok(self.konst(raw)),
+                }
+            }
+            ExprKind::Load(place) => {
+                let pl = self.place_loc(place)?;
+                if scalar(p, place.ty) {
+                    if let (Some(d), None, Loc::Abs(..) | Loc::Ind(..)) = (want, pl.bit, pl.loc) {
+                        // Load straight into the destination.
+                        match pl.loc {
+                            Loc::Abs(r, off) => {
+                                let s = self.c.sym(r, off);
+                                self.emit(Op::LdG { d, g: SYM | s }, span);
+                            }
+                            Loc::Ind(pp, off) => {
+                                self.emit(Op::LdI { d, p: pp, off }, span);
+                            }
+                            Loc::Slot(_) => {}
+                        }
+                        return Ok(d);
+                    }
+                    if let (Some(d), Some(n)) = (want, pl.bit) {
+                        let w = self.load_loc(pl.loc, span)?;
+                        self.emit(Op::GetBit { d, s: w, n }, span);
+                        return Ok(d);
+                    }
+                    self.load_place(&pl, span)
+                } else {
+                    self.addr_of(pl.loc, span)
+                }
+            }
+            ExprKind::Unary(op, x) => {
+                let a = self.expr(x, None)?;
+                let d = want.unwrap_or_else(|| self.temp(1));
+                let el = elem_or_dint(p, x.ty);
+                match op {
+                    UnaryOp::Plus => {
+                        if d != a {
+                            self.emit(Op::Mov { d, s: a }, span);
+                        }
+                    }
+                    UnaryOp::Not => {
+                        if el == Elem::Bool {
+                            self.emit(Op::Not { d, s: a }, span);
+                        } else {
+                            self.emit(
+                                Op::BNot {
+                                    d,
+                                    s: a,
+                                    bits: el.bits() as u8,
+                                },
+                                span,
+                            );
+                        }
+                    }
+                    UnaryOp::Neg => {
+                        if el.is_real() {
+                            self.emit(Op::NegF { d, s: a }, span);
+                        } else {
+                            match int_class(el) {
+                                IntClass::Narrow(r) => self.emit(Op::NegN { d, s: a, r }, span),
+                                _ => self.emit(Op::NegL { d, s: a }, span),
+                            };
+                        }
+                    }
+                }
+                Ok(d)
+            }
+            ExprKind::Binary(op, a, b) => self.binary(*op, a, b, e.ty, want, span),
+            ExprKind::Convert(x) => self.convert(x, e.ty, want, span),
+            ExprKind::Trunc(x) => {
+                let s = self.expr(x, None)?;
+                let d = want.unwrap_or_else(|| self.temp(1));
+                let to = elem_or_dint(p, e.ty);
+                self.ext(ExtOp::Trunc { d, s, to }, span);
+                Ok(d)
+            }
+            ExprKind::Call(call) => self.call_fn(call, e.ty, want, span),
+            ExprKind::Builtin(b, args) => self.builtin(*b, args, e.ty, want, span),
+        }
+    }
+
+    /// The operands of a chain `a op b op c …` (left-nested).
+    fn chain<'e>(e: &'e Expr, op: BinaryOp, out: &mut Vec<&'e Expr>) {
+        match &e.kind {
+            ExprKind::Binary(o, a, b)
+                if *o == op && e.ty == petriplc_iec_sema::types::ids::BOOL =>
+            {
+                Self::chain(a, op, out);
+                Self::chain(b, op, out);
+            }
+            _ => out.push(e),
+        }
+    }
+
+    fn binary(
+        &mut self,
+        op: BinaryOp,
+        a: &Expr,
+        b: &Expr,
+        ty: TypeId,
+        want: Option<u32>,
+        span: Span,
+    ) -> R<u32> {
+        let p = self.p();
+        let (ae, be) = (elem_or_dint(p, a.ty), elem_or_dint(p, b.ty));
+        if matches!(op, BinaryOp::And | BinaryOp::Or) && ae == Elem::Bool {
+            if let Some(d) = self.bool_chain(op, a, b, want, span)? {
+                return Ok(d);
+            }
+            if let Some(d) = self.and_or_not(op, a, b, want, span)? {
+                return Ok(d);
+            }
+        }
+        let x = self.expr(a, None)?;
+        let y = self.expr(b, None)?;
+        let d = want.unwrap_or_else(|| self.temp(1));
+        let re = elem_or_dint(p, ty);
+        if self.time_arith(op, (ae, be, re), d, x, y, span) {
+            return Ok(d);
+        }
+        if let Some(c) = Self::comparison(op) {
+            let o = match kind(p, a.ty) {
+                Kind::S => Op::CmpS {
+                    op: c,
+                    d,
+                    a: x,
+                    b: y,
+                },
+                Kind::F => Op::CmpF {
+                    op: c,
+                    d,
+                    a: x,
+                    b: y,
+                },
+                Kind::U => Op::CmpU {
+                    op: c,
+                    d,
+                    a: x,
+                    b: y,
+                },
+                Kind::I => Op::CmpI {
+                    op: c,
+                    d,
+                    a: x,
+                    b: y,
+                },
+            };
+            self.emit(o, span);
+            return Ok(d);
+        }
+        self.emit(Self::logic_or_arith(op, re, d, x, y), span);
+        Ok(d)
+    }
+
+    /// Chains of three or more BOOL terms: one instruction over their literals.
+    fn bool_chain(
+        &mut self,
+        op: BinaryOp,
+        a: &Expr,
+        b: &Expr,
+        want: Option<u32>,
+        span: Span,
+    ) -> R<Option<u32>> {
+        let mut terms = Vec::new();
+        Self::chain(a, op, &mut terms);
+        Self::chain(b, op, &mut terms);
+        if terms.len() < 3 {
+            return Ok(None);
+        }
+        let mut lits = Vec::with_capacity(terms.len());
+        for t in terms {
+            let lit = match self.bool_literal(t)? {
+                Some(l) => l,
+                None => {
+                    // Computed first (all terms are evaluated, as IEC does).
+                    let x = self.expr(t, None)?;
+                    (x, false)
+                }
+            };
+            lits.push((lit.0, lit.1 as u64));
+        }
+        let d = want.unwrap_or_else(|| self.temp(1));
+        let u = &mut self.c.units[self.unit];
+        let start = u.lits.len() as u32;
+        let len = lits.len() as u32;
+        u.lits.extend(lits);
+        let o = if op == BinaryOp::And {
+            Op::AndLits { d, start, len }
+        } else {
+            Op::OrLits { d, start, len }
+        };
+        self.emit(o, span);
+        Ok(Some(d))
+    }
+
+    /// `a AND NOT b`, `a OR NOT b` (either side negated) on BOOL: one instruction.
+    fn and_or_not(
+        &mut self,
+        op: BinaryOp,
+        a: &Expr,
+        b: &Expr,
+        want: Option<u32>,
+        span: Span,
+    ) -> R<Option<u32>> {
+        let (x, y) = if let ExprKind::Unary(UnaryOp::Not, inner) = &b.kind {
+            let x = self.expr(a, None)?;
+            let y = self.expr(inner, None)?;
+            (x, y)
+        } else if let ExprKind::Unary(UnaryOp::Not, inner) = &a.kind {
+            let y = self.expr(inner, None)?;
+            let x = self.expr(b, None)?;
+            (x, y)
+        } else {
+            return Ok(None);
+        };
+        let d = want.unwrap_or_else(|| self.temp(1));
+        let o = if op == BinaryOp::And {
+            Op::AndN { d, a: x, b: y }
+        } else {
+            Op::OrN { d, a: x, b: y }
+        };
+        self.emit(o, span);
+        Ok(Some(d))
+    }
+
+    /// Durations, dates and times of day, and `**`: emitted if `op` on these operand and
+    /// result types (`ae`, `be`, `re`) is one of them.
+    fn time_arith(
+        &mut self,
+        op: BinaryOp,
+        (ae, be, re): (Elem, Elem, Elem),
+        d: u32,
+        x: u32,
+        y: u32,
+        span: Span,
+    ) -> bool {
+        // Durations and dates of one type: LINT arithmetic, but an overflow is told in T#…
+        if ae == be
+            && (ae.is_duration() || ae.is_date())
+            && matches!(op, BinaryOp::Add | BinaryOp::Sub)
+        {
+            self.ext(
+                ExtOp::TimeAdd {
+                    d,
+                    a: x,
+                    b: y,
+                    sub: op == BinaryOp::Sub,
+                    of: ae,
+                    to: re,
+                },
+                span,
+            );
+            return true;
+        }
+        // Time arithmetic with mixed types.
+        if ae != be && (ae.is_duration() || ae.is_date()) {
+            match (op, ae, be) {
+                (BinaryOp::Mul | BinaryOp::Div, _, _) => {
+                    self.ext(
+                        ExtOp::TimeScale {
+                            d,
+                            a: x,
+                            b: y,
+                            div: op == BinaryOp::Div,
+                            real: be.is_real(),
+                        },
+                        span,
+                    );
+                }
+                (_, Elem::Tod, Elem::Time | Elem::Ltime) if re == Elem::Tod => {
+                    self.ext(
+                        ExtOp::TodAdd {
+                            d,
+                            a: x,
+                            b: y,
+                            sub: op == BinaryOp::Sub,
+                        },
+                        span,
+                    );
+                }
+                _ => {
+                    let ar = if op == BinaryOp::Add {
+                        Arith::Add
+                    } else {
+                        Arith::Sub
+                    };
+                    self.emit(
+                        Op::ArL {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        },
+                        span,
+                    );
+                }
+            }
+            return true;
+        }
+        if op == BinaryOp::Power {
+            self.ext(
+                ExtOp::Pow {
+                    d,
+                    a: x,
+                    b: y,
+                    e: re,
+                    int_exp: !be.is_real(),
+                },
+                span,
+            );
+            return true;
+        }
+        if ae == Elem::Tod && re == Elem::Tod {
+            self.ext(
+                ExtOp::TodAdd {
+                    d,
+                    a: x,
+                    b: y,
+                    sub: op == BinaryOp::Sub,
+                },
+                span,
+            );
+            return true;
+        }
+        false
+    }
+
+    fn comparison(op: BinaryOp) -> Option<Cmp> {
+        match op {
+            BinaryOp::Eq => Some(Cmp::Eq),
+            BinaryOp::Ne => Some(Cmp::Ne),
+            BinaryOp::Lt => Some(Cmp::Lt),
+            BinaryOp::Le => Some(Cmp::Le),
+            BinaryOp::Gt => Some(Cmp::Gt),
+            BinaryOp::Ge => Some(Cmp::Ge),
+            _ => None,
+        }
+    }
+
+    /// The instruction of a logic or arithmetic operator with a result of type `re`.
+    fn logic_or_arith(op: BinaryOp, re: Elem, d: u32, x: u32, y: u32) -> Op {
+        match op {
+            BinaryOp::And => Op::And { d, a: x, b: y },
+            BinaryOp::Or => Op::Or { d, a: x, b: y },
+            BinaryOp::Xor => Op::Xor { d, a: x, b: y },
+            _ => {
+                let ar = match op {
+                    BinaryOp::Add => Arith::Add,
+                    BinaryOp::Sub => Arith::Sub,
+                    BinaryOp::Mul => Arith::Mul,
+                    BinaryOp::Div => Arith::Div,
+                    _ => Arith::Mod,
+                };
+                if re.is_real() {
+                    Op::ArF {
+                        op: ar,
+                        d,
+                        a: x,
+                        b: y,
+                        single: re == Elem::Real,
+                    }
+                } else {
+                    match int_class(re) {
+                        IntClass::Narrow(r) => Op::ArN {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                            r,
+                        },
+                        IntClass::Long => Op::ArL {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        },
+                        IntClass::ULong => Op::ArU {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        },
+                    }
+                }
+            }
+        }
+    }
+
+    fn convert(&mut self, x: &Expr, to: TypeId, want: Option<u32>, span: Span) -> R<u32> {
+        let p = self.p();
+        let from = x.ty;
+        if is_string(p, to) {
+            if is_string(p, from) {
+                // Truncation happens where the string is stored.
+                return self.expr(x, None);
+            }
+            let s = self.expr(x, None)?;
+            let cap = str_cap(p, to);
+            let buf = self.temp(layout::string_slots(cap));
+            let dp = self.temp(1);
+            self.emit(Op::Lea { d: dp, s: buf }, span);
+            let fe = elem_or_dint(p, from);
+            self.ext(
+                ExtOp::ToStr {
+                    dp,
+                    s,
+                    from: fe,
+                    cap,
+                },
+                span,
+            );
+            return Ok(dp);
+        }
+        if is_string(p, from) {
+            let sp = self.expr(x, None)?;
+            let d = want.unwrap_or_else(|| self.temp(1));
+            self.ext(
+                ExtOp::FromStr {
+                    d,
+                    sp,
+                    to: elem_or_dint(p, to),
+                },
+                span,
+            );
+            return Ok(d);
+        }
+        let s = self.expr(x, None)?;
+        let (fe, te) = (elem_or_dint(p, from), elem_or_dint(p, to));
+        if let Type::Subrange { lo, hi, base } = *p.types.get(to) {
+            let d = want.unwrap_or_else(|| self.temp(1));
+            let v = if fe == base || (fe.is_int() && fe.widens_to(base)) {
+                s
+            } else {
+                let t = self.temp(1);
+                self.ext(
+                    ExtOp::Conv {
+                        d: t,
+                        s,
+                        from: fe,
+                        to: base,
+                    },
+                    span,
+                );
+                t
+            };
+            self.ext(
+                ExtOp::Check {
+                    d,
+                    s: v,
+                    lo: lo as i64,
+                    hi: hi as i64,
+                },
+                span,
+            );
+            return Ok(d);
+        }
+        if fe == te
+            || (fe.is_int() && te.is_int() && fe.widens_to(te))
+            || (fe.is_bitstring() && te.is_bitstring() && fe.widens_to(te))
+            || (fe == Elem::Time && te == Elem::Ltime)
+        {
+            if let Some(d) = want {
+                if d != s {
+                    self.emit(Op::Mov { d, s }, span);
+                }
+                return Ok(d);
+            }
+            return Ok(s);
+        }
+        let d = want.unwrap_or_else(|| self.temp(1));
+        self.ext(
+            ExtOp::Conv {
+                d,
+                s,
+                from: fe,
+                to: te,
+            },
+            span,
+        );
+        Ok(d)
+    }
+
+    /// A string buffer for a result of `ty`; returns the pointer slot.
+    pub(super) fn string_buffer(&mut self, ty: TypeId, span: Span) -> u32 {
+        let cap = str_cap(self.p(), ty);
+        let buf = self.temp(layout::string_slots(cap));
+        let dp = self.temp(1);
+        self.emit(Op::Lea { d: dp, s: buf }, span);
+        dp
+    }
+}

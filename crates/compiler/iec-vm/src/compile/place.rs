@@ -1,0 +1,323 @@
+//! Places: where a variable, element or field lives, loads, stores, copies and conversions
+//! between slots.
+
+use petriplc_iec_sema::ir::{self, Expr, Place, Root, Step, VarClass};
+use petriplc_iec_sema::types::{FbRef, Type, TypeId};
+use petriplc_iec_syntax::source::Span;
+
+use crate::ext::ExtOp;
+use crate::op::{ArrayInfo, Op};
+
+use super::{
+    elem_or_dint, is_string, scalar, str_cap, Fx, Loc, PlaceLoc, Region, FRAME, R, SYM, TAG,
+};
+
+impl<'c, 'p> Fx<'c, 'p> {
+    pub(super) fn place_loc(&mut self, p: &Place) -> R<PlaceLoc> {
+        let mut loc = match p.root {
+            Root::Var(v) => {
+                if let Some((prog, layout)) = self.glue_of.clone() {
+                    // Configuration glue names the instance's variables absolutely.
+                    let off = layout.offsets[v as usize].unwrap_or(0);
+                    self.region_loc(Region::Unit(prog), off)
+                } else {
+                    let var = &self.c.p.pou(self.pou).vars[v as usize];
+                    let off = self.layout.offsets[v as usize].unwrap_or(0);
+                    if var.class == VarClass::InOut {
+                        Loc::Ind(FRAME | off, 0)
+                    } else {
+                        Loc::Slot(FRAME | off)
+                    }
+                }
+            }
+            Root::Global(g) => self.region_loc(Region::Global(g), 0),
+        };
+        let mut ty = match p.root {
+            Root::Var(v) => {
+                if let Some((_, _)) = &self.glue_of {
+                    // The instance's POU is the glue's program.
+                    self.glue_var_ty(v)
+                } else {
+                    self.c.p.pou(self.pou).vars[v as usize].ty
+                }
+            }
+            Root::Global(g) => self.c.p.globals[g as usize].ty,
+        };
+        let mut bit = None;
+        for step in &p.path {
+            match step {
+                Step::Field(i) => {
+                    let offs = self.c.sizes.field_offsets(self.c.p, ty);
+                    loc = self.offset(loc, offs[*i as usize]);
+                    if let Type::Struct { fields, .. } = self.c.p.types.get(ty) {
+                        ty = fields[*i as usize].ty;
+                    }
+                }
+                Step::Member(i) => match *self.c.p.types.get(ty) {
+                    Type::Fb(FbRef::User(q)) => {
+                        let layout = self.c.layout(q);
+                        let off = layout.offsets[*i as usize].unwrap_or(0);
+                        let var = &self.c.p.pou(q).vars[*i as usize];
+                        loc = self.offset(loc, off);
+                        ty = var.ty;
+                        if var.class == VarClass::InOut {
+                            loc = self.deref(loc, p.span)?;
+                        }
+                    }
+                    Type::Fb(FbRef::Native(k)) => {
+                        loc = self.offset(loc, *i);
+                        ty = petriplc_iec_sema::types::TypeTable::elem_id(
+                            self.c.p.natives[k as usize].vars[*i as usize].ty,
+                        );
+                    }
+                    _ => {}
+                },
+                Step::Index(subs) => {
+                    let Type::Array { dims, elem } = self.c.p.types.get(ty).clone() else {
+                        continue;
+                    };
+                    let es = self.size(elem);
+                    // Strides, innermost last.
+                    let mut strides = vec![es; dims.len()];
+                    for k in (0..dims.len().saturating_sub(1)).rev() {
+                        let len = (dims[k + 1].1 - dims[k + 1].0 + 1) as u32;
+                        strides[k] = strides[k + 1] * len;
+                    }
+                    let consts: Vec<Option<i128>> = subs.iter().map(|s| s.const_int()).collect();
+                    if consts.iter().all(Option::is_some) {
+                        let mut off = 0u32;
+                        for (k, c) in consts.iter().enumerate() {
+                            off += ((c.unwrap_or(0) - dims[k].0 as i128) as u32) * strides[k];
+                        }
+                        loc = self.offset(loc, off);
+                    } else {
+                        let mut ptr = self.addr_of(loc, p.span)?;
+                        for (k, s) in subs.iter().enumerate() {
+                            let i = self.expr(s, None)?;
+                            let a = self.c.units[self.unit].arrays.len() as u32;
+                            self.c.units[self.unit].arrays.push(ArrayInfo {
+                                lo: dims[k].0,
+                                hi: dims[k].1,
+                                stride: strides[k],
+                            });
+                            let d = self.temp(1);
+                            self.emit(Op::Index { d, p: ptr, i, a }, s.span);
+                            ptr = d;
+                        }
+                        loc = Loc::Ind(ptr, 0);
+                    }
+                    ty = elem;
+                }
+                Step::Bit(n) => bit = Some(*n as u8),
+            }
+        }
+        Ok(PlaceLoc { loc, bit })
+    }
+
+    fn glue_var_ty(&self, v: ir::VarId) -> TypeId {
+        let (prog, _) = self.glue_of.as_ref().map(|x| (x.0, ())).unwrap_or((0, ()));
+        let pou = self.c.units[prog].pou.unwrap_or(0);
+        self.c.p.pou(pou).vars[v as usize].ty
+    }
+
+    pub(super) fn offset(&mut self, loc: Loc, k: u32) -> Loc {
+        if k == 0 {
+            return loc;
+        }
+        match loc {
+            Loc::Slot(x) if x & TAG == SYM => {
+                let (r, off) = self.c.syms[(x & !TAG) as usize];
+                let s = self.c.sym(r, off + k);
+                Loc::Slot(SYM | s)
+            }
+            Loc::Slot(x) => Loc::Slot(x + k),
+            Loc::Abs(r, off) => Loc::Abs(r, off + k),
+            Loc::Ind(p, off) => Loc::Ind(p, off + k),
+        }
+    }
+
+    /// The pointer a slot holds (an in-out), as a place.
+    fn deref(&mut self, loc: Loc, span: Span) -> R<Loc> {
+        let p = self.load_loc(loc, span)?;
+        let t = self.temp(1);
+        self.emit(Op::Mov { d: t, s: p }, span);
+        Ok(Loc::Ind(t, 0))
+    }
+
+    /// A temporary holding the absolute address of a place.
+    pub(super) fn addr_of(&mut self, loc: Loc, span: Span) -> R<u32> {
+        let d = self.temp(1);
+        match loc {
+            Loc::Slot(x) => {
+                self.emit(Op::Lea { d, s: x }, span);
+            }
+            Loc::Abs(r, off) => {
+                let s = self.c.sym(r, off);
+                self.emit(Op::LeaG { d, g: SYM | s }, span);
+            }
+            Loc::Ind(p, off) => {
+                if off == 0 {
+                    return Ok(p);
+                }
+                self.emit(Op::AddrK { d, p, off }, span);
+            }
+        }
+        Ok(d)
+    }
+
+    /// A slot holding the scalar at `loc` (the place itself when it is a slot).
+    pub(super) fn load_loc(&mut self, loc: Loc, span: Span) -> R<u32> {
+        Ok(match loc {
+            Loc::Slot(x) => x,
+            Loc::Abs(r, off) => {
+                let d = self.temp(1);
+                let s = self.c.sym(r, off);
+                self.emit(Op::LdG { d, g: SYM | s }, span);
+                d
+            }
+            Loc::Ind(p, off) => {
+                let d = self.temp(1);
+                self.emit(Op::LdI { d, p, off }, span);
+                d
+            }
+        })
+    }
+
+    pub(super) fn store_loc(&mut self, loc: Loc, s: u32, span: Span) {
+        match loc {
+            Loc::Slot(x) => {
+                if x != s {
+                    self.emit(Op::Mov { d: x, s }, span);
+                }
+            }
+            Loc::Abs(r, off) => {
+                let g = self.c.sym(r, off);
+                self.emit(Op::StG { g: SYM | g, s }, span);
+            }
+            Loc::Ind(p, off) => {
+                self.emit(Op::StI { p, off, s }, span);
+            }
+        }
+    }
+
+    pub(super) fn load_place(&mut self, pl: &PlaceLoc, span: Span) -> R<u32> {
+        let w = self.load_loc(pl.loc, span)?;
+        match pl.bit {
+            None => Ok(w),
+            Some(n) => {
+                let d = self.temp(1);
+                self.emit(Op::GetBit { d, s: w, n }, span);
+                Ok(d)
+            }
+        }
+    }
+
+    /// Stores a scalar value into a place (a bit: read, set, write back).
+    pub(super) fn store_place(&mut self, pl: &PlaceLoc, s: u32, span: Span) -> R<()> {
+        match pl.bit {
+            None => self.store_loc(pl.loc, s, span),
+            Some(n) => {
+                let w = self.load_loc(pl.loc, span)?;
+                let t = self.temp(1);
+                self.emit(
+                    Op::SetBit {
+                        d: t,
+                        s: w,
+                        n,
+                        v: s,
+                    },
+                    span,
+                );
+                self.store_loc(pl.loc, t, span);
+            }
+        }
+        Ok(())
+    }
+
+    /// `place := e`, computing straight into the place when it is a slot.
+    pub(super) fn store_expr(&mut self, dst: &PlaceLoc, ty: TypeId, e: &Expr) -> R<()> {
+        if scalar(self.p(), ty) {
+            if let (Loc::Slot(d), None) = (dst.loc, dst.bit) {
+                let v = self.expr(e, Some(d))?;
+                if v != d {
+                    self.emit(Op::Mov { d, s: v }, e.span);
+                }
+                return Ok(());
+            }
+            let v = self.expr(e, None)?;
+            return self.store_place(dst, v, e.span);
+        }
+        // Aggregates: copy through pointers.
+        let src = self.expr(e, None)?;
+        let dp = self.addr_of(dst.loc, e.span)?;
+        if is_string(self.p(), ty) {
+            let cap = str_cap(self.p(), ty);
+            self.emit(Op::StrCopyI { dp, sp: src, cap }, e.span);
+        } else {
+            let n = self.size(ty);
+            self.emit(Op::CopyI { dp, sp: src, n }, e.span);
+        }
+        Ok(())
+    }
+
+    /// Copies a value of `ty` at `src` into the place `dst` of type `dty` (widening scalars).
+    pub(super) fn copy_loc(
+        &mut self,
+        src: Loc,
+        ty: TypeId,
+        dst: &PlaceLoc,
+        dty: TypeId,
+        span: Span,
+    ) -> R<()> {
+        if scalar(self.p(), ty) {
+            let v = self.load_loc(src, span)?;
+            let v = self.convert_slot(v, ty, dty, span)?;
+            return self.store_place(dst, v, span);
+        }
+        let sp = self.addr_of(src, span)?;
+        let dp = self.addr_of(dst.loc, span)?;
+        if is_string(self.p(), ty) {
+            let cap = str_cap(self.p(), dty);
+            self.emit(Op::StrCopyI { dp, sp, cap }, span);
+        } else {
+            let n = self.size(ty);
+            self.emit(Op::CopyI { dp, sp, n }, span);
+        }
+        Ok(())
+    }
+
+    /// An implicit conversion of a scalar slot (widening; REAL to LREAL is exact).
+    fn convert_slot(&mut self, v: u32, from: TypeId, to: TypeId, span: Span) -> R<u32> {
+        let (fe, te) = (elem_or_dint(self.p(), from), elem_or_dint(self.p(), to));
+        if fe == te
+            || (fe.is_integral()
+                && te.is_integral()
+                && !matches!(self.p().types.get(to), Type::Subrange { .. }))
+        {
+            return Ok(v);
+        }
+        let d = self.temp(1);
+        if let Type::Subrange { lo, hi, .. } = *self.p().types.get(to) {
+            self.ext(
+                ExtOp::Check {
+                    d,
+                    s: v,
+                    lo: lo as i64,
+                    hi: hi as i64,
+                },
+                span,
+            );
+            return Ok(d);
+        }
+        self.ext(
+            ExtOp::Conv {
+                d,
+                s: v,
+                from: fe,
+                to: te,
+            },
+            span,
+        );
+        Ok(d)
+    }
+}
