@@ -82,7 +82,7 @@ fn the_page_is_generated_from_the_tables() {
             .lines()
             .zip(want.lines())
             .position(|(a, b)| a != b)
-            .map_or_else(|| got.lines().count().min(want.lines().count()), |i| i)
+            .unwrap_or_else(|| got.lines().count().min(want.lines().count()))
             + 1;
         panic!(
             "docs/diagnostics.md is not the page the code tables give (first difference at \
