@@ -13,7 +13,9 @@
 //!   which it must exit 0;
 //! - a configuration is fenced ```conf: a complete one is written under `out/docs-conf/` and
 //!   started for 2 s (exit 0); ```conf excerpt=FILE shows lines of an example file, which
-//!   must be that file's lines in order, and the file is started instead; any other block
+//!   must be that file's lines in order, and the file is started instead; ```conf refused
+//!   is a configuration petriplc refuses (docs/diagnostics.md's examples, each checked to
+//!   get its code by crates/plc/config's `codes` test), not started; any other block
 //!   holding a `[SECTION]` line fails;
 //! - a document may write only under `out/` (git-ignored): new untracked files elsewhere fail;
 //! - a document listed in [`RUN_ELSEWHERE`] has its fences checked here but its commands run
@@ -156,7 +158,10 @@ struct Conf {
 fn conf_blocks(file: &str, text: &str) -> Vec<Conf> {
     fences(text)
         .into_iter()
-        .filter(|f| f.info.split_whitespace().next() == Some("conf"))
+        .filter(|f| {
+            let mut words = f.info.split_whitespace();
+            words.next() == Some("conf") && !words.any(|w| w == "refused")
+        })
         .map(|f| Conf {
             at: format!("{file}:{}", f.line),
             text: f.body.iter().map(|(_, l)| format!("{l}\n")).collect(),

@@ -866,6 +866,12 @@ pub fn parse_date(body: &str) -> Result<i64, String> {
     let y: i64 = parts[0].replace('_', "").parse().map_err(|_| HINT)?;
     let m: u32 = parts[1].parse().map_err(|_| HINT)?;
     let d: u32 = parts[2].parse().map_err(|_| HINT)?;
+    if y.abs() > petriplc_calendar::MAX_YEAR {
+        return Err(format!(
+            "year {y} is beyond the calendar (years -{max} to {max}); write a year in range",
+            max = petriplc_calendar::MAX_YEAR
+        ));
+    }
     if !(1..=12).contains(&m) || d < 1 || d > days_in_month(y, m) {
         return Err(format!("{y:04}-{m:02}-{d:02} is not a day of the calendar"));
     }
@@ -912,43 +918,8 @@ pub fn parse_dt(body: &str) -> Result<i128, String> {
     Ok(days as i128 * NANOS_PER_DAY + tod)
 }
 
-fn is_leap(y: i64) -> bool {
-    (y % 4 == 0 && y % 100 != 0) || y % 400 == 0
-}
-
-fn days_in_month(y: i64, m: u32) -> u32 {
-    match m {
-        1 | 3 | 5 | 7 | 8 | 10 | 12 => 31,
-        4 | 6 | 9 | 11 => 30,
-        _ if is_leap(y) => 29,
-        _ => 28,
-    }
-}
-
-/// Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant's algorithm).
-pub fn days_from_civil(y: i64, m: u32, d: u32) -> i64 {
-    let y = if m <= 2 { y - 1 } else { y };
-    let era = if y >= 0 { y } else { y - 399 } / 400;
-    let yoe = y - era * 400;
-    let m = m as i64;
-    let doy = (153 * (if m > 2 { m - 3 } else { m + 9 }) + 2) / 5 + d as i64 - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    era * 146_097 + doe - 719_468
-}
-
-/// The date of a day number (inverse of [`days_from_civil`]).
-pub fn civil_from_days(z: i64) -> (i64, u32, u32) {
-    let z = z + 719_468;
-    let era = if z >= 0 { z } else { z - 146_096 } / 146_097;
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let y = yoe + era * 400;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
-    (if m <= 2 { y + 1 } else { y }, m, d)
-}
+use petriplc_calendar::days_in_month;
+pub use petriplc_calendar::{civil_from_days, days_from_civil};
 
 #[cfg(test)]
 mod tests {
@@ -1091,11 +1062,16 @@ mod tests {
     }
 
     #[test]
-    fn civil_dates_round_trip() {
-        for days in [-800_000, -1, 0, 1, 59, 365, 11_016, 2_932_896] {
-            let (y, m, d) = civil_from_days(days);
-            assert_eq!(days_from_civil(y, m, d), days);
-        }
-        assert_eq!(days_from_civil(2000, 3, 1), 11_017);
+    fn a_date_beyond_the_calendar_is_an_error_not_an_overflow() {
+        let mut d = Diagnostics::new();
+        lex(FileId(0), "D#99999999999999999-01-01", &mut d);
+        assert_eq!(d.items.len(), 1, "{:?}", d.items);
+        assert_eq!(d.items[0].code, diag::BAD_TIME);
+        assert!(
+            d.items[0].message.contains("beyond the calendar"),
+            "{}",
+            d.items[0].message
+        );
+        assert!(parse_date("25000000000000000-12-31").is_ok());
     }
 }

@@ -6,6 +6,7 @@
 //! types the tree, the VM (`petriplc-iec-vm`) runs what the checker lowers.
 
 pub mod ast;
+pub mod codes;
 pub mod depth;
 pub mod diag;
 pub mod lexer;

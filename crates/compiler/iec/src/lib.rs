@@ -3,6 +3,8 @@
 //! compile it for the engine ([`build`]); simulate a program against a timeline and a plant
 //! with the trace format of `petriplc sim` ([`sim`]).
 
+#[cfg(test)]
+mod code_examples;
 pub mod dsp_fbs;
 pub mod sim;
 

@@ -5,6 +5,7 @@
 //! docs/pnml.md describes the format; every problem is reported as a [`Diagnostic`] with a
 //! stable code, a file position and the element's id.
 
+pub mod codes;
 mod diag;
 mod layout;
 mod read;
@@ -16,7 +17,8 @@ use std::path::Path;
 
 use petriplc_net::Net;
 
-pub use diag::{Diagnostic, Location, PnmlError, CODES};
+pub use codes::CODES;
+pub use diag::{Diagnostic, Location, PnmlError};
 pub use layout::{Extras, Layout};
 
 /// How names carry meaning.

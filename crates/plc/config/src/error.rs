@@ -8,7 +8,7 @@ use petriplc_diag::{Code, Located, Location, Severity};
 use crate::model::Origin;
 
 /// One problem, at the file and line where it was written (line 0: the file as a whole, it
-/// could not be read at all); its code is one of [`CODES`], its message says what is wrong
+/// could not be read at all); its code is one of [`crate::CODES`], its message says what is wrong
 /// and how to fix it.
 pub type Diagnostic = petriplc_diag::Diagnostic<Origin>;
 
@@ -117,116 +117,6 @@ pub const SYNCH_SHAPE: &str = "C050";
 pub const ZERO_WEIGHT_SYNCH: &str = "C051";
 pub const UNKNOWN_SYNCH_MODULE: &str = "C052";
 
-/// Every code with a one-line summary (docs and `--explain`-style tools list these).
-pub const CODES: &[(&str, &str)] = &[
-    (UNREADABLE, "a file (or an *include) cannot be read"),
-    (CIRCULAR_INCLUDE, "files include each other in a circle"),
-    (UNTERMINATED_QUOTE, "a \" is not closed on its line"),
-    (BAD_SECTION_HEADER, "a [section] header is malformed"),
-    (
-        OUTSIDE_SECTION,
-        "a setting or row comes before any [section] header of its file",
-    ),
-    (BAD_DIRECTIVE, "a *directive other than `*include FILE`"),
-    (
-        CONFLICTING_SETTING,
-        "one setting given two different values in a section",
-    ),
-    (
-        BAD_LINE,
-        "a line that is no setting, row, header or directive",
-    ),
-    (INCLUDE_TOO_DEEP, "*include nested more than 64 files deep"),
-    (UNKNOWN_TABLE, "an unknown table in [PLC]"),
-    (
-        UNKNOWN_PLC_SETTING,
-        "a setting in [PLC] other than plc_id, retain_file, retain_write (nothing would read it)",
-    ),
-    (BAD_PLC_ID, "an empty plc_id"),
-    (
-        UNSUPPORTED_TABLE,
-        "a MatPLC [PLC] table petriplc does not support",
-    ),
-    (
-        POINT_SHAPE,
-        "a `point` row without name, description and owner",
-    ),
-    (DUPLICATE_POINT, "two points with one name"),
-    (UNKNOWN_OWNER, "a point's owner is not a declared module"),
-    (BAD_AT, "a malformed or out-of-range `at WORD.BIT`"),
-    (
-        BAD_POINT_TYPE,
-        "a malformed type/length or an unexpected word in a point",
-    ),
-    (POINT_OVERFLOWS_WORD, "a point's bit + length exceeds 32"),
-    (FLOAT_NOT_32_BITS, "a float point that is not 32 bits"),
-    (
-        BAD_INIT,
-        "an initial value that does not parse or fit the point",
-    ),
-    (OVERLAPPING_POINTS, "two placed points share bits"),
-    (MODULE_SHAPE, "a `module` row without name and kind/path"),
-    (DUPLICATE_MODULE, "two modules with one name"),
-    (
-        RESERVED_NAME,
-        "a module, place or transition named PLC or NULL",
-    ),
-    (
-        UNDECLARED_MODULE_SETTING,
-        "a setting or row for a module that is not declared",
-    ),
-    (BAD_SCAN_PERIOD, "a scan_period that is not a duration"),
-    (
-        BAD_LOCATION,
-        "a location other than local, shared or isolate",
-    ),
-    (BAD_PRIORITY, "a priority outside 1-99"),
-    (
-        BAD_ON_FAILURE,
-        "an on_failure other than stop, restart or ignore",
-    ),
-    (
-        UNKNOWN_SCAN_TRANSITION,
-        "scan_beg/scan_end naming an undeclared transition",
-    ),
-    (SECTION_CASE, "a section spelled like [PLC] in another case"),
-    (
-        BAD_RESTART,
-        "a bad restart_delay/restart_delay_max/restart_limit, or one without on_failure = restart",
-    ),
-    (
-        BAD_WATCHDOG,
-        "a watchdog that is not a duration longer than 0",
-    ),
-    (
-        BAD_RETAIN_SETTING,
-        "an empty retain_file, or a retain_write other than `change` or a duration",
-    ),
-    (PLACE_SHAPE, "a malformed `place` row"),
-    (TRANSITION_SHAPE, "a malformed `transition` row"),
-    (DUPLICATE_NODE, "two places/transitions with one name"),
-    (ARC_SHAPE, "an `arc` row that is not FROM ARROW TO"),
-    (BAD_ARROW, "an arrow that is not [-][(][weight][)][-]>"),
-    (
-        UNKNOWN_ARC_END,
-        "an arc naming an undeclared place/transition or NULL",
-    ),
-    (
-        ARC_SAME_KIND,
-        "an arc between two places or two transitions",
-    ),
-    (
-        ZERO_WEIGHT_FROM_TRANSITION,
-        "a weight-0 arc from a transition",
-    ),
-    (SYNCH_SHAPE, "a malformed `synch` or `synch_start` row"),
-    (ZERO_WEIGHT_SYNCH, "a `synch` rule with weight 0"),
-    (
-        UNKNOWN_SYNCH_MODULE,
-        "`synch`/`synch_start` naming an undeclared module",
-    ),
-];
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,13 +147,5 @@ mod tests {
             "a.conf:3: error[C021]: x\nb.conf: error[C001]: y",
         );
         check(&[], "");
-    }
-
-    #[test]
-    fn codes_are_unique() {
-        let mut seen = std::collections::HashSet::new();
-        for (code, _) in CODES {
-            assert!(seen.insert(code), "{code} twice");
-        }
     }
 }

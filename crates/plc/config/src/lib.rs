@@ -11,6 +11,7 @@
 //! reported alone, since the lines it could not read would only cause follow-on errors.
 
 mod arrow;
+pub mod codes;
 pub mod error;
 pub mod model;
 mod point;
@@ -19,7 +20,8 @@ mod typed;
 
 use std::path::Path;
 
-pub use error::{ConfigError, Diagnostic, CODES};
+pub use codes::CODES;
+pub use error::{ConfigError, Diagnostic};
 pub use model::*;
 pub use point::MAX_WORDS;
 pub use raw::{parse_raw_str, read_raw, RawConfig};
