@@ -12,10 +12,10 @@ pub mod timeline;
 pub mod trace;
 pub mod trend;
 
-pub use plant::{builtin, builtin_with, Plant, PlantError, BUILTINS};
+pub use plant::{builtin, builtin_settings, builtin_with, Plant, PlantError, BUILTINS};
 pub use plants::{
     Keyboard, NetPlant, Tank, Tape, Thermal, ThermalParams, Turntable, TurntableSettings,
-    TURNTABLE_SETTINGS,
+    THERMAL_SETTINGS, TURNTABLE_SETTINGS,
 };
 pub use plot::{render_svg, render_svg_with, write_svg, PlotError, PlotOptions};
 pub use sim::{SimError, SimOptions, Simulation};
