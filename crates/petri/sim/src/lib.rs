@@ -11,6 +11,7 @@ pub mod sim;
 pub mod timeline;
 pub mod trace;
 pub mod trend;
+pub mod wiring;
 
 pub use plant::{builtin, builtin_settings, builtin_with, Plant, PlantError, BUILTINS};
 pub use plants::{
@@ -22,3 +23,4 @@ pub use sim::{SimError, SimOptions, Simulation};
 pub use timeline::{NonFinite, Timeline, TimelineCursor, TimelineError, TimelineProblem};
 pub use trace::{Trace, TraceRow};
 pub use trend::{render_trend_svg, write_trend_svg, Series};
+pub use wiring::{wire, Controller, Port, Wiring};
