@@ -261,6 +261,39 @@ fn bad_options_are_bad_input() {
     );
 }
 
+/// `--plant-set` reaches every built-in plant with settings, through the registry the `plant`
+/// module uses too: the thermal plant's constants, not only the turntable's.
+#[test]
+fn thermal_plant_takes_its_settings_as_in_a_plant_module() {
+    let files = [("toggle.pnml", TOGGLE)];
+    let args = |set: &'static str| {
+        [
+            "sim",
+            "toggle.pnml",
+            "--plant",
+            "thermal",
+            "--plant-set",
+            set,
+            "--until",
+            "0",
+        ]
+    };
+    check(
+        &files,
+        &args("initial=55.5"),
+        0,
+        "",
+        "plant at the end: thermal 55.50 °C",
+    );
+    check(
+        &files,
+        &args("dead_time=-1"),
+        2,
+        "",
+        "`dead_time = -1` must be from 0 to 3600 s",
+    );
+}
+
 #[test]
 fn timeline_errors_name_the_line() {
     let files = [

@@ -92,7 +92,7 @@ fn sim_traces_a_program_against_a_timeline() {
         .assert()
         .code(2)
         .stderr(
-            predicate::str::contains("column `stop` is not an input of the program")
+            predicate::str::contains("column `stop` is not an input of the controller")
                 .and(predicate::str::contains("known inputs: go")),
         );
 }
@@ -313,4 +313,76 @@ fn plant_settings_apply_to_a_program_as_to_a_net() {
             predicate::str::contains("required arguments were not provided")
                 .and(predicate::str::contains("--plant <NAME|PNML>")),
         );
+}
+
+/// Issue 28: a program's simulation had its own copy of the wiring, which let a plant output
+/// drive a variable the program writes too (a net's refused it). One wiring now refuses both.
+#[test]
+fn a_plant_output_the_program_also_writes_is_driven_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = file(
+        &dir,
+        "p.st",
+        "PROGRAM main\nVAR_OUTPUT V1, N3 : BOOL; END_VAR\nN3 := TRUE;\nEND_PROGRAM\n",
+    );
+    petriplc()
+        .args(["sim", &prog, "--plant", "tank", "--until", "0.1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "`N3` is driven by both the controller and plant `tank`; drop it from one of them",
+        ));
+}
+
+/// Issue 28: a timeline giving 2 to a BOOL input of a program is refused before the run, as
+/// for a net (it failed in the middle of the run, naming no column).
+#[test]
+fn a_timeline_gives_a_bool_input_of_a_program_0_or_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = file(
+        &dir,
+        "p.st",
+        "PROGRAM main\nVAR_INPUT b : BOOL; END_VAR\nVAR_OUTPUT q : BOOL; END_VAR\nq := b;\nEND_PROGRAM\n",
+    );
+    let tl = file(&dir, "b.csv", "time,B\n0,1\n0.05,2\n");
+    petriplc()
+        .args(["sim", &prog, "--inputs", &tl, "--until", "0.1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "timeline column `B` sets boolean input `B` to 2 at t=0.05s; write 0/1 or TRUE/FALSE",
+        ));
+}
+
+/// Issue 28: the wiring's warnings are the same words for a net and for a program with the
+/// same signals (a program's said "it keeps its initial value").
+#[test]
+fn wiring_warnings_are_worded_the_same_for_a_net_and_a_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = file(
+        &dir,
+        "mixer.st",
+        "PROGRAM mixer\nVAR_INPUT B1, N1, N2, N3 : BOOL; END_VAR\n\
+         VAR_OUTPUT V1, V2, V3 : BOOL; END_VAR\nV1 := B1;\nEND_PROGRAM\n",
+    );
+    let warnings = |args: &[&str]| {
+        let out = petriplc()
+            .args(args)
+            .args(["--plant", "tank", "--until", "0"])
+            .assert()
+            .success()
+            .get_output()
+            .stderr
+            .clone();
+        String::from_utf8_lossy(&out)
+            .lines()
+            .filter(|l| l.starts_with("warning: "))
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+    };
+    let net = format!("{EXAMPLES}/mixer/mixer.pnml");
+    let expect =
+        ["warning: input B1 is driven by neither the timeline nor the plant; it stays FALSE"];
+    assert_eq!(warnings(&["sim", &net, "--names", "sipn"]), expect);
+    assert_eq!(warnings(&["sim", &prog]), expect);
 }

@@ -22,9 +22,10 @@ use std::time::Duration;
 use petriplc_iec_sema::ir::VarClass;
 use petriplc_iec_sema::types::{Elem, Type, TypeId};
 use petriplc_iec_sema::value::Value;
-use petriplc_iec_vm::{display, Engine, Fault, Machine, VarRef};
+use petriplc_iec_vm::{display, Engine, Machine, VarRef};
 use petriplc_net::time::format_seconds;
-use petriplc_sim::{Plant, PlantError, Timeline};
+use petriplc_sim::wiring::{Controller, Port, Source};
+use petriplc_sim::{Plant, SimError, Timeline};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SimOptions {
@@ -35,56 +36,6 @@ pub struct SimOptions {
     pub vars: bool,
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum SimError {
-    #[error("the scan period is 0; give a period greater than zero (e.g. 0.01 or T#10ms)")]
-    ZeroPeriod,
-    #[error("timeline {timeline}: column `{column}` is not an input of the program{}; known inputs: {}; check the spelling", plant_part(.plant), list(.known))]
-    UnknownColumn {
-        timeline: String,
-        column: String,
-        plant: Option<String>,
-        known: Vec<String>,
-    },
-    #[error("timeline {timeline}: column `{column}` is an output of the program; a timeline drives inputs only")]
-    ColumnIsOutput { timeline: String, column: String },
-    #[error("`{signal}` is driven by both {first} and {second}; drop it from one of them")]
-    DrivenTwice {
-        signal: String,
-        first: String,
-        second: String,
-    },
-    #[error("at t={}s: {name} cannot take {value}: {why}", format_seconds(*time))]
-    BadValue {
-        time: Duration,
-        name: String,
-        value: i64,
-        why: String,
-    },
-    #[error("at t={}s: {fault}", format_seconds(*time))]
-    Fault { time: Duration, fault: Fault },
-    #[error("at t={}s", format_seconds(*time))]
-    Plant {
-        time: Duration,
-        #[source]
-        source: PlantError,
-    },
-}
-
-fn plant_part(plant: &Option<String>) -> String {
-    plant
-        .as_ref()
-        .map_or(String::new(), |p| format!(" nor of plant `{p}`"))
-}
-
-fn list(names: &[String]) -> String {
-    if names.is_empty() {
-        "(none)".into()
-    } else {
-        names.join(", ")
-    }
-}
-
 /// A variable the simulation reads or writes.
 #[derive(Clone, Debug)]
 struct Var {
@@ -92,15 +43,9 @@ struct Var {
     var: VarRef,
 }
 
-enum Source {
-    Program(VarRef),
-    Timeline(usize),
-    Unwired,
-}
-
 struct PlantWiring<'p> {
     plant: Box<dyn Plant + 'p>,
-    sources: Vec<Source>,
+    sources: Vec<Source<VarRef>>,
     drives: Vec<(usize, VarRef, String)>,
     inputs: Vec<i64>,
     outputs: Vec<i64>,
@@ -290,116 +235,38 @@ impl<'p> IecSimulation<'p> {
                 });
             }
         }
-        let find = |list: &[Var], name: &str| {
-            list.iter()
-                .find(|v| v.name.eq_ignore_ascii_case(name))
-                .cloned()
+        let wiring = {
+            let controller = Vars {
+                engine: &engine,
+                machine: &machine,
+                inputs: &inputs,
+                outputs: &outputs,
+                globals: &globals,
+            };
+            petriplc_sim::wire(&controller, timeline.as_ref(), plant.as_deref())?
         };
-        let input_of = |name: &str| find(&inputs, name).or_else(|| find(&globals, name));
-        let output_of = |name: &str| find(&outputs, name).or_else(|| find(&globals, name));
-
-        let plant_name = plant.as_ref().map(|p| p.name().to_string());
-        let plant_inputs = plant.as_ref().map_or_else(Vec::new, |p| p.inputs());
-        let plant_outputs = plant.as_ref().map_or_else(Vec::new, |p| p.outputs());
-        let mut timeline_inputs = Vec::new();
-        if let Some(tl) = &timeline {
-            for (col, name) in tl.columns().iter().enumerate() {
-                if let Some(v) = input_of(name) {
-                    timeline_inputs.push((col, v));
-                } else if plant_inputs.iter().any(|p| p.eq_ignore_ascii_case(name)) {
-                    // Wired below.
-                } else if find(&outputs, name).is_some() {
-                    return Err(SimError::ColumnIsOutput {
-                        timeline: tl.source().to_string(),
-                        column: name.clone(),
-                    });
-                } else {
-                    let known = inputs
-                        .iter()
-                        .chain(&globals)
-                        .map(|v| v.name.clone())
-                        .chain(plant_inputs.iter().cloned())
-                        .collect();
-                    return Err(SimError::UnknownColumn {
-                        timeline: tl.source().to_string(),
-                        column: name.clone(),
-                        plant: plant_name.clone(),
-                        known,
-                    });
-                }
-            }
-        }
-        let column_of = |name: &str| {
-            timeline.as_ref().and_then(|tl| {
-                tl.columns()
-                    .iter()
-                    .position(|c| c.eq_ignore_ascii_case(name))
-            })
+        let var = |p: &Port<VarRef>| Var {
+            name: p.name.clone(),
+            var: p.signal,
         };
-        let mut warnings = Vec::new();
-        let plant = match plant {
-            None => None,
-            Some(plant) => {
-                let mut sources = Vec::new();
-                let mut unwired = Vec::new();
-                for name in &plant_inputs {
-                    sources.push(match (output_of(name), column_of(name)) {
-                        (Some(v), None) => Source::Program(v.var),
-                        (None, Some(c)) => Source::Timeline(c),
-                        (Some(_), Some(_)) => {
-                            return Err(SimError::DrivenTwice {
-                                signal: name.clone(),
-                                first: "the program".into(),
-                                second: "the timeline".into(),
-                            })
-                        }
-                        (None, None) => {
-                            unwired.push(name.as_str());
-                            Source::Unwired
-                        }
-                    });
-                }
-                if !unwired.is_empty() {
-                    warnings.push(format!(
-                        "plant `{}` reads {}, which neither the program nor the timeline drives; they stay 0",
-                        plant.name(),
-                        unwired.join(", ")
-                    ));
-                }
-                let mut drives = Vec::new();
-                for (i, name) in plant_outputs.iter().enumerate() {
-                    if let Some(v) = input_of(name) {
-                        if column_of(name).is_some() {
-                            return Err(SimError::DrivenTwice {
-                                signal: name.clone(),
-                                first: "the timeline".into(),
-                                second: format!("plant `{}`", plant.name()),
-                            });
-                        }
-                        drives.push((i, v.var, v.name.clone()));
-                    }
-                }
-                Some(PlantWiring {
-                    inputs: vec![0; plant_inputs.len()],
-                    outputs: vec![0; plant_outputs.len()],
-                    plant,
-                    sources,
-                    drives,
-                })
-            }
-        };
-        for v in &inputs {
-            let driven = timeline_inputs.iter().any(|(_, t)| t.var == v.var)
-                || plant
-                    .as_ref()
-                    .is_some_and(|p| p.drives.iter().any(|d| d.1 == v.var));
-            if !driven {
-                warnings.push(format!(
-                    "input {} is driven by neither the timeline nor the plant; it keeps its initial value",
-                    v.name
-                ));
-            }
-        }
+        let timeline_inputs: Vec<(usize, Var)> = wiring
+            .timeline_inputs
+            .iter()
+            .map(|(c, p)| (*c, var(p)))
+            .collect();
+        let first: Vec<Var> = wiring.first_inputs().into_iter().map(var).collect();
+        let warnings = wiring.warnings;
+        let plant = plant.map(|plant| PlantWiring {
+            inputs: vec![0; plant.inputs().len()],
+            outputs: vec![0; plant.outputs().len()],
+            plant,
+            sources: wiring.plant_sources,
+            drives: wiring
+                .drives
+                .iter()
+                .map(|(i, p)| (*i, p.signal, p.name.clone()))
+                .collect(),
+        });
         // Inputs as nets order them: the timeline's columns, then what the plant drives, then
         // the other VAR_INPUTs in declaration order.
         let mut columns: Vec<Var> = Vec::new();
@@ -408,17 +275,8 @@ impl<'p> IecSimulation<'p> {
                 columns.push(v.clone());
             }
         };
-        for (_, v) in &timeline_inputs {
+        for v in &first {
             push(&mut columns, v);
-        }
-        if let Some(p) = &plant {
-            for (_, var, name) in &p.drives {
-                let v = Var {
-                    name: name.clone(),
-                    var: *var,
-                };
-                push(&mut columns, &v);
-            }
         }
         for v in &inputs {
             push(&mut columns, v);
@@ -573,7 +431,7 @@ impl<'p> IecSimulation<'p> {
         if let Some(mut pw) = self.plant.take() {
             for (i, src) in pw.sources.iter().enumerate() {
                 let v = match src {
-                    Source::Program(v) => Some(to_i64(&self.engine, &self.machine, *v)),
+                    Source::Controller(v) => Some(to_i64(&self.engine, &self.machine, *v)),
                     Source::Timeline(c) => values.get(*c).copied().flatten(),
                     Source::Unwired => None,
                 };
@@ -594,7 +452,10 @@ impl<'p> IecSimulation<'p> {
         }
         self.machine
             .scan(t.as_nanos() as i64, &mut || true)
-            .map_err(|fault| SimError::Fault { time: t, fault })?;
+            .map_err(|fault| SimError::Fault {
+                time: t,
+                fault: Arc::new(fault),
+            })?;
         let row: Vec<String> = self
             .columns
             .iter()
@@ -622,6 +483,63 @@ impl<'p> IecSimulation<'p> {
     /// The plant's one-line state report.
     pub fn plant_summary(&self) -> Option<String> {
         self.plant.as_ref().map(|p| p.plant.summary())
+    }
+}
+
+/// A program's variables as the closed loop's wiring sees them: VAR_INPUTs and globals may be
+/// driven, VAR_OUTPUTs and globals read; names ignore case, as IEC 61131-3 identifiers do.
+struct Vars<'a> {
+    engine: &'a Engine,
+    machine: &'a Machine,
+    inputs: &'a [Var],
+    outputs: &'a [Var],
+    globals: &'a [Var],
+}
+
+impl Vars<'_> {
+    fn port(&self, v: &Var, optional: bool) -> Port<VarRef> {
+        let boolean = matches!(
+            self.engine.project.types.get(v.var.ty),
+            Type::Elem(Elem::Bool)
+        );
+        let value = self.machine.get(v.var);
+        let initial = match (&value, boolean) {
+            (Some(Value::Int(0)), true) => "FALSE".to_string(),
+            (Some(Value::Int(_)), true) => "TRUE".to_string(),
+            (Some(x), false) => display(&self.engine.project, v.var.ty, x),
+            _ => "its initial value".to_string(),
+        };
+        Port {
+            name: v.name.clone(),
+            signal: v.var,
+            boolean,
+            initial,
+            optional,
+        }
+    }
+}
+
+impl Controller for Vars<'_> {
+    type Signal = VarRef;
+
+    fn inputs(&self) -> Vec<Port<VarRef>> {
+        let inputs = self.inputs.iter().map(|v| self.port(v, false));
+        // A configuration's globals are its I/O: driven when a column names one, set by the
+        // programs otherwise.
+        inputs
+            .chain(self.globals.iter().map(|v| self.port(v, true)))
+            .collect()
+    }
+
+    fn outputs(&self) -> Vec<Port<VarRef>> {
+        let outputs = self.outputs.iter().map(|v| self.port(v, false));
+        outputs
+            .chain(self.globals.iter().map(|v| self.port(v, true)))
+            .collect()
+    }
+
+    fn same_name(&self, a: &str, b: &str) -> bool {
+        a.eq_ignore_ascii_case(b)
     }
 }
 

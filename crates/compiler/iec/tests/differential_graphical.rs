@@ -306,7 +306,7 @@ fn compare(
     loop {
         let t = sim.next_time();
         let r = sim.step().map(|row| row.is_some());
-        if r == Ok(false) {
+        if matches!(r, Ok(false)) {
             break;
         }
         for (n, v) in &inputs {

@@ -19,8 +19,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use petriplc_config::ModuleDecl;
-use petriplc_modules::common::{self, error, NetSettings};
-use petriplc_pnml::ReadOptions;
+use petriplc_modules::common::{self, error};
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use petriplc_runtime::status::PlcStatus;
 
@@ -162,45 +161,26 @@ impl Hmi {
 
 /// Every petrinet module's net, read the way that module reads it and drawn.
 fn nets(ctx: &InitContext<'_>, me: &str) -> Result<Vec<NetInfo>, ModuleError> {
-    let mut nets = Vec::new();
-    for (i, decl) in ctx
-        .config
-        .modules
-        .iter()
-        .filter(|m| m.kind == "petrinet")
-        .enumerate()
-    {
-        // A petrinet module without a valid `net` reports that itself.
-        let Some(file) = common::setting(decl, "net") else {
-            continue;
-        };
-        let Ok(settings) = NetSettings::parse(decl, file) else {
-            continue;
-        };
-        let doc = petriplc_pnml::read_file(
-            &ctx.base_dir.join(&settings.file),
-            &ReadOptions {
-                naming: settings.naming,
-            },
+    let nets = petriplc_modules::petrinet_nets(ctx.config, ctx.base_dir).map_err(|e| {
+        error(
+            me,
+            format!(
+                "cannot draw the net of module {} (`net = {}` in [{}]): {}",
+                e.module,
+                e.file,
+                e.module,
+                common::chain(&e.source)
+            ),
         )
-        .map_err(|e| {
-            error(
-                me,
-                format!(
-                    "cannot draw the net of module {} (`net = {file}` in [{}]): {}",
-                    decl.name,
-                    decl.name,
-                    common::chain(&e)
-                ),
-            )
-        })?;
-        nets.push(NetInfo {
-            module: decl.name.clone(),
-            file: file.to_string(),
-            svg: svg::draw(&doc.net, &doc.layout, &format!("net{i}")),
-        });
-    }
-    Ok(nets)
+    })?;
+    Ok(nets
+        .into_iter()
+        .map(|n| NetInfo {
+            svg: svg::draw(&n.doc.net, &n.doc.layout, &format!("net{}", n.index)),
+            module: n.module,
+            file: n.file,
+        })
+        .collect())
 }
 
 /// 128 random bits from the OS, as hex.

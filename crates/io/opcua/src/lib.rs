@@ -37,8 +37,7 @@ use opcua::types::{
     NodeId, Variant,
 };
 use petriplc_config::{ModuleDecl, PointValue};
-use petriplc_modules::common::{self, error, NetSettings};
-use petriplc_pnml::ReadOptions;
+use petriplc_modules::common::{self, error};
 use petriplc_runtime::image::Handle;
 use petriplc_runtime::module::{Control, Factory, InitContext, Module, ModuleError, ScanContext};
 use petriplc_runtime::status::PlcStatus;
@@ -193,39 +192,28 @@ impl OpcuaServer {
 
 /// Every place label of every petrinet module's net, read the way that module reads it.
 fn markings(ctx: &InitContext<'_>, me: &str) -> Result<Vec<(String, Vec<String>)>, ModuleError> {
-    let mut out = Vec::new();
-    for decl in ctx.config.modules.iter().filter(|m| m.kind == "petrinet") {
-        // A petrinet module without a valid `net` reports that itself.
-        let Some(file) = common::setting(decl, "net") else {
-            continue;
-        };
-        let Ok(settings) = NetSettings::parse(decl, file) else {
-            continue;
-        };
-        let doc = petriplc_pnml::read_file(
-            &ctx.base_dir.join(&settings.file),
-            &ReadOptions {
-                naming: settings.naming,
-            },
+    let nets = petriplc_modules::petrinet_nets(ctx.config, ctx.base_dir).map_err(|e| {
+        error(
+            me,
+            format!(
+                "cannot read the net of module {} (`net = {}`): {}",
+                e.module,
+                e.file,
+                common::chain(&e.source)
+            ),
         )
-        .map_err(|e| {
-            error(
-                me,
-                format!(
-                    "cannot read the net of module {} (`net = {file}`): {}",
-                    decl.name,
-                    common::chain(&e)
-                ),
-            )
-        })?;
-        let net = doc.net;
-        let labels = net
-            .place_ids()
-            .map(|p| net.place_label(p).to_string())
-            .collect();
-        out.push((decl.name.clone(), labels));
-    }
-    Ok(out)
+    })?;
+    Ok(nets
+        .into_iter()
+        .map(|n| {
+            let net = n.doc.net;
+            let labels = net
+                .place_ids()
+                .map(|p| net.place_label(p).to_string())
+                .collect();
+            (n.module, labels)
+        })
+        .collect())
 }
 
 /// The folder of the server's certificate, key and trust lists.

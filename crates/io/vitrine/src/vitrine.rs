@@ -162,11 +162,7 @@ impl Module for Vitrine {
             }
         };
         let q_stops = !rows.keys.iter().any(|b| b.key == KeySpec::Char('q'));
-        let nets = ctx
-            .config
-            .modules
-            .iter()
-            .filter(|m| m.kind == "petrinet")
+        let nets = petriplc_modules::petrinet_modules(ctx.config)
             .map(|m| m.name.clone())
             .collect();
         let output = match self.probe.clone() {

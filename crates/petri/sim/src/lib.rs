@@ -11,14 +11,16 @@ pub mod sim;
 pub mod timeline;
 pub mod trace;
 pub mod trend;
+pub mod wiring;
 
-pub use plant::{builtin, builtin_with, Plant, PlantError, BUILTINS};
+pub use plant::{builtin, builtin_settings, builtin_with, Plant, PlantError, BUILTINS};
 pub use plants::{
     Keyboard, NetPlant, Tank, Tape, Thermal, ThermalParams, Turntable, TurntableSettings,
-    TURNTABLE_SETTINGS,
+    THERMAL_SETTINGS, TURNTABLE_SETTINGS,
 };
 pub use plot::{render_svg, render_svg_with, write_svg, PlotError, PlotOptions};
 pub use sim::{SimError, SimOptions, Simulation};
 pub use timeline::{NonFinite, Timeline, TimelineCursor, TimelineError, TimelineProblem};
 pub use trace::{Trace, TraceRow};
 pub use trend::{render_trend_svg, write_trend_svg, Series};
+pub use wiring::{wire, Controller, Port, Wiring};

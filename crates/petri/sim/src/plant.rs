@@ -5,10 +5,14 @@ use std::time::Duration;
 
 use petriplc_net::ScanError;
 
-use crate::plants::{Keyboard, Tank, Tape, Thermal, ThermalParams, Turntable, TurntableSettings};
+use crate::plants::{
+    Keyboard, Tank, Tape, Thermal, ThermalParams, Turntable, TurntableSettings, THERMAL_SETTINGS,
+    TURNTABLE_SETTINGS,
+};
 
-/// A simulated process or device. Signals are wired to the controller by name.
-pub trait Plant {
+/// A simulated process or device. Signals are wired to the controller by name. `Send`: the
+/// soft PLC's `plant` module, which runs on a thread of its own, holds one.
+pub trait Plant: Send {
     fn name(&self) -> &str;
     /// Signals it reads: controller outputs, or timeline columns.
     fn inputs(&self) -> Vec<String>;
@@ -47,8 +51,13 @@ pub enum PlantError {
     Failed { plant: String, message: String },
 }
 
-/// The built-in plants: (name, one-line description).
+/// The built-in plants: (name, one-line description). The one registry: `petriplc sim
+/// --plant` and the soft PLC's `plant` module both build their plants with [`builtin_with`].
 pub const BUILTINS: &[(&str, &str)] = &[
+    (
+        "tank",
+        "mixer tank (seed 002): reads V1, V2 (inlets, 20 %/s each), V3 (drain, 25 %/s); drives N1 (<= 5 %), N2 (>= 50 %), N3 (>= 90 %)",
+    ),
     (
         "tape",
         "Turing-machine tape (seed 003 TM_tape): reads write, left, right; drives read",
@@ -56,10 +65,6 @@ pub const BUILTINS: &[(&str, &str)] = &[
     (
         "keyboard",
         "4x3 keypad (seed 003 PN_device_kb_IO): reads col1..col3 and timeline key1..key12; drives line1..line4",
-    ),
-    (
-        "tank",
-        "mixer tank (seed 002): reads V1, V2 (inlets, 20 %/s each), V3 (drain, 25 %/s); drives N1 (<= 5 %), N2 (>= 50 %), N3 (>= 90 %)",
     ),
     (
         "turntable",
@@ -71,14 +76,23 @@ pub const BUILTINS: &[(&str, &str)] = &[
     ),
 ];
 
+/// The names of the settings the built-in plant `name` takes (none for an unknown name).
+pub fn builtin_settings(name: &str) -> Vec<&'static str> {
+    match name {
+        "turntable" => TURNTABLE_SETTINGS.iter().map(|t| t.0).collect(),
+        "thermal" => THERMAL_SETTINGS.to_vec(),
+        _ => Vec::new(),
+    }
+}
+
 /// A fresh built-in plant by name (see [`BUILTINS`]), with its default settings.
 pub fn builtin(name: &str) -> Option<Box<dyn Plant>> {
     builtin_with(name, &[]).ok().flatten()
 }
 
 /// A fresh built-in plant by name with settings (name, value): `Ok(None)` for an unknown
-/// name, `Err` for a setting the plant does not have or a bad value. Only `turntable` has
-/// settings ([`TURNTABLE_SETTINGS`](crate::plants::TURNTABLE_SETTINGS)).
+/// name, `Err` for a setting the plant does not have or a bad value. `turntable`
+/// ([`TURNTABLE_SETTINGS`]) and `thermal` ([`THERMAL_SETTINGS`]) have settings.
 pub fn builtin_with(
     name: &str,
     settings: &[(&str, &str)],
@@ -94,7 +108,9 @@ pub fn builtin_with(
         "turntable" => Ok(Some(Box::new(Turntable::new(TurntableSettings::parse(
             settings.iter().copied(),
         )?)))),
-        "thermal" => none(Box::new(Thermal::new(ThermalParams::default()))),
+        "thermal" => Ok(Some(Box::new(Thermal::new(ThermalParams::parse(
+            settings.iter().copied(),
+        )?)))),
         _ => Ok(None),
     }
 }
@@ -127,8 +143,24 @@ mod tests {
         check("", None);
         assert_eq!(
             BUILTINS.iter().map(|b| b.0).collect::<Vec<_>>(),
-            ["tape", "keyboard", "tank", "turntable", "thermal"]
+            ["tank", "tape", "keyboard", "turntable", "thermal"]
         );
+        for (name, _) in BUILTINS {
+            let settings = builtin_settings(name);
+            // Each at its default where the plant documents one.
+            let value = |k: &str| {
+                TURNTABLE_SETTINGS
+                    .iter()
+                    .find(|t| t.0 == k)
+                    .map_or("1", |t| t.2)
+            };
+            let pairs: Vec<(&str, &str)> = settings.iter().map(|&k| (k, value(k))).collect();
+            assert!(
+                builtin_with(name, &pairs).is_ok(),
+                "{name} takes {settings:?}"
+            );
+        }
+        assert_eq!(builtin_settings("nope"), Vec::<&str>::new());
         let err = |name: &str, settings: &[(&str, &str)]| {
             builtin_with(name, settings).err().unwrap_or_default()
         };
@@ -137,6 +169,16 @@ mod tests {
             "the plant `tank` has no settings (got `L`)"
         );
         assert_eq!(err("turntable", &[("L", "400"), ("K_x", "100.5")]), "");
+        assert_eq!(err("thermal", &[("gain", "1.5"), ("initial", "55")]), "");
+        assert_eq!(
+            err("thermal", &[("dead_time", "-1")]),
+            "`dead_time = -1` must be from 0 to 3600 s"
+        );
+        assert_eq!(
+            err("thermal", &[("L", "3")]),
+            "the thermal plant has no setting `L`; its settings are gain, time_constant, \
+             dead_time, ambient, initial"
+        );
         assert!(builtin_with("nope", &[("L", "3")]).unwrap().is_none());
     }
 

@@ -9,6 +9,7 @@ use petriplc_net::{Net, ScanError, ScanOptions, Scanner, SignalDirection, Signal
 use crate::plant::{Plant, PlantError};
 use crate::timeline::{CursorState, Timeline};
 use crate::trace::{Trace, TraceRow};
+use crate::wiring::{Controller, Port, Source};
 
 /// How a simulation runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,8 +33,8 @@ impl SimOptions {
     }
 }
 
-/// Why a simulation could not be set up or could not go on.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+/// Why a simulation of a net or an IEC program could not be set up or could not go on.
+#[derive(Clone, Debug, thiserror::Error)]
 pub enum SimError {
     #[error("the scan period is 0; give a period greater than zero (e.g. 0.01 or T#10ms)")]
     ZeroPeriod,
@@ -44,7 +45,7 @@ pub enum SimError {
         plant: Option<String>,
         known: Vec<String>,
     },
-    #[error("timeline {timeline}: column `{column}` is an output of the controller; a timeline drives inputs only (the net computes its outputs)")]
+    #[error("timeline {timeline}: column `{column}` is an output of the controller; a timeline drives inputs only (the controller computes its outputs)")]
     ColumnIsOutput { timeline: String, column: String },
     #[error("`{signal}` is driven by both {first} and {second}; drop it from one of them")]
     DrivenTwice {
@@ -70,6 +71,22 @@ pub enum SimError {
         #[source]
         source: ScanError,
     },
+    /// A value the controller cannot hold given to one of its inputs during the run (an IEC
+    /// variable's range), by the timeline or the plant.
+    #[error("at t={}s: {name} cannot take {value}: {why}", format_seconds(*time))]
+    BadValue {
+        time: Duration,
+        name: String,
+        value: i64,
+        why: String,
+    },
+    /// A controller's own run-time fault other than a net's (an IEC program's, with its POU,
+    /// line and values), whole in the message.
+    #[error("at t={}s: {fault}", format_seconds(*time))]
+    Fault {
+        time: Duration,
+        fault: std::sync::Arc<dyn std::error::Error + Send + Sync>,
+    },
     #[error("at t={}s", format_seconds(*time))]
     Plant {
         time: Duration,
@@ -82,7 +99,10 @@ impl SimError {
     /// The simulated time of a failure during the run (`None` for set-up errors).
     pub fn time(&self) -> Option<Duration> {
         match self {
-            SimError::Scan { time, .. } | SimError::Plant { time, .. } => Some(*time),
+            SimError::Scan { time, .. }
+            | SimError::Plant { time, .. }
+            | SimError::BadValue { time, .. }
+            | SimError::Fault { time, .. } => Some(*time),
             _ => None,
         }
     }
@@ -110,21 +130,10 @@ fn list(names: &[String]) -> String {
     }
 }
 
-/// Where a plant input's value comes from.
-#[derive(Clone, Copy, Debug)]
-enum Source {
-    /// A controller output, as the previous scan left it.
-    Controller(SignalId),
-    /// A timeline column.
-    Timeline(usize),
-    /// Nothing: the input stays 0 unless forced (a warning says so).
-    Unwired,
-}
-
 struct PlantWiring<'n> {
     plant: Box<dyn Plant + 'n>,
     input_names: Vec<String>,
-    sources: Vec<Source>,
+    sources: Vec<Source<SignalId>>,
     /// Plant output index → controller input it drives.
     drives: Vec<(usize, SignalId)>,
     /// Plant outputs that drive nothing, recorded in the trace for the plot.
@@ -178,164 +187,38 @@ impl<'n> Simulation<'n> {
             return Err(SimError::ZeroPeriod);
         }
         let net = controller;
-        let input_of = |name: &str| {
-            net.signal_by_name(name)
-                .filter(|&s| net.signal(s).direction == SignalDirection::Input)
-        };
-        let output_of = |name: &str| {
-            net.signal_by_name(name)
-                .filter(|&s| net.signal(s).direction == SignalDirection::Output)
-        };
-        let plant_name = plant.as_ref().map(|p| p.name().to_string());
-        let plant_inputs = plant.as_ref().map_or_else(Vec::new, |p| p.inputs());
-        let plant_outputs = plant.as_ref().map_or_else(Vec::new, |p| p.outputs());
-        let plant_label = || format!("plant `{}`", plant_name.as_deref().unwrap_or(""));
-
-        let mut timeline_inputs = Vec::new();
-        if let Some(tl) = &timeline {
-            for (col, name) in tl.columns().iter().enumerate() {
-                if let Some(s) = input_of(name) {
-                    timeline_inputs.push((col, s));
-                    if net.signal(s).ty == SignalType::Bool {
-                        if let Some(&(time, value)) =
-                            tl.changes(col).iter().find(|c| c.1 != 0 && c.1 != 1)
-                        {
-                            return Err(SimError::NotBoolean {
-                                column: name.clone(),
-                                time,
-                                value,
-                            });
-                        }
-                    }
-                } else if plant_inputs.contains(name) {
-                    // Wired below, with the plant's other inputs.
-                } else if output_of(name).is_some() {
-                    return Err(SimError::ColumnIsOutput {
-                        timeline: tl.source().to_string(),
-                        column: name.clone(),
-                    });
-                } else {
-                    let known = net
-                        .inputs()
-                        .map(|s| net.signal(s).name.clone())
-                        .chain(
-                            plant_inputs
-                                .iter()
-                                .filter(|n| output_of(n).is_none())
-                                .cloned(),
-                        )
-                        .collect();
-                    return Err(SimError::UnknownColumn {
-                        timeline: tl.source().to_string(),
-                        column: name.clone(),
-                        plant: plant_name.clone(),
-                        known,
-                    });
-                }
-            }
-        }
-        let column = |name: &str| timeline.as_ref().and_then(|tl| tl.column_index(name));
-
-        let mut unwired_plant_inputs = Vec::new();
-        let plant = match plant {
-            None => None,
-            Some(plant) => {
-                let mut unwired = Vec::new();
-                let mut sources = Vec::with_capacity(plant_inputs.len());
-                for name in &plant_inputs {
-                    sources.push(match (output_of(name), column(name)) {
-                        (Some(s), None) => Source::Controller(s),
-                        (None, Some(c)) => Source::Timeline(c),
-                        (Some(_), Some(_)) => {
-                            return Err(SimError::DrivenTwice {
-                                signal: name.clone(),
-                                first: "the controller".into(),
-                                second: "the timeline".into(),
-                            })
-                        }
-                        (None, None) => {
-                            unwired.push(name.as_str());
-                            Source::Unwired
-                        }
-                    });
-                }
-                if !unwired.is_empty() {
-                    unwired_plant_inputs.push(format!(
-                        "plant `{}` reads {}, which neither the controller nor the timeline drives; they stay 0 (add timeline columns to drive them)",
-                        plant.name(),
-                        unwired.join(", ")
-                    ));
-                }
-                let mut drives = Vec::new();
-                for (i, name) in plant_outputs.iter().enumerate() {
-                    if output_of(name).is_some() {
-                        return Err(SimError::DrivenTwice {
-                            signal: name.clone(),
-                            first: "the controller".into(),
-                            second: plant_label(),
-                        });
-                    }
-                    if let Some(s) = input_of(name) {
-                        if column(name).is_some() {
-                            return Err(SimError::DrivenTwice {
-                                signal: name.clone(),
-                                first: "the timeline".into(),
-                                second: plant_label(),
-                            });
-                        }
-                        drives.push((i, s));
-                    }
-                }
-                let observed = (0..plant_outputs.len())
-                    .filter(|i| !drives.iter().any(|(j, _)| j == i))
-                    .collect();
-                Some(PlantWiring {
-                    plant,
-                    sources,
-                    drives,
-                    observed,
-                    inputs: vec![0; plant_inputs.len()],
-                    outputs: vec![0; plant_outputs.len()],
-                    forced: vec![None; plant_inputs.len()],
-                    input_names: plant_inputs,
-                })
-            }
-        };
-
-        let warnings: Vec<String> = net
-            .inputs()
-            .filter(|s| {
-                !timeline_inputs.iter().any(|(_, t)| t == s)
-                    && !plant
-                        .as_ref()
-                        .is_some_and(|p| p.drives.iter().any(|(_, d)| d == s))
-            })
-            .map(|s| {
-                let sig = net.signal(s);
-                let stays = if sig.ty == SignalType::Bool {
-                    "FALSE"
-                } else {
-                    "0"
-                };
-                format!(
-                    "input {} is driven by neither the timeline nor the plant; it stays {stays}",
-                    sig.name
-                )
-            })
+        let wiring = crate::wiring::wire(net, timeline.as_ref(), plant.as_deref())?;
+        let timeline_inputs: Vec<(usize, SignalId)> = wiring
+            .timeline_inputs
+            .iter()
+            .map(|(c, p)| (*c, p.signal))
             .collect();
-        let warnings = [warnings, unwired_plant_inputs].concat();
+        let first: Vec<String> = wiring
+            .first_inputs()
+            .iter()
+            .map(|p| p.name.clone())
+            .collect();
+        let warnings = wiring.warnings;
+        let plant = plant.map(|plant| {
+            let input_names = plant.inputs();
+            let n_outputs = plant.outputs().len();
+            PlantWiring {
+                plant,
+                sources: wiring.plant_sources,
+                drives: wiring.drives.iter().map(|(i, p)| (*i, p.signal)).collect(),
+                observed: wiring.observed,
+                inputs: vec![0; input_names.len()],
+                outputs: vec![0; n_outputs],
+                forced: vec![None; input_names.len()],
+                input_names,
+            }
+        });
 
         // The trace lists inputs in the user's order: the timeline's columns, then what the
         // plant drives, then the rest as the net declares them.
         let mut trace = Trace::new(net);
         trace.period = opts.period;
-        let mut first: Vec<&str> = timeline_inputs
-            .iter()
-            .map(|&(_, s)| net.signal(s).name.as_str())
-            .collect();
-        if let Some(pw) = &plant {
-            first.extend(pw.drives.iter().map(|&(_, s)| net.signal(s).name.as_str()));
-        }
+        let first: Vec<&str> = first.iter().map(String::as_str).collect();
         let declared: Vec<SignalId> = net.inputs().collect();
         let input_ids = trace
             .order_inputs(&first)
@@ -693,6 +576,30 @@ impl<'n> Simulation<'n> {
     pub fn run(mut self) -> Result<Trace, SimError> {
         self.finish()?;
         Ok(self.trace)
+    }
+}
+
+/// A net's inputs and outputs by exact name; an input nothing drives stays 0 (FALSE).
+impl Controller for Net {
+    type Signal = SignalId;
+
+    fn inputs(&self) -> Vec<Port<SignalId>> {
+        self.inputs().map(|s| net_port(self, s)).collect()
+    }
+
+    fn outputs(&self) -> Vec<Port<SignalId>> {
+        self.outputs().map(|s| net_port(self, s)).collect()
+    }
+}
+
+fn net_port(net: &Net, s: SignalId) -> Port<SignalId> {
+    let boolean = net.signal(s).ty == SignalType::Bool;
+    Port {
+        name: net.signal(s).name.clone(),
+        signal: s,
+        boolean,
+        initial: if boolean { "FALSE" } else { "0" }.to_string(),
+        optional: false,
     }
 }
 

@@ -23,7 +23,7 @@ use petriplc_runtime::module::Factory;
 pub use dsp::DspModule;
 pub use iec::IecModule;
 pub use logger::Logger;
-pub use petrinet::Petrinet;
+pub use petrinet::{petrinet_modules, petrinet_nets, ModuleNet, ModuleNetError, Petrinet};
 pub use plant::PlantModule;
 pub use shutdown::Shutdown;
 pub use timeline::TimelineModule;

@@ -11,8 +11,11 @@
 //! map B1 START_BUTTON       # signal B1 is point START_BUTTON (default: a point named B1)
 //! ```
 
-use petriplc_config::ModuleDecl;
+use std::path::Path;
+
+use petriplc_config::{ModuleDecl, PlcConfig};
 use petriplc_net::{Scanner, SignalId};
+use petriplc_pnml::ReadOptions;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
 
 use crate::common::{self, at, error, Bound, NetSettings, Port, NET_OPTIONS};
@@ -155,5 +158,132 @@ impl Module for Petrinet {
         net.place_ids()
             .map(|p| (net.place_label(p).to_string(), u64::from(m[p])))
             .collect()
+    }
+}
+
+/// One `petrinet` module's net, read as that module reads it: for the modules that draw,
+/// serve or show the configuration's nets (hmi, opcua_server, vitrine).
+#[derive(Debug)]
+pub struct ModuleNet {
+    /// Its position among the configuration's `petrinet` modules.
+    pub index: usize,
+    /// The module's name.
+    pub module: String,
+    /// Its `net` setting as written, relative to the configuration file.
+    pub file: String,
+    pub doc: petriplc_pnml::Document,
+}
+
+/// A `petrinet` module's net that could not be read.
+#[derive(Debug, thiserror::Error)]
+#[error("the net of module {module} (`net = {file}`)")]
+pub struct ModuleNetError {
+    pub module: String,
+    pub file: String,
+    #[source]
+    pub source: petriplc_pnml::PnmlError,
+}
+
+/// The configuration's `petrinet` modules, in declaration order.
+pub fn petrinet_modules(config: &PlcConfig) -> impl Iterator<Item = &ModuleDecl> {
+    config.modules.iter().filter(|m| m.kind == KIND)
+}
+
+/// The nets of the configuration's `petrinet` modules, in declaration order, each read with
+/// its module's naming. A module whose `net` setting is missing or invalid is left out: it
+/// reports that itself.
+pub fn petrinet_nets(
+    config: &PlcConfig,
+    base_dir: &Path,
+) -> Result<Vec<ModuleNet>, ModuleNetError> {
+    let mut nets = Vec::new();
+    for (index, decl) in petrinet_modules(config).enumerate() {
+        let Some(file) = common::setting(decl, "net") else {
+            continue;
+        };
+        let Ok(settings) = NetSettings::parse(decl, file) else {
+            continue;
+        };
+        let doc = petriplc_pnml::read_file(
+            &base_dir.join(&settings.file),
+            &ReadOptions {
+                naming: settings.naming,
+            },
+        )
+        .map_err(|source| ModuleNetError {
+            module: decl.name.clone(),
+            file: file.to_string(),
+            source,
+        })?;
+        nets.push(ModuleNet {
+            index,
+            module: decl.name.clone(),
+            file: file.to_string(),
+            doc,
+        });
+    }
+    Ok(nets)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The nets found in `conf` (with `a.pnml`, SIPN-named, and `b.pnml` beside it), as
+    /// `index module file places`, or the error.
+    fn check(conf: &str, expect: &str) {
+        let dir = tempfile::tempdir().unwrap();
+        let pnml = |places: &str| {
+            format!(
+                r#"<pnml xmlns="http://www.pnml.org/version-2009/grammar/pnml"><net id="n" type="http://www.pnml.org/version-2009/grammar/ptnet"><page id="pg">{places}</page></net></pnml>"#
+            )
+        };
+        std::fs::write(
+            dir.path().join("a.pnml"),
+            pnml(r#"<place id="L1"/><place id="L2"/>"#),
+        )
+        .unwrap();
+        std::fs::write(dir.path().join("b.pnml"), pnml(r#"<place id="p"/>"#)).unwrap();
+        let config = petriplc_config::parse_str(conf, "test.conf", dir.path()).unwrap();
+        let got = match petrinet_nets(&config, dir.path()) {
+            Ok(nets) => nets
+                .iter()
+                .map(|n| {
+                    let net = &n.doc.net;
+                    let places: Vec<&str> = net.place_ids().map(|p| net.place_label(p)).collect();
+                    format!("{} {} {} {}", n.index, n.module, n.file, places.join(","))
+                })
+                .collect::<Vec<_>>()
+                .join("; "),
+            Err(e) => common::chain(&e).replace(&dir.path().display().to_string(), "DIR"),
+        };
+        assert_eq!(got, expect);
+    }
+
+    #[test]
+    fn finds_every_petrinet_modules_net_in_declaration_order() {
+        check(
+            "[PLC]\nmodule second petrinet\nmodule log logger\nmodule first petrinet\n\
+             [second]\nnet = b.pnml\n[first]\nnet = a.pnml\n",
+            "0 second b.pnml p; 1 first a.pnml L1,L2",
+        );
+    }
+
+    #[test]
+    fn a_module_without_a_valid_net_setting_is_left_to_report_itself() {
+        check(
+            "[PLC]\nmodule bad petrinet\nmodule none petrinet\nmodule ok petrinet\n\
+             [bad]\nnet = a.pnml\nnames = odd\n[ok]\nnet = b.pnml\n",
+            "2 ok b.pnml p",
+        );
+    }
+
+    #[test]
+    fn an_unreadable_net_names_its_module_and_file() {
+        check(
+            "[PLC]\nmodule ctl petrinet\n[ctl]\nnet = missing.pnml\n",
+            "the net of module ctl (`net = missing.pnml`): could not read `DIR/missing.pnml`: \
+             no such file",
+        );
     }
 }

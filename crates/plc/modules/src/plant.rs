@@ -21,20 +21,11 @@
 use petriplc_config::ModuleDecl;
 use petriplc_net::SignalType;
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
-use petriplc_sim::{
-    Keyboard, NetPlant, Plant, Tank, Tape, Thermal, ThermalParams, Turntable, TurntableSettings,
-    TURNTABLE_SETTINGS,
-};
+use petriplc_sim::{NetPlant, Plant, BUILTINS};
 
 use crate::common::{self, at, chain, error, Bound, NetSettings, Port, NET_OPTIONS};
 
 const KIND: &str = "plant";
-
-/// The Rust plants this module can run.
-const RUST_PLANTS: &[&str] = &["tank", "tape", "keyboard", "turntable", "thermal"];
-
-/// The settings of `plant = thermal`.
-const THERMAL_SETTINGS: &[&str] = &["gain", "time_constant", "dead_time", "ambient", "initial"];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
     Ok(Box::new(PlantModule::new(decl)?))
@@ -42,44 +33,12 @@ pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError>
 
 /// What the settings ask for.
 enum Source {
-    Rust(&'static str),
-    Turntable(TurntableSettings),
-    Thermal(ThermalParams),
+    /// A plant of petriplc-sim's registry, by name, with its settings (checked by `new`).
+    Builtin {
+        name: String,
+        settings: Vec<(String, String)>,
+    },
     Net(NetSettings),
-}
-
-/// The plants by concrete type: `Box<dyn Plant>` is not `Send`, which a module must be.
-enum Sim {
-    Tank(Tank),
-    Tape(Tape),
-    Keyboard(Keyboard),
-    Turntable(Box<Turntable>),
-    Thermal(Thermal),
-    Net(Box<NetPlant<'static>>),
-}
-
-impl Sim {
-    fn plant(&mut self) -> &mut dyn Plant {
-        match self {
-            Sim::Tank(p) => p,
-            Sim::Tape(p) => p,
-            Sim::Keyboard(p) => p,
-            Sim::Turntable(p) => p.as_mut(),
-            Sim::Thermal(p) => p,
-            Sim::Net(p) => p.as_mut(),
-        }
-    }
-
-    fn plant_ref(&self) -> &dyn Plant {
-        match self {
-            Sim::Tank(p) => p,
-            Sim::Tape(p) => p,
-            Sim::Keyboard(p) => p,
-            Sim::Turntable(p) => p.as_ref(),
-            Sim::Thermal(p) => p,
-            Sim::Net(p) => p.as_ref(),
-        }
-    }
 }
 
 /// The `plant` module.
@@ -93,7 +52,7 @@ pub struct PlantModule {
 }
 
 struct Run {
-    sim: Sim,
+    plant: Box<dyn Plant>,
     inputs: Vec<Bound>,
     outputs: Vec<Bound>,
     in_values: Vec<i64>,
@@ -101,16 +60,54 @@ struct Run {
     out_values: Vec<i64>,
 }
 
+/// The built-in plants' names, for messages.
+fn known_plants() -> String {
+    BUILTINS.iter().map(|b| b.0).collect::<Vec<_>>().join(", ")
+}
+
+/// A built-in plant from petriplc-sim's registry.
+fn build(
+    module: &str,
+    name: &str,
+    settings: &[(String, String)],
+) -> Result<Box<dyn Plant>, ModuleError> {
+    let pairs: Vec<(&str, &str)> = settings
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.as_str()))
+        .collect();
+    match petriplc_sim::builtin_with(name, &pairs) {
+        Ok(Some(plant)) => Ok(plant),
+        Ok(None) => Err(error(
+            module,
+            format!(
+                "`plant = {name}` is not a built-in plant; use one of {}, or `net = FILE.pnml` \
+                 for a plant net",
+                known_plants()
+            ),
+        )),
+        Err(e) => Err(error(module, e)),
+    }
+}
+
 impl PlantModule {
-    /// Checks the settings; a plant net is read by `init`.
+    /// Checks the settings (a built-in plant is built once to check them); a plant net is
+    /// read by `init`.
     pub fn new(decl: &ModuleDecl) -> Result<PlantModule, ModuleError> {
-        let turntable = common::setting(decl, "plant") == Some("turntable");
+        // Every built-in plant's settings are known here, so that one given to the wrong
+        // plant is named as such below rather than as an unknown setting.
+        let plant_settings: Vec<(&str, &str)> = BUILTINS
+            .iter()
+            .flat_map(|b| {
+                petriplc_sim::builtin_settings(b.0)
+                    .into_iter()
+                    .map(|k| (k, b.0))
+            })
+            .collect();
         let known: Vec<&str> = ["plant", "net", "speed"]
             .iter()
             .chain(NET_OPTIONS)
-            .chain(THERMAL_SETTINGS)
             .copied()
-            .chain(TURNTABLE_SETTINGS.iter().map(|t| t.0).filter(|_| turntable))
+            .chain(plant_settings.iter().map(|s| s.0))
             .collect();
         common::check_decl(decl, KIND, &known)?;
         let source = match (common::setting(decl, "plant"), common::setting(decl, "net")) {
@@ -120,27 +117,21 @@ impl PlantModule {
                     "both `plant` and `net` are set; a plant module runs one plant: keep one",
                 ))
             }
-            (Some("turntable"), None) => {
-                let pairs = TURNTABLE_SETTINGS
-                    .iter()
-                    .filter_map(|t| common::setting(decl, t.0).map(|v| (t.0, v)));
-                Source::Turntable(
-                    TurntableSettings::parse(pairs).map_err(|e| error(&decl.name, e))?,
-                )
-            }
-            (Some(name), None) => match RUST_PLANTS.iter().find(|&&p| p == name) {
-                Some(p) => Source::Rust(p),
-                None => {
-                    return Err(error(
-                        &decl.name,
-                        format!(
-                            "`plant = {name}` is not a built-in plant; use one of {}, or \
-                             `net = FILE.pnml` for a plant net",
-                            RUST_PLANTS.join(", ")
-                        ),
-                    ))
+            (Some(name), None) => {
+                // In the plant's own order of settings, so its first complaint is the same
+                // whatever the order of the section's lines.
+                let settings: Vec<(String, String)> = petriplc_sim::builtin_settings(name)
+                    .into_iter()
+                    .filter_map(|k| {
+                        common::setting(decl, k).map(|v| (k.to_string(), v.to_string()))
+                    })
+                    .collect();
+                build(&decl.name, name, &settings)?;
+                Source::Builtin {
+                    name: name.to_string(),
+                    settings,
                 }
-            },
+            }
             (None, Some(_)) => {
                 Source::Net(NetSettings::parse(decl, common::require(decl, "net")?)?)
             }
@@ -149,7 +140,7 @@ impl PlantModule {
                     &decl.name,
                     format!(
                     "no plant given; add `plant = NAME` ({}) or `net = FILE.pnml` to section [{}]",
-                    RUST_PLANTS.join(", "),
+                    known_plants(),
                     decl.name
                 ),
                 ))
@@ -168,22 +159,20 @@ impl PlantModule {
                     )
                 })?,
         };
-        let source = match source {
-            Source::Rust("thermal") => Source::Thermal(thermal_params(decl)?),
-            other => other,
+        let own = match &source {
+            Source::Builtin { name, .. } => name.as_str(),
+            Source::Net(_) => "",
         };
-        if !matches!(source, Source::Thermal(_)) {
-            if let Some(k) = THERMAL_SETTINGS
-                .iter()
-                .find(|k| decl.settings.contains_key(**k))
-            {
-                return Err(error(
-                    &decl.name,
-                    format!("`{k}` is a setting of `plant = thermal`, not of this plant"),
-                ));
-            }
+        if let Some((k, plant)) = plant_settings
+            .iter()
+            .find(|(k, plant)| *plant != own && decl.settings.contains_key(*k))
+        {
+            return Err(error(
+                &decl.name,
+                format!("`{k}` is a setting of `plant = {plant}`, not of this plant"),
+            ));
         }
-        if let Source::Rust(_) | Source::Turntable(_) | Source::Thermal(_) = source {
+        if let Source::Builtin { .. } = source {
             if let Some(k) = NET_OPTIONS.iter().find(|k| decl.settings.contains_key(**k)) {
                 return Err(error(
                     &decl.name,
@@ -202,80 +191,24 @@ impl PlantModule {
     }
 }
 
-/// `plant = thermal`'s constants from the section, each checked.
-fn thermal_params(decl: &ModuleDecl) -> Result<ThermalParams, ModuleError> {
-    let mut p = ThermalParams::default();
-    let mut initial = None;
-    for &key in THERMAL_SETTINGS {
-        let Some(text) = common::setting(decl, key) else {
-            continue;
-        };
-        let value = text
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| error(&decl.name, format!("`{key} = {text}` is not a number")))?;
-        let positive = |v: f64| {
-            if v > 0.0 {
-                Ok(v)
-            } else {
-                Err(error(
-                    &decl.name,
-                    format!("`{key} = {text}` must be above 0"),
-                ))
-            }
-        };
-        match key {
-            "gain" => p.gain = value,
-            "time_constant" => p.time_constant = positive(value)?,
-            "dead_time" => {
-                if !(0.0..=3600.0).contains(&value) {
-                    return Err(error(
-                        &decl.name,
-                        format!("`dead_time = {text}` must be from 0 to 3600 s"),
-                    ));
-                }
-                p.dead_time = value;
-            }
-            "ambient" => p.ambient = value,
-            _ => initial = Some(value),
-        }
-    }
-    p.initial = initial.unwrap_or(p.ambient);
-    Ok(p)
-}
-
 impl Module for PlantModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
-        let (mut sim, what, types) = match &self.source {
-            Source::Rust(name) => {
-                let sim = match *name {
-                    "tank" => Sim::Tank(Tank::new()),
-                    "tape" => Sim::Tape(Tape::new()),
-                    _ => Sim::Keyboard(Keyboard::new()),
-                };
-                (sim, format!("plant `{name}`"), None)
-            }
-            Source::Turntable(settings) => (
-                Sim::Turntable(Box::new(Turntable::new(*settings))),
-                "plant `turntable`".to_string(),
-                None,
-            ),
-            Source::Thermal(params) => (
-                Sim::Thermal(Thermal::new(*params)),
-                "plant `thermal`".to_string(),
+        let (plant, what, types): (Box<dyn Plant>, _, _) = match &self.source {
+            Source::Builtin { name, settings } => (
+                build(&self.name, name, settings)?,
+                format!("plant `{name}`"),
                 None,
             ),
             Source::Net(settings) => {
                 let net = settings.load(&self.name, ctx.base_dir)?;
-                let sim = Sim::Net(Box::new(NetPlant::new(net, settings.options(net))));
-                (sim, format!("plant net `{}`", settings.file), Some(net))
+                let plant = Box::new(NetPlant::new(net, settings.options(net)));
+                (plant, format!("plant net `{}`", settings.file), Some(net))
             }
         };
         // A Rust plant's signals carry plain values (some in fixed point); a plant net's have
         // their declared types.
         let scales: Vec<(String, f64)> = {
-            let p = sim.plant();
+            let p = &plant;
             p.inputs()
                 .into_iter()
                 .chain(p.outputs())
@@ -289,13 +222,13 @@ impl Module for PlantModule {
             scale: scales.iter().find(|(n, _)| *n == name).map(|(_, s)| *s),
             name,
         };
-        let inputs: Vec<Port> = sim.plant().inputs().into_iter().map(port).collect();
-        let outputs: Vec<Port> = sim.plant().outputs().into_iter().map(port).collect();
+        let inputs: Vec<Port> = plant.inputs().into_iter().map(port).collect();
+        let outputs: Vec<Port> = plant.outputs().into_iter().map(port).collect();
         let (inputs, outputs) = common::bind(ctx, KIND, &what, &inputs, &outputs)?;
         self.run = Some(Run {
             in_values: vec![0; inputs.len()],
             out_values: vec![0; outputs.len()],
-            sim,
+            plant,
             inputs,
             outputs,
         });
@@ -309,8 +242,7 @@ impl Module for PlantModule {
         for (v, b) in run.in_values.iter_mut().zip(&run.inputs) {
             *v = b.read(ctx.map);
         }
-        run.sim
-            .plant()
+        run.plant
             .step(
                 ctx.now.saturating_mul(self.speed),
                 &run.in_values,
@@ -335,6 +267,6 @@ impl Module for PlantModule {
     fn status(&self) -> String {
         self.run
             .as_ref()
-            .map_or_else(String::new, |r| r.sim.plant_ref().summary())
+            .map_or_else(String::new, |r| r.plant.summary())
     }
 }

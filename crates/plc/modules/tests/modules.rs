@@ -345,9 +345,21 @@ fn plant_settings_and_wiring_errors() {
     };
     assert!(start(&text("plant = tank", "tank"), &dir).is_ok());
     assert!(start(&text("net = tank.pnml", "tank"), &dir).is_ok());
-    // Only the turntable has settings of its own.
-    let e = start_err(&text("plant = tank\nK_alpha = 45", "tank"), &dir);
-    assert!(e.contains("K_alpha"), "{e}");
+    // The tank has no settings of its own; the turntable's and the thermal plant's are named
+    // as theirs (petriplc-sim's registry says which plant takes which).
+    assert_eq!(
+        start_err(&text("plant = tank\nK_alpha = 45", "tank"), &dir),
+        "module tank: `K_alpha` is a setting of `plant = turntable`, not of this plant"
+    );
+    assert_eq!(
+        start_err(&text("net = tank.pnml\nL = 400", "tank"), &dir),
+        "module tank: `L` is a setting of `plant = turntable`, not of this plant"
+    );
+    let e = start_err(&text("plant = turntable\nL = -4", "tank"), &dir);
+    assert!(
+        e.starts_with("module tank: turntable setting `L = -4`: give a number greater than 0"),
+        "{e}"
+    );
     assert_eq!(
         start_err(&text("plant = tanks", "tank"), &dir),
         "module tank: `plant = tanks` is not a built-in plant; use one of tank, tape, keyboard, \

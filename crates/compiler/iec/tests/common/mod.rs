@@ -317,7 +317,7 @@ pub fn compare(
     'scans: loop {
         let t = sim.next_time();
         let r = sim.step().map(|row| row.is_some());
-        if r == Ok(false) {
+        if matches!(r, Ok(false)) {
             break;
         }
         scans += 1;

@@ -13,5 +13,5 @@ pub use keyboard::Keyboard;
 pub use net::NetPlant;
 pub use tank::Tank;
 pub use tape::Tape;
-pub use thermal::{Thermal, ThermalParams};
+pub use thermal::{Thermal, ThermalParams, THERMAL_SETTINGS};
 pub use turntable::{Turntable, TurntableSettings, TURNTABLE_SETTINGS};

@@ -42,6 +42,46 @@ impl Default for ThermalParams {
     }
 }
 
+/// The settings of the `thermal` plant ([`ThermalParams::parse`]), in the order they are
+/// listed.
+pub const THERMAL_SETTINGS: &[&str] = &["gain", "time_constant", "dead_time", "ambient", "initial"];
+
+impl ThermalParams {
+    /// The defaults with `settings` (name, value) applied: `gain` (°C per %),
+    /// `time_constant` (s, above 0), `dead_time` (s, 0 to 3600), `ambient` (°C) and `initial`
+    /// (°C, the ambient when not given). An error names the setting and what it takes.
+    pub fn parse<'a>(
+        settings: impl IntoIterator<Item = (&'a str, &'a str)>,
+    ) -> Result<ThermalParams, String> {
+        let mut p = ThermalParams::default();
+        let mut initial = None;
+        for (key, text) in settings {
+            if !THERMAL_SETTINGS.contains(&key) {
+                return Err(format!(
+                    "the thermal plant has no setting `{key}`; its settings are {}",
+                    THERMAL_SETTINGS.join(", ")
+                ));
+            }
+            let value = text
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("`{key} = {text}` is not a number"))?;
+            match key {
+                "gain" => p.gain = value,
+                "time_constant" if value > 0.0 => p.time_constant = value,
+                "time_constant" => return Err(format!("`{key} = {text}` must be above 0")),
+                "dead_time" if (0.0..=3600.0).contains(&value) => p.dead_time = value,
+                "dead_time" => return Err(format!("`{key} = {text}` must be from 0 to 3600 s")),
+                "ambient" => p.ambient = value,
+                _ => initial = Some(value),
+            }
+        }
+        p.initial = initial.unwrap_or(p.ambient);
+        Ok(p)
+    }
+}
+
 /// Reads `heater` (power, thousandths of a percent); drives `temp` (thousandths of a °C).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Thermal {

@@ -161,7 +161,7 @@ fn rejects_bad_wiring() {
         None,
         "1",
         "1",
-        "error: timeline tl.csv: column `L1` is an output of the controller; a timeline drives inputs only (the net computes its outputs)",
+        "error: timeline tl.csv: column `L1` is an output of the controller; a timeline drives inputs only (the controller computes its outputs)",
     );
     check(
         &net("p a 1"),
