@@ -4,6 +4,7 @@
 //! `petriplc sim` does (docs/semantics.md); docs/codegen.md describes the generated code.
 
 pub mod c;
+pub mod enabling;
 pub mod il;
 pub mod ld;
 pub mod lower;

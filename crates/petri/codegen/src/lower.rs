@@ -32,6 +32,8 @@ use petriplc_net::guard::Expr;
 use petriplc_net::{Evolution, Net, PlaceId, SignalDirection, SignalType, StepRule, TransitionId};
 use petriplc_structure::{p_invariants, structural_bounds, structural_conflicts, Limits};
 
+use crate::enabling::{enabling, holds};
+pub use crate::enabling::{Atom, Cond, Enabling};
 use crate::names::Names;
 use crate::CodegenError;
 
@@ -119,99 +121,6 @@ pub struct Timer {
     pub input: Cond,
 }
 
-/// An elementary condition.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Atom {
-    /// The transition's guard over the input signals.
-    Guard(usize),
-    /// A TON's `Q`.
-    Timer(usize),
-    /// A BOOL place is marked.
-    Marked(usize),
-    /// A transition fired in this pass (its fire flag).
-    Fired(usize),
-    /// An integer place holds at least `tokens`: its marking, or its `Avail` copy when
-    /// `avail`. Negated it reads "fewer than".
-    AtLeast {
-        place: usize,
-        avail: bool,
-        tokens: u32,
-    },
-    /// An integer place's marking, plus what the pass produced into it when `produced`, is at
-    /// most `limit` (a capacity check: C(p) + own consumption − weight).
-    AtMost {
-        place: usize,
-        produced: bool,
-        limit: u64,
-    },
-}
-
-/// A condition: a possibly negated atom, a disjunction, or a constant.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Cond {
-    Lit { atom: Atom, negated: bool },
-    Any(Vec<Cond>),
-    Const(bool),
-}
-
-impl Cond {
-    pub fn lit(atom: Atom) -> Cond {
-        Cond::Lit {
-            atom,
-            negated: false,
-        }
-    }
-    pub fn not(atom: Atom) -> Cond {
-        Cond::Lit {
-            atom,
-            negated: true,
-        }
-    }
-}
-
-/// A transition's enabling, conjunction of all groups, each a conjunction of conditions.
-/// Groups follow seed 004's generated C (test, inhibitor, preset, postset), after the input
-/// condition and the delays. In bool maximal-step code, a group also holds the `NOT` fire
-/// flags of higher-priority transitions that take the same tokens or fill the same place.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Enabling {
-    pub guard: Vec<Cond>,
-    pub delays: Vec<Cond>,
-    pub test: Vec<Cond>,
-    pub inhibitor: Vec<Cond>,
-    pub preset: Vec<Cond>,
-    pub postset: Vec<Cond>,
-}
-
-impl Enabling {
-    /// The groups with their names, in order, empty ones left out.
-    pub fn groups(&self) -> Vec<(&'static str, &[Cond])> {
-        [
-            ("input condition", &self.guard),
-            ("delays", &self.delays),
-            ("test arcs", &self.test),
-            ("inhibitor arcs", &self.inhibitor),
-            ("preset", &self.preset),
-            ("postset", &self.postset),
-        ]
-        .into_iter()
-        .filter(|(_, g)| !g.is_empty())
-        .map(|(n, g)| (n, g.as_slice()))
-        .collect()
-    }
-
-    /// Every condition, in group order.
-    pub fn all(&self) -> impl Iterator<Item = &Cond> {
-        self.guard
-            .iter()
-            .chain(&self.delays)
-            .chain(&self.test)
-            .chain(&self.inhibitor)
-            .chain(&self.preset)
-            .chain(&self.postset)
-    }
-}
-
 /// One transition of the program.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TransitionCode {
@@ -229,6 +138,17 @@ pub struct TransitionCode {
     pub produce: Vec<(usize, u32)>,
     /// A one-line picture for comments: `p1 -> p2`, with read and inhibitor arcs.
     pub summary: String,
+}
+
+impl TransitionCode {
+    /// The guard as written, for the comment above the transition's code; `None` when the
+    /// transition has none (TRUE), so that no backend prints `if TRUE`.
+    pub fn shown_guard(&self) -> Option<&str> {
+        match self.guard_text.trim() {
+            "" | "TRUE" => None,
+            _ => Some(&self.guard_text),
+        }
+    }
 }
 
 /// Two transitions that may want the same tokens; the first has priority.
@@ -476,124 +396,6 @@ fn flags<'n>(net: &'n Net, arcs: impl Fn(TransitionId) -> &'n Vec<(PlaceId, u32)
 
 fn pairs(v: &[(PlaceId, u32)]) -> Vec<(usize, u32)> {
     v.iter().map(|&(p, w)| (p.index(), w)).collect()
-}
-
-/// `place` holds at least `weight` tokens (its `Avail` copy when `avail` and it has one).
-fn holds(place: &PlaceVar, p: usize, weight: u32, avail: bool) -> Cond {
-    if place.boolean {
-        if weight == 1 {
-            Cond::lit(Atom::Marked(p))
-        } else {
-            // A BOOL place never holds two tokens.
-            Cond::Const(false)
-        }
-    } else {
-        Cond::lit(Atom::AtLeast {
-            place: p,
-            avail: avail && place.avail.is_some(),
-            tokens: weight,
-        })
-    }
-}
-
-/// The negation of [`holds`]: fewer than `weight` tokens.
-fn lacks(place: &PlaceVar, p: usize, weight: u32, avail: bool) -> Cond {
-    match holds(place, p, weight, avail) {
-        Cond::Lit { atom, negated } => Cond::Lit {
-            atom,
-            negated: !negated,
-        },
-        Cond::Const(b) => Cond::Const(!b),
-        Cond::Any(_) => unreachable!("holds() returns a literal or a constant"),
-    }
-}
-
-fn enabling(
-    net: &Net,
-    t: TransitionId,
-    places: &[PlaceVar],
-    transitions: &[TransitionCode],
-    maximal: bool,
-) -> Enabling {
-    let a = net.arcs_of(t);
-    let mut e = Enabling::default();
-    if !net.transition(t).guard.is_true() {
-        e.guard.push(Cond::lit(Atom::Guard(t.index())));
-    }
-    e.delays = a.timed.iter().map(|&i| Cond::lit(Atom::Timer(i))).collect();
-
-    // Bool maximal-step: tokens of place p taken, or p filled, by higher-priority members of
-    // the step, spelled out as their fire flags.
-    let earlier = |p: usize, produce: bool| -> Vec<usize> {
-        if !(maximal && places[p].boolean) {
-            return Vec::new();
-        }
-        transitions[..t.index()]
-            .iter()
-            .enumerate()
-            .filter(|(_, u)| {
-                let arcs = if produce { &u.produce } else { &u.consume };
-                arcs.iter().any(|&(q, _)| q == p)
-            })
-            .map(|(i, _)| i)
-            .collect()
-    };
-    let not_taken = |p: usize, out: &mut Vec<Cond>, produce: bool| {
-        for u in earlier(p, produce) {
-            out.push(Cond::not(Atom::Fired(u)));
-        }
-    };
-
-    for &(p, w) in &a.read {
-        let p = p.index();
-        e.test.push(holds(&places[p], p, w, maximal));
-        not_taken(p, &mut e.test, false);
-    }
-    for &(p, w) in &a.inhibit {
-        let p = p.index();
-        let takers = earlier(p, false);
-        let free = lacks(&places[p], p, w, maximal);
-        if takers.is_empty() || free == Cond::Const(true) {
-            e.inhibitor.push(free);
-        } else {
-            // A BOOL place is empty in the reduced marking when it was, or when a
-            // higher-priority member of the step took its token.
-            let mut any = vec![free];
-            any.extend(takers.into_iter().map(|u| Cond::lit(Atom::Fired(u))));
-            e.inhibitor.push(Cond::Any(any));
-        }
-    }
-    for &(p, w) in &a.consume {
-        let p = p.index();
-        e.preset.push(holds(&places[p], p, w, maximal));
-        not_taken(p, &mut e.preset, false);
-    }
-    for &(p, w) in &a.produce {
-        let p = p.index();
-        let place = &places[p];
-        let Some(cap) = place.capacity else { continue };
-        let own = a.consumed_from(PlaceId::from(p));
-        if place.boolean {
-            // Weights are 1 and the capacity is 1: an own token makes room for the new one;
-            // otherwise the place must be empty.
-            if own == 0 {
-                e.postset.push(Cond::not(Atom::Marked(p)));
-            }
-            not_taken(p, &mut e.postset, true);
-        } else {
-            let limit = i64::from(cap) + i64::from(own) - i64::from(w);
-            e.postset.push(if limit < 0 {
-                Cond::Const(false)
-            } else {
-                Cond::lit(Atom::AtMost {
-                    place: p,
-                    produced: maximal && place.produced.is_some(),
-                    limit: limit as u64,
-                })
-            });
-        }
-    }
-    e
 }
 
 /// `a + b -> c` with `?x` for a read arc and `!x` for an inhibitor arc.
