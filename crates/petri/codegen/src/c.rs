@@ -9,8 +9,9 @@ use std::fmt::Write as _;
 use petriplc_net::guard::{CmpOp, Expr, Operand};
 use petriplc_net::{Evolution, SignalType, StepRule};
 
-use crate::enabling::{render, Cond, Syntax};
+use crate::enabling::Cond;
 use crate::lower::{PlaceVar, Program, TransitionCode};
+use crate::spell::{render, Syntax};
 use crate::text::comment;
 use crate::CodegenError;
 

@@ -19,10 +19,11 @@ use std::fmt::Write as _;
 use petriplc_net::guard::{CmpOp, Expr, Operand};
 use petriplc_net::{Evolution, SignalType, StepRule};
 
-use crate::enabling::{render, Cond, Syntax};
+use crate::enabling::Cond;
 use crate::lower::{PlaceVar, Program, TransitionCode};
 use crate::names::Names;
 use crate::plcopen::{program_interface, Interface};
+use crate::spell::{render, Syntax};
 use crate::text::comment;
 
 /// One IL instruction, or a deferred operation whose operand is computed by `body`.

@@ -41,9 +41,10 @@ use std::fmt::Write as _;
 use petriplc_net::guard::Expr;
 use petriplc_net::{Evolution, SignalType, StepRule};
 
-use crate::enabling::{render, Cond, Syntax};
+use crate::enabling::Cond;
 use crate::lower::{PlaceVar, Program, TransitionCode};
 use crate::plcopen::{self, Body, Var, VarType};
+use crate::spell::{render, Syntax};
 use crate::text::xml;
 use crate::CodegenError;
 

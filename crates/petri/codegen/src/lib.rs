@@ -11,6 +11,7 @@ pub mod lower;
 pub mod names;
 pub mod plcopen;
 pub mod sfc;
+pub mod spell;
 pub mod st;
 pub(crate) mod text;
 

@@ -32,7 +32,6 @@ use petriplc_net::guard::Expr;
 use petriplc_net::{Evolution, Net, PlaceId, SignalDirection, SignalType, StepRule, TransitionId};
 use petriplc_structure::{p_invariants, structural_bounds, structural_conflicts, Limits};
 
-use crate::enabling::{enabling, holds};
 pub use crate::enabling::{Atom, Cond, Enabling};
 use crate::names::Names;
 use crate::CodegenError;
@@ -396,6 +395,124 @@ fn flags<'n>(net: &'n Net, arcs: impl Fn(TransitionId) -> &'n Vec<(PlaceId, u32)
 
 fn pairs(v: &[(PlaceId, u32)]) -> Vec<(usize, u32)> {
     v.iter().map(|&(p, w)| (p.index(), w)).collect()
+}
+
+/// `place` holds at least `weight` tokens (its `Avail` copy when `avail` and it has one).
+fn holds(place: &PlaceVar, p: usize, weight: u32, avail: bool) -> Cond {
+    if place.boolean {
+        if weight == 1 {
+            Cond::lit(Atom::Marked(p))
+        } else {
+            // A BOOL place never holds two tokens.
+            Cond::Const(false)
+        }
+    } else {
+        Cond::lit(Atom::AtLeast {
+            place: p,
+            avail: avail && place.avail.is_some(),
+            tokens: weight,
+        })
+    }
+}
+
+/// The negation of [`holds`]: fewer than `weight` tokens.
+fn lacks(place: &PlaceVar, p: usize, weight: u32, avail: bool) -> Cond {
+    match holds(place, p, weight, avail) {
+        Cond::Lit { atom, negated } => Cond::Lit {
+            atom,
+            negated: !negated,
+        },
+        Cond::Const(b) => Cond::Const(!b),
+        Cond::Any(_) => unreachable!("holds() returns a literal or a constant"),
+    }
+}
+
+fn enabling(
+    net: &Net,
+    t: TransitionId,
+    places: &[PlaceVar],
+    transitions: &[TransitionCode],
+    maximal: bool,
+) -> Enabling {
+    let a = net.arcs_of(t);
+    let mut e = Enabling::default();
+    if !net.transition(t).guard.is_true() {
+        e.guard.push(Cond::lit(Atom::Guard(t.index())));
+    }
+    e.delays = a.timed.iter().map(|&i| Cond::lit(Atom::Timer(i))).collect();
+
+    // Bool maximal-step: tokens of place p taken, or p filled, by higher-priority members of
+    // the step, spelled out as their fire flags.
+    let earlier = |p: usize, produce: bool| -> Vec<usize> {
+        if !(maximal && places[p].boolean) {
+            return Vec::new();
+        }
+        transitions[..t.index()]
+            .iter()
+            .enumerate()
+            .filter(|(_, u)| {
+                let arcs = if produce { &u.produce } else { &u.consume };
+                arcs.iter().any(|&(q, _)| q == p)
+            })
+            .map(|(i, _)| i)
+            .collect()
+    };
+    let not_taken = |p: usize, out: &mut Vec<Cond>, produce: bool| {
+        for u in earlier(p, produce) {
+            out.push(Cond::not(Atom::Fired(u)));
+        }
+    };
+
+    for &(p, w) in &a.read {
+        let p = p.index();
+        e.test.push(holds(&places[p], p, w, maximal));
+        not_taken(p, &mut e.test, false);
+    }
+    for &(p, w) in &a.inhibit {
+        let p = p.index();
+        let takers = earlier(p, false);
+        let free = lacks(&places[p], p, w, maximal);
+        if takers.is_empty() || free == Cond::Const(true) {
+            e.inhibitor.push(free);
+        } else {
+            // A BOOL place is empty in the reduced marking when it was, or when a
+            // higher-priority member of the step took its token.
+            let mut any = vec![free];
+            any.extend(takers.into_iter().map(|u| Cond::lit(Atom::Fired(u))));
+            e.inhibitor.push(Cond::Any(any));
+        }
+    }
+    for &(p, w) in &a.consume {
+        let p = p.index();
+        e.preset.push(holds(&places[p], p, w, maximal));
+        not_taken(p, &mut e.preset, false);
+    }
+    for &(p, w) in &a.produce {
+        let p = p.index();
+        let place = &places[p];
+        let Some(cap) = place.capacity else { continue };
+        let own = a.consumed_from(PlaceId::from(p));
+        if place.boolean {
+            // Weights are 1 and the capacity is 1: an own token makes room for the new one;
+            // otherwise the place must be empty.
+            if own == 0 {
+                e.postset.push(Cond::not(Atom::Marked(p)));
+            }
+            not_taken(p, &mut e.postset, true);
+        } else {
+            let limit = i64::from(cap) + i64::from(own) - i64::from(w);
+            e.postset.push(if limit < 0 {
+                Cond::Const(false)
+            } else {
+                Cond::lit(Atom::AtMost {
+                    place: p,
+                    produced: maximal && place.produced.is_some(),
+                    limit: limit as u64,
+                })
+            });
+        }
+    }
+    e
 }
 
 /// `a + b -> c` with `?x` for a read arc and `!x` for an inhibitor arc.

@@ -8,9 +8,10 @@ use std::fmt::Write as _;
 use petriplc_net::guard::{CmpOp, Expr, Operand};
 use petriplc_net::{Evolution, SignalType, StepRule};
 
-use crate::enabling::{render, Cond, Syntax};
+use crate::enabling::Cond;
 use crate::lower::{PlaceVar, Program, TransitionCode};
 use crate::plcopen::{program_interface, Var};
+use crate::spell::{render, Syntax};
 use crate::text::comment;
 
 /// A complete `PROGRAM … END_PROGRAM` with its declarations.
