@@ -97,7 +97,7 @@ fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
     cancel
 }
 
-/// 1. Invariants: cheap, and they may prove boundedness before any exploration. Returns
+/// Invariants: cheap, and they may prove boundedness before any exploration. Returns
 /// whether they do.
 fn invariants(net: &Net, report: &mut Report) -> bool {
     let label = |p: PlaceId| net.place_label(p).to_string();
@@ -147,7 +147,7 @@ fn invariants(net: &Net, report: &mut Report) -> bool {
     structurally_bounded
 }
 
-/// 2. Boundedness: structural, else Karp–Miller.
+/// Boundedness: structural, else Karp–Miller.
 fn boundedness(
     net: &Net,
     args: &AnalyzeArgs,
@@ -185,7 +185,7 @@ fn boundedness(
     };
 }
 
-/// 3. The reachability graph, for a net not known to be unbounded, and its properties;
+/// The reachability graph, for a net not known to be unbounded, and its properties;
 /// the graph itself is kept when it is to be drawn.
 fn state_space(
     net: &Net,
@@ -294,7 +294,7 @@ fn state_space(
     Ok(space)
 }
 
-/// 4. Conflicts: structural ones, and effective ones when the state space is known.
+/// Conflicts: structural ones, and effective ones when the state space is known.
 fn conflicts(net: &Net, space: Option<&StateSpace>) -> ConflictFacts {
     let label = |p: PlaceId| net.place_label(p).to_string();
     let tlabel = |t: TransitionId| net.transition_label(t).to_string();
@@ -334,7 +334,7 @@ fn conflicts(net: &Net, space: Option<&StateSpace>) -> ConflictFacts {
     }
 }
 
-/// 5. The graph drawing, if asked.
+/// The graph drawing, if asked.
 fn draw(net: &Net, args: &AnalyzeArgs, space: Option<&StateSpace>) -> Result<(), Failure> {
     if args.dot.is_some() || args.svg.is_some() {
         let s = space
@@ -381,7 +381,7 @@ fn draw(net: &Net, args: &AnalyzeArgs, space: Option<&StateSpace>) -> Result<(),
     Ok(())
 }
 
-/// 6. SIPN checks under PLC semantics, for nets that read inputs (without a plant).
+/// SIPN checks under PLC semantics, for nets that read inputs (without a plant).
 fn sipn(net: &Net, plc: &PlcOptions, report: &mut Report) -> Result<(), Failure> {
     let label = |p: PlaceId| net.place_label(p).to_string();
     let tlabel = |t: TransitionId| net.transition_label(t).to_string();
@@ -415,7 +415,7 @@ fn sipn(net: &Net, plc: &PlcOptions, report: &mut Report) -> Result<(), Failure>
     Ok(())
 }
 
-/// 7. Closed loop with a plant: the `--never` places, each proved never marked, undecided,
+/// Closed loop with a plant: the `--never` places, each proved never marked, undecided,
 /// or reached (with the run). Returns why each reached one fails the command, and whether
 /// there is a run to see.
 fn closed_loop(
