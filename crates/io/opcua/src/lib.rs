@@ -19,22 +19,22 @@
 mod log_policy;
 mod settings;
 mod space;
+mod start;
 mod users;
 
 use std::collections::HashMap;
-use std::net::{IpAddr, SocketAddr};
+use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use opcua::crypto::{CertificateStore, SecurityPolicy, X509Data};
-use opcua::server::node_manager::memory::{InMemoryNodeManager, InMemoryNodeManagerBuilder};
-use opcua::server::{ServerBuilder, ServerHandle, ServerUserToken, ANONYMOUS_USER_TOKEN_ID};
+use opcua::crypto::{CertificateStore, X509Data};
+use opcua::server::node_manager::memory::InMemoryNodeManager;
+use opcua::server::ServerHandle;
 use opcua::types::{
-    ApplicationDescription, DataTypeId, DataValue, DateTime, LocalizedText, MessageSecurityMode,
-    NodeId, Variant,
+    ApplicationDescription, DataTypeId, DataValue, DateTime, LocalizedText, NodeId, Variant,
 };
 use petriplc_config::{ModuleDecl, PointValue};
 use petriplc_modules::common::{self, error};
@@ -44,7 +44,7 @@ use petriplc_runtime::status::PlcStatus;
 
 pub use log_policy::log_policy;
 pub use settings::{Anonymous, Settings, DEFAULT_LISTEN, KIND, SETTINGS};
-use space::{Folder, Layout, PlcNodes, PlcNodesBuilder, Var};
+use space::{PlcNodes, PlcNodesBuilder};
 pub use users::{
     check_name, hash_password, may_set, read_text, with_user, without_user, Edit, EditError, Users,
     BCRYPT_PREFIXES, MAX_PASSWORD_BYTES,
@@ -284,310 +284,28 @@ impl Module for OpcuaServer {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         let name = self.name.clone();
         common::rows(ctx, KIND, &[])?;
-        let users = match &self.settings.users {
-            None => Users::default(),
-            Some(p) => {
-                Users::read(&ctx.base_dir.join(p), &p.display().to_string()).map_err(|why| {
-                    let at = ctx
-                        .decl
-                        .settings
-                        .get("users")
-                        .map(|s| format!("{}: ", s.origin))
-                        .unwrap_or_default();
-                    error(&name, format!("{at}{why}"))
-                })?
-            }
-        };
+        let users = start::users(ctx, &self.settings, &name)?;
 
         // The address space: a folder per module, its points, its status and marking.
-        let mut layout = Layout::default();
-        let mut points = Vec::new();
-        let mut values = Vec::new();
-        for p in &ctx.config.points {
-            let handle = ctx
-                .map
-                .handle(&p.name)
-                .map_err(|e| error(&name, format!("point {}: {e}", p.name)))?;
-            let ty = space::data_type(p.kind, p.bits);
-            let owned = ctx.map.owns(&handle);
-            values.push(space::variant(ctx.map.get(&handle), ty));
-            layout.vars.push(Var {
-                id: p.name.clone(),
-                name: p.name.clone(),
-                description: p.description.clone(),
-                parent: format!("module:{}", p.owner),
-                data_type: ty,
-                writable: owned.then_some(points.len()),
-                kind: Some((p.kind, p.bits)),
-                owner: Some(p.owner.clone()),
-            });
-            points.push(Point { handle, ty });
-        }
+        let mut space = start::Space::default();
+        let points = space.points(ctx, &name)?;
         let nets = markings(ctx, &name)?;
-        let mut status_vars = HashMap::new();
-        let mut marking_vars = HashMap::new();
-        for m in &ctx.config.modules {
-            let folder = format!("module:{}", m.name);
-            let status = format!("{folder}.Status");
-            let mut children = vec![(status.clone(), "Status".to_string())];
-            let mut idx = [0; 3];
-            for (k, (var, ty, init)) in [
-                ("State", DataTypeId::String, Variant::from("starting")),
-                ("Scans", DataTypeId::UInt64, Variant::UInt64(0)),
-                ("Overruns", DataTypeId::UInt64, Variant::UInt64(0)),
-            ]
-            .into_iter()
-            .enumerate()
-            {
-                idx[k] = layout.vars.len();
-                layout.vars.push(Var {
-                    id: format!("{status}.{var}"),
-                    name: var.to_string(),
-                    description: format!("module {}: {}", m.name, var.to_lowercase()),
-                    parent: status.clone(),
-                    data_type: ty,
-                    writable: None,
-                    kind: None,
-                    owner: None,
-                });
-                values.push(init);
-            }
-            status_vars.insert(m.name.clone(), idx);
-            if let Some((_, places)) = nets.iter().find(|(n, _)| n == &m.name) {
-                let marking = format!("{folder}.Marking");
-                children.push((marking.clone(), "Marking".to_string()));
-                for place in places {
-                    marking_vars.insert((m.name.clone(), place.clone()), layout.vars.len());
-                    layout.vars.push(Var {
-                        id: format!("{marking}.{place}"),
-                        name: place.clone(),
-                        description: format!("tokens in place {place} of module {}", m.name),
-                        parent: marking.clone(),
-                        data_type: DataTypeId::UInt64,
-                        writable: None,
-                        kind: None,
-                        owner: None,
-                    });
-                    values.push(Variant::UInt64(0));
-                }
-            }
-            layout.folders.push(Folder {
-                id: folder,
-                name: m.name.clone(),
-                description: format!("module {} ({})", m.name, m.kind),
-                children,
-            });
-        }
+        let (status_vars, marking_vars) = space.modules(ctx, &nets);
 
         // Bind first, so that a taken port stops the PLC's start with a message.
-        let listen = self.settings.listen;
-        let listener = std::net::TcpListener::bind(listen)
-            .and_then(|l| l.set_nonblocking(true).map(|()| l))
-            .map_err(|e| {
-                error(
-                    &name,
-                    format!(
-                        "cannot listen on {listen}: {}; choose another `listen` address or \
-                         port (e.g. --set {name}:listen=127.0.0.1:4841)",
-                        common::chain(&e)
-                    ),
-                )
-            })?;
-        let local = listener
-            .local_addr()
-            .map_err(|e| error(&name, format!("cannot read the bound address: {e}")))?;
-        let host = match local.ip() {
-            ip if ip.is_unspecified() => hostname(),
-            IpAddr::V6(ip) => format!("[{ip}]"),
-            ip => ip.to_string(),
-        };
-        let endpoint = format!("opc.tcp://{host}:{}/", local.port());
-        let app = format!("opcua_server {name}");
-        let uri = format!("urn:petriplc:{}:{name}", ctx.plc_id);
-        let state = state_dir(&self.settings, ctx, &name);
-        let pki = state.join("pki");
-        if self.settings.security.encrypt {
-            std::fs::create_dir_all(&pki).map_err(|e| {
-                error(
-                    &name,
-                    format!(
-                        "cannot create the state directory {}: {e}; set `state_dir = PATH` in \
-                         [{name}]",
-                        pki.display()
-                    ),
-                )
-            })?;
-            certificate(&pki, &uri, &app, &local).map_err(|e| {
-                error(
-                    &name,
-                    format!(
-                        "server certificate in {}: {e}; remove own/ and private/ there to \
-                         make a new one",
-                        pki.display()
-                    ),
-                )
-            })?;
-        }
-
-        let shared = Arc::new(Shared {
-            scan_ms: self.scan_period.as_secs_f64() * 1000.0,
-            values: Mutex::new(Values {
-                at: vec![DateTime::now(); values.len()],
-                now: values,
-                dirty: Vec::new(),
-            }),
-            wake: tokio::sync::Notify::new(),
-            writes: Mutex::new(Writes::new(points.len())),
-            ready: AtomicBool::new(false),
-            written: AtomicU64::new(0),
-        });
-        let layout = Arc::new(layout);
+        let (listener, local) = start::bind(self.settings.listen, &name)?;
+        let id = start::Identity::new(&self.settings, ctx, &name, &local)?;
+        let shared = space.shared(self.scan_period, points.len());
+        let layout = Arc::new(space.layout);
         let ns_uri = format!("urn:petriplc:{}", ctx.plc_id);
-        let scan_ms = (self.scan_period.as_millis() as u64).max(1);
-        // What the stack logs per endpoint; the sessions themselves are checked by `Auth`.
-        let mut tokens: Vec<&str> = Vec::new();
-        if self.settings.anonymous != Anonymous::No {
-            tokens.push(ANONYMOUS_USER_TOKEN_ID);
-        }
-        let has_users = !users.is_empty();
-        if has_users {
-            tokens.push(USERS_TOKEN);
-        }
-        let mut builder = ServerBuilder::new()
-            .application_name(app.clone())
-            .application_uri(uri.clone())
-            .product_uri("urn:petriplc")
-            .host(host.clone())
-            .port(local.port())
-            .pki_dir(&pki)
-            .certificate_path("own/cert.der")
-            .private_key_path("private/private.pem")
-            .create_sample_keypair(false)
-            .trust_client_certs(self.settings.trust_client_certs)
-            .max_sessions(self.settings.max_sessions)
-            .subscription_poll_interval_ms(scan_ms)
-            .discovery_urls(vec![endpoint.clone()])
-            .diagnostics_enabled(false)
-            .add_user_token(
-                USERS_TOKEN,
-                ServerUserToken {
-                    user: "users of the password file".to_string(),
-                    // Never compared: `Auth` checks passwords against the bcrypt hashes.
-                    pass: Some(format!("{:x}", std::process::id())),
-                    ..Default::default()
-                },
-            )
-            .with_authenticator(Arc::new(space::Auth {
-                anonymous: self.settings.anonymous,
-                users: Arc::new(users),
-                module: name.clone(),
-            }))
-            .with_node_manager(InMemoryNodeManagerBuilder::new(PlcNodesBuilder {
-                uri: ns_uri.clone(),
-                layout: Arc::clone(&layout),
-                shared: Arc::clone(&shared),
-            }));
-        if self.settings.security.none {
-            builder = builder.add_endpoint(
-                "none",
-                (
-                    "/",
-                    SecurityPolicy::None,
-                    MessageSecurityMode::None,
-                    &tokens as &[&str],
-                ),
-            );
-        }
-        if self.settings.security.encrypt {
-            builder = builder
-                .add_endpoint(
-                    "basic256sha256",
-                    (
-                        "/",
-                        SecurityPolicy::Basic256Sha256,
-                        MessageSecurityMode::SignAndEncrypt,
-                        &tokens as &[&str],
-                    ),
-                )
-                .add_endpoint(
-                    "aes256sha256rsapss",
-                    (
-                        "/",
-                        SecurityPolicy::Aes256Sha256RsaPss,
-                        MessageSecurityMode::SignAndEncrypt,
-                        &tokens as &[&str],
-                    ),
-                );
-        }
-        {
-            let limits = builder.limits_mut();
-            limits.subscriptions.min_sampling_interval_ms = scan_ms as f64;
-            limits.subscriptions.min_publishing_interval_ms = scan_ms as f64;
-        }
-        let workers = std::thread::available_parallelism().map_or(1, |n| n.get().min(2));
-        let rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(workers)
-            .enable_all()
-            .thread_name(format!("opcua {name}"))
-            .build()
-            .map_err(|e| error(&name, format!("cannot start the network runtime: {e}")))?;
-        // The stack's own node managers start tasks as they are built.
-        let entered = rt.enter();
-        let (server, handle) = builder
-            .build()
-            .map_err(|e| error(&name, format!("cannot build the OPC UA server: {e}")))?;
-        let manager = handle
-            .node_managers()
-            .get_of_type::<InMemoryNodeManager<PlcNodes>>()
-            .ok_or_else(|| error(&name, "the address space was not built"))?;
-        let ns = handle
-            .get_namespace_index(&ns_uri)
-            .ok_or_else(|| error(&name, "petriplc's namespace was not registered"))?;
-        let ids: Vec<NodeId> = layout
-            .vars
-            .iter()
-            .map(|v| NodeId::new(ns, v.id.clone()))
-            .collect();
-
-        drop(entered);
-        let (h, sh) = (handle.clone(), Arc::clone(&shared));
-        let points_of: Vec<Option<usize>> = layout.vars.iter().map(|v| v.writable).collect();
-        let thread_name = name.clone();
-        let thread = std::thread::Builder::new()
-            .name(format!("opcua {name}"))
-            .spawn(move || {
-                rt.block_on(async move {
-                    let listener = match tokio::net::TcpListener::from_std(listener) {
-                        Ok(l) => l,
-                        Err(e) => {
-                            log::error!("opcua_server {thread_name}: {e}");
-                            return;
-                        }
-                    };
-                    let updater = tokio::spawn(update(h, manager, sh, ids, points_of));
-                    if let Err(e) = server.run_with(listener).await {
-                        log::error!("opcua_server {thread_name}: the server stopped: {e}");
-                    }
-                    updater.abort();
-                });
-                rt.shutdown_timeout(Duration::from_secs(1));
-            })
-            .map_err(|e| error(&name, format!("cannot start the network thread: {e}")))?;
-        let security = match (self.settings.security.none, self.settings.security.encrypt) {
-            (true, true) => "None and Basic256Sha256/Aes256-Sha256-RsaPss Sign&Encrypt",
-            (true, false) => "None (loopback)",
-            _ => "Basic256Sha256/Aes256-Sha256-RsaPss Sign&Encrypt",
+        let nodes = PlcNodesBuilder {
+            uri: ns_uri.clone(),
+            layout: Arc::clone(&layout),
+            shared: Arc::clone(&shared),
         };
-        log::info!(
-            "opcua_server {name}: listening on {endpoint} (security {security}; anonymous {}; \
-             {} points)",
-            match self.settings.anonymous {
-                Anonymous::No => "off",
-                Anonymous::Read => "read-only",
-                Anonymous::Write => "read-write",
-            },
-            points.len()
-        );
+        let builder = start::builder(&self.settings, self.scan_period, &id, users, nodes, &name);
+        let (handle, thread) = start::serve(builder, listener, &layout, &shared, &ns_uri, &name)?;
+        start::log_listening(&self.settings, &name, &id.endpoint, points.len());
         self.run = Some(Run {
             shared,
             last: vec![None; points.len()],
@@ -598,7 +316,7 @@ impl Module for OpcuaServer {
             status_at: None,
             handle,
             thread: Some(thread),
-            endpoint,
+            endpoint: id.endpoint,
         });
         Ok(())
     }

@@ -9,7 +9,9 @@ use std::fmt::Write as _;
 use petriplc_net::guard::{CmpOp, Expr, Operand};
 use petriplc_net::{Evolution, SignalType, StepRule};
 
-use crate::lower::{Atom, Cond, Program, TransitionCode};
+use crate::enabling::Cond;
+use crate::lower::{PlaceVar, Program, TransitionCode};
+use crate::spell::{render, Syntax};
 use crate::text::comment;
 use crate::CodegenError;
 
@@ -184,11 +186,9 @@ fn write_pass(p: &Program, w: &mut String) {
             "\n    // Code for TRANSITION {}: {}{}",
             comment(&t.label),
             comment(&t.summary),
-            if t.guard_text.is_empty() || t.guard_text == "TRUE" {
-                String::new()
-            } else {
-                format!(", if {}", comment(&t.guard_text))
-            }
+            t.shown_guard()
+                .map(|g| format!(", if {}", comment(g)))
+                .unwrap_or_default()
         );
         let _ = writeln!(w, "    F[T_{}] = {};", t.ident, enabling(p, t));
         if bool_maximal {
@@ -346,58 +346,84 @@ fn enabling(p: &Program, t: &TransitionCode) -> String {
 }
 
 fn cond(p: &Program, c: &Cond) -> String {
-    match c {
-        Cond::Const(b) => b.to_string(),
-        Cond::Any(cs) => format!(
-            "({})",
-            cs.iter()
-                .map(|c| cond(p, c))
-                .collect::<Vec<_>>()
-                .join(" || ")
-        ),
-        Cond::Lit { atom, negated } => {
-            let neg = *negated;
-            let not = |s: String| if neg { format!("!{s}") } else { s };
-            match atom {
-                // guard() is always a primary: parenthesised, a constant or a negation.
-                Atom::Guard(t) => not(guard(p, &p.transitions[*t].guard)),
-                Atom::Timer(i) => not(format!(
-                    "(TM[{i}].running && now - TM[{i}].since >= DELAY_{i})"
-                )),
-                Atom::Marked(pl) => not(format!("M[P_{}]", p.places[*pl].ident)),
-                Atom::Fired(t) => not(format!("F[T_{}]", p.transitions[*t].ident)),
-                Atom::AtLeast {
-                    place,
-                    avail,
-                    tokens,
-                } => {
-                    let pl = &p.places[*place];
-                    let arr = if *avail && pl.avail.is_some() {
-                        "A"
-                    } else {
-                        "M"
-                    };
-                    format!(
-                        "{arr}[P_{}] {} {tokens}u",
-                        pl.ident,
-                        if neg { "<" } else { ">=" }
-                    )
-                }
-                Atom::AtMost {
-                    place,
-                    produced,
-                    limit,
-                } => {
-                    let pl = &p.places[*place];
-                    let lhs = if *produced && pl.produced.is_some() {
-                        format!("(uint64_t)M[P_{0}] + N[P_{0}]", pl.ident)
-                    } else {
-                        format!("(uint64_t)M[P_{}]", pl.ident)
-                    };
-                    format!("{lhs} {} {limit}u", if neg { ">" } else { "<=" })
-                }
-            }
-        }
+    render(&C(p), c)
+}
+
+/// C's spelling of conditions: markings in `M` (`A` and `N` in an int maximal-step pass),
+/// fire flags in `F`, timers in `TM`.
+struct C<'p>(&'p Program);
+
+fn not(s: String, negated: bool) -> String {
+    if negated {
+        format!("!{s}")
+    } else {
+        s
+    }
+}
+
+impl Syntax for C<'_> {
+    type Out = String;
+
+    fn program(&self) -> &Program {
+        self.0
+    }
+
+    fn constant(&self, value: bool) -> String {
+        value.to_string()
+    }
+
+    fn any(&self, items: Vec<String>) -> String {
+        format!("({})", items.join(" || "))
+    }
+
+    // guard() is always a primary: parenthesised, a constant or a negation.
+    fn guard(&self, t: usize, negated: bool) -> String {
+        not(guard(self.0, &self.0.transitions[t].guard), negated)
+    }
+
+    fn timer(&self, i: usize, negated: bool) -> String {
+        not(
+            format!("(TM[{i}].running && now - TM[{i}].since >= DELAY_{i})"),
+            negated,
+        )
+    }
+
+    fn marked(&self, place: &PlaceVar, negated: bool) -> String {
+        not(format!("M[P_{}]", place.ident), negated)
+    }
+
+    fn fired(&self, t: &TransitionCode, negated: bool) -> String {
+        not(format!("F[T_{}]", t.ident), negated)
+    }
+
+    fn at_least(
+        &self,
+        place: &PlaceVar,
+        avail: Option<&str>,
+        tokens: u32,
+        negated: bool,
+    ) -> String {
+        let arr = if avail.is_some() { "A" } else { "M" };
+        format!(
+            "{arr}[P_{}] {} {tokens}u",
+            place.ident,
+            if negated { "<" } else { ">=" }
+        )
+    }
+
+    fn at_most(
+        &self,
+        place: &PlaceVar,
+        produced: Option<&str>,
+        limit: u64,
+        negated: bool,
+    ) -> String {
+        let lhs = if produced.is_some() {
+            format!("(uint64_t)M[P_{0}] + N[P_{0}]", place.ident)
+        } else {
+            format!("(uint64_t)M[P_{}]", place.ident)
+        };
+        format!("{lhs} {} {limit}u", if negated { ">" } else { "<=" })
     }
 }
 

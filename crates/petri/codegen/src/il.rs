@@ -19,9 +19,11 @@ use std::fmt::Write as _;
 use petriplc_net::guard::{CmpOp, Expr, Operand};
 use petriplc_net::{Evolution, SignalType, StepRule};
 
-use crate::lower::{Atom, Cond, Program};
+use crate::enabling::Cond;
+use crate::lower::{PlaceVar, Program, TransitionCode};
 use crate::names::Names;
 use crate::plcopen::{program_interface, Interface};
+use crate::spell::{render, Syntax};
 use crate::text::comment;
 
 /// One IL instruction, or a deferred operation whose operand is computed by `body`.
@@ -253,59 +255,67 @@ fn compare(p: &Program, a: &Operand<usize>, o: CmpOp, b: &Operand<usize>) -> Nod
     Node::Code(code)
 }
 
-fn atom_node(p: &Program, atom: &Atom, negated: bool) -> Node {
-    match atom {
-        Atom::Guard(t) => {
-            let n = guard_node(p, &p.transitions[*t].guard);
-            if negated {
-                negate(n)
-            } else {
-                n
-            }
-        }
-        Atom::Timer(i) => Node::Var(format!("{}.Q", p.timers[*i].ident), negated),
-        Atom::Marked(pl) => Node::Var(p.places[*pl].ident.clone(), negated),
-        Atom::Fired(t) => Node::Var(p.transitions[*t].ident.clone(), negated),
-        Atom::AtLeast {
-            place,
-            avail,
-            tokens,
-        } => {
-            let pl = &p.places[*place];
-            let var = match (&pl.avail, avail) {
-                (Some(a), true) => a,
-                _ => &pl.ident,
-            };
-            Node::Code(vec![
-                op("LD", var.clone()),
-                op(if negated { "LT" } else { "GE" }, tokens.to_string()),
-            ])
-        }
-        Atom::AtMost {
-            place,
-            produced,
-            limit,
-        } => {
-            // A UDINT never exceeds u32::MAX, and the literal would not fit one.
-            if *limit >= u64::from(u32::MAX) {
-                return constant(!negated);
-            }
-            let pl = &p.places[*place];
-            let mut code = vec![op("LD", pl.ident.clone())];
-            if let (true, Some(n)) = (produced, &pl.produced) {
-                code.push(op("ADD", n.clone()));
-            }
-            code.push(op(if negated { "GT" } else { "LE" }, limit.to_string()));
-            Node::Code(code)
-        }
-    }
+fn cond_node(p: &Program, c: &Cond) -> Node {
+    render(&Il(p), c)
 }
 
-fn cond_node(p: &Program, c: &Cond) -> Node {
-    match c {
-        Cond::Lit { atom, negated } => atom_node(p, atom, *negated),
-        Cond::Any(items) => chain(items.iter().map(|c| cond_node(p, c)).collect(), false),
-        Cond::Const(b) => constant(*b),
+/// Instruction List's spelling of conditions: BOOL operands, or code that loads a BOOL.
+struct Il<'p>(&'p Program);
+
+impl Syntax for Il<'_> {
+    type Out = Node;
+
+    fn program(&self) -> &Program {
+        self.0
+    }
+
+    fn constant(&self, value: bool) -> Node {
+        constant(value)
+    }
+
+    fn any(&self, items: Vec<Node>) -> Node {
+        chain(items, false)
+    }
+
+    fn guard(&self, t: usize, negated: bool) -> Node {
+        let n = guard_node(self.0, &self.0.transitions[t].guard);
+        if negated {
+            negate(n)
+        } else {
+            n
+        }
+    }
+
+    fn timer(&self, i: usize, negated: bool) -> Node {
+        Node::Var(format!("{}.Q", self.0.timers[i].ident), negated)
+    }
+
+    fn marked(&self, place: &PlaceVar, negated: bool) -> Node {
+        Node::Var(place.ident.clone(), negated)
+    }
+
+    fn fired(&self, t: &TransitionCode, negated: bool) -> Node {
+        Node::Var(t.ident.clone(), negated)
+    }
+
+    fn at_least(&self, place: &PlaceVar, avail: Option<&str>, tokens: u32, negated: bool) -> Node {
+        Node::Code(vec![
+            op("LD", avail.unwrap_or(&place.ident)),
+            op(if negated { "LT" } else { "GE" }, tokens.to_string()),
+        ])
+    }
+
+    fn at_most(&self, place: &PlaceVar, produced: Option<&str>, limit: u64, negated: bool) -> Node {
+        // A UDINT never exceeds u32::MAX, and the literal would not fit one.
+        if limit >= u64::from(u32::MAX) {
+            return constant(!negated);
+        }
+        let mut code = vec![op("LD", place.ident.clone())];
+        if let Some(n) = produced {
+            code.push(op("ADD", n));
+        }
+        code.push(op(if negated { "GT" } else { "LE" }, limit.to_string()));
+        Node::Code(code)
     }
 }
 
@@ -436,11 +446,10 @@ enum Phase {
 
 fn transition_comment(p: &Program, out: &mut Out, t: usize) {
     let tr = &p.transitions[t];
-    let guard = if tr.guard_text.is_empty() || tr.guard_text == "TRUE" {
-        String::new()
-    } else {
-        format!(" if {}", tr.guard_text)
-    };
+    let guard = tr
+        .shown_guard()
+        .map(|g| format!(" if {g}"))
+        .unwrap_or_default();
     out.comment(&format!("{}: {}{guard}", tr.label, tr.summary));
 }
 

@@ -41,8 +41,10 @@ use std::fmt::Write as _;
 use petriplc_net::guard::Expr;
 use petriplc_net::{Evolution, SignalType, StepRule};
 
-use crate::lower::{Atom, Cond, Program};
+use crate::enabling::Cond;
+use crate::lower::{PlaceVar, Program, TransitionCode};
 use crate::plcopen::{self, Body, Var, VarType};
+use crate::spell::{render, Syntax};
 use crate::text::xml;
 use crate::CodegenError;
 
@@ -366,45 +368,73 @@ fn items(p: &Program, timer_q: &[String]) -> Result<Vec<Item>, CodegenError> {
     Ok(items)
 }
 
-fn transition_comment(tc: &crate::lower::TransitionCode) -> String {
-    if tc.guard_text.trim().is_empty() {
-        format!("Transition {}: {}", tc.label, tc.summary)
-    } else {
-        format!(
-            "Transition {}: {} if {}",
-            tc.label, tc.summary, tc.guard_text
-        )
+fn transition_comment(tc: &TransitionCode) -> String {
+    match tc.shown_guard() {
+        None => format!("Transition {}: {}", tc.label, tc.summary),
+        Some(g) => format!("Transition {}: {} if {g}", tc.label, tc.summary),
     }
 }
 
 /// The contacts of a lowered condition.
 fn cond(p: &Program, timer_q: &[String], c: &Cond) -> Result<Circuit, CodegenError> {
-    Ok(match c {
-        Cond::Const(true) => TRUE,
-        Cond::Const(false) => FALSE,
-        Cond::Any(cs) => parallel(
-            cs.iter()
-                .map(|c| cond(p, timer_q, c))
-                .collect::<Result<Vec<_>, _>>()?,
-        ),
-        Cond::Lit { atom, negated } => {
-            let var = match atom {
-                Atom::Guard(t) => return guard(p, *t, !negated),
-                Atom::Timer(i) => &timer_q[*i],
-                Atom::Marked(pl) => &p.places[*pl].ident,
-                Atom::Fired(t) => &p.transitions[*t].ident,
-                Atom::AtLeast { place, .. } | Atom::AtMost { place, .. } => {
-                    // Only integer places have counts, and check() refused those.
-                    return Err(CodegenError::NeedsSafeNet {
-                        lang: "LD",
-                        place: p.places[*place].label.clone(),
-                        reason: "its marking is an integer".into(),
-                    });
-                }
-            };
-            contact(var, *negated)
-        }
-    })
+    render(&Ld { p, timer_q }, c)
+}
+
+/// Ladder's spelling of conditions: contacts on BOOL variables. Counts of tokens have no
+/// contact; [`check`] refused integer places before any rung is built.
+struct Ld<'a> {
+    p: &'a Program,
+    timer_q: &'a [String],
+}
+
+impl Ld<'_> {
+    fn counted(&self, place: &PlaceVar) -> Result<Circuit, CodegenError> {
+        Err(CodegenError::NeedsSafeNet {
+            lang: "LD",
+            place: place.label.clone(),
+            reason: "its marking is an integer".into(),
+        })
+    }
+}
+
+impl Syntax for Ld<'_> {
+    type Out = Result<Circuit, CodegenError>;
+
+    fn program(&self) -> &Program {
+        self.p
+    }
+
+    fn constant(&self, value: bool) -> Self::Out {
+        Ok(if value { TRUE } else { FALSE })
+    }
+
+    fn any(&self, items: Vec<Self::Out>) -> Self::Out {
+        Ok(parallel(items.into_iter().collect::<Result<Vec<_>, _>>()?))
+    }
+
+    fn guard(&self, t: usize, negated: bool) -> Self::Out {
+        guard(self.p, t, !negated)
+    }
+
+    fn timer(&self, i: usize, negated: bool) -> Self::Out {
+        Ok(contact(&self.timer_q[i], negated))
+    }
+
+    fn marked(&self, place: &PlaceVar, negated: bool) -> Self::Out {
+        Ok(contact(&place.ident, negated))
+    }
+
+    fn fired(&self, t: &TransitionCode, negated: bool) -> Self::Out {
+        Ok(contact(&t.ident, negated))
+    }
+
+    fn at_least(&self, place: &PlaceVar, _: Option<&str>, _: u32, _: bool) -> Self::Out {
+        self.counted(place)
+    }
+
+    fn at_most(&self, place: &PlaceVar, _: Option<&str>, _: u64, _: bool) -> Self::Out {
+        self.counted(place)
+    }
 }
 
 /// A literal of a guard: an input's index and whether it is negated.
@@ -427,7 +457,7 @@ fn guard(p: &Program, t: usize, positive: bool) -> Result<Circuit, CodegenError>
 /// `e` (or `NOT e`) as a sum of products: no product is FALSE, an empty product is TRUE.
 fn dnf(
     p: &Program,
-    tc: &crate::lower::TransitionCode,
+    tc: &TransitionCode,
     e: &Expr<usize>,
     positive: bool,
     budget: &mut usize,

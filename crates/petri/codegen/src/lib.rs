@@ -4,12 +4,14 @@
 //! `petriplc sim` does (docs/semantics.md); docs/codegen.md describes the generated code.
 
 pub mod c;
+pub mod enabling;
 pub mod il;
 pub mod ld;
 pub mod lower;
 pub mod names;
 pub mod plcopen;
 pub mod sfc;
+pub mod spell;
 pub mod st;
 pub(crate) mod text;
 

@@ -32,6 +32,7 @@ use petriplc_net::guard::Expr;
 use petriplc_net::{Evolution, Net, PlaceId, SignalDirection, SignalType, StepRule, TransitionId};
 use petriplc_structure::{p_invariants, structural_bounds, structural_conflicts, Limits};
 
+pub use crate::enabling::{Atom, Cond, Enabling};
 use crate::names::Names;
 use crate::CodegenError;
 
@@ -119,99 +120,6 @@ pub struct Timer {
     pub input: Cond,
 }
 
-/// An elementary condition.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Atom {
-    /// The transition's guard over the input signals.
-    Guard(usize),
-    /// A TON's `Q`.
-    Timer(usize),
-    /// A BOOL place is marked.
-    Marked(usize),
-    /// A transition fired in this pass (its fire flag).
-    Fired(usize),
-    /// An integer place holds at least `tokens`: its marking, or its `Avail` copy when
-    /// `avail`. Negated it reads "fewer than".
-    AtLeast {
-        place: usize,
-        avail: bool,
-        tokens: u32,
-    },
-    /// An integer place's marking, plus what the pass produced into it when `produced`, is at
-    /// most `limit` (a capacity check: C(p) + own consumption − weight).
-    AtMost {
-        place: usize,
-        produced: bool,
-        limit: u64,
-    },
-}
-
-/// A condition: a possibly negated atom, a disjunction, or a constant.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Cond {
-    Lit { atom: Atom, negated: bool },
-    Any(Vec<Cond>),
-    Const(bool),
-}
-
-impl Cond {
-    pub fn lit(atom: Atom) -> Cond {
-        Cond::Lit {
-            atom,
-            negated: false,
-        }
-    }
-    pub fn not(atom: Atom) -> Cond {
-        Cond::Lit {
-            atom,
-            negated: true,
-        }
-    }
-}
-
-/// A transition's enabling, conjunction of all groups, each a conjunction of conditions.
-/// Groups follow seed 004's generated C (test, inhibitor, preset, postset), after the input
-/// condition and the delays. In bool maximal-step code, a group also holds the `NOT` fire
-/// flags of higher-priority transitions that take the same tokens or fill the same place.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Enabling {
-    pub guard: Vec<Cond>,
-    pub delays: Vec<Cond>,
-    pub test: Vec<Cond>,
-    pub inhibitor: Vec<Cond>,
-    pub preset: Vec<Cond>,
-    pub postset: Vec<Cond>,
-}
-
-impl Enabling {
-    /// The groups with their names, in order, empty ones left out.
-    pub fn groups(&self) -> Vec<(&'static str, &[Cond])> {
-        [
-            ("input condition", &self.guard),
-            ("delays", &self.delays),
-            ("test arcs", &self.test),
-            ("inhibitor arcs", &self.inhibitor),
-            ("preset", &self.preset),
-            ("postset", &self.postset),
-        ]
-        .into_iter()
-        .filter(|(_, g)| !g.is_empty())
-        .map(|(n, g)| (n, g.as_slice()))
-        .collect()
-    }
-
-    /// Every condition, in group order.
-    pub fn all(&self) -> impl Iterator<Item = &Cond> {
-        self.guard
-            .iter()
-            .chain(&self.delays)
-            .chain(&self.test)
-            .chain(&self.inhibitor)
-            .chain(&self.preset)
-            .chain(&self.postset)
-    }
-}
-
 /// One transition of the program.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TransitionCode {
@@ -229,6 +137,17 @@ pub struct TransitionCode {
     pub produce: Vec<(usize, u32)>,
     /// A one-line picture for comments: `p1 -> p2`, with read and inhibitor arcs.
     pub summary: String,
+}
+
+impl TransitionCode {
+    /// The guard as written, for the comment above the transition's code; `None` when the
+    /// transition has none (TRUE), so that no backend prints `if TRUE`.
+    pub fn shown_guard(&self) -> Option<&str> {
+        match self.guard_text.trim() {
+            "" | "TRUE" => None,
+            _ => Some(&self.guard_text),
+        }
+    }
 }
 
 /// Two transitions that may want the same tokens; the first has priority.

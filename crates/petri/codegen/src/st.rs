@@ -8,8 +8,10 @@ use std::fmt::Write as _;
 use petriplc_net::guard::{CmpOp, Expr, Operand};
 use petriplc_net::{Evolution, SignalType, StepRule};
 
-use crate::lower::{Atom, Cond, Program};
+use crate::enabling::Cond;
+use crate::lower::{PlaceVar, Program, TransitionCode};
 use crate::plcopen::{program_interface, Var};
+use crate::spell::{render, Syntax};
 use crate::text::comment;
 
 /// A complete `PROGRAM … END_PROGRAM` with its declarations.
@@ -274,11 +276,9 @@ fn pass(p: &Program, w: &mut Writer) {
             "(* {}: {}{} *)",
             comment(&t.label),
             comment(&t.summary),
-            if t.guard_text.is_empty() || t.guard_text == "TRUE" {
-                String::new()
-            } else {
-                format!(" if {}", comment(&t.guard_text))
-            }
+            t.shown_guard()
+                .map(|g| format!(" if {}", comment(g)))
+                .unwrap_or_default()
         ));
         w.line(&format!("{} := {};", t.ident, enabling(p, t)));
         if bool_maximal || (t.consume.is_empty() && t.produce.is_empty()) {
@@ -338,7 +338,7 @@ fn pass(p: &Program, w: &mut Writer) {
 }
 
 /// A transition's enabling: its groups joined by AND, one group per line when several.
-fn enabling(p: &Program, t: &crate::lower::TransitionCode) -> String {
+fn enabling(p: &Program, t: &TransitionCode) -> String {
     let groups = t.enabling.groups();
     if groups.is_empty() {
         return "TRUE".into();
@@ -363,56 +363,80 @@ fn enabling(p: &Program, t: &crate::lower::TransitionCode) -> String {
 
 /// A condition as an ST operand of AND (parenthesised when it is not a primary).
 pub fn cond(p: &Program, c: &Cond) -> String {
-    match c {
-        Cond::Const(true) => "TRUE".into(),
-        Cond::Const(false) => "FALSE".into(),
-        Cond::Any(cs) => format!(
-            "({})",
-            cs.iter()
-                .map(|c| cond(p, c))
-                .collect::<Vec<_>>()
-                .join(" OR ")
-        ),
-        Cond::Lit { atom, negated } => {
-            let neg = *negated;
-            let not = |s: String| if neg { format!("NOT {s}") } else { s };
-            match atom {
-                Atom::Guard(t) => {
-                    let g = &p.transitions[*t].guard;
-                    let text = guard(p, g);
-                    let primary = matches!(g, Expr::Signal(_) | Expr::Not(_) | Expr::Const(_));
-                    let text = if primary { text } else { format!("({text})") };
-                    not(text)
-                }
-                Atom::Timer(i) => not(format!("{}.Q", p.timers[*i].ident)),
-                Atom::Marked(pl) => not(p.places[*pl].ident.clone()),
-                Atom::Fired(t) => not(p.transitions[*t].ident.clone()),
-                Atom::AtLeast {
-                    place,
-                    avail,
-                    tokens,
-                } => {
-                    let pl = &p.places[*place];
-                    let var = match (&pl.avail, avail) {
-                        (Some(a), true) => a,
-                        _ => &pl.ident,
-                    };
-                    format!("{var} {} {tokens}", if neg { "<" } else { ">=" })
-                }
-                Atom::AtMost {
-                    place,
-                    produced,
-                    limit,
-                } => {
-                    let pl = &p.places[*place];
-                    let lhs = match (&pl.produced, produced) {
-                        (Some(n), true) => format!("{} + {n}", pl.ident),
-                        _ => pl.ident.clone(),
-                    };
-                    format!("{lhs} {} {limit}", if neg { ">" } else { "<=" })
-                }
-            }
+    render(&St(p), c)
+}
+
+/// Structured Text's spelling of conditions.
+struct St<'p>(&'p Program);
+
+impl St<'_> {
+    fn not(s: String, negated: bool) -> String {
+        if negated {
+            format!("NOT {s}")
+        } else {
+            s
         }
+    }
+}
+
+impl Syntax for St<'_> {
+    type Out = String;
+
+    fn program(&self) -> &Program {
+        self.0
+    }
+
+    fn constant(&self, value: bool) -> String {
+        if value { "TRUE" } else { "FALSE" }.into()
+    }
+
+    fn any(&self, items: Vec<String>) -> String {
+        format!("({})", items.join(" OR "))
+    }
+
+    fn guard(&self, t: usize, negated: bool) -> String {
+        let g = &self.0.transitions[t].guard;
+        let text = guard(self.0, g);
+        let primary = matches!(g, Expr::Signal(_) | Expr::Not(_) | Expr::Const(_));
+        let text = if primary { text } else { format!("({text})") };
+        Self::not(text, negated)
+    }
+
+    fn timer(&self, i: usize, negated: bool) -> String {
+        Self::not(format!("{}.Q", self.0.timers[i].ident), negated)
+    }
+
+    fn marked(&self, place: &PlaceVar, negated: bool) -> String {
+        Self::not(place.ident.clone(), negated)
+    }
+
+    fn fired(&self, t: &TransitionCode, negated: bool) -> String {
+        Self::not(t.ident.clone(), negated)
+    }
+
+    fn at_least(
+        &self,
+        place: &PlaceVar,
+        avail: Option<&str>,
+        tokens: u32,
+        negated: bool,
+    ) -> String {
+        let var = avail.unwrap_or(&place.ident);
+        format!("{var} {} {tokens}", if negated { "<" } else { ">=" })
+    }
+
+    fn at_most(
+        &self,
+        place: &PlaceVar,
+        produced: Option<&str>,
+        limit: u64,
+        negated: bool,
+    ) -> String {
+        let lhs = match produced {
+            Some(n) => format!("{} + {n}", place.ident),
+            None => place.ident.clone(),
+        };
+        format!("{lhs} {} {limit}", if negated { ">" } else { "<=" })
     }
 }
 

@@ -164,6 +164,16 @@ fn sequential_fires_each_transition_at_once() {
 }
 
 #[test]
+fn transition_comments_name_a_guard_only_when_there_is_one() {
+    // Every backend leaves out a guard that is TRUE; LD alone used to write "if TRUE".
+    let n = net("s Go in bool\np a 1 cap=1\np b 0 cap=1\nt t1 a -> b\nt t2 b -> a if Go");
+    let doc = valid(&n, &Options::of(&n));
+    assert!(doc.contains("Transition t1: a -&gt; b<"), "{doc}");
+    assert!(doc.contains("Transition t2: b -&gt; a if Go<"), "{doc}");
+    assert!(!doc.contains("if TRUE"), "{doc}");
+}
+
+#[test]
 fn guards_become_contacts() {
     let doc = valid(&net(GUARDS), &Options::of(&net(GUARDS)));
     // NOT pushed inward: negated contacts on inputs.

@@ -14,9 +14,11 @@ mod cover;
 mod explore;
 mod layout;
 mod props;
+mod rules;
 mod scc;
 mod shard;
 mod space;
+mod sweep;
 #[cfg(test)]
 mod testnet;
 

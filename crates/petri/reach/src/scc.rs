@@ -20,6 +20,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use crate::layout::{hash, Dyn, Fixed, Stride};
 use crate::space::StateSpace;
+use crate::sweep::parallel;
 
 pub(crate) struct SccSummary {
     /// Number of components.
@@ -35,9 +36,6 @@ const NONE: u32 = u32::MAX;
 
 /// States whose predecessors are looked up together in the backward search.
 const BATCH: usize = 8;
-
-/// States per unit of work in a parallel sweep.
-const SWEEP_CHUNK: u64 = 2048;
 
 /// The budget and the stop flag.
 pub(crate) struct Bounds<'a> {
@@ -417,29 +415,6 @@ impl<S: Stride> Graph<'_, S> {
         }
         Ok(sum)
     }
-}
-
-/// Runs `f(lo, hi)` over `a..b` in chunks on `threads` threads.
-pub(crate) fn parallel(threads: usize, a: u64, b: u64, f: impl Fn(u64, u64) + Sync) {
-    if b <= a {
-        return;
-    }
-    if threads <= 1 || b - a <= SWEEP_CHUNK {
-        f(a, b);
-        return;
-    }
-    let next = AtomicU64::new(a);
-    std::thread::scope(|sc| {
-        for _ in 0..threads {
-            sc.spawn(|| loop {
-                let lo = next.fetch_add(SWEEP_CHUNK, Ordering::Relaxed);
-                if lo >= b {
-                    return;
-                }
-                f(lo, (lo + SWEEP_CHUNK).min(b));
-            });
-        }
-    });
 }
 
 /// Whether the states `members` of a bottom component together enable every transition. In a

@@ -4,6 +4,15 @@
 
 use crate::layout::{hash, Stride};
 
+/// Number of hash shards (a power of two: the top bits of a hash pick one).
+pub(crate) const SHARDS: usize = 64;
+
+/// The shard of a state with hash `h`.
+#[inline]
+pub(crate) fn shard_of(h: u64) -> usize {
+    (h >> 58) as usize
+}
+
 /// Slots are grown when this fraction (×1/8) is full: linear probing stays short below it.
 const MAX_LOAD_EIGHTHS: usize = 6;
 

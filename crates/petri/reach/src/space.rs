@@ -8,9 +8,9 @@ use std::time::Duration;
 
 use petriplc_net::{Marking, TransitionId};
 
-use crate::explore::{shard_of, Rules, Stats};
 use crate::layout::{hash, Dyn, Fixed, Layout, Stride};
-use crate::shard::Shard;
+use crate::rules::{Rules, Stats};
+use crate::shard::{shard_of, Shard};
 use crate::Limit;
 
 /// A state, numbered breadth-first from the initial marking (state 0). The numbering is the
@@ -263,7 +263,7 @@ impl StateSpace {
         let first: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(u64::MAX)).collect();
         let threads = crate::threads(threads);
         if n > 0 {
-            crate::scc::parallel(threads, 0, self.states(), |lo, hi| {
+            crate::sweep::parallel(threads, 0, self.states(), |lo, hi| {
                 // Nothing left to find from here on.
                 if first.iter().all(|x| x.load(Ordering::Relaxed) < lo) {
                     return;

@@ -54,16 +54,8 @@ pub enum OwnerError {
     },
 }
 
-/// The directory of the status and lock files: /dev/shm, where the shared memory objects
-/// are, or the temporary directory where there is none.
-pub fn state_dir() -> PathBuf {
-    let shm = std::path::Path::new("/dev/shm");
-    if shm.is_dir() {
-        shm.to_path_buf()
-    } else {
-        std::env::temp_dir()
-    }
-}
+// Kept here too, where callers found it before it moved beside the other naming rules.
+pub use crate::shm_name::state_dir;
 
 /// The lock file of PLC `plc_id`.
 pub fn lock_path(plc_id: &str) -> PathBuf {

@@ -1,8 +1,20 @@
 //! The names of a PLC's POSIX shared memory objects (`/petriplc-ID-image`,
-//! `/petriplc-ID-synch`), derived from its id by one rule, and their removal.
+//! `/petriplc-ID-synch`), derived from its id by one rule, and their removal; and the
+//! directory its lock and status files live in (`owner` and `status` both name files there).
 
 use nix::errno::Errno;
 use nix::sys::mman::shm_unlink;
+
+/// The directory of the status and lock files: /dev/shm, where the shared memory objects
+/// are, or the temporary directory where there is none.
+pub fn state_dir() -> std::path::PathBuf {
+    let shm = std::path::Path::new("/dev/shm");
+    if shm.is_dir() {
+        shm.to_path_buf()
+    } else {
+        std::env::temp_dir()
+    }
+}
 
 /// The name of object `object` of PLC `plc_id`, or why the id cannot name one.
 pub(crate) fn object_name(plc_id: &str, object: &str) -> Result<String, &'static str> {

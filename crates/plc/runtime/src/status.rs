@@ -172,7 +172,7 @@ impl RetainStatus {
 
 /// The status file of PLC `plc_id`.
 pub fn path(plc_id: &str) -> PathBuf {
-    crate::owner::state_dir().join(format!("petriplc-{plc_id}.status.json"))
+    crate::shm_name::state_dir().join(format!("petriplc-{plc_id}.status.json"))
 }
 
 /// The temporary file a status file is written to before it replaces the old one. One fixed

@@ -13,7 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use petriplc_closedloop::{self as closedloop, NeverResult, PlcOptions};
 use petriplc_net::{Marking, Net, PlaceId, SignalId, TransitionId};
 use petriplc_pnml::ReadOptions;
-use petriplc_reach::{self as reach, ExploreOptions, Limit, PropertyOptions, StateId};
+use petriplc_reach::{self as reach, ExploreOptions, Limit, PropertyOptions, StateId, StateSpace};
 use petriplc_structure::{self as structure, Limits};
 
 use self::report::{
@@ -27,6 +27,41 @@ use crate::output::write_file;
 pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
     crate::heap::reuse_freed_memory();
     let net = super::read_net(&args.net, args.names)?;
+    let plant = plant(&args, &net)?;
+    let cancel = cancel_on_ctrl_c();
+
+    let mut report = Report {
+        net: net.id.clone(),
+        complete: true,
+        ..Report::default()
+    };
+    let structurally_bounded = invariants(&net, &mut report);
+    boundedness(&net, &args, structurally_bounded, &cancel, &mut report);
+    let space = state_space(&net, &args, &cancel, &mut report)?;
+    report.conflicts = conflicts(&net, space.as_ref());
+    draw(&net, &args, space.as_ref())?;
+    drop(space);
+    let plc = PlcOptions {
+        cancel: Some(cancel.clone()),
+        ..PlcOptions::of(&net)
+    };
+    let plc = PlcOptions {
+        max_states: args.max_states.unwrap_or(plc.max_states),
+        ..plc
+    };
+    if net.inputs().next().is_some() && plant.is_none() {
+        sipn(&net, &plc, &mut report)?;
+    }
+    let violated = match &plant {
+        Some(plant) => closed_loop(&net, plant, &args, &plc, &mut report)?,
+        None => Vec::new(),
+    };
+    finish(&report, &args, &violated, &cancel)
+}
+
+/// The plant net of `--plant`, if any; a hint when its outputs look like the controller's
+/// SIPN names.
+fn plant(args: &AnalyzeArgs, net: &Net) -> Result<Option<Net>, Failure> {
     let plant = match &args.plant {
         Some(path) => Some(
             petriplc_pnml::read_file(path, &ReadOptions::default())
@@ -40,10 +75,15 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             .outputs()
             .map(|s| plant.signal(s).name.clone())
             .collect();
-        if let Some(hint) = super::sipn_hint(&args.net, args.names, &net, &outputs, "the plant") {
+        if let Some(hint) = super::sipn_hint(&args.net, args.names, net, &outputs, "the plant") {
             eprintln!("warning: {hint}");
         }
     }
+    Ok(plant)
+}
+
+/// A flag Ctrl-C sets, so that every stage stops early and the report says it is partial.
+fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
     let cancel = Arc::new(AtomicBool::new(false));
     {
         let cancel = cancel.clone();
@@ -54,20 +94,18 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             }
         });
     }
+    cancel
+}
 
-    let mut report = Report {
-        net: net.id.clone(),
-        complete: true,
-        ..Report::default()
-    };
+/// Invariants: cheap, and they may prove boundedness before any exploration. Returns
+/// whether they do.
+fn invariants(net: &Net, report: &mut Report) -> bool {
     let label = |p: PlaceId| net.place_label(p).to_string();
     let tlabel = |t: TransitionId| net.transition_label(t).to_string();
-
-    // 1. Invariants: cheap, and they may prove boundedness before any exploration.
-    let p_inv = structure::p_invariants(&net, Limits::default());
-    let t_inv = structure::t_invariants(&net, Limits::default());
-    let structurally_bounded = structure::structurally_bounded(&net, &p_inv);
-    let covered = structure::covered_places(&net, &p_inv);
+    let p_inv = structure::p_invariants(net, Limits::default());
+    let t_inv = structure::t_invariants(net, Limits::default());
+    let structurally_bounded = structure::structurally_bounded(net, &p_inv);
+    let covered = structure::covered_places(net, &p_inv);
     report.invariants = InvariantFacts {
         p: p_inv
             .vectors
@@ -89,7 +127,7 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             .collect(),
         p_complete: p_inv.complete,
         t_complete: t_inv.complete,
-        conservation_laws: structure::conservation_laws(&net, &p_inv),
+        conservation_laws: structure::conservation_laws(net, &p_inv),
         structurally_bounded,
         uncovered_places: net
             .place_ids()
@@ -106,16 +144,26 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             ));
         }
     }
+    structurally_bounded
+}
 
-    // 2. Boundedness: structural, else Karp–Miller.
+/// Boundedness: structural, else Karp–Miller.
+fn boundedness(
+    net: &Net,
+    args: &AnalyzeArgs,
+    structurally_bounded: bool,
+    cancel: &Arc<AtomicBool>,
+    report: &mut Report,
+) {
+    let label = |p: PlaceId| net.place_label(p).to_string();
     let max_states = args.max_states;
     report.bounded = if structurally_bounded {
         Some(true)
     } else {
         let cov = reach::coverability(
-            &net,
+            net,
             max_states.unwrap_or(DEFAULT_COVERABILITY_NODES),
-            Some(&cancel),
+            Some(cancel),
         );
         if !cov.unbounded_places.is_empty() {
             report.unbounded_places = cov.unbounded_places.iter().map(|&p| label(p)).collect();
@@ -135,8 +183,19 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             None
         }
     };
+}
 
-    // 3. The reachability graph, for a net not known to be unbounded.
+/// The reachability graph, for a net not known to be unbounded, and its properties;
+/// the graph itself is kept when it is to be drawn.
+fn state_space(
+    net: &Net,
+    args: &AnalyzeArgs,
+    cancel: &Arc<AtomicBool>,
+    report: &mut Report,
+) -> Result<Option<StateSpace>, Failure> {
+    let label = |p: PlaceId| net.place_label(p).to_string();
+    let tlabel = |t: TransitionId| net.transition_label(t).to_string();
+    let max_states = args.max_states;
     let max_memory = args.max_memory.or_else(default_max_memory);
     let drawing = args.dot.is_some() || args.svg.is_some();
     let mut space = None;
@@ -151,7 +210,7 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             cancel: Some(cancel.clone()),
             progress: Some(progress.callback()),
         };
-        let explored = reach::explore(&net, &opts);
+        let explored = reach::explore(net, &opts);
         progress.finish();
         let explored = match explored {
             // A count past the 32-bit token counter: no graph, but the rest still stands
@@ -168,7 +227,7 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
         if let Some(mut explored) = explored {
             progress.phase(&explored, "liveness, reversibility, home markings");
             let props = reach::properties_with(
-                &net,
+                net,
                 &explored,
                 &PropertyOptions {
                     threads: 0,
@@ -232,10 +291,15 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             space = Some(explored);
         }
     }
+    Ok(space)
+}
 
-    // 4. Conflicts.
-    report.conflicts = ConflictFacts {
-        structural: structure::structural_conflicts(&net)
+/// Conflicts: structural ones, and effective ones when the state space is known.
+fn conflicts(net: &Net, space: Option<&StateSpace>) -> ConflictFacts {
+    let label = |p: PlaceId| net.place_label(p).to_string();
+    let tlabel = |t: TransitionId| net.transition_label(t).to_string();
+    ConflictFacts {
+        structural: structure::structural_conflicts(net)
             .into_iter()
             .map(|c| StructuralConflict {
                 a: tlabel(c.a),
@@ -243,9 +307,9 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
                 places: c.places.into_iter().map(label).collect(),
             })
             .collect(),
-        effective: space.as_ref().map(|s| {
+        effective: space.map(|s| {
             // On all cores, with the first witness in state order (as a sequential sweep).
-            let check = structure::ConflictCheck::new(&net);
+            let check = structure::ConflictCheck::new(net);
             let first = s.first_states(0, check.len(), |m, open, hit| {
                 check.effective_in(m, open, hit)
             });
@@ -262,17 +326,18 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
                     b: tlabel(c.b),
                     places: c.places.into_iter().map(label).collect(),
                     winner: tlabel(c.winner),
-                    marking: marked(&net, &c.witness_marking),
-                    inputs: signal_values(&net, &c.witness_inputs),
+                    marking: marked(net, &c.witness_marking),
+                    inputs: signal_values(net, &c.witness_inputs),
                 })
                 .collect()
         }),
-    };
+    }
+}
 
-    // 5. The graph drawing, if asked.
+/// The graph drawing, if asked.
+fn draw(net: &Net, args: &AnalyzeArgs, space: Option<&StateSpace>) -> Result<(), Failure> {
     if args.dot.is_some() || args.svg.is_some() {
         let s = space
-            .as_ref()
             .ok_or_else(|| {
                 anyhow!("the net is unbounded: there is no finite reachability graph to draw")
             })
@@ -293,7 +358,7 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
                 .collect()
         };
         let dot = graph::to_dot(
-            &net,
+            net,
             &graph::GraphView {
                 states: s.states(),
                 marking: &marking,
@@ -313,133 +378,146 @@ pub fn run(args: AnalyzeArgs) -> Result<(), Failure> {
             write_file(path, svg.as_bytes(), &what)?;
         }
     }
-    drop(space);
+    Ok(())
+}
 
-    // 6. SIPN checks under PLC semantics, for nets that read inputs.
-    let plc = PlcOptions {
-        cancel: Some(cancel.clone()),
-        ..PlcOptions::of(&net)
+/// SIPN checks under PLC semantics, for nets that read inputs (without a plant).
+fn sipn(net: &Net, plc: &PlcOptions, report: &mut Report) -> Result<(), Failure> {
+    let label = |p: PlaceId| net.place_label(p).to_string();
+    let tlabel = |t: TransitionId| net.transition_label(t).to_string();
+    let space = closedloop::explore_controller(net, plc).bad_input()?;
+    let sipn = closedloop::sipn_checks(&space, &[]).run_failure()?;
+    if !sipn.complete {
+        report.complete = false;
+        report.incomplete.push(format!(
+            "PLC state space stopped after {} states",
+            sipn.states
+        ));
+    }
+    report.sipn = Some(SipnFacts {
+        states: sipn.states,
+        complete: sipn.complete,
+        unsafe_places: sipn
+            .unsafe_places
+            .iter()
+            .map(|u| (label(u.place), u.witness.timeline_csv.clone()))
+            .collect(),
+        unstable: sipn
+            .unstable
+            .iter()
+            .map(|u| Unstable {
+                marking: marked(net, &u.marking),
+                inputs: signal_values(net, &u.inputs),
+                cycle: u.cycle.iter().map(|&t| tlabel(t)).collect(),
+            })
+            .collect(),
+    });
+    Ok(())
+}
+
+/// Closed loop with a plant: the `--never` places, each proved never marked, undecided,
+/// or reached (with the run). Returns why each reached one fails the command, and whether
+/// there is a run to see.
+fn closed_loop(
+    net: &Net,
+    plant: &Net,
+    args: &AnalyzeArgs,
+    plc: &PlcOptions,
+    report: &mut Report,
+) -> Result<Vec<(String, bool)>, Failure> {
+    let mut violated = Vec::new();
+    let opts = PlcOptions {
+        timed: args.period.is_some(),
+        period: args.period.unwrap_or(plc.period),
+        ..plc.clone()
     };
-    let plc = PlcOptions {
-        max_states: max_states.unwrap_or(plc.max_states),
-        ..plc
-    };
-    if net.inputs().next().is_some() && plant.is_none() {
-        let space = closedloop::explore_controller(&net, &plc).bad_input()?;
-        let sipn = closedloop::sipn_checks(&space, &[]).run_failure()?;
-        if !sipn.complete {
+    let cl = closedloop::closed_loop(net, plant, &opts).bad_input()?;
+    if !args.never.is_empty() {
+        let places: Vec<&str> = args.never.iter().map(String::as_str).collect();
+        let started = std::time::Instant::now();
+        let found = closedloop::never_all(&cl, &places).bad_input()?;
+        let seconds = started.elapsed().as_secs_f64();
+        if !found.complete
+            && found
+                .verdicts
+                .iter()
+                .any(|(_, v)| !matches!(v, NeverResult::Reached { .. }))
+        {
             report.complete = false;
             report.incomplete.push(format!(
-                "PLC state space stopped after {} states",
-                sipn.states
+                "closed-loop search stopped after {} states",
+                found.states
             ));
         }
-        report.sipn = Some(SipnFacts {
-            states: sipn.states,
-            complete: sipn.complete,
-            unsafe_places: sipn
-                .unsafe_places
-                .iter()
-                .map(|u| (label(u.place), u.witness.timeline_csv.clone()))
-                .collect(),
-            unstable: sipn
-                .unstable
-                .iter()
-                .map(|u| Unstable {
-                    marking: marked(&net, &u.marking),
-                    inputs: signal_values(&net, &u.inputs),
-                    cycle: u.cycle.iter().map(|&t| tlabel(t)).collect(),
-                })
-                .collect(),
-        });
-    }
-
-    // 7. Closed loop with a plant.
-    let mut violated = Vec::new();
-    if let Some(plant) = &plant {
-        let opts = PlcOptions {
-            timed: args.period.is_some(),
-            period: args.period.unwrap_or(plc.period),
-            ..plc.clone()
-        };
-        let cl = closedloop::closed_loop(&net, plant, &opts).bad_input()?;
-        if !args.never.is_empty() {
-            let places: Vec<&str> = args.never.iter().map(String::as_str).collect();
-            let started = std::time::Instant::now();
-            let found = closedloop::never_all(&cl, &places).bad_input()?;
-            let seconds = started.elapsed().as_secs_f64();
-            if !found.complete
-                && found
-                    .verdicts
-                    .iter()
-                    .any(|(_, v)| !matches!(v, NeverResult::Reached { .. }))
-            {
-                report.complete = false;
-                report.incomplete.push(format!(
-                    "closed-loop search stopped after {} states",
-                    found.states
-                ));
-            }
-            let mut verdicts = Vec::new();
-            for ((label, verdict), asked) in found.verdicts.into_iter().zip(&args.never) {
-                let (states, verdict) = match verdict {
-                    NeverResult::Proved { states, .. } => (states, Never::Proved),
-                    NeverResult::Incomplete { states } => (states, Never::Unknown),
-                    NeverResult::Reached {
-                        states,
-                        moves,
-                        timeline_csv,
-                        replays,
-                    } => {
-                        let mut scans = 0;
-                        let steps = moves
-                            .iter()
-                            .map(|m| {
-                                let line = m.describe(&net, plant, scans);
-                                if matches!(m, closedloop::Move::Scan(_)) {
-                                    scans += 1;
-                                }
-                                line
-                            })
-                            .collect();
-                        // (why, whether there is a run to see)
-                        violated.push(if moves.is_empty() {
-                            (format!("`{asked}` is marked from the start"), false)
-                        } else {
-                            (format!("`{asked}` can be marked"), true)
-                        });
-                        (
-                            states,
-                            Never::Reached {
-                                plant_moves: moves.len() - scans,
-                                scans,
-                                steps,
-                                timeline: timeline_csv,
-                                replays,
-                            },
-                        )
-                    }
-                };
-                verdicts.push(NeverFacts {
-                    place: asked.clone(),
-                    label,
+        let mut verdicts = Vec::new();
+        for ((label, verdict), asked) in found.verdicts.into_iter().zip(&args.never) {
+            let (states, verdict) = match verdict {
+                NeverResult::Proved { states, .. } => (states, Never::Proved),
+                NeverResult::Incomplete { states } => (states, Never::Unknown),
+                NeverResult::Reached {
                     states,
-                    verdict,
-                });
-            }
-            report.closed_loop = Some(ClosedLoopFacts {
-                plant: plant.id.clone(),
-                period: args.period,
-                states: found.states,
-                edges: found.edges,
-                complete: found.complete,
-                time_locks: found.time_locks,
-                seconds,
-                places: verdicts,
+                    moves,
+                    timeline_csv,
+                    replays,
+                } => {
+                    let mut scans = 0;
+                    let steps = moves
+                        .iter()
+                        .map(|m| {
+                            let line = m.describe(net, plant, scans);
+                            if matches!(m, closedloop::Move::Scan(_)) {
+                                scans += 1;
+                            }
+                            line
+                        })
+                        .collect();
+                    // (why, whether there is a run to see)
+                    violated.push(if moves.is_empty() {
+                        (format!("`{asked}` is marked from the start"), false)
+                    } else {
+                        (format!("`{asked}` can be marked"), true)
+                    });
+                    (
+                        states,
+                        Never::Reached {
+                            plant_moves: moves.len() - scans,
+                            scans,
+                            steps,
+                            timeline: timeline_csv,
+                            replays,
+                        },
+                    )
+                }
+            };
+            verdicts.push(NeverFacts {
+                place: asked.clone(),
+                label,
+                states,
+                verdict,
             });
         }
+        report.closed_loop = Some(ClosedLoopFacts {
+            plant: plant.id.clone(),
+            period: args.period,
+            states: found.states,
+            edges: found.edges,
+            complete: found.complete,
+            time_locks: found.time_locks,
+            seconds,
+            places: verdicts,
+        });
     }
+    Ok(violated)
+}
 
+/// The report on standard output; the exit status tells of a reached `--never` place or an
+/// interruption.
+fn finish(
+    report: &Report,
+    args: &AnalyzeArgs,
+    violated: &[(String, bool)],
+    cancel: &AtomicBool,
+) -> Result<(), Failure> {
     let text = if args.json {
         let json = serde_json::to_string_pretty(&report.to_json())
             .context("cannot write JSON")
