@@ -3,10 +3,9 @@
 //! the closed-loop proof that no error place is ever marked means something: controllers
 //! with a seeded mistake reach the error in the analysis and in the continuous plant alike.
 
-use std::cell::RefCell;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use petriplc_closedloop::{closed_loop, never, never_all, NeverResult, PlcOptions};
@@ -78,7 +77,7 @@ struct Snap {
 /// The built-in turntable, recording its state after every step.
 struct Recorder {
     inner: Turntable,
-    log: Rc<RefCell<Vec<Snap>>>,
+    log: Arc<Mutex<Vec<Snap>>>,
 }
 
 impl Plant for Recorder {
@@ -99,7 +98,7 @@ impl Plant for Recorder {
     ) -> Result<(), PlantError> {
         self.inner.step(now, inputs, outputs)?;
         let at = |name: &str| outputs[Turntable::OUTPUTS.iter().position(|o| *o == name).unwrap()];
-        self.log.borrow_mut().push(Snap {
+        self.log.lock().unwrap().push(Snap {
             time: now,
             inputs: [inputs[0], inputs[1], inputs[2], inputs[3]],
             alpha: self.inner.alpha_picodegrees(),
@@ -117,7 +116,7 @@ impl Plant for Recorder {
 /// Runs `controller` against the continuous turntable on the example's timeline for 13 s;
 /// returns every step's state and the plant's summary.
 fn simulate(controller: &Net) -> (Vec<Snap>, String) {
-    let log = Rc::new(RefCell::new(Vec::new()));
+    let log = Arc::new(Mutex::new(Vec::new()));
     let plant = Recorder {
         inner: Turntable::default(),
         log: log.clone(),
@@ -128,7 +127,7 @@ fn simulate(controller: &Net) -> (Vec<Snap>, String) {
     sim.finish().unwrap();
     let summary = sim.plant_summary().unwrap();
     drop(sim);
-    let snaps = log.borrow().clone();
+    let snaps = log.lock().unwrap().clone();
     (snaps, summary)
 }
 
