@@ -2,8 +2,8 @@
 //! which timeline column and which plant output drive which controller input, what each plant
 //! input reads, which inputs nothing drives, and the order the trace lists the driven inputs.
 
+use crate::error::SimError;
 use crate::plant::Plant;
-use crate::sim::SimError;
 use crate::timeline::Timeline;
 
 /// A controller signal the wiring may connect.

@@ -9,7 +9,7 @@
 //! short or added to; its copies are looked for where they can be, and what is missing is
 //! said.
 
-use crate::file::{decode, show_time, HEADER, MAGIC, PAGE};
+use crate::record::{decode, show_time, HEADER, MAGIC, PAGE};
 use crate::Snapshot;
 
 /// One copy as found.

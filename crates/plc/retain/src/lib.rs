@@ -6,7 +6,8 @@
 //!   number and a CRC-32C; a write overwrites the older copy in place and syncs it, so that a
 //!   crash or power loss at any moment leaves at least one whole copy, and reading takes the
 //!   newest good one (warning when the other is damaged). The file is locked while a PLC uses
-//!   it.
+//!   it. Its copies' byte format (header, CRC, entries) is `record`, which both the file and
+//!   the search for its copies in a damaged file (`copies`) read.
 //! - [`restore`]: which stored values a configuration may take back: by name, refusing a
 //!   point whose type or size changed and a file that belongs to another PLC or
 //!   configuration.
@@ -21,6 +22,7 @@ mod copies;
 pub mod data;
 pub mod file;
 pub mod persist;
+mod record;
 pub mod restore;
 
 use std::path::PathBuf;

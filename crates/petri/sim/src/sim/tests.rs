@@ -1,9 +1,10 @@
 //! Tests of the driver: wiring checks, scan order, forcing, and closed loops with every plant.
 
 use super::*;
+use crate::plant::PlantError;
 use crate::plants::NetPlant;
 use crate::{builtin, render_svg};
-use petriplc_net::time::parse_duration;
+use petriplc_net::time::{format_seconds, parse_duration};
 use petriplc_testnet::net;
 
 fn d(text: &str) -> Duration {

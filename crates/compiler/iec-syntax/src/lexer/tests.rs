@@ -1,0 +1,153 @@
+//! Tests of the lexer: tokens of every kind, literal bodies and each lexical error.
+
+use super::*;
+
+fn check(src: &str, expect: &[Tok]) {
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex(FileId(0), src, &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert!(d.is_empty(), "{src}: {d:?}");
+    let mut want = expect.to_vec();
+    want.push(Tok::Eof);
+    assert_eq!(toks, want, "{src}");
+}
+
+fn check_error(src: &str, code: diag::Code) {
+    let mut d = Diagnostics::new();
+    lex(FileId(0), src, &mut d);
+    assert!(
+        d.items.iter().any(|x| x.code == code),
+        "{src}: expected {code}, got {d:?}"
+    );
+}
+
+#[test]
+fn numbers() {
+    check(
+        "16#FF 2#1010_1010 8#17 1_000",
+        &[Tok::Int(255), Tok::Int(170), Tok::Int(15), Tok::Int(1000)],
+    );
+    check(
+        "1.5 1.0E3 2.5e-1",
+        &[Tok::Real(1.5), Tok::Real(1000.0), Tok::Real(0.25)],
+    );
+    check("1..10", &[Tok::Int(1), Tok::DotDot, Tok::Int(10)]);
+    check_error("2#102", diag::BAD_NUMBER);
+    check_error("3#1", diag::BAD_NUMBER);
+    check_error("99999999999999999999999", diag::BAD_NUMBER);
+    check_error("12ab", diag::BAD_NUMBER);
+}
+
+#[test]
+fn keywords_are_case_insensitive() {
+    check(
+        "if Then END_if x",
+        &[
+            Tok::Kw(Kw::If),
+            Tok::Kw(Kw::Then),
+            Tok::Kw(Kw::EndIf),
+            Tok::Ident,
+        ],
+    );
+}
+
+#[test]
+fn times_and_dates() {
+    let t = |kind, nanos| Tok::Time { kind, nanos };
+    check("T#1m30s", &[t(TimeKind::Time, 90_000_000_000)]);
+    check("time#1.5s", &[t(TimeKind::Time, 1_500_000_000)]);
+    check("T#-250ms", &[t(TimeKind::Time, -250_000_000)]);
+    check("LTIME#1h_2m", &[t(TimeKind::LTime, 3_720_000_000_000)]);
+    check("D#1970-01-02", &[t(TimeKind::Date, NANOS_PER_DAY)]);
+    check("TOD#00:00:01.5", &[t(TimeKind::Tod, 1_500_000_000)]);
+    check(
+        "DT#1970-01-02-00:00:01",
+        &[t(TimeKind::Dt, NANOS_PER_DAY + 1_000_000_000)],
+    );
+    check("T#1s)", &[t(TimeKind::Time, 1_000_000_000), Tok::RParen]);
+    check_error("T#1x", diag::BAD_TIME);
+    check_error("T#30m1h", diag::BAD_TIME);
+    check_error("D#2023-02-29", diag::BAD_TIME);
+    check_error("TOD#24:00:00", diag::BAD_TIME);
+}
+
+#[test]
+fn strings_and_escapes() {
+    check(
+        "'a$'b$$c$N$41'",
+        &[Tok::Str {
+            bytes: b"a'b$c\nA".to_vec(),
+            wide: false,
+        }],
+    );
+    check_error("'abc", diag::UNTERMINATED_STRING);
+    check_error("'a$Qb'", diag::BAD_ESCAPE);
+}
+
+#[test]
+fn comments_nest_and_pragmas_vanish() {
+    check(
+        "a (* x (* y *) z *) b // c\n{pragma} /* d */ {{ C { code } }} e",
+        &[Tok::Ident, Tok::Ident, Tok::Ident],
+    );
+    check_error("(* (* *)", diag::UNTERMINATED_COMMENT);
+}
+
+#[test]
+fn typed_prefixes_and_direct_variables() {
+    check(
+        "INT#5 Color#Red %IX0.1 %lamp",
+        &[
+            Tok::TypedPrefix,
+            Tok::Int(5),
+            Tok::TypedPrefix,
+            Tok::Ident,
+            Tok::Direct("IX0.1".into()),
+            Tok::Direct("lamp".into()),
+        ],
+    );
+}
+
+#[test]
+fn operators() {
+    check(
+        ":= => .. ** <= >= <> < > = & ^",
+        &[
+            Tok::Assign,
+            Tok::Arrow,
+            Tok::DotDot,
+            Tok::Power,
+            Tok::Le,
+            Tok::Ge,
+            Tok::Ne,
+            Tok::Lt,
+            Tok::Gt,
+            Tok::Eq,
+            Tok::Amp,
+            Tok::Caret,
+        ],
+    );
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex(FileId(0), "a ? b", &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert_eq!(toks, [Tok::Ident, Tok::Error, Tok::Ident, Tok::Eof]);
+    assert_eq!(d.items[0].code, diag::BAD_CHAR);
+}
+
+#[test]
+fn a_date_beyond_the_calendar_is_an_error_not_an_overflow() {
+    let mut d = Diagnostics::new();
+    lex(FileId(0), "D#99999999999999999-01-01", &mut d);
+    assert_eq!(d.items.len(), 1, "{:?}", d.items);
+    assert_eq!(d.items[0].code, diag::BAD_TIME);
+    assert!(
+        d.items[0].message.contains("beyond the calendar"),
+        "{}",
+        d.items[0].message
+    );
+    assert!(parse_date("25000000000000000-12-31").is_ok());
+}
