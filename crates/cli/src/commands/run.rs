@@ -333,11 +333,10 @@ fn vitrine_logger(level: LevelFilter, config: simplelog::Config) -> Option<Box<d
 
 /// The log policies of the third-party crates in this build (crates/cli/src/logging.rs).
 fn policies() -> Vec<crate::logging::Policy> {
-    #[allow(unused_mut)]
-    let mut policies: Vec<crate::logging::Policy> = Vec::new();
-    #[cfg(feature = "opcua")]
-    policies.push(petriplc_opcua::log_policy);
-    policies
+    vec![
+        #[cfg(feature = "opcua")]
+        petriplc_opcua::log_policy,
+    ]
 }
 
 /// `petriplc status`: 0 and the modules' table for a running PLC, 5 for one that exited
