@@ -7,6 +7,7 @@ mod compile;
 mod run;
 mod sim;
 mod step_through;
+#[cfg(feature = "opcua")]
 mod user;
 
 use std::path::Path;
@@ -26,7 +27,14 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
         Command::Run(args) => run::run(args),
         Command::Status(args) => run::status(args),
         Command::Stop(args) => run::stop(args),
+        #[cfg(feature = "opcua")]
         Command::User(args) => user::run(args),
+        #[cfg(not(feature = "opcua"))]
+        Command::User(_) => Err(Failure::BadInput(anyhow::anyhow!(
+            "`petriplc user` edits the users file of an OPC UA server, and this petriplc was \
+             built without its `opcua` feature; rebuild with `cargo build --release -p \
+             petriplc --features opcua` (it is in the default build)"
+        ))),
     }
 }
 

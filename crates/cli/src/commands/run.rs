@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use petriplc_plc::{ModuleState, NotStarted, Plc, PlcStatus, RunError, RunOptions};
-use petriplc_runtime::module::Factory;
+use petriplc_runtime::module::{Factory, Module, ModuleError};
 use petriplc_runtime::owner::{self, Owner, OwnerError, Probe};
 use simplelog::{
     format_description, ColorChoice, CombinedLogger, ConfigBuilder, LevelFilter, SharedLogger,
@@ -35,14 +35,56 @@ const KINDS: &[&str] = &[
     "opcua_server",
 ];
 
-/// The factory of a built-in module kind, from whichever crate has it.
+/// The built-in module kinds that a cargo feature of the binary brings (crates/cli/Cargo.toml),
+/// and whether this build has it.
+const FEATURES: &[(&str, &str, bool)] = &[
+    ("modbus_server", "modbus", cfg!(feature = "modbus")),
+    ("modbus_client", "modbus", cfg!(feature = "modbus")),
+    ("vitrine", "vitrine", cfg!(feature = "vitrine")),
+    ("hmi", "hmi", cfg!(feature = "hmi")),
+    ("mqtt", "mqtt", cfg!(feature = "mqtt")),
+    ("opcua_server", "opcua", cfg!(feature = "opcua")),
+];
+
+/// The factory of a built-in module kind, from whichever crate has it; a kind whose crate
+/// this build left out gets a factory that says which feature brings it back.
 fn builtin(kind: &str) -> Option<Factory> {
-    petriplc_modules::builtin(kind)
-        .or_else(|| petriplc_modbus::builtin(kind))
-        .or_else(|| petriplc_vitrine::builtin(kind))
-        .or_else(|| petriplc_hmi::builtin(kind))
-        .or_else(|| petriplc_mqtt::builtin(kind))
-        .or_else(|| petriplc_opcua::builtin(kind))
+    let found = petriplc_modules::builtin(kind);
+    #[cfg(feature = "modbus")]
+    let found = found.or_else(|| petriplc_modbus::builtin(kind));
+    #[cfg(feature = "vitrine")]
+    let found = found.or_else(|| petriplc_vitrine::builtin(kind));
+    #[cfg(feature = "hmi")]
+    let found = found.or_else(|| petriplc_hmi::builtin(kind));
+    #[cfg(feature = "mqtt")]
+    let found = found.or_else(|| petriplc_mqtt::builtin(kind));
+    #[cfg(feature = "opcua")]
+    let found = found.or_else(|| petriplc_opcua::builtin(kind));
+    found.or_else(|| left_out(kind).map(|_| not_built as Factory))
+}
+
+/// The feature that brings `kind` into the binary, when this build left it out.
+fn left_out(kind: &str) -> Option<&'static str> {
+    FEATURES
+        .iter()
+        .find(|(k, _, built)| *k == kind && !built)
+        .map(|(_, feature, _)| *feature)
+}
+
+/// What a module of a kind this build left out is told.
+fn not_built_message(module: &str, kind: &str, feature: &str) -> String {
+    format!(
+        "module {module}: `{kind}` is a built-in module kind, but this petriplc was built \
+         without its `{feature}` feature; rebuild with `cargo build --release -p petriplc \
+         --features {feature}` (it is in the default build)"
+    )
+}
+
+fn not_built(decl: &petriplc_config::ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
+    let feature = left_out(&decl.kind).unwrap_or("default");
+    Err(ModuleError::new(not_built_message(
+        &decl.name, &decl.kind, feature,
+    )))
 }
 
 pub fn run(args: RunArgs) -> Result<(), Failure> {
@@ -57,11 +99,7 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     options.plc_id = petriplc_plc::plc_id_of(&config, args.plc_id.as_deref(), DEFAULT_PLC_ID);
     // While the vitrine holds the terminal, log lines go to its footer (and are printed when
     // it gives the terminal back) instead of over the display.
-    init_logging(
-        &args,
-        petriplc_vitrine::takes_terminal(&config),
-        &options.plc_id,
-    )?;
+    init_logging(&args, takes_terminal(&config), &options.plc_id)?;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
@@ -87,6 +125,17 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
         Err(anyhow!("a module failed; see the log above")).run_failure()
     } else {
         Ok(())
+    }
+}
+
+/// Whether a vitrine module will hold the terminal (never in a build without it).
+fn takes_terminal(config: &petriplc_config::PlcConfig) -> bool {
+    #[cfg(feature = "vitrine")]
+    return petriplc_vitrine::takes_terminal(config);
+    #[cfg(not(feature = "vitrine"))]
+    {
+        let _ = config;
+        false
     }
 }
 
@@ -215,12 +264,16 @@ fn init_logging(args: &RunArgs, vitrine: bool, plc_id: &str) -> Result<(), Failu
     };
     let terminal: Box<dyn SharedLogger> = if let Some(system) = system {
         system
-    } else if vitrine {
-        WriteLogger::new(
-            level,
-            short(format_description!("[hour]:[minute]:[second]")),
-            petriplc_vitrine::log_writer(),
-        )
+    } else if let Some(display) = vitrine
+        .then(|| {
+            vitrine_logger(
+                level,
+                short(format_description!("[hour]:[minute]:[second]")),
+            )
+        })
+        .flatten()
+    {
+        display
     } else {
         TermLogger::new(
             level,
@@ -253,13 +306,37 @@ fn init_logging(args: &RunArgs, vitrine: bool, plc_id: &str) -> Result<(), Failu
             level,
         )),
         level,
-        vec![petriplc_opcua::log_policy],
+        policies(),
     );
     log::set_boxed_logger(Box::new(policed))
         .context("cannot start logging")
         .run_failure()?;
     log::set_max_level(level);
     Ok(())
+}
+
+/// The log lines' way into the vitrine's footer (none in a build without it: then no
+/// vitrine takes the terminal).
+fn vitrine_logger(level: LevelFilter, config: simplelog::Config) -> Option<Box<dyn SharedLogger>> {
+    #[cfg(feature = "vitrine")]
+    return Some(WriteLogger::new(
+        level,
+        config,
+        petriplc_vitrine::log_writer(),
+    ));
+    #[cfg(not(feature = "vitrine"))]
+    {
+        let _ = (level, config);
+        None
+    }
+}
+
+/// The log policies of the third-party crates in this build (crates/cli/src/logging.rs).
+fn policies() -> Vec<crate::logging::Policy> {
+    vec![
+        #[cfg(feature = "opcua")]
+        petriplc_opcua::log_policy,
+    ]
 }
 
 /// `petriplc status`: 0 and the modules' table for a running PLC, 5 for one that exited
@@ -362,4 +439,36 @@ fn no_such_plc(plc_id: &str) -> anyhow::Error {
          configuration's [PLC])",
         owner::state_dir().display()
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_has_a_factory_in_any_build() {
+        for kind in KINDS {
+            assert!(builtin(kind).is_some(), "{kind}");
+        }
+        assert!(builtin("no_such_kind").is_none());
+    }
+
+    #[test]
+    fn the_feature_table_holds_the_kinds_outside_the_modules_crate() {
+        for kind in KINDS {
+            let in_modules = petriplc_modules::builtin(kind).is_some();
+            let listed = FEATURES.iter().any(|(k, _, _)| k == kind);
+            assert_ne!(in_modules, listed, "{kind}");
+        }
+        for (kind, _, built) in FEATURES {
+            assert_eq!(left_out(kind).is_none(), *built, "{kind}");
+        }
+    }
+
+    #[test]
+    fn a_left_out_kind_names_the_feature_that_brings_it_back() {
+        let text = not_built_message("panel", "hmi", "hmi");
+        assert!(text.starts_with("module panel: `hmi`"), "{text}");
+        assert!(text.contains("--features hmi"), "{text}");
+    }
 }

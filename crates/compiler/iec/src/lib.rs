@@ -17,6 +17,7 @@ use petriplc_iec_syntax::diag::{self, Diagnostic, Diagnostics, Severity};
 use petriplc_iec_syntax::source::{SourceMap, Span};
 use petriplc_iec_vm::{Engine, InstanceSpec, NativeFb};
 
+#[cfg(feature = "jit")]
 pub use petriplc_iec_jit as jit;
 pub use petriplc_iec_sema as sema;
 pub use petriplc_iec_syntax as syntax;
@@ -267,9 +268,11 @@ fn list(names: &[&str]) -> String {
 pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Build, IecError> {
     let checked = check(sources, &natives)?;
     let specs = instances(&checked.project, select, &sources.map)?;
+    #[cfg_attr(not(feature = "jit"), allow(unused_mut))]
     let mut engine = Engine::new(checked.project, &specs, natives.fbs, &sources.map)?;
     // Machine code for the programs (docs/iec.md, "Speed"), made when the first machine is;
-    // the VM runs them when it cannot be made.
+    // the VM runs them when it cannot be made, or when the `jit` feature is left out.
+    #[cfg(feature = "jit")]
     if let Some(e) = Arc::get_mut(&mut engine) {
         e.set_compiler(Box::new(|e| {
             petriplc_iec_jit::compile(e)
