@@ -205,8 +205,10 @@ mod tests {
         line(&log, "after");
         log.flush();
         let lines = inner.lines.lock().unwrap().clone();
-        // The queue's four lines, perhaps one more the writer had taken, the count, "after".
-        assert!(lines.len() <= 7, "{lines:?}");
+        // The queue's four lines, one more if the writer freed a slot before it blocked, a
+        // count before and after that line (when the writer starts late, lines are dropped
+        // before it takes the first), and "after": never more, however the threads ran.
+        assert!(lines.len() <= 8, "{lines:?}");
         assert!(
             lines.iter().any(|l| l.contains("log lines dropped")),
             "{lines:?}"
