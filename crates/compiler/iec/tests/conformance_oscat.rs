@@ -1,0 +1,123 @@
+//! Conformance over OSCAT, real IEC 61131-3 code written by others (`../shared/corpora/oscat`,
+//! not copied into the repository): every file of the three flavours is checked together with
+//! the files it depends on (the corpus's manifest.json), and the share accepted may only grow.
+//! Without `../shared` the test says in one line that it was skipped.
+//!
+//! `OSCAT_REPORT=1 cargo test -p petriplc-iec --test conformance_oscat -- --nocapture` prints
+//! every refused file with its first error, and a table of first errors by code.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use petriplc_iec::{check, Natives, Sources};
+
+/// Files accepted per flavour, at least: raise these when more is accepted, never lower them.
+const ACCEPTED_AT_LEAST: &[(&str, usize)] = &[
+    ("oscat_basic", 358),
+    ("oscat_building", 25),
+    ("tcoscat", 180),
+];
+
+/// One manifest entry: the file and the files defining what it uses, in dependency order.
+struct Entry {
+    set: String,
+    file: String,
+    deps: Vec<String>,
+}
+
+fn manifest(root: &Path) -> Vec<Entry> {
+    let text = std::fs::read_to_string(root.join("manifest.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    json.as_array()
+        .unwrap()
+        .iter()
+        .map(|e| Entry {
+            set: e["set"].as_str().unwrap().to_string(),
+            file: e["file"].as_str().unwrap().to_string(),
+            deps: e["deps"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|d| d.as_str().unwrap().to_string())
+                .collect(),
+        })
+        .collect()
+}
+
+/// `None` when the file and its dependencies check, else the first error line.
+fn first_error(root: &Path, e: &Entry) -> Option<String> {
+    let mut sources = Sources::new();
+    for f in e.deps.iter().chain(std::iter::once(&e.file)) {
+        if let Err(err) = sources.add_file(&root.join(f)) {
+            return Some(err.to_string());
+        }
+    }
+    match check(&sources, &Natives::default()) {
+        Ok(_) => None,
+        Err(err) => {
+            let text = err.to_string();
+            // The file's own errors first: a dependency's are counted where it is checked.
+            let own = text.lines().find(|l| l.contains(&e.file) && l.contains("error["));
+            Some(
+                own.or_else(|| text.lines().find(|l| l.contains("error[")))
+                    .unwrap_or(&text)
+                    .to_string(),
+            )
+        }
+    }
+}
+
+fn code(line: &str) -> &str {
+    line.split_once("error[")
+        .and_then(|(_, rest)| rest.split_once(']'))
+        .map_or("other", |(c, _)| c)
+}
+
+#[test]
+fn oscat_files_check() {
+    let Some(root) = petriplc_testnet::data::conformance("oscat_files_check", "corpora/oscat")
+    else {
+        return;
+    };
+    let root = root.canonicalize().unwrap();
+    let report = std::env::var_os("OSCAT_REPORT").is_some();
+    let entries = manifest(&root);
+    let mut accepted: BTreeMap<&str, (usize, usize)> = BTreeMap::new();
+    let mut by_code: BTreeMap<String, usize> = BTreeMap::new();
+    for e in &entries {
+        let slot = accepted.entry(e.set.as_str()).or_default();
+        slot.1 += 1;
+        match first_error(&root, e) {
+            None => slot.0 += 1,
+            Some(line) => {
+                *by_code.entry(code(&line).to_string()).or_default() += 1;
+                if report {
+                    println!("{}: {line}", e.file);
+                }
+            }
+        }
+    }
+    let total: usize = accepted.values().map(|a| a.0).sum();
+    println!(
+        "OSCAT: {total} of {} files accepted ({:.1} %)",
+        entries.len(),
+        100.0 * total as f64 / entries.len() as f64
+    );
+    for (set, (ok, n)) in &accepted {
+        println!("  {set}: {ok} of {n}");
+    }
+    if report {
+        let mut codes: Vec<_> = by_code.into_iter().collect();
+        codes.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        for (c, n) in codes {
+            println!("  first error {c}: {n} files");
+        }
+    }
+    for (set, least) in ACCEPTED_AT_LEAST {
+        let ok = accepted.get(set).map_or(0, |a| a.0);
+        assert!(
+            ok >= *least,
+            "{set}: {ok} files accepted, fewer than the {least} accepted before"
+        );
+    }
+}
