@@ -57,7 +57,9 @@ fn first_error(root: &Path, e: &Entry) -> Option<String> {
         Err(err) => {
             let text = err.to_string();
             // The file's own errors first: a dependency's are counted where it is checked.
-            let own = text.lines().find(|l| l.contains(&e.file) && l.contains("error["));
+            let own = text
+                .lines()
+                .find(|l| l.contains(&e.file) && l.contains("error["));
             Some(
                 own.or_else(|| text.lines().find(|l| l.contains("error[")))
                     .unwrap_or(&text)
