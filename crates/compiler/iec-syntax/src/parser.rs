@@ -94,6 +94,12 @@ pub fn parse_init(file: FileId, text: &str, diags: &mut Diagnostics) -> Option<I
     p.at(&Tok::Eof).then_some(i)
 }
 
+/// Reserved words that may also name a variable, field, parameter or type, as in TwinCAT 3
+/// (whose grammar does not reserve them; OSCAT names variables `ON` and `R_EDGE`). Each is a
+/// keyword only where a name cannot stand: `ON` after a RESOURCE's name, `TASK` and `WITH` in
+/// a RESOURCE, `R_EDGE`/`F_EDGE` after a declaration's type.
+pub const NAME_KEYWORDS: &[Kw] = &[Kw::On, Kw::REdge, Kw::FEdge, Kw::Task, Kw::With];
+
 /// An error has been reported; the caller resynchronises.
 #[derive(Debug)]
 struct Reported;
@@ -267,8 +273,22 @@ impl<'a, 'd> Parser<'a, 'd> {
         Err(Reported)
     }
 
+    /// Whether a token can be a name: an identifier, or one of the reserved words TwinCAT 3
+    /// does not reserve ([`NAME_KEYWORDS`]).
+    fn is_name(tok: &Tok) -> bool {
+        match tok {
+            Tok::Ident => true,
+            Tok::Kw(k) => NAME_KEYWORDS.contains(k),
+            _ => false,
+        }
+    }
+
+    fn at_name(&self) -> bool {
+        Self::is_name(&self.peek().tok)
+    }
+
     fn ident(&mut self, what: &str) -> PResult<Ident> {
-        if self.at(&Tok::Ident) {
+        if self.at_name() {
             let t = self.bump();
             return Ok(Ident::new(self.text_of(t.span), t.span));
         }
@@ -364,3 +384,6 @@ mod stmt;
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod vendor_tests;
