@@ -263,3 +263,37 @@ END_PROGRAM", body.join(" "));
         let _ = check(&lib, &Options::default());
     }
 }
+
+#[test]
+fn constant_inputs_are_inputs() {
+    // CODESYS and TwinCAT write VAR_INPUT CONSTANT and VAR_IN_OUT CONSTANT; the caller gives
+    // the value, so it is an input, not a constant of the declaration.
+    check_ok(
+        "FUNCTION f : INT
+VAR_INPUT CONSTANT k : INT := 2; END_VAR
+VAR_IN_OUT CONSTANT r : INT; END_VAR
+f := k * r;
+END_FUNCTION
+PROGRAM p
+VAR x : INT := 3; y : INT; END_VAR
+y := f(k := 5, r := x);
+y := f(r := x);
+END_PROGRAM",
+    );
+    // Its initial value is only the default of a call that omits it: never folded in.
+    check_errors(
+        "FUNCTION_BLOCK fb
+VAR_INPUT CONSTANT n : INT := 3; END_VAR
+VAR a : ARRAY[1..n] OF INT; END_VAR
+END_FUNCTION_BLOCK
+PROGRAM p
+END_PROGRAM",
+        &["E108]: `n` is a variable; only constants (VAR CONSTANT, literals) can be used here"],
+    );
+    check_errors(
+        "PROGRAM p
+VAR_OUTPUT CONSTANT o : INT := 1; END_VAR
+END_PROGRAM",
+        &["E109]: CONSTANT applies to VAR, VAR_INPUT, VAR_IN_OUT, VAR_EXTERNAL and VAR_GLOBAL blocks"],
+    );
+}

@@ -231,11 +231,15 @@ impl<'a> Checker<'a> {
                 "RETAIN applies to VAR, VAR_INPUT, VAR_OUTPUT and VAR_GLOBAL of programs and function blocks",
             );
         }
-        if b.constant && !matches!(b.kind, VarKind::Local | VarKind::External | VarKind::Global) {
+        // VAR_INPUT CONSTANT (CODESYS, TwinCAT: an input shown as a parameter in CFC, "no
+        // distinction in text editors") and VAR_IN_OUT CONSTANT (TwinCAT) are read as VAR_INPUT
+        // and VAR_IN_OUT: their value comes from the caller, so it is no compile-time constant.
+        let constant = b.constant && !matches!(b.kind, VarKind::Input | VarKind::InOut);
+        if constant && !matches!(b.kind, VarKind::Local | VarKind::External | VarKind::Global) {
             self.error(
                 diag::BAD_DECLARATION,
                 b.span,
-                "CONSTANT applies to VAR, VAR_EXTERNAL and VAR_GLOBAL blocks",
+                "CONSTANT applies to VAR, VAR_INPUT, VAR_IN_OUT, VAR_EXTERNAL and VAR_GLOBAL blocks",
             );
         }
         for d in &b.vars {
@@ -362,7 +366,7 @@ impl<'a> Checker<'a> {
                     },
                     _ => VarClass::Local,
                 };
-                let constant = b.constant
+                let constant = constant
                     || matches!(class, VarClass::External(g) if self.globals[g as usize].constant);
                 let init = if let VarClass::External(g) = class {
                     self.globals[g as usize].init.clone()
