@@ -59,6 +59,10 @@ pub const CODES: &[Entry] = &[
       "Statements, parentheses, calls, unary operators, `ARRAY … OF`, initial values or IL's deferred operations more than 100 levels deep, or an expression's tree more than 1000 (operators, fields or subscripts in a row): every pass is recursive, and the bound keeps any source from overflowing a stack (docs/iec.md, \"Limits\"). The one error of the source, at the level too deep. (No short example: 101 nested parentheses.)",
       "",
       "split the expression or statement with intermediate variables, functions or function blocks."),
+    e("E015", "a source's own `{error '…'}` pragma",
+      "CODESYS and TwinCAT stop compiling at `{error 'text'}` with the text; so does petriplc.",
+      "{error 'written for another PLC'}\nPROGRAM p\nEND_PROGRAM",
+      "do what the text asks, or remove the pragma."),
     e("E020", "an Instruction List line that is not an instruction",
       "An unknown operator, a missing or extra operand, a modifier the operator does not take, two instructions on a line (in a `.il` source or an `<IL>` body).",
       "",
@@ -183,6 +187,14 @@ pub const CODES: &[Entry] = &[
       "Warning: a call of a standard function such as ABS or ADD as a statement has no effect.",
       "PROGRAM p\nVAR x : INT; END_VAR\nABS(x);\nEND_PROGRAM",
       "assign the result, or remove the call."),
+    e("W010", "pragmas petriplc does not model",
+      "Warning, once per source: `{attribute '…'}`, `{warning disable …}`, `{library …}`, Beremiz's `{{ C code }}` and other pragmas are skipped (docs/iec.md, \"Dialects and vendor code\").",
+      "{attribute 'qualified_only'}\nPROGRAM p\nEND_PROGRAM",
+      "nothing to do when the pragma only helps the vendor's editor or compiler; check the program does not rely on it."),
+    e("W011", "a source's own `{warning '…'}` pragma",
+      "Warning: CODESYS and TwinCAT print the text when compiling; so does petriplc.",
+      "{warning 'scaling not checked'}\nPROGRAM p\nEND_PROGRAM",
+      "do what the text asks, or remove the pragma."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

@@ -8,6 +8,7 @@
 use crate::diag::{self, Diagnostics};
 use crate::source::{FileId, Span};
 
+mod pragma;
 #[cfg(test)]
 mod tests;
 mod time;
@@ -251,9 +252,11 @@ pub fn lex(file: FileId, text: &str, diags: &mut Diagnostics) -> Vec<Token> {
         text,
         pos: 0,
         out: Vec::new(),
+        pragmas: Vec::new(),
         diags,
     };
     lx.run();
+    pragma::report(file, text, &lx.pragmas, lx.diags);
     lx.out
 }
 
@@ -263,6 +266,8 @@ struct Lexer<'a, 'd> {
     text: &'a str,
     pos: usize,
     out: Vec<Token>,
+    /// Where each `{…}` pragma is: they are skipped, then reported together.
+    pragmas: Vec<(usize, usize)>,
     diags: &'d mut Diagnostics,
 }
 
@@ -374,6 +379,7 @@ impl Lexer<'_, '_> {
         }
         if self.pos < self.src.len() {
             self.pos += 1;
+            self.pragmas.push((start, self.pos));
         } else {
             self.error(
                 diag::UNTERMINATED_COMMENT,

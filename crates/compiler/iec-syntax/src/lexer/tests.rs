@@ -89,10 +89,52 @@ fn strings_and_escapes() {
 #[test]
 fn comments_nest_and_pragmas_vanish() {
     check(
-        "a (* x (* y *) z *) b // c\n{pragma} /* d */ {{ C { code } }} e",
+        "a (* x (* y *) z *) b // c\n(* {pragma} *) e",
         &[Tok::Ident, Tok::Ident, Tok::Ident],
     );
     check_error("(* (* *)", diag::UNTERMINATED_COMMENT);
+    // Pragmas leave no token; what they would change is said once (docs/iec.md, "Pragmas").
+    let src = "a (* x *) b\n{pragma} /* d */ {{ C { code } }} e {attribute 'hide'}";
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex(FileId(0), src, &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert_eq!(toks, [Tok::Ident, Tok::Ident, Tok::Ident, Tok::Eof]);
+    let got: Vec<(diag::Code, &str)> = d
+        .items
+        .iter()
+        .map(|x| (x.code, x.message.as_str()))
+        .collect();
+    assert_eq!(
+        got,
+        [(
+            diag::PRAGMA_IGNORED,
+            "3 pragmas ignored here ({pragma}, {{ C { code } }}, {attribute 'hide'}): petriplc does not model them"
+        )]
+    );
+    assert_eq!(d.items[0].span, Span::new(FileId(0), 12, 20));
+}
+
+#[test]
+fn warning_error_and_conditional_pragmas() {
+    let src =
+        "{warning 'check the scaling'} a {error 'not for this PLC'} {IF defined(x)} b {END_IF}";
+    let mut d = Diagnostics::new();
+    lex(FileId(0), src, &mut d);
+    let got: Vec<String> = d
+        .items
+        .iter()
+        .map(|x| format!("{}: {}", x.code, x.message))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            "W011: the source's own warning: check the scaling",
+            "E015: the source's own error: not for this PLC",
+            "E190: conditional compilation ({IF …} … {END_IF}) is not supported; keep the branch meant for this PLC and remove the pragmas",
+        ]
+    );
 }
 
 #[test]
