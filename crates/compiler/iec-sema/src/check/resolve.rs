@@ -332,7 +332,11 @@ impl<'a> Checker<'a> {
                 format!(
                     "{} is not supported; use {}",
                     id.name.to_ascii_uppercase(),
-                    if id.is("CHAR") { "BYTE or STRING[1]" } else { "WORD" }
+                    if id.is("CHAR") {
+                        "BYTE or STRING[1]"
+                    } else {
+                        "WORD"
+                    }
                 ),
             );
             return (ids::ERROR, None);

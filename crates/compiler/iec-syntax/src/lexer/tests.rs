@@ -193,3 +193,42 @@ fn a_date_beyond_the_calendar_is_an_error_not_an_overflow() {
     );
     assert!(parse_date("25000000000000000-12-31").is_ok());
 }
+
+#[test]
+fn a_latin1_source_keeps_one_byte_per_character_in_strings() {
+    // The text as decoded from a Latin-1 file: each byte one character.
+    let text: String = b"'\xe4\xf6\xfc' \"\xe4\""
+        .iter()
+        .map(|&b| b as char)
+        .collect();
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex_encoded(FileId(0), &text, true, &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert!(d.is_empty(), "{d:?}");
+    assert_eq!(
+        toks[0],
+        Tok::Str {
+            bytes: vec![0xe4, 0xf6, 0xfc],
+            wide: false
+        }
+    );
+    // A WSTRING holds characters (UTF-8), whatever the file's encoding.
+    assert_eq!(
+        toks[1],
+        Tok::Str {
+            bytes: "\u{e4}".as_bytes().to_vec(),
+            wide: true
+        }
+    );
+    // A UTF-8 source keeps its UTF-8 bytes.
+    let toks = lex(FileId(0), &text, &mut d);
+    assert_eq!(
+        toks[0].tok,
+        Tok::Str {
+            bytes: "\u{e4}\u{f6}\u{fc}".as_bytes().to_vec(),
+            wide: false
+        }
+    );
+}
