@@ -315,3 +315,29 @@ END_PROGRAM",
         ],
     );
 }
+
+#[test]
+fn a_constant_without_value_holds_its_default_with_a_warning() {
+    // CODESYS's C0228 is a warning; OSCAT's global constant structures rely on it.
+    let src = "TYPE pair : STRUCT a : INT := 4; b : INT := 5; END_STRUCT; END_TYPE
+VAR_GLOBAL CONSTANT
+  P : pair;
+END_VAR
+PROGRAM p
+VAR CONSTANT k : INT; END_VAR
+VAR_EXTERNAL CONSTANT P : pair; END_VAR
+VAR a : ARRAY[0..k] OF INT; x : INT; END_VAR
+x := k + P.a;
+END_PROGRAM";
+    let (p, d) = run(src);
+    assert!(p.is_some(), "{d}");
+    let lines: Vec<&str> = d.lines().collect();
+    assert_eq!(lines.len(), 2, "{d}");
+    assert!(
+        lines[0].starts_with(
+            "t.st:3:3: warning[W012]: a CONSTANT without a value holds its type's initial value"
+        ),
+        "{d}"
+    );
+    assert!(lines[1].starts_with("t.st:6:14: warning[W012]"), "{d}");
+}

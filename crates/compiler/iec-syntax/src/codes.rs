@@ -195,6 +195,10 @@ pub const CODES: &[Entry] = &[
       "Warning: CODESYS and TwinCAT print the text when compiling; so does petriplc.",
       "{warning 'scaling not checked'}\nPROGRAM p\nEND_PROGRAM",
       "do what the text asks, or remove the pragma."),
+    e("W012", "a CONSTANT declared without a value",
+      "Warning: it holds its type's initial value (a structure's field defaults, 0, FALSE, ''), as in CODESYS and TwinCAT, which warn too (C0228).",
+      "PROGRAM p\nVAR CONSTANT k : INT; END_VAR\nEND_PROGRAM",
+      "give it its value: `k : INT := 3;`."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

@@ -77,6 +77,7 @@ codes! {
     UNUSED_RESULT = "W003",
     PRAGMA_IGNORED = "W010",
     PRAGMA_WARNING = "W011",
+    CONSTANT_WITHOUT_VALUE = "W012",
 }
 
 /// Diagnostics collected by a stage, in the order found.
