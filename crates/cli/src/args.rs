@@ -242,6 +242,11 @@ pub struct SimArgs {
     /// IEC programs: trace every variable of the program, not only its outputs.
     #[arg(long)]
     pub vars: bool,
+    /// IEC programs: the vendor dialect where vendors disagree (`iec`, `codesys`, `twincat`,
+    /// `pcworx`; docs/iec.md, "Dialects and vendor code") [default: detected from TwinCAT
+    /// files, else iec].
+    #[arg(long, value_name = "DIALECT", value_parser = parse_dialect)]
+    pub dialect: Option<petriplc_iec::Dialect>,
 }
 
 #[derive(Debug, Args)]
@@ -260,6 +265,16 @@ pub struct CheckArgs {
     /// Also compile the named PROGRAM (or, without it, what would run) for the engine.
     #[arg(long, value_name = "NAME")]
     pub pou: Option<String>,
+    /// The vendor dialect where vendors disagree (`iec`, `codesys`, `twincat`, `pcworx`;
+    /// docs/iec.md, "Dialects and vendor code") [default: detected from TwinCAT files, else
+    /// iec].
+    #[arg(long, value_name = "DIALECT", value_parser = parse_dialect)]
+    pub dialect: Option<petriplc_iec::Dialect>,
+}
+
+fn parse_dialect(s: &str) -> Result<petriplc_iec::Dialect, String> {
+    s.parse()
+        .map_err(|e: petriplc_iec::syntax::dialect::UnknownDialect| e.to_string())
 }
 
 #[derive(Debug, Args)]

@@ -51,6 +51,12 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
         ))
         .bad_input();
     }
+    if args.dialect.is_some() {
+        return Err(anyhow!(
+            "--dialect applies to IEC 61131-3 programs (.st, .il or a PLCopen XML project), not to nets"
+        ))
+        .bad_input();
+    }
     let net = super::read_net(&args.net, args.names)?;
     let timeline = args
         .inputs
@@ -371,7 +377,11 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
         Some(p) => petriplc_iec::Select::Pou(p.clone()),
         None => petriplc_iec::Select::Auto,
     };
-    let build = petriplc_iec::build_file(&args.net, &select).bad_input()?;
+    let mut sources = petriplc_iec::Sources::new();
+    sources.dialect = args.dialect;
+    sources.add_file(&args.net).bad_input()?;
+    let build =
+        petriplc_iec::build(&sources, &select, petriplc_iec::Natives::default()).bad_input()?;
     if !build.warnings.is_empty() {
         crate::diagnostics::eprint(&build.warnings.join("\n"));
     }

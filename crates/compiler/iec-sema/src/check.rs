@@ -105,7 +105,7 @@ pub(crate) struct Checker<'a> {
 
 impl<'a> Checker<'a> {
     pub fn new(lib: &'a Library, options: &Options) -> Self {
-        let mut natives = stdlib::standard_fbs();
+        let mut natives = stdlib::standard_fbs_in(options.dialect);
         natives.extend(options.natives.iter().cloned());
         let native_names = natives
             .iter()

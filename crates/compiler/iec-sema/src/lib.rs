@@ -23,13 +23,15 @@ pub mod value;
 use petriplc_iec_syntax::ast::Library;
 use petriplc_iec_syntax::Diagnostics;
 
-pub use stdlib::{is_standard_function, standard_fbs, STANDARD_FUNCTIONS};
+pub use stdlib::{is_standard_function, standard_fbs, standard_fbs_in, STANDARD_FUNCTIONS};
 
 /// What the checker knows besides the sources.
 #[derive(Clone, Debug, Default)]
 pub struct Options {
     /// Function blocks implemented in Rust, beside the standard ones (e.g. DSP blocks).
     pub natives: Vec<ir::NativeSig>,
+    /// Whose names the standard function blocks' inputs have ([`standard_fbs_in`]).
+    pub dialect: petriplc_iec_syntax::Dialect,
 }
 
 /// Checks a library. Returns the lowered project when there is no error, and every

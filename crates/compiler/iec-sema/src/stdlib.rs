@@ -4,6 +4,8 @@
 //! the standard function blocks are native: the checker sees their interface here, the VM
 //! runs them.
 
+use petriplc_iec_syntax::Dialect;
+
 use crate::ir::{NativeSig, NativeVar, NativeVarKind};
 use crate::types::Elem;
 use crate::value::Value;
@@ -215,9 +217,51 @@ pub fn standard_fbs() -> Vec<NativeSig> {
     fbs
 }
 
+/// The standard function blocks as a dialect names their inputs: CODESYS's and TwinCAT's
+/// counters (Standard library: CTU's CU, RESET, PV; CTD's CD, LOAD, PV; CTUD's CU, CD,
+/// RESET, LOAD, PV) call the standard's `R` `RESET` and `LD` `LOAD`. Same variables in the
+/// same order: only the names programs write differ.
+pub fn standard_fbs_in(dialect: Dialect) -> Vec<NativeSig> {
+    let mut fbs = standard_fbs();
+    if dialect.is_codesys_family() {
+        for fb in fbs.iter_mut().filter(|f| f.name.starts_with("CT")) {
+            for v in &mut fb.vars {
+                match v.name.as_str() {
+                    "R" => v.name = "RESET".into(),
+                    "LD" => v.name = "LOAD".into(),
+                    _ => {}
+                }
+            }
+        }
+    }
+    fbs
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn codesys_counters_name_reset_and_load() {
+        let inputs = |d: Dialect, name: &str| -> Vec<String> {
+            let fbs = standard_fbs_in(d);
+            let fb = fbs.iter().find(|f| f.name == name).unwrap();
+            fb.vars
+                .iter()
+                .filter(|v| v.kind == NativeVarKind::Input)
+                .map(|v| v.name.clone())
+                .collect()
+        };
+        assert_eq!(inputs(Dialect::Iec, "CTUD"), ["CU", "CD", "R", "LD", "PV"]);
+        assert_eq!(inputs(Dialect::Pcworx, "CTU"), ["CU", "R", "PV"]);
+        for d in [Dialect::Codesys, Dialect::Twincat] {
+            assert_eq!(inputs(d, "CTU_DINT"), ["CU", "RESET", "PV"]);
+            assert_eq!(inputs(d, "CTD"), ["CD", "LOAD", "PV"]);
+            assert_eq!(inputs(d, "CTUD"), ["CU", "CD", "RESET", "LOAD", "PV"]);
+            // The bistables keep their R, R1, S, S1.
+            assert_eq!(inputs(d, "SR"), ["S1", "R"]);
+        }
+    }
 
     #[test]
     fn conversion_names() {

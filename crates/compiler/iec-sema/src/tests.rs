@@ -263,3 +263,81 @@ END_PROGRAM", body.join(" "));
         let _ = check(&lib, &Options::default());
     }
 }
+
+#[test]
+fn constant_inputs_are_inputs() {
+    // CODESYS and TwinCAT write VAR_INPUT CONSTANT and VAR_IN_OUT CONSTANT; the caller gives
+    // the value, so it is an input, not a constant of the declaration.
+    check_ok(
+        "FUNCTION f : INT
+VAR_INPUT CONSTANT k : INT := 2; END_VAR
+VAR_IN_OUT CONSTANT r : INT; END_VAR
+f := k * r;
+END_FUNCTION
+PROGRAM p
+VAR x : INT := 3; y : INT; END_VAR
+y := f(k := 5, r := x);
+y := f(r := x);
+END_PROGRAM",
+    );
+    // Its initial value is only the default of a call that omits it: never folded in.
+    check_errors(
+        "FUNCTION_BLOCK fb
+VAR_INPUT CONSTANT n : INT := 3; END_VAR
+VAR a : ARRAY[1..n] OF INT; END_VAR
+END_FUNCTION_BLOCK
+PROGRAM p
+END_PROGRAM",
+        &["E108]: `n` is a variable; only constants (VAR CONSTANT, literals) can be used here"],
+    );
+    check_errors(
+        "PROGRAM p
+VAR_OUTPUT CONSTANT o : INT := 1; END_VAR
+END_PROGRAM",
+        &["E109]: CONSTANT applies to VAR, VAR_INPUT, VAR_IN_OUT, VAR_EXTERNAL and VAR_GLOBAL blocks"],
+    );
+}
+
+#[test]
+fn wide_strings_and_characters_are_unsupported_not_unknown() {
+    // All four parse (STRING(n) as PCWorx and CODESYS write it); the checker says what the
+    // engine cannot hold yet.
+    check_errors(
+        "PROGRAM p
+VAR s : STRING(10); w : WSTRING; w2 : WSTRING(5); c : CHAR; wc : WCHAR; END_VAR
+s := 'abc';
+END_PROGRAM",
+        &[
+            "E190]: WSTRING is not supported; use STRING",
+            "E190]: WSTRING is not supported; use STRING",
+            "E190]: CHAR is not supported; use BYTE or STRING[1]",
+            "E190]: WCHAR is not supported; use WORD",
+        ],
+    );
+}
+
+#[test]
+fn a_constant_without_value_holds_its_default_with_a_warning() {
+    // CODESYS's C0228 is a warning; OSCAT's global constant structures rely on it.
+    let src = "TYPE pair : STRUCT a : INT := 4; b : INT := 5; END_STRUCT; END_TYPE
+VAR_GLOBAL CONSTANT
+  P : pair;
+END_VAR
+PROGRAM p
+VAR CONSTANT k : INT; END_VAR
+VAR_EXTERNAL CONSTANT P : pair; END_VAR
+VAR a : ARRAY[0..k] OF INT; x : INT; END_VAR
+x := k + P.a;
+END_PROGRAM";
+    let (p, d) = run(src);
+    assert!(p.is_some(), "{d}");
+    let lines: Vec<&str> = d.lines().collect();
+    assert_eq!(lines.len(), 2, "{d}");
+    assert!(
+        lines[0].starts_with(
+            "t.st:3:3: warning[W012]: a CONSTANT without a value holds its type's initial value"
+        ),
+        "{d}"
+    );
+    assert!(lines[1].starts_with("t.st:6:14: warning[W012]"), "{d}");
+}

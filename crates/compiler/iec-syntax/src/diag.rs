@@ -30,6 +30,7 @@ codes! {
     MISSING_SEMI = "E012",
     EMPTY_SOURCE = "E013",
     TOO_DEEP = "E014",
+    PRAGMA_ERROR = "E015",
     IL_SYNTAX = "E020",
     IL_PARENS = "E021",
     XML = "E050",
@@ -74,6 +75,9 @@ codes! {
     SHADOWS_STANDARD = "W001",
     NOT_CHECKED = "W002",
     UNUSED_RESULT = "W003",
+    PRAGMA_IGNORED = "W010",
+    PRAGMA_WARNING = "W011",
+    CONSTANT_WITHOUT_VALUE = "W012",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -8,6 +8,7 @@
 use crate::diag::{self, Diagnostics};
 use crate::source::{FileId, Span};
 
+mod pragma;
 #[cfg(test)]
 mod tests;
 mod time;
@@ -245,24 +246,38 @@ pub struct Token {
 
 /// Splits a source text into tokens; problems go to `diags`.
 pub fn lex(file: FileId, text: &str, diags: &mut Diagnostics) -> Vec<Token> {
+    lex_encoded(file, text, false, diags)
+}
+
+/// [`lex`] for a text decoded from a single-byte file (`latin1`: every character is one byte
+/// of the file, as CODESYS and TwinCAT save sources in the Windows code page): a string
+/// literal holds those bytes, one per character, as the vendor's STRING does.
+pub fn lex_encoded(file: FileId, text: &str, latin1: bool, diags: &mut Diagnostics) -> Vec<Token> {
     let mut lx = Lexer {
         file,
+        latin1,
         src: text.as_bytes(),
         text,
         pos: 0,
         out: Vec::new(),
+        pragmas: Vec::new(),
         diags,
     };
     lx.run();
+    pragma::report(file, text, &lx.pragmas, lx.diags);
     lx.out
 }
 
 struct Lexer<'a, 'd> {
     file: FileId,
+    /// The text was decoded from Latin-1: a character of a string is one byte.
+    latin1: bool,
     src: &'a [u8],
     text: &'a str,
     pos: usize,
     out: Vec<Token>,
+    /// Where each `{…}` pragma is: they are skipped, then reported together.
+    pragmas: Vec<(usize, usize)>,
     diags: &'d mut Diagnostics,
 }
 
@@ -374,6 +389,7 @@ impl Lexer<'_, '_> {
         }
         if self.pos < self.src.len() {
             self.pos += 1;
+            self.pragmas.push((start, self.pos));
         } else {
             self.error(
                 diag::UNTERMINATED_COMMENT,
@@ -457,6 +473,12 @@ impl Lexer<'_, '_> {
                     format!("unknown escape in a string; write $$ for a dollar sign, ${} for the quote, $L $N $P $R $T, or ${} hex digits", quote as char, digits),
                 );
                 self.pos += 1;
+                continue;
+            }
+            if self.latin1 && !wide && (b == 0xC2 || b == 0xC3) {
+                // U+0080..U+00FF, two bytes in the text: the file's one byte.
+                bytes.push(((b & 0x03) << 6) | (self.peek(1) & 0x3F));
+                self.pos += 2;
                 continue;
             }
             bytes.push(b);

@@ -9,6 +9,7 @@ pub mod ast;
 pub mod codes;
 pub mod depth;
 pub mod diag;
+pub mod dialect;
 pub mod lexer;
 pub mod parser;
 pub mod plcopen;
@@ -16,5 +17,6 @@ pub mod source;
 pub mod xml;
 
 pub use diag::{Code, Diagnostic, Diagnostics, Severity};
+pub use dialect::Dialect;
 pub use parser::{parse, parse_il};
 pub use source::{FileId, SourceMap, Span};

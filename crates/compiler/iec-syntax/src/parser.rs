@@ -29,8 +29,24 @@ pub fn parse_il(file: FileId, text: &str, diags: &mut Diagnostics) -> Library {
     parse_source(file, text, true, diags)
 }
 
+/// Parses a text decoded from a single-byte (Latin-1) file, Structured Text or (`il`)
+/// Instruction List: its string literals hold the file's bytes ([`lexer::lex_encoded`]).
+pub fn parse_latin1(file: FileId, text: &str, il: bool, diags: &mut Diagnostics) -> Library {
+    parse_encoded(file, text, il, true, diags)
+}
+
 fn parse_source(file: FileId, text: &str, il: bool, diags: &mut Diagnostics) -> Library {
-    let tokens = lexer::lex(file, text, diags);
+    parse_encoded(file, text, il, false, diags)
+}
+
+fn parse_encoded(
+    file: FileId,
+    text: &str,
+    il: bool,
+    latin1: bool,
+    diags: &mut Diagnostics,
+) -> Library {
+    let tokens = lexer::lex_encoded(file, text, latin1, diags);
     let mut p = Parser::new(file, text, tokens, diags);
     p.il = il;
     let lib = p.library();
@@ -93,6 +109,12 @@ pub fn parse_init(file: FileId, text: &str, diags: &mut Diagnostics) -> Option<I
     let i = p.init().ok()?;
     p.at(&Tok::Eof).then_some(i)
 }
+
+/// Reserved words that may also name a variable, field, parameter or type, as in TwinCAT 3
+/// (whose grammar does not reserve them; OSCAT names variables `ON` and `R_EDGE`). Each is a
+/// keyword only where a name cannot stand: `ON` after a RESOURCE's name, `TASK` and `WITH` in
+/// a RESOURCE, `R_EDGE`/`F_EDGE` after a declaration's type.
+pub const NAME_KEYWORDS: &[Kw] = &[Kw::On, Kw::REdge, Kw::FEdge, Kw::Task, Kw::With];
 
 /// An error has been reported; the caller resynchronises.
 #[derive(Debug)]
@@ -267,8 +289,22 @@ impl<'a, 'd> Parser<'a, 'd> {
         Err(Reported)
     }
 
+    /// Whether a token can be a name: an identifier, or one of the reserved words TwinCAT 3
+    /// does not reserve ([`NAME_KEYWORDS`]).
+    fn is_name(tok: &Tok) -> bool {
+        match tok {
+            Tok::Ident => true,
+            Tok::Kw(k) => NAME_KEYWORDS.contains(k),
+            _ => false,
+        }
+    }
+
+    fn at_name(&self) -> bool {
+        Self::is_name(&self.peek().tok)
+    }
+
     fn ident(&mut self, what: &str) -> PResult<Ident> {
-        if self.at(&Tok::Ident) {
+        if self.at_name() {
             let t = self.bump();
             return Ok(Ident::new(self.text_of(t.span), t.span));
         }
@@ -364,3 +400,6 @@ mod stmt;
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod vendor_tests;

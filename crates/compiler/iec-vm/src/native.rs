@@ -9,6 +9,7 @@
 
 use petriplc_iec_sema::ir::{NativeSig, NativeVarKind};
 use petriplc_iec_sema::types::Elem;
+use petriplc_iec_syntax::Dialect;
 
 /// What a native block sees besides its variables.
 #[derive(Clone, Copy, Debug)]
@@ -54,7 +55,13 @@ impl Vars<'_> {
 
 /// The standard function blocks, in the order of [`petriplc_iec_sema::standard_fbs`].
 pub fn standard() -> Vec<Box<dyn NativeFb>> {
-    petriplc_iec_sema::standard_fbs()
+    standard_in(Dialect::Iec)
+}
+
+/// The standard function blocks with the input names of `dialect` (CODESYS's counters'
+/// `RESET` and `LOAD`: [`petriplc_iec_sema::standard_fbs_in`]); they run the same.
+pub fn standard_in(dialect: Dialect) -> Vec<Box<dyn NativeFb>> {
+    petriplc_iec_sema::standard_fbs_in(dialect)
         .into_iter()
         .map(|sig| Box::new(Standard { sig }) as Box<dyn NativeFb>)
         .collect()

@@ -21,6 +21,7 @@ use petriplc_iec_vm::{Engine, InstanceSpec, NativeFb};
 pub use petriplc_iec_jit as jit;
 pub use petriplc_iec_sema as sema;
 pub use petriplc_iec_syntax as syntax;
+pub use petriplc_iec_syntax::Dialect;
 pub use petriplc_iec_vm as vm;
 
 /// Sources read and parsed, with their diagnostics so far.
@@ -29,6 +30,11 @@ pub struct Sources {
     pub map: SourceMap,
     pub lib: Library,
     pub diags: Diagnostics,
+    /// The dialect chosen (`--dialect`, `dialect = …`); `None`: the one the files show
+    /// ([`Sources::detected`]), else `iec` ([`Sources::dialect`]).
+    pub dialect: Option<Dialect>,
+    /// The dialect a file read so far shows it is written in (a TwinCAT file).
+    pub detected: Option<Dialect>,
 }
 
 /// The largest file read: [`petriplc_files::IEC_SOURCE`].
@@ -62,13 +68,43 @@ impl Sources {
             path: path.display().to_string(),
             reason,
         })?;
-        let text = String::from_utf8_lossy(&text).into_owned();
-        self.add_text(&path.display().to_string(), &text);
+        let name = path.display().to_string();
+        match String::from_utf8(text) {
+            Ok(text) => self.add_text(&name, &text),
+            // Not UTF-8: a file saved in a single-byte code page, as CODESYS, TwinCAT and
+            // PCWorx write them (OSCAT's `ä`, `°`): read as Latin-1, each byte one character,
+            // and a string literal holds the file's bytes.
+            Err(e) => {
+                let text: String = e.into_bytes().iter().map(|&b| b as char).collect();
+                let xml = name.to_ascii_lowercase().ends_with(".xml")
+                    && text.trim_start().starts_with('<');
+                if syntax::plcopen::is_plcopen(&text) || xml {
+                    self.add_text(&name, &text);
+                } else {
+                    if self.detected.is_none() {
+                        self.detected = Dialect::detect(&name, &text);
+                    }
+                    let f = self.map.add(&name, &text);
+                    let il = name.to_ascii_lowercase().ends_with(".il");
+                    let lib = syntax::parser::parse_latin1(f, &text, il, &mut self.diags);
+                    self.lib.elements.extend(lib.elements);
+                }
+            }
+        }
         Ok(())
+    }
+
+    /// The dialect the project is checked in: the one chosen, else the one detected, else
+    /// the standard's.
+    pub fn dialect(&self) -> Dialect {
+        self.dialect.or(self.detected).unwrap_or_default()
     }
 
     /// Adds a source by its text; `name` is what messages print.
     pub fn add_text(&mut self, name: &str, text: &str) {
+        if self.detected.is_none() {
+            self.detected = Dialect::detect(name, text);
+        }
         let lib = if syntax::plcopen::is_plcopen(text)
             || (name.to_ascii_lowercase().ends_with(".xml") && text.trim_start().starts_with('<'))
         {
@@ -126,6 +162,15 @@ impl Natives {
         self
     }
 
+    /// The standard blocks (always first) as `dialect` names their inputs: the project is
+    /// checked with those names ([`Sources::dialect`]), and the engine must run the same.
+    pub fn in_dialect(mut self, dialect: Dialect) -> Self {
+        let std = petriplc_iec_sema::standard_fbs().len();
+        self.fbs
+            .splice(0..std, petriplc_iec_vm::native::standard_in(dialect));
+        self
+    }
+
     fn extra_signatures(&self) -> Vec<sema::ir::NativeSig> {
         let std = petriplc_iec_sema::standard_fbs().len();
         self.fbs[std..].iter().map(|f| f.signature()).collect()
@@ -144,6 +189,7 @@ pub fn check(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> 
     let mut all = sources.diags.clone();
     let options = sema::Options {
         natives: natives.extra_signatures(),
+        dialect: sources.dialect(),
     };
     // A source with syntax errors is not checked further (its tree is partial).
     let project = if all.has_errors() {
@@ -266,6 +312,7 @@ fn list(names: &[&str]) -> String {
 
 /// Checks and compiles sources for what `select` names.
 pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Build, IecError> {
+    let natives = natives.in_dialect(sources.dialect());
     let checked = check(sources, &natives)?;
     let specs = instances(&checked.project, select, &sources.map)?;
     #[cfg_attr(not(feature = "jit"), allow(unused_mut))]

@@ -8,6 +8,7 @@
 //! task = fast                # only the programs of this TASK of the configuration
 //! max_iterations = 10000000  # loop iterations one scan may make before it fails
 //! watchdog = T#100ms         # wall-clock limit of one scan (default: none)
+//! dialect = codesys          # iec, codesys, twincat, pcworx (default: detected, else iec)
 //! map lights L               # variable lights (a global, or instance.var) is point L
 //! ```
 //!
@@ -28,7 +29,7 @@ use petriplc_config::{ModuleDecl, PointKind};
 use petriplc_iec::sema::ir::VarClass;
 use petriplc_iec::sema::types::{Elem, Type};
 use petriplc_iec::vm::{Engine, FaultKind, Machine, VarRef};
-use petriplc_iec::{Natives, Select, Sources};
+use petriplc_iec::{Dialect, Natives, Select, Sources};
 use petriplc_runtime::image::{Handle, ModuleMap};
 use petriplc_runtime::module::{Control, InitContext, Module, ModuleError, ScanContext};
 
@@ -43,6 +44,7 @@ const SETTINGS: &[&str] = &[
     "task",
     "max_iterations",
     "watchdog",
+    "dialect",
 ];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
@@ -92,6 +94,8 @@ pub struct IecModule {
     task: Option<String>,
     iterations: u64,
     watchdog: Option<Duration>,
+    /// `dialect = …`; `None`: detected from the files (docs/iec.md, "Dialects and vendor code").
+    dialect: Option<Dialect>,
     /// The program declares RETAIN variables (see [`iec_retain::declares_retain`]).
     retains: bool,
     run: Option<Run>,
@@ -128,6 +132,12 @@ impl IecModule {
             None => Select::Auto,
         };
         let task = common::setting(decl, "task").map(str::to_string);
+        let dialect = common::setting(decl, "dialect")
+            .map(|d| {
+                d.parse::<Dialect>()
+                    .map_err(|e| error(&decl.name, format!("`dialect = {d}`: {e}")))
+            })
+            .transpose()?;
         if task.is_some() && matches!(select, Select::Pou(_)) {
             return Err(error(&decl.name, "`pou` runs one PROGRAM, `task` the programs of a configuration's task: give one of them"));
         }
@@ -151,6 +161,7 @@ impl IecModule {
             task,
             iterations,
             watchdog,
+            dialect,
             retains: decl
                 .settings
                 .get(if project { "project" } else { "program" })
@@ -250,6 +261,7 @@ impl Module for IecModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         let path = ctx.path(&self.file);
         let mut sources = Sources::new();
+        sources.dialect = self.dialect;
         sources.add_file(&path).map_err(|e| error(&self.name, e))?;
         if self.project
             && !petriplc_iec::syntax::plcopen::is_plcopen(
@@ -291,7 +303,7 @@ impl Module for IecModule {
         let engine = Engine::new(
             checked.project,
             &specs,
-            Natives::default().fbs,
+            Natives::default().in_dialect(sources.dialect()).fbs,
             &sources.map,
         )
         .map_err(|e| error(&self.name, e))?;

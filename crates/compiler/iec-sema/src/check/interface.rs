@@ -2,6 +2,7 @@
 
 use petriplc_iec_syntax::ast::{self, Element, PouKind, VarKind};
 use petriplc_iec_syntax::diag;
+use petriplc_iec_syntax::source::Span;
 
 use crate::ir::{GlobalId, PouId, Var, VarClass, VarId};
 use crate::types::{ids, FbRef, Type};
@@ -46,11 +47,7 @@ impl<'a> Checker<'a> {
                     None => def,
                 };
                 if b.constant && d.init.is_none() {
-                    self.error(
-                        diag::BAD_DECLARATION,
-                        d.span,
-                        "a VAR_GLOBAL CONSTANT needs its value: write `name : TYPE := value;`",
-                    );
+                    self.constant_without_value(d.span);
                 }
                 for n in &d.names {
                     let key = n.key();
@@ -80,6 +77,17 @@ impl<'a> Checker<'a> {
             self.frame_shape(&vars, "the global variables", at);
             self.globals = vars;
         }
+    }
+
+    /// A CONSTANT declared without a value holds its type's initial value (a structure's
+    /// field defaults, 0…). CODESYS and TwinCAT accept it with a warning (C0228, which
+    /// OSCAT's global constants switch off); so does petriplc.
+    fn constant_without_value(&mut self, span: Span) {
+        self.diags.warning(
+            diag::CONSTANT_WITHOUT_VALUE,
+            span,
+            "a CONSTANT without a value holds its type's initial value; write `name : TYPE := value;` to give it one",
+        );
     }
 
     // ---- POU interfaces ----
@@ -231,11 +239,15 @@ impl<'a> Checker<'a> {
                 "RETAIN applies to VAR, VAR_INPUT, VAR_OUTPUT and VAR_GLOBAL of programs and function blocks",
             );
         }
-        if b.constant && !matches!(b.kind, VarKind::Local | VarKind::External | VarKind::Global) {
+        // VAR_INPUT CONSTANT (CODESYS, TwinCAT: an input shown as a parameter in CFC, "no
+        // distinction in text editors") and VAR_IN_OUT CONSTANT (TwinCAT) are read as VAR_INPUT
+        // and VAR_IN_OUT: their value comes from the caller, so it is no compile-time constant.
+        let constant = b.constant && !matches!(b.kind, VarKind::Input | VarKind::InOut);
+        if constant && !matches!(b.kind, VarKind::Local | VarKind::External | VarKind::Global) {
             self.error(
                 diag::BAD_DECLARATION,
                 b.span,
-                "CONSTANT applies to VAR, VAR_EXTERNAL and VAR_GLOBAL blocks",
+                "CONSTANT applies to VAR, VAR_INPUT, VAR_IN_OUT, VAR_EXTERNAL and VAR_GLOBAL blocks",
             );
         }
         for d in &b.vars {
@@ -297,12 +309,8 @@ impl<'a> Checker<'a> {
                     }
                 }
             }
-            if b.constant && d.init.is_none() && b.kind == VarKind::Local {
-                self.error(
-                    diag::BAD_DECLARATION,
-                    d.span,
-                    "a CONSTANT needs its value: write `name : TYPE := value;`",
-                );
+            if constant && d.init.is_none() && b.kind == VarKind::Local {
+                self.constant_without_value(d.span);
             }
             if d.location.is_some() && !matches!(b.kind, VarKind::Local | VarKind::Global) {
                 self.error(
@@ -362,7 +370,7 @@ impl<'a> Checker<'a> {
                     },
                     _ => VarClass::Local,
                 };
-                let constant = b.constant
+                let constant = constant
                     || matches!(class, VarClass::External(g) if self.globals[g as usize].constant);
                 let init = if let VarClass::External(g) = class {
                     self.globals[g as usize].init.clone()

@@ -323,15 +323,28 @@ impl<'a> Checker<'a> {
             );
             return (ids::ERROR, None);
         }
-        let hint = if ["CHAR", "WCHAR"].iter().any(|w| id.is(w)) {
-            " (CHAR is not supported; use STRING[1] or BYTE)"
-        } else {
-            ""
-        };
+        // The standard's (and CODESYS's) elementary types the engine cannot hold yet: not
+        // unknown names, so E190, not E101.
+        if ["CHAR", "WCHAR"].iter().any(|w| id.is(w)) {
+            self.error(
+                diag::UNSUPPORTED,
+                id.span,
+                format!(
+                    "{} is not supported; use {}",
+                    id.name.to_ascii_uppercase(),
+                    if id.is("CHAR") {
+                        "BYTE or STRING[1]"
+                    } else {
+                        "WORD"
+                    }
+                ),
+            );
+            return (ids::ERROR, None);
+        }
         self.error(
             diag::UNKNOWN_TYPE,
             id.span,
-            format!("unknown type `{}`{hint}; declare it in TYPE … END_TYPE, or use an elementary type (INT, REAL, BOOL, TIME, STRING…)", id.name),
+            format!("unknown type `{}`; declare it in TYPE … END_TYPE, or use an elementary type (INT, REAL, BOOL, TIME, STRING…)", id.name),
         );
         (ids::ERROR, None)
     }

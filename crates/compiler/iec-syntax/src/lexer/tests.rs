@@ -89,10 +89,52 @@ fn strings_and_escapes() {
 #[test]
 fn comments_nest_and_pragmas_vanish() {
     check(
-        "a (* x (* y *) z *) b // c\n{pragma} /* d */ {{ C { code } }} e",
+        "a (* x (* y *) z *) b // c\n(* {pragma} *) e",
         &[Tok::Ident, Tok::Ident, Tok::Ident],
     );
     check_error("(* (* *)", diag::UNTERMINATED_COMMENT);
+    // Pragmas leave no token; what they would change is said once (docs/iec.md, "Pragmas").
+    let src = "a (* x *) b\n{pragma} /* d */ {{ C { code } }} e {attribute 'hide'}";
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex(FileId(0), src, &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert_eq!(toks, [Tok::Ident, Tok::Ident, Tok::Ident, Tok::Eof]);
+    let got: Vec<(diag::Code, &str)> = d
+        .items
+        .iter()
+        .map(|x| (x.code, x.message.as_str()))
+        .collect();
+    assert_eq!(
+        got,
+        [(
+            diag::PRAGMA_IGNORED,
+            "3 pragmas ignored here ({pragma}, {{ C { code } }}, {attribute 'hide'}): petriplc does not model them"
+        )]
+    );
+    assert_eq!(d.items[0].span, Span::new(FileId(0), 12, 20));
+}
+
+#[test]
+fn warning_error_and_conditional_pragmas() {
+    let src =
+        "{warning 'check the scaling'} a {error 'not for this PLC'} {IF defined(x)} b {END_IF}";
+    let mut d = Diagnostics::new();
+    lex(FileId(0), src, &mut d);
+    let got: Vec<String> = d
+        .items
+        .iter()
+        .map(|x| format!("{}: {}", x.code, x.message))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            "W011: the source's own warning: check the scaling",
+            "E015: the source's own error: not for this PLC",
+            "E190: conditional compilation ({IF …} … {END_IF}) is not supported; keep the branch meant for this PLC and remove the pragmas",
+        ]
+    );
 }
 
 #[test]
@@ -150,4 +192,43 @@ fn a_date_beyond_the_calendar_is_an_error_not_an_overflow() {
         d.items[0].message
     );
     assert!(parse_date("25000000000000000-12-31").is_ok());
+}
+
+#[test]
+fn a_latin1_source_keeps_one_byte_per_character_in_strings() {
+    // The text as decoded from a Latin-1 file: each byte one character.
+    let text: String = b"'\xe4\xf6\xfc' \"\xe4\""
+        .iter()
+        .map(|&b| b as char)
+        .collect();
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex_encoded(FileId(0), &text, true, &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert!(d.is_empty(), "{d:?}");
+    assert_eq!(
+        toks[0],
+        Tok::Str {
+            bytes: vec![0xe4, 0xf6, 0xfc],
+            wide: false
+        }
+    );
+    // A WSTRING holds characters (UTF-8), whatever the file's encoding.
+    assert_eq!(
+        toks[1],
+        Tok::Str {
+            bytes: "\u{e4}".as_bytes().to_vec(),
+            wide: true
+        }
+    );
+    // A UTF-8 source keeps its UTF-8 bytes.
+    let toks = lex(FileId(0), &text, &mut d);
+    assert_eq!(
+        toks[0].tok,
+        Tok::Str {
+            bytes: "\u{e4}\u{f6}\u{fc}".as_bytes().to_vec(),
+            wide: false
+        }
+    );
 }

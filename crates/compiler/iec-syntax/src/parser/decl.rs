@@ -105,7 +105,14 @@ impl<'a, 'd> Parser<'a, 'd> {
         } else {
             None
         };
-        self.expect_semi()?;
+        // TwinCAT and CODESYS write `END_STRUCT` (and the last declaration) without `;`
+        // before `END_TYPE`: the keyword ends the declaration.
+        let closed = matches!(spec, TypeSpec::Struct { .. }) && init.is_none();
+        if !(closed || self.at_kw(Kw::EndType)) {
+            self.expect_semi()?;
+        } else {
+            self.eat(&Tok::Semi);
+        }
         let span = name.span.to(self.prev_span());
         Ok(TypeDecl {
             name,
@@ -300,7 +307,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             });
         }
         if self.at(&Tok::LParen)
-            && self.peek_at(1).tok == Tok::Ident
+            && Self::is_name(&self.peek_at(1).tok)
             && self.peek_at(2).tok == Tok::Assign
         {
             self.bump();

@@ -214,12 +214,12 @@ impl<'a, 'd> Parser<'a, 'd> {
     fn arg(&mut self) -> PResult<Arg> {
         let start = self.peek().span;
         let negated = self.at_kw(Kw::Not)
-            && self.peek_at(1).tok == Tok::Ident
+            && Self::is_name(&self.peek_at(1).tok)
             && self.peek_at(2).tok == Tok::Arrow;
         if negated {
             self.bump();
         }
-        if self.at(&Tok::Ident) && matches!(self.peek_at(1).tok, Tok::Assign | Tok::Arrow) {
+        if self.at_name() && matches!(self.peek_at(1).tok, Tok::Assign | Tok::Arrow) {
             let name = self.ident("a parameter name")?;
             let output = self.bump().tok == Tok::Arrow;
             let value = if output && matches!(self.peek().tok, Tok::Comma | Tok::RParen) {
@@ -282,7 +282,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                 lit(ExprKind::Direct(text))
             }
             Tok::TypedPrefix => self.typed_literal(),
-            Tok::Ident => {
+            _ if self.at_name() => {
                 let id = self.ident("a name")?;
                 Ok(Expr {
                     span: id.span,

@@ -101,7 +101,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                 // `IF : INT;` is a declaration with a reserved name (reported as such).
                 !matches!(self.peek_at(1).tok, Tok::Colon | Tok::Comma)
             }
-            Tok::Ident => matches!(
+            _ if self.at_name() => matches!(
                 self.peek_at(1).tok,
                 Tok::Assign | Tok::LBracket | Tok::Dot | Tok::LParen
             ),
@@ -114,8 +114,8 @@ impl<'a, 'd> Parser<'a, 'd> {
         let mut k = 0;
         loop {
             match &self.peek_at(k).tok {
+                t if Self::is_name(t) => k += 1,
                 Tok::Int(_)
-                | Tok::Ident
                 | Tok::TypedPrefix
                 | Tok::Minus
                 | Tok::Plus
@@ -152,7 +152,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             Tok::Kw(Kw::For) => self.for_stmt()?,
             Tok::Kw(Kw::While) => {
                 self.bump();
-                let cond = self.expr()?;
+                let cond = self.header_expr(Kw::Do)?;
                 self.soft_kw(Kw::Do);
                 let body = self.statements(&[]);
                 self.expect_end(Kw::EndWhile, start, "WHILE")?;
@@ -170,7 +170,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                     self.error_at(diag::MISSING_END, start, msg);
                     return Err(Reported);
                 }
-                let until = self.expr()?;
+                let until = self.header_expr(Kw::EndRepeat)?;
                 self.expect_end(Kw::EndRepeat, start, "REPEAT")?;
                 StmtKind::Repeat { body, until }
             }
@@ -189,35 +189,8 @@ impl<'a, 'd> Parser<'a, 'd> {
                 self.expect_semi()?;
                 StmtKind::Return
             }
-            Tok::Ident | Tok::Direct(_) => {
-                let target = self.postfix()?;
-                if self.eat(&Tok::Assign).is_some() {
-                    let value = self.expr()?;
-                    self.expect_semi()?;
-                    StmtKind::Assign { target, value }
-                } else if let ExprKind::Call(call) = target.kind {
-                    self.expect_semi()?;
-                    StmtKind::Call(call)
-                } else {
-                    let t = self.peek().clone();
-                    let msg = format!(
-                        "expected `:=` (an assignment) or `(` (a call) after `{}`, found {}",
-                        self.text_of(target.span),
-                        self.describe(&t)
-                    );
-                    let code = diag::SYNTAX;
-                    let msg = if t.tok == Tok::Eq {
-                        format!(
-                            "`=` compares; an assignment is written `{} := …;`",
-                            self.text_of(target.span)
-                        )
-                    } else {
-                        msg
-                    };
-                    self.error_at(code, t.span, msg);
-                    return Err(Reported);
-                }
-            }
+            Tok::Direct(_) => self.assign_or_call()?,
+            _ if self.at_name() => self.assign_or_call()?,
             _ => return Err(self.expected("a statement")),
         };
         Ok(Stmt {
@@ -226,7 +199,69 @@ impl<'a, 'd> Parser<'a, 'd> {
         })
     }
 
-    /// `END_xxx` and its `;`.
+    /// `target := value;` or `f(…);`.
+    fn assign_or_call(&mut self) -> PResult<StmtKind> {
+        Ok({
+            let target = self.postfix()?;
+            if self.eat(&Tok::Assign).is_some() {
+                let value = self.expr()?;
+                self.expect_semi()?;
+                StmtKind::Assign { target, value }
+            } else if let ExprKind::Call(call) = target.kind {
+                self.expect_semi()?;
+                StmtKind::Call(call)
+            } else {
+                let t = self.peek().clone();
+                let msg = format!(
+                    "expected `:=` (an assignment) or `(` (a call) after `{}`, found {}",
+                    self.text_of(target.span),
+                    self.describe(&t)
+                );
+                let code = diag::SYNTAX;
+                let msg = if t.tok == Tok::Eq {
+                    format!(
+                        "`=` compares; an assignment is written `{} := …;`",
+                        self.text_of(target.span)
+                    )
+                } else {
+                    msg
+                };
+                self.error_at(code, t.span, msg);
+                return Err(Reported);
+            }
+        })
+    }
+
+    /// A statement's condition or bounds, read up to the keyword after them (`THEN`, `DO`,
+    /// `OF`, `END_REPEAT`). When they hold an error, the rest of the header is skipped to that
+    /// keyword and an error expression stands for them, so the statement's body and `END_…`
+    /// are still read: the block is not reported unclosed because its header was wrong.
+    fn header_expr(&mut self, until: Kw) -> PResult<Expr> {
+        let start = self.peek().span;
+        match self.expr() {
+            Ok(e) => Ok(e),
+            Err(Reported) if self.too_deep => Err(Reported),
+            Err(Reported) => {
+                loop {
+                    match self.peek().tok {
+                        Tok::Kw(k) if k == until => break,
+                        Tok::Semi | Tok::Eof => return Err(Reported),
+                        _ if self.is_stmt_list_end(&[]) => return Err(Reported),
+                        _ => {
+                            self.bump();
+                        }
+                    }
+                }
+                Ok(Expr {
+                    kind: ExprKind::Error,
+                    span: start.to(self.prev_span()),
+                })
+            }
+        }
+    }
+
+    /// `END_xxx` and its `;`, which may be left out as CODESYS, TwinCAT and blark allow (the
+    /// keyword ends the statement: nothing is ambiguous without it).
     fn expect_end(&mut self, kw: Kw, start: Span, what: &str) -> PResult<()> {
         if self.eat_kw(kw).is_none() {
             let t = self.peek().clone();
@@ -242,20 +277,21 @@ impl<'a, 'd> Parser<'a, 'd> {
             self.reported_at = self.pos;
             return Err(Reported);
         }
-        self.expect_semi()
+        self.eat(&Tok::Semi);
+        Ok(())
     }
 
     fn if_stmt(&mut self) -> PResult<StmtKind> {
         let start = self.bump().span;
         let mut branches = Vec::new();
-        let cond = self.expr()?;
+        let cond = self.header_expr(Kw::Then)?;
         self.soft_kw(Kw::Then);
         let body = self.statements(&[]);
         branches.push((cond, body));
         let mut else_body = None;
         loop {
             if self.eat_kw(Kw::Elsif).is_some() {
-                let cond = self.expr()?;
+                let cond = self.header_expr(Kw::Then)?;
                 self.soft_kw(Kw::Then);
                 let body = self.statements(&[]);
                 branches.push((cond, body));
@@ -275,7 +311,7 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     fn case_stmt(&mut self) -> PResult<StmtKind> {
         let start = self.bump().span;
-        let selector = self.expr()?;
+        let selector = self.header_expr(Kw::Of)?;
         self.soft_kw(Kw::Of);
         let mut arms = Vec::new();
         let mut else_body = None;
@@ -348,9 +384,9 @@ impl<'a, 'd> Parser<'a, 'd> {
             self.expect_end(Kw::EndFor, start, "FOR")?;
             return Err(Reported);
         }
-        let to = self.expr()?;
+        let to = self.header_expr(Kw::Do)?;
         let by = if self.eat_kw(Kw::By).is_some() {
-            Some(self.expr()?)
+            Some(self.header_expr(Kw::Do)?)
         } else {
             None
         };

@@ -373,6 +373,8 @@ proptest::proptest! {
         "FUNCTION", "END_FUNCTION", "CONFIGURATION", "RESOURCE", "TASK", "END_RESOURCE",
         "END_CONFIGURATION", "TYPE", "END_TYPE", "STRUCT", "END_STRUCT", "ARRAY", "[", "]", "..",
         ",", "=>", "REPEAT", "UNTIL", "END_REPEAT", "WHILE", "END_WHILE", "WITH", "T#1s",
+        "ON", "R_EDGE", "BOOL", "CONSTANT", "VAR_INPUT", "{attribute 'x'}", "{warning 'w'}",
+        "{IF defined(x)}", "{END_IF}", "{error 'e'}", "^", "STRING(2)",
     ]), 0..60)) {
         let src = words.join(" ");
         let mut d = Diagnostics::new();

@@ -1,0 +1,152 @@
+//! The syntax CODESYS 3, TwinCAT 3, matiec and PCWorx accept beyond the standard's letter
+//! (docs/iec.md, "Dialects and vendor code"), and recovery that invents no second error.
+
+use super::*;
+use crate::source::SourceMap;
+
+fn diags_of(src: &str) -> (Library, String) {
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", src);
+    let mut d = Diagnostics::new();
+    let lib = parse(f, src, &mut d);
+    (lib, d.render(&map))
+}
+
+fn check_ok(src: &str) -> Library {
+    let (lib, d) = diags_of(src);
+    assert_eq!(d, "", "{src}");
+    lib
+}
+
+fn body(lib: &Library) -> &[Stmt] {
+    for e in &lib.elements {
+        if let Element::Pou(p) = e {
+            if let Body::St(b) = &p.body {
+                return b;
+            }
+        }
+    }
+    panic!("no ST body")
+}
+
+#[test]
+fn end_struct_and_the_last_type_need_no_semicolon_before_end_type() {
+    let lib = check_ok(
+        "TYPE pt :\nSTRUCT\n  x : INT;\n  y : INT;\nEND_STRUCT\nEND_TYPE\n\
+         TYPE n : INT END_TYPE\n\
+         TYPE a : STRUCT x : INT; END_STRUCT b : INT; END_TYPE",
+    );
+    let names: Vec<String> = lib
+        .elements
+        .iter()
+        .flat_map(|e| match e {
+            Element::Types(t) => t.iter().map(|d| d.name.name.clone()).collect(),
+            _ => vec![],
+        })
+        .collect();
+    assert_eq!(names, ["pt", "n", "a", "b"]);
+    // Between two declarations that are not STRUCTs, the `;` is still required.
+    let (_, d) = diags_of("TYPE a : INT b : INT; END_TYPE");
+    assert_eq!(
+        d,
+        "t.st:1:13: error[E012]: expected `;` after this, found `b`\n"
+    );
+}
+
+#[test]
+fn end_of_a_compound_statement_needs_no_semicolon() {
+    let lib = check_ok(
+        "PROGRAM p\nVAR x : INT; END_VAR\n\
+         IF x > 0 THEN x := 1; END_IF\n\
+         FOR x := 1 TO 3 DO x := x; END_FOR\n\
+         WHILE x < 3 DO x := x + 1; END_WHILE\n\
+         REPEAT x := x + 1; UNTIL x > 5 END_REPEAT\n\
+         CASE x OF 1: x := 2; END_CASE\n\
+         IF x > 0 THEN IF x > 1 THEN x := 0; END_IF END_IF;\n\
+         END_PROGRAM",
+    );
+    assert_eq!(body(&lib).len(), 6);
+    // A simple statement still needs its `;`, as in CODESYS and TwinCAT.
+    let (_, d) =
+        diags_of("PROGRAM p\nVAR x : INT; END_VAR\nIF x > 0 THEN x := 1 END_IF\nEND_PROGRAM");
+    assert_eq!(
+        d,
+        "t.st:3:21: error[E012]: expected `;` after this, found `END_IF`\n"
+    );
+}
+
+#[test]
+fn words_twincat_does_not_reserve_name_variables() {
+    let lib = check_ok(
+        "FUNCTION_BLOCK fb\nVAR_INPUT ON : BOOL; R_EDGE : BOOL; f_edge : BOOL R_EDGE; END_VAR\n\
+         VAR_OUTPUT task, with : INT; END_VAR\n\
+         IF ON AND R_EDGE THEN task := 1; END_IF;\n\
+         ON := NOT ON;\n\
+         CASE task OF ON: with := 1; END_CASE;\n\
+         END_FUNCTION_BLOCK\n\
+         PROGRAM p VAR i : fb; b : BOOL; END_VAR\n\
+         i(ON := TRUE, R_EDGE := b, task => b);\n\
+         b := i.ON;\n\
+         END_PROGRAM\n\
+         CONFIGURATION c RESOURCE r ON PLC TASK t(INTERVAL := T#10ms); PROGRAM q WITH t : p; END_RESOURCE END_CONFIGURATION",
+    );
+    let Element::Pou(fb) = &lib.elements[0] else {
+        panic!()
+    };
+    let names: Vec<&str> = fb.var_blocks[0]
+        .vars
+        .iter()
+        .map(|d| d.names[0].name.as_str())
+        .collect();
+    assert_eq!(names, ["ON", "R_EDGE", "f_edge"]);
+    assert_eq!(fb.var_blocks[0].vars[2].edge, Some(Edge::Rising));
+    // The words TwinCAT reserves stay reserved.
+    let (_, d) = diags_of("PROGRAM p VAR THEN : INT; END_VAR END_PROGRAM");
+    assert_eq!(d, "t.st:1:15: error[E010]: `THEN` is a reserved word and cannot be a variable name; choose another name\n");
+}
+
+#[test]
+fn an_error_in_a_header_does_not_leave_its_block_unclosed() {
+    // One error each, at the unsupported operator: not also "this FOR has no END_FOR".
+    for (src, col) in [
+        (
+            "FOR i := 1 TO n DO\n  IF p^ = 1 THEN n := 1; END_IF;\nEND_FOR;",
+            7,
+        ),
+        (
+            "FOR i := 1 TO n DO\n  WHILE p^ DO n := 1; END_WHILE;\nEND_FOR;",
+            10,
+        ),
+        (
+            "FOR i := 1 TO n DO\n  CASE p^ OF 1: n := 1; END_CASE;\nEND_FOR;",
+            9,
+        ),
+        (
+            "FOR i := 1 TO n DO\n  REPEAT n := 1; UNTIL p^ END_REPEAT;\nEND_FOR;",
+            25,
+        ),
+        (
+            "FOR i := 1 TO n DO\n  FOR n := 1 TO p^ DO n := 1; END_FOR;\nEND_FOR;",
+            18,
+        ),
+        (
+            "FOR i := 1 TO n DO\n  IF n = 1 THEN n := 1; ELSIF p^ THEN n := 2; END_IF;\nEND_FOR;",
+            32,
+        ),
+    ] {
+        let src = format!("PROGRAM p\nVAR i, n : INT; END_VAR\n{src}\nEND_PROGRAM");
+        let (_, d) = diags_of(&src);
+        assert_eq!(
+            d,
+            format!("t.st:4:{col}: error[E190]: pointers and references (^) are not supported\n"),
+            "{src}"
+        );
+    }
+    // Any error in a header: the block is still read to its END_IF.
+    let (_, d) =
+        diags_of("PROGRAM p\nVAR n : INT; END_VAR\nIF n = THEN n := 1; END_IF;\nEND_PROGRAM");
+    assert_eq!(
+        d,
+        "t.st:3:8: error[E010]: expected an expression, found `THEN`\n"
+    );
+}
