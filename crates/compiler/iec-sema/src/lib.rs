@@ -30,6 +30,10 @@ pub use stdlib::{is_standard_function, standard_fbs, STANDARD_FUNCTIONS};
 pub struct Options {
     /// Function blocks implemented in Rust, beside the standard ones (e.g. DSP blocks).
     pub natives: Vec<ir::NativeSig>,
+    /// A library checked alone (`petriplc check`), not a program built to run: a
+    /// VAR_EXTERNAL whose VAR_GLOBAL is not among the sources is the warning W021 (the
+    /// project using the library declares it), not the error E106.
+    pub library: bool,
 }
 
 /// Checks a library. Returns the lowered project when there is no error, and every

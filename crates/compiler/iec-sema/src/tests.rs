@@ -73,7 +73,7 @@ FOR i := 1 TO k DO i := 2; END_FOR;
 END_PROGRAM",
         &[
             "t.st:5:1: error[E121]: `k` is a CONSTANT",
-            "t.st:6:1: error[E122]: `go` is an input of this POU",
+            "t.st:6:1: warning[W020]: `go` is an input of this POU: assigning it changes this POU's copy",
             "t.st:7:20: error[E123]: `i` controls the FOR loop",
         ],
     );
@@ -151,6 +151,46 @@ CONFIGURATION c VAR_GLOBAL g : DINT; h : INT; END_VAR END_CONFIGURATION",
             "error[E106]: VAR_EXTERNAL g is INT but the global variable is DINT",
             "error[E100]: `h` is not declared; it is a global variable: declare it in the POU's VAR_EXTERNAL",
         ],
+    );
+}
+
+#[test]
+fn a_library_checked_alone_warns_of_its_missing_globals() {
+    let src = "FUNCTION_BLOCK ticks VAR_EXTERNAL PLC_TICKS_PER_SEC : INT; g : DINT; END_VAR
+VAR_OUTPUT t : INT; END_VAR
+t := PLC_TICKS_PER_SEC;
+END_FUNCTION_BLOCK
+CONFIGURATION c VAR_GLOBAL g : INT; END_VAR END_CONFIGURATION";
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", src);
+    let mut d = petriplc_iec_syntax::Diagnostics::new();
+    let lib = parser::parse(f, src, &mut d);
+    let library = Options {
+        library: true,
+        ..Options::default()
+    };
+    let (_, alone) = check(&lib, &library);
+    let alone = alone.render(&map);
+    // The missing global is a warning; a global of another type stays an error.
+    let lines: Vec<&str> = alone.lines().collect();
+    assert_eq!(lines.len(), 2, "{alone}");
+    assert!(
+        lines[0].contains("t.st:1:35: warning[W021]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL of that name among these sources"),
+        "{alone}"
+    );
+    assert!(
+        lines[1].contains("error[E106]: VAR_EXTERNAL g is DINT but the global variable is INT"),
+        "{alone}"
+    );
+    // Built to run, the missing global is an error.
+    let (p, built) = check(&lib, &Options::default());
+    assert!(p.is_none());
+    assert!(
+        built
+            .render(&map)
+            .contains("t.st:1:35: error[E106]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL"),
+        "{}",
+        built.render(&map)
     );
 }
 

@@ -57,7 +57,8 @@ codes! {
     TYPE_TOO_DEEP = "E116",
     NOT_ASSIGNABLE = "E120",
     ASSIGN_CONSTANT = "E121",
-    ASSIGN_INPUT = "E122",
+    // E122 (an assignment to an input of the POU) became the warning W020: the number
+    // stays unused.
     ASSIGN_LOOP_VAR = "E123",
     BAD_ARGUMENTS = "E130",
     NOT_CALLABLE = "E131",
@@ -74,6 +75,8 @@ codes! {
     SHADOWS_STANDARD = "W001",
     NOT_CHECKED = "W002",
     UNUSED_RESULT = "W003",
+    ASSIGN_INPUT = "W020",
+    EXTERNAL_WITHOUT_GLOBAL = "W021",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -139,11 +139,19 @@ pub struct Checked {
     pub warnings: Vec<String>,
 }
 
-/// Checks sources: every error at once, rendered, or the project and its warnings.
+/// Checks sources: every error at once, rendered, or the project and its warnings. The
+/// sources may be a library checked alone: a VAR_EXTERNAL whose global is elsewhere is a
+/// warning here (W021), an error when a program is built ([`build`]).
 pub fn check(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> {
+    check_as(sources, natives, true)
+}
+
+/// [`check`], of a `library` or of a program to run.
+fn check_as(sources: &Sources, natives: &Natives, library: bool) -> Result<Checked, IecError> {
     let mut all = sources.diags.clone();
     let options = sema::Options {
         natives: natives.extra_signatures(),
+        library,
     };
     // A source with syntax errors is not checked further (its tree is partial).
     let project = if all.has_errors() {
@@ -266,7 +274,7 @@ fn list(names: &[&str]) -> String {
 
 /// Checks and compiles sources for what `select` names.
 pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Build, IecError> {
-    let checked = check(sources, &natives)?;
+    let checked = check_as(sources, &natives, false)?;
     let specs = instances(&checked.project, select, &sources.map)?;
     #[cfg_attr(not(feature = "jit"), allow(unused_mut))]
     let mut engine = Engine::new(checked.project, &specs, natives.fbs, &sources.map)?;
