@@ -45,6 +45,8 @@ pub(crate) struct Cx {
     pub for_vars: Vec<VarId>,
     /// In a declaration: only constants may be read.
     pub const_only: bool,
+    /// VAR CONSTANTs of the POU being read ahead of their declaration (`later_constant`).
+    pub ahead: Vec<String>,
 }
 
 impl Cx {
@@ -57,6 +59,7 @@ impl Cx {
             loops: 0,
             for_vars: Vec::new(),
             const_only: false,
+            ahead: Vec::new(),
         }
     }
 }

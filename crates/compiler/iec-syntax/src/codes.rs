@@ -187,6 +187,10 @@ pub const CODES: &[Entry] = &[
       "Warning of `petriplc check`: a library's POUs (OSCAT's `PLC_TICKS_PER_SEC`) name globals that the configuration using them declares. Building a program to run (`build`, `sim`, `module … iec`) without that global is the error E106. (No example: the examples are built.)",
       "",
       "declare the global in the configuration or a global variable list that uses the library."),
+    e("W022", "a bit string converted implicitly to a number",
+      "Warning: a BYTE, WORD or DWORD where an integer or real type that holds all its values is needed (BYTE for INT, WORD for DINT or REAL, DWORD for LINT or LREAL). CODESYS and TwinCAT convert it implicitly and so does petriplc; the standard wants the conversion written.",
+      "PROGRAM p\nVAR b : BYTE; i : INT; END_VAR\ni := b;\nEND_PROGRAM",
+      "write the conversion (`BYTE_TO_INT(b)`)."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

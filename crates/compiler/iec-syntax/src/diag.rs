@@ -77,6 +77,7 @@ codes! {
     UNUSED_RESULT = "W003",
     ASSIGN_INPUT = "W020",
     EXTERNAL_WITHOUT_GLOBAL = "W021",
+    IMPLICIT_BITS_TO_NUMBER = "W022",
 }
 
 /// Diagnostics collected by a stage, in the order found.

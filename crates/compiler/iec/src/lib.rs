@@ -146,6 +146,12 @@ pub fn check(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> 
     check_as(sources, natives, true)
 }
 
+/// Checks sources that are to run (the `iec` module, `petriplc sim`): [`check`], but a
+/// VAR_EXTERNAL whose global is missing is the error E106, as in [`build`].
+pub fn check_to_run(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> {
+    check_as(sources, natives, false)
+}
+
 /// [`check`], of a `library` or of a program to run.
 fn check_as(sources: &Sources, natives: &Natives, library: bool) -> Result<Checked, IecError> {
     let mut all = sources.diags.clone();
@@ -306,4 +312,35 @@ pub fn build_text(name: &str, text: &str, select: &Select) -> Result<Build, IecE
     let mut s = Sources::new();
     s.add_text(name, text);
     build(&s, select, Natives::default())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A library names a global its user declares: checked alone it warns, built to run it
+    /// is refused.
+    #[test]
+    fn a_missing_global_is_an_error_only_to_run() {
+        let src =
+            "FUNCTION_BLOCK ticks VAR_EXTERNAL PLC_TICKS_PER_SEC : INT; END_VAR END_FUNCTION_BLOCK
+PROGRAM main VAR t : ticks; END_VAR t(); END_PROGRAM";
+        let mut s = Sources::new();
+        s.add_text("lib.st", src);
+        let checked = check(&s, &Natives::default()).expect("checks as a library");
+        assert_eq!(checked.warnings.len(), 1, "{:?}", checked.warnings);
+        assert!(checked.warnings[0].contains("lib.st:1:36: warning[W021]"));
+        for e in [
+            check_to_run(&s, &Natives::default()).err(),
+            build(&s, &Select::Auto, Natives::default()).err(),
+        ] {
+            let e = e.expect("refused to run").to_string();
+            assert!(
+                e.contains(
+                    "lib.st:1:36: error[E106]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL"
+                ),
+                "{e}"
+            );
+        }
+    }
 }

@@ -13,9 +13,9 @@ use petriplc_iec::{check, Natives, Sources};
 
 /// Files accepted per flavour, at least: raise these when more is accepted, never lower them.
 const ACCEPTED_AT_LEAST: &[(&str, usize)] = &[
-    ("oscat_basic", 437),
-    ("oscat_building", 44),
-    ("tcoscat", 196),
+    ("oscat_basic", 514),
+    ("oscat_building", 49),
+    ("tcoscat", 235),
 ];
 
 /// One manifest entry: the file and the files defining what it uses, in dependency order.
