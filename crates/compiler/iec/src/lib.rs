@@ -329,7 +329,11 @@ PROGRAM main VAR t : ticks; END_VAR t(); END_PROGRAM";
         s.add_text("lib.st", src);
         let checked = check(&s, &Natives::default()).expect("checks as a library");
         assert_eq!(checked.warnings.len(), 1, "{:?}", checked.warnings);
-        assert!(checked.warnings[0].contains("lib.st:1:36: warning[W021]"));
+        assert!(
+            checked.warnings[0].contains("lib.st:1:35: warning[W021]"),
+            "{:?}",
+            checked.warnings
+        );
         for e in [
             check_to_run(&s, &Natives::default()).err(),
             build(&s, &Select::Auto, Natives::default()).err(),
@@ -337,7 +341,7 @@ PROGRAM main VAR t : ticks; END_VAR t(); END_PROGRAM";
             let e = e.expect("refused to run").to_string();
             assert!(
                 e.contains(
-                    "lib.st:1:36: error[E106]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL"
+                    "lib.st:1:35: error[E106]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL"
                 ),
                 "{e}"
             );
