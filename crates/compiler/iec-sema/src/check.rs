@@ -45,6 +45,8 @@ pub(crate) struct Cx {
     pub for_vars: Vec<VarId>,
     /// In a declaration: only constants may be read.
     pub const_only: bool,
+    /// VAR CONSTANTs of the POU being read ahead of their declaration (`later_constant`).
+    pub ahead: Vec<String>,
 }
 
 impl Cx {
@@ -57,6 +59,7 @@ impl Cx {
             loops: 0,
             for_vars: Vec::new(),
             const_only: false,
+            ahead: Vec::new(),
         }
     }
 }
@@ -101,6 +104,8 @@ pub(crate) struct Checker<'a> {
     pub(crate) shapes: HashMap<TypeId, Shape>,
     /// Per POU: depth and size of its variables (a function block's instance).
     pub(crate) fb_shapes: Vec<Shape>,
+    /// `Options::library`.
+    pub(crate) library: bool,
 }
 
 impl<'a> Checker<'a> {
@@ -136,6 +141,7 @@ impl<'a> Checker<'a> {
             too_deep_reported: false,
             shapes: HashMap::new(),
             fb_shapes: Vec::new(),
+            library: options.library,
         }
     }
 

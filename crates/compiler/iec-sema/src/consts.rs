@@ -420,6 +420,16 @@ impl Checker<'_> {
                 };
                 Value::Int(ops::shift(b, x, n, e)?)
             }
+            Builtin::BcdToInt | Builtin::IntToBcd => {
+                let (Some(x), Some(to)) = (v[0].as_int(), elem(rt)) else {
+                    return Ok(None);
+                };
+                Value::Int(if b == Builtin::BcdToInt {
+                    ops::from_bcd(x, to)?
+                } else {
+                    ops::to_bcd(x, to)?
+                })
+            }
             Builtin::Len => match &v[0] {
                 Value::Str(s) => Value::Int(s.len() as i128),
                 _ => return Ok(None),

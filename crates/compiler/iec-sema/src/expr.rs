@@ -10,6 +10,7 @@ use crate::ir::{Expr, ExprKind, Place, VarId};
 use crate::types::{ids, Type, TypeId, TypeTable};
 use crate::value::Value;
 
+mod bcd;
 mod builtin;
 mod call;
 mod name;
@@ -37,6 +38,9 @@ fn konst(v: Value, ty: TypeId, span: Span) -> Expr {
 struct StdArg<'e> {
     expr: &'e ast::Expr,
     span: Span,
+    /// In a typed form (`LIMIT_INT`): the type the argument must convert to implicitly, and
+    /// what to call it in a message.
+    typed: Option<(TypeId, String)>,
 }
 
 impl<'a> Checker<'a> {

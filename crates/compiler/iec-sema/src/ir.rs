@@ -328,6 +328,10 @@ pub enum Builtin {
     DtToTod,
     /// DT → DATE
     DtToDate,
+    /// BCD digits (a bit string) → the integer they spell: `WORD_BCD_TO_INT`.
+    BcdToInt,
+    /// An integer → its BCD digits (a bit string): `INT_TO_BCD_WORD`.
+    IntToBcd,
 }
 
 impl Builtin {
@@ -367,6 +371,8 @@ impl Builtin {
             Builtin::ConcatDateTod => "CONCAT_DATE_TOD",
             Builtin::DtToTod => "DT_TO_TOD",
             Builtin::DtToDate => "DT_TO_DATE",
+            Builtin::BcdToInt => "BCD_TO_*",
+            Builtin::IntToBcd => "*_TO_BCD",
         }
     }
 }

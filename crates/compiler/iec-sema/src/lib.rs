@@ -32,6 +32,10 @@ pub struct Options {
     pub natives: Vec<ir::NativeSig>,
     /// Whose names the standard function blocks' inputs have ([`standard_fbs_in`]).
     pub dialect: petriplc_iec_syntax::Dialect,
+    /// A library checked alone (`petriplc check`), not a program built to run: a
+    /// VAR_EXTERNAL whose VAR_GLOBAL is not among the sources is the warning W021 (the
+    /// project using the library declares it), not the error E106.
+    pub library: bool,
 }
 
 /// Checks a library. Returns the lowered project when there is no error, and every

@@ -84,6 +84,53 @@ pub fn int_binary(op: BinaryOp, a: i128, b: i128, e: Elem) -> OpResult<i128> {
     }
 }
 
+/// The integer that BCD digits spell (four bits a decimal digit, the lowest first), in the
+/// integer type `to`. A group above 9 spells no digit, and a number too large for `to` has no
+/// value: both are conversion errors (CODESYS's BCD_TO_INT returns -1 instead, a value the
+/// program could take for a reading).
+pub fn from_bcd(bits: i128, to: Elem) -> OpResult<i128> {
+    let (mut x, mut r, mut scale) = (bits, 0i128, 1i128);
+    if x < 0 {
+        return Err(OpError::Conversion);
+    }
+    while x != 0 {
+        let digit = x & 15;
+        if digit > 9 {
+            return Err(OpError::Conversion);
+        }
+        r += digit * scale;
+        scale *= 10;
+        x >>= 4;
+    }
+    if fits(r, to) {
+        Ok(r)
+    } else {
+        Err(OpError::Conversion)
+    }
+}
+
+/// The BCD digits of an integer in the bit string `to`: a negative number, or one with more
+/// digits than `to` holds (2 a BYTE … 16 an LWORD), is a conversion error.
+pub fn to_bcd(v: i128, to: Elem) -> OpResult<i128> {
+    if v < 0 {
+        return Err(OpError::Conversion);
+    }
+    let (mut x, mut r, mut shift) = (v, 0i128, 0u32);
+    while x != 0 {
+        if shift >= 64 {
+            return Err(OpError::Conversion);
+        }
+        r |= (x % 10) << shift;
+        x /= 10;
+        shift += 4;
+    }
+    if fits(r, to) {
+        Ok(r)
+    } else {
+        Err(OpError::Conversion)
+    }
+}
+
 /// Rounds to the type's precision: REAL is single precision, so an LREAL beyond its range
 /// becomes ±Inf, as IEC 60559 rounds.
 pub fn real_result(v: f64, e: Elem) -> f64 {
@@ -561,6 +608,33 @@ pub fn real_fn(b: crate::ir::Builtin, x: f64, e: Elem) -> f64 {
 mod tests {
     use super::*;
     use crate::ir::Builtin;
+
+    #[test]
+    fn bcd_digits() {
+        assert_eq!(from_bcd(0x1234, Elem::Int), Ok(1234));
+        assert_eq!(from_bcd(0x99, Elem::Usint), Ok(99));
+        assert_eq!(from_bcd(0, Elem::Int), Ok(0));
+        assert_eq!(
+            from_bcd(0x9999_9999_9999_9999, Elem::Ulint),
+            Ok(9_999_999_999_999_999)
+        );
+        // A group above 9, or a number the target cannot hold.
+        assert_eq!(from_bcd(0x12A4, Elem::Int), Err(OpError::Conversion));
+        assert_eq!(from_bcd(0x0010_0000, Elem::Int), Err(OpError::Conversion));
+        assert_eq!(to_bcd(1234, Elem::Word), Ok(0x1234));
+        assert_eq!(to_bcd(99, Elem::Byte), Ok(0x99));
+        assert_eq!(to_bcd(0, Elem::Byte), Ok(0));
+        assert_eq!(to_bcd(100, Elem::Byte), Err(OpError::Conversion));
+        assert_eq!(to_bcd(-1, Elem::Word), Err(OpError::Conversion));
+        assert_eq!(
+            to_bcd(9_999_999_999_999_999, Elem::Lword),
+            Ok(0x9999_9999_9999_9999)
+        );
+        assert_eq!(
+            to_bcd(10_000_000_000_000_000, Elem::Lword),
+            Err(OpError::Conversion)
+        );
+    }
 
     #[test]
     fn integer_rules() {

@@ -81,10 +81,72 @@ pub const STANDARD_FUNCTIONS: &[&str] = &[
     "DIV_LTIME",
 ];
 
-/// Whether `name` is a standard function (case-insensitive), conversions included.
+/// The overloaded standard functions that also have typed forms `F_T` (the standard's
+/// "typed" functions, as matiec has them: `SHR_DWORD`, `LIMIT_INT`, `EQ_STRING`…).
+const TYPED_GENERICS: &[&str] = &[
+    "ABS", "SQRT", "LN", "LOG", "EXP", "SIN", "COS", "TAN", "ASIN", "ACOS", "ATAN", "ATAN2",
+    "EXPT", "ADD", "SUB", "MUL", "DIV", "MOD", "MOVE", "SEL", "MAX", "MIN", "LIMIT", "MUX", "GT",
+    "GE", "EQ", "LE", "LT", "NE", "SHL", "SHR", "ROL", "ROR", "AND", "OR", "XOR", "NOT",
+];
+
+/// Whether `name` is a standard function (case-insensitive), conversions and typed forms
+/// included.
 pub fn is_standard_function(name: &str) -> bool {
     let n = name.to_ascii_uppercase();
-    STANDARD_FUNCTIONS.contains(&n.as_str()) || conversion_of(&n).is_some()
+    STANDARD_FUNCTIONS.contains(&n.as_str())
+        || conversion_of(&n).is_some()
+        || typed_form(&n).is_some()
+        || bcd_conversion(&n).is_some()
+}
+
+/// A typed form `F_T` of an overloaded standard function: (F, T), T an elementary type name
+/// or STRING. The names the standard lists whole (`ADD_TIME`, `SUB_DATE_DATE`…) are not
+/// typed forms.
+pub(crate) fn typed_form(name: &str) -> Option<(&'static str, String)> {
+    let n = name.to_ascii_uppercase();
+    if STANDARD_FUNCTIONS.contains(&n.as_str()) {
+        return None;
+    }
+    let (f, t) = n.split_once('_')?;
+    let generic = TYPED_GENERICS.iter().find(|g| **g == f)?;
+    (Elem::from_name(t).is_some() || t == "STRING").then(|| (*generic, t.to_string()))
+}
+
+/// A BCD conversion's name: `WORD_BCD_TO_INT` and `BCD_TO_INT` decode, `INT_TO_BCD_WORD`
+/// and `INT_TO_BCD` encode (the standard's table of BCD conversions); `None` where the
+/// name leaves the type to the argument or the context.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct BcdName {
+    pub decode: bool,
+    pub from: Option<String>,
+    pub to: Option<String>,
+}
+
+pub(crate) fn bcd_conversion(name: &str) -> Option<BcdName> {
+    let n = name.to_ascii_uppercase();
+    let some = |s: &str| Some(s.to_string());
+    let (decode, from, to) = if let Some(to) = n.strip_prefix("BCD_TO_") {
+        (true, None, some(to))
+    } else if let Some((from, to)) = n.split_once("_BCD_TO_") {
+        (true, some(from), some(to))
+    } else if let Some(from) = n.strip_suffix("_TO_BCD") {
+        (false, some(from), None)
+    } else if let Some((from, to)) = n.split_once("_TO_BCD_") {
+        (false, some(from), some(to))
+    } else {
+        return None;
+    };
+    Some(BcdName { decode, from, to })
+}
+
+/// Whether the parameter at `index` of the typed form of `generic` has the form's type
+/// (the others keep theirs: a shift's N, SEL's G, MUX's K, EXPT's exponent).
+pub(crate) fn typed_param(generic: &str, index: usize) -> bool {
+    match generic {
+        "SHL" | "SHR" | "ROL" | "ROR" | "EXPT" => index == 0,
+        "SEL" | "MUX" => index >= 1,
+        _ => true,
+    }
 }
 
 /// The target of a conversion function name: `INT_TO_REAL` → (Some(INT), "REAL"),
@@ -284,5 +346,40 @@ mod tests {
         assert_eq!(conversion_of("MAX"), None);
         assert!(is_standard_function("limit"));
         assert!(is_standard_function("WORD_TO_BOOL"));
+    }
+
+    #[test]
+    fn typed_and_bcd_names() {
+        assert_eq!(typed_form("shr_dword"), Some(("SHR", "DWORD".into())));
+        assert_eq!(typed_form("SEL_STRING"), Some(("SEL", "STRING".into())));
+        assert_eq!(
+            typed_form("LIMIT_TIME_OF_DAY"),
+            Some(("LIMIT", "TIME_OF_DAY".into()))
+        );
+        // Whole names of the standard, and names that are not a function and a type.
+        assert_eq!(typed_form("ADD_TIME"), None);
+        assert_eq!(typed_form("SUB_DATE_DATE"), None);
+        assert_eq!(typed_form("SHR_FOO"), None);
+        assert_eq!(typed_form("LEFT_STRING"), None);
+        assert!(is_standard_function("eq_string"));
+        let bcd = |decode, from: Option<&str>, to: Option<&str>| {
+            Some(BcdName {
+                decode,
+                from: from.map(str::to_string),
+                to: to.map(str::to_string),
+            })
+        };
+        assert_eq!(
+            bcd_conversion("WORD_BCD_TO_UINT"),
+            bcd(true, Some("WORD"), Some("UINT"))
+        );
+        assert_eq!(bcd_conversion("bcd_to_int"), bcd(true, None, Some("INT")));
+        assert_eq!(bcd_conversion("INT_TO_BCD"), bcd(false, Some("INT"), None));
+        assert_eq!(
+            bcd_conversion("UDINT_TO_BCD_DWORD"),
+            bcd(false, Some("UDINT"), Some("DWORD"))
+        );
+        assert_eq!(bcd_conversion("INT_TO_WORD"), None);
+        assert!(is_standard_function("BYTE_BCD_TO_USINT"));
     }
 }

@@ -73,7 +73,7 @@ FOR i := 1 TO k DO i := 2; END_FOR;
 END_PROGRAM",
         &[
             "t.st:5:1: error[E121]: `k` is a CONSTANT",
-            "t.st:6:1: error[E122]: `go` is an input of this POU",
+            "t.st:6:1: warning[W020]: `go` is an input of this POU: assigning it changes this POU's copy",
             "t.st:7:20: error[E123]: `i` controls the FOR loop",
         ],
     );
@@ -151,6 +151,46 @@ CONFIGURATION c VAR_GLOBAL g : DINT; h : INT; END_VAR END_CONFIGURATION",
             "error[E106]: VAR_EXTERNAL g is INT but the global variable is DINT",
             "error[E100]: `h` is not declared; it is a global variable: declare it in the POU's VAR_EXTERNAL",
         ],
+    );
+}
+
+#[test]
+fn a_library_checked_alone_warns_of_its_missing_globals() {
+    let src = "FUNCTION_BLOCK ticks VAR_EXTERNAL PLC_TICKS_PER_SEC : INT; g : DINT; END_VAR
+VAR_OUTPUT t : INT; END_VAR
+t := PLC_TICKS_PER_SEC;
+END_FUNCTION_BLOCK
+CONFIGURATION c VAR_GLOBAL g : INT; END_VAR END_CONFIGURATION";
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", src);
+    let mut d = petriplc_iec_syntax::Diagnostics::new();
+    let lib = parser::parse(f, src, &mut d);
+    let library = Options {
+        library: true,
+        ..Options::default()
+    };
+    let (_, alone) = check(&lib, &library);
+    let alone = alone.render(&map);
+    // The missing global is a warning; a global of another type stays an error.
+    let lines: Vec<&str> = alone.lines().collect();
+    assert_eq!(lines.len(), 2, "{alone}");
+    assert!(
+        lines[0].contains("t.st:1:35: warning[W021]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL of that name among these sources"),
+        "{alone}"
+    );
+    assert!(
+        lines[1].contains("error[E106]: VAR_EXTERNAL g is DINT but the global variable is INT"),
+        "{alone}"
+    );
+    // Built to run, the missing global is an error.
+    let (p, built) = check(&lib, &Options::default());
+    assert!(p.is_none());
+    assert!(
+        built
+            .render(&map)
+            .contains("t.st:1:35: error[E106]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL"),
+        "{}",
+        built.render(&map)
     );
 }
 
@@ -299,6 +339,49 @@ END_PROGRAM",
 }
 
 #[test]
+fn typed_standard_functions_are_their_generic_with_typed_arguments() {
+    check_ok(&prog(
+        "d : DWORD; w : WORD; b : BYTE; i : INT; si : SINT; r : REAL; lr : LREAL; t : TIME;
+         s : STRING[10]; x : BOOL; k : INT;",
+        "d := SHR_DWORD(d, 3); d := SHL_DWORD(w, i); b := SHL_BYTE(b, 1); w := ROL_WORD(w, 4);
+         d := ROR_DWORD(16#F, 4); i := LIMIT_INT(0, si, 100); r := LIMIT_REAL(0.0, r, 1.0);
+         t := SEL_TIME(x, T#1s, t); r := SEL_REAL(x, 1, r); s := SEL_STRING(x, s, 'ab');
+         i := MIN_INT(i, si, 3); i := MAX_INT(IN1 := i, IN2 := 7); x := EQ_STRING(s, 'ab');
+         x := GT_REAL(r, 0.5, 0.25); i := ADD_INT(i, si, 1); r := MUL_REAL(r, 2);
+         i := MOVE_INT(si); r := ABS_REAL(r); lr := SQRT_LREAL(r); i := MUX_INT(k, i, si);
+         b := AND_BYTE(b, 16#0F); x := NOT_BOOL(x); i := MOD_INT(i, 3); lr := EXPT_LREAL(lr, 2);",
+    ));
+}
+
+#[test]
+fn typed_standard_functions_refuse_arguments_of_other_types() {
+    check_errors(
+        &prog(
+            "d : DWORD; i : INT; di : DINT; r : REAL; s : STRING; x : BOOL;",
+            "d := SHR_DWORD(i, 3);
+i := LIMIT_INT(0, di, 10);
+x := EQ_STRING(s, i);
+r := SEL_REAL(x, r, 1.5, 2.0);
+i := ADD_INT(i, r);
+r := SQRT_INT(i);",
+        ),
+        &[
+            "t.st:5:16: error[E110]: argument 1 of SHR_DWORD is INT but DWORD is needed; convert explicitly: INT_TO_DWORD(…)",
+            "t.st:6:19: error[E110]: argument 2 of LIMIT_INT is DINT but INT is needed",
+            "t.st:7:19: error[E110]: argument 2 of EQ_STRING is INT but STRING",
+            "t.st:8:26: error[E130]: SEL_REAL takes 3 argument(s) (G, IN0, IN1)",
+            "t.st:9:17: error[E110]: argument 2 of ADD_INT is REAL but INT is needed",
+            "t.st:10:15: error[E110]: SQRT_INT takes REAL or LREAL, not INT",
+        ],
+    );
+    // A function and a type that make no typed form stay unknown.
+    check_errors(
+        &prog("i : INT;", "i := LEN_FOO(i);"),
+        &["t.st:5:6: error[E102]: unknown function `LEN_FOO`"],
+    );
+}
+
+#[test]
 fn wide_strings_and_characters_are_unsupported_not_unknown() {
     // All four parse (STRING(n) as PCWorx and CODESYS write it); the checker says what the
     // engine cannot hold yet.
@@ -312,6 +395,37 @@ END_PROGRAM",
             "E190]: WSTRING is not supported; use STRING",
             "E190]: CHAR is not supported; use BYTE or STRING[1]",
             "E190]: WCHAR is not supported; use WORD",
+        ],
+    );
+}
+
+#[test]
+fn bcd_conversions() {
+    let p = check_ok(&prog(
+        "w : WORD; b : BYTE; d : DWORD; i : INT; u : UINT; us : USINT; di : DINT;",
+        "i := WORD_BCD_TO_INT(w); u := BCD_TO_UINT(w); us := BYTE_BCD_TO_USINT(b);
+         w := INT_TO_BCD_WORD(i); b := USINT_TO_BCD(us); d := DINT_TO_BCD(di);
+         w := UINT_TO_BCD(u); i := BCD_TO_INT(16#1234); w := INT_TO_BCD_WORD(1234);",
+    ));
+    // Constant arguments fold to their values.
+    let body = format!("{:?}", p.pous[0].body);
+    assert!(
+        body.contains("Int(1234)") && body.contains("Int(4660)"),
+        "{body}"
+    );
+    check_errors(
+        &prog(
+            "w : WORD; i : INT; r : REAL;",
+            "i := INT_BCD_TO_WORD(i);
+i := BCD_TO_INT(i);
+w := REAL_TO_BCD(r);
+i := BCD_TO_INT(16#12A4);",
+        ),
+        &[
+            "t.st:5:6: error[E102]: unknown function `INT_BCD_TO_WORD`: INT has no place here",
+            "t.st:6:17: error[E110]: BCD_TO_INT takes a bit string (BYTE, WORD, DWORD, LWORD) of BCD digits, not INT",
+            "t.st:7:6: error[E102]: unknown function `REAL_TO_BCD`: REAL has no place here",
+            "t.st:8:6: error[E113]",
         ],
     );
 }
@@ -340,4 +454,93 @@ END_PROGRAM";
         "{d}"
     );
     assert!(lines[1].starts_with("t.st:6:14: warning[W012]"), "{d}");
+}
+
+#[test]
+fn and_or_xor_not_as_functions() {
+    check_ok(&prog(
+        "a, b, c : BOOL; w, v : WORD; i : INT;",
+        "a := AND(a, b, c); b := OR(IN1 := a, IN2 := b); c := XOR(a, b) AND NOT(c);
+         w := AND(w, v, 16#FF00); v := OR(w, 1); w := XOR(w, v); v := NOT(IN := w);
+         i := MOD(i, 4) + 1;",
+    ));
+    check_errors(
+        &prog("a : BOOL; i : INT;", "a := AND(a, i);"),
+        &["t.st:5:6: error[E111]"],
+    );
+}
+
+#[test]
+fn arithmetic_on_bit_strings() {
+    let p = check_ok(&prog(
+        "b : BYTE; w : WORD; d : DWORD; l : LWORD; i : INT; si : SINT; di : DINT; u : UINT;
+         c : BYTE := BYTE#255 + 1; e : DWORD := DWORD#16#10 - 16#20; k : BOOL;",
+        "b := b + 1; w := w * 3 - b; d := d / 16#10 MOD 7; l := l + w; w := w * u;
+         i := b + i; d := d - i; d := d + di; di := di + w; k := b < i; d := SHR(d, 2) * 10;",
+    ));
+    // Constants wrap around in the bit string's width.
+    let init = format!("{:?}", p.pous[0].vars);
+    assert!(
+        init.contains("Int(0)") && init.contains("Int(4294967280)"),
+        "{init}"
+    );
+    check_errors(
+        &prog(
+            "w : WORD; i : INT; r : REAL; b : BOOL; d : DWORD;",
+            "i := w + i;\nb := w < i;\nr := d * r;\nw := w ** 2;",
+        ),
+        &[
+            "t.st:5:6: error[E110]: the value assigned to `i` is WORD but INT is needed",
+            "t.st:6:6: error[E111]",
+            "t.st:7:6: error[E111]",
+            "t.st:8:6: error[E111]",
+        ],
+    );
+}
+
+#[test]
+fn bit_strings_convert_implicitly_to_numbers_that_hold_them() {
+    check_errors(
+        &prog(
+            "b : BYTE; w : WORD; d : DWORD; i : INT; di : DINT; r : REAL; lr : LREAL; si : SINT;",
+            "i := b;\ndi := w;\nr := r * b;\nlr := d;\nsi := b;\nr := d;",
+        ),
+        &[
+            "t.st:5:6: warning[W022]: the value assigned to `i` is BYTE, converted to INT implicitly as CODESYS does; the standard wants BYTE_TO_INT(…) written",
+            "t.st:6:7: warning[W022]: the value assigned to `di` is WORD, converted to DINT",
+            "t.st:7:10: warning[W022]: this operand is BYTE, converted to REAL",
+            "t.st:8:7: warning[W022]: the value assigned to `lr` is DWORD, converted to LREAL",
+            "t.st:9:7: error[E110]: the value assigned to `si` is BYTE but SINT is needed",
+            "t.st:10:6: error[E110]: the value assigned to `r` is DWORD but REAL is needed",
+        ],
+    );
+}
+
+#[test]
+fn a_constant_may_be_used_above_its_declaration() {
+    let p = check_ok(
+        "FUNCTION_BLOCK fifo
+VAR buf : ARRAY[0..n] OF DWORD; s : STRING[len * 2]; END_VAR
+VAR CONSTANT n : INT := m + 1; m : INT := 15; len : INT := 4; END_VAR
+buf[n] := 1;
+END_FUNCTION_BLOCK
+PROGRAM p VAR f : fifo; END_VAR f(); END_PROGRAM",
+    );
+    let fifo = &p.pous[0];
+    let buf = p.types.name(fifo.vars[0].ty);
+    assert_eq!(buf, "ARRAY[0..16] OF DWORD");
+    assert_eq!(p.types.name(fifo.vars[1].ty), "STRING[8]");
+    // Defined through itself, or not a constant: still refused, once.
+    check_errors(
+        "PROGRAM q
+VAR a : ARRAY[0..k] OF INT; b : ARRAY[0..v] OF INT; END_VAR
+VAR CONSTANT k : INT := k + 1; END_VAR
+VAR v : INT := 3; END_VAR
+END_PROGRAM",
+        &[
+            "t.st:2:18: error[E100]: `k` is not declared",
+            "t.st:2:42: error[E100]: `v` is not declared",
+            "t.st:3:25: error[E100]: `k` is not declared",
+        ],
+    );
 }

@@ -58,7 +58,8 @@ codes! {
     TYPE_TOO_DEEP = "E116",
     NOT_ASSIGNABLE = "E120",
     ASSIGN_CONSTANT = "E121",
-    ASSIGN_INPUT = "E122",
+    // E122 (an assignment to an input of the POU) became the warning W020: the number
+    // stays unused.
     ASSIGN_LOOP_VAR = "E123",
     BAD_ARGUMENTS = "E130",
     NOT_CALLABLE = "E131",
@@ -78,6 +79,9 @@ codes! {
     PRAGMA_IGNORED = "W010",
     PRAGMA_WARNING = "W011",
     CONSTANT_WITHOUT_VALUE = "W012",
+    ASSIGN_INPUT = "W020",
+    EXTERNAL_WITHOUT_GLOBAL = "W021",
+    IMPLICIT_BITS_TO_NUMBER = "W022",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -157,6 +157,15 @@ pub enum ExtOp {
         a: u32,
         b: u32,
     },
+    /// BCD digits of the bit string `from` to the integer type `to` (`decode`), or an
+    /// integer of type `from` to BCD digits in the bit string `to`.
+    Bcd {
+        d: u32,
+        s: u32,
+        from: Elem,
+        to: Elem,
+        decode: bool,
+    },
     /// A FOR loop's step must not be 0.
     NonZeroStep {
         s: u32,
@@ -534,6 +543,33 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             let date = int(mem, base, *a).div_euclid(NANOS_PER_DAY) * NANOS_PER_DAY;
             let r = date + int(mem, base, *b).rem_euclid(NANOS_PER_DAY);
             mem[base + *d as usize] = r as i64 as u64;
+        }
+        ExtOp::Bcd {
+            d,
+            s,
+            from,
+            to,
+            decode,
+        } => {
+            let v = get_value(slot(mem, base, *s), *from).as_int().unwrap_or(0);
+            let r = if *decode {
+                ops::from_bcd(v, *to).map_err(|e| {
+                    let (f, t) = (from.name(), to.name());
+                    fault(
+                        e,
+                        format!("{f}_BCD_TO_{t}(16#{v:X}): not BCD digits, or more than {t} holds"),
+                    )
+                })?
+            } else {
+                ops::to_bcd(v, *to).map_err(|e| {
+                    let (f, t) = (from.name(), to.name());
+                    fault(
+                        e,
+                        format!("{f}_TO_BCD_{t}({v}): negative, or more digits than {t} holds"),
+                    )
+                })?
+            };
+            mem[base + *d as usize] = put_value(&Value::Int(r), *to);
         }
     }
     Ok(())

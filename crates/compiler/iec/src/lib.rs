@@ -184,12 +184,26 @@ pub struct Checked {
     pub warnings: Vec<String>,
 }
 
-/// Checks sources: every error at once, rendered, or the project and its warnings.
+/// Checks sources: every error at once, rendered, or the project and its warnings. The
+/// sources may be a library checked alone: a VAR_EXTERNAL whose global is elsewhere is a
+/// warning here (W021), an error when a program is built ([`build`]).
 pub fn check(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> {
+    check_as(sources, natives, true)
+}
+
+/// Checks sources that are to run (the `iec` module, `petriplc sim`): [`check`], but a
+/// VAR_EXTERNAL whose global is missing is the error E106, as in [`build`].
+pub fn check_to_run(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> {
+    check_as(sources, natives, false)
+}
+
+/// [`check`], of a `library` or of a program to run.
+fn check_as(sources: &Sources, natives: &Natives, library: bool) -> Result<Checked, IecError> {
     let mut all = sources.diags.clone();
     let options = sema::Options {
         natives: natives.extra_signatures(),
         dialect: sources.dialect(),
+        library,
     };
     // A source with syntax errors is not checked further (its tree is partial).
     let project = if all.has_errors() {
@@ -313,7 +327,7 @@ fn list(names: &[&str]) -> String {
 /// Checks and compiles sources for what `select` names.
 pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Build, IecError> {
     let natives = natives.in_dialect(sources.dialect());
-    let checked = check(sources, &natives)?;
+    let checked = check_as(sources, &natives, false)?;
     let specs = instances(&checked.project, select, &sources.map)?;
     #[cfg_attr(not(feature = "jit"), allow(unused_mut))]
     let mut engine = Engine::new(checked.project, &specs, natives.fbs, &sources.map)?;
@@ -345,4 +359,39 @@ pub fn build_text(name: &str, text: &str, select: &Select) -> Result<Build, IecE
     let mut s = Sources::new();
     s.add_text(name, text);
     build(&s, select, Natives::default())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A library names a global its user declares: checked alone it warns, built to run it
+    /// is refused.
+    #[test]
+    fn a_missing_global_is_an_error_only_to_run() {
+        let src =
+            "FUNCTION_BLOCK ticks VAR_EXTERNAL PLC_TICKS_PER_SEC : INT; END_VAR END_FUNCTION_BLOCK
+PROGRAM main VAR t : ticks; END_VAR t(); END_PROGRAM";
+        let mut s = Sources::new();
+        s.add_text("lib.st", src);
+        let checked = check(&s, &Natives::default()).expect("checks as a library");
+        assert_eq!(checked.warnings.len(), 1, "{:?}", checked.warnings);
+        assert!(
+            checked.warnings[0].contains("lib.st:1:35: warning[W021]"),
+            "{:?}",
+            checked.warnings
+        );
+        for e in [
+            check_to_run(&s, &Natives::default()).err(),
+            build(&s, &Select::Auto, Natives::default()).err(),
+        ] {
+            let e = e.expect("refused to run").to_string();
+            assert!(
+                e.contains(
+                    "lib.st:1:35: error[E106]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL"
+                ),
+                "{e}"
+            );
+        }
+    }
 }

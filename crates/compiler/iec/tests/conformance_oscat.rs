@@ -13,9 +13,9 @@ use petriplc_iec::{check, Natives, Sources};
 
 /// Files accepted per flavour, at least: raise these when more is accepted, never lower them.
 const ACCEPTED_AT_LEAST: &[(&str, usize)] = &[
-    ("oscat_basic", 362),
-    ("oscat_building", 25),
-    ("tcoscat", 302),
+    ("oscat_basic", 518),
+    ("oscat_building", 52),
+    ("tcoscat", 383),
 ];
 
 /// One manifest entry: the file and the files defining what it uses, in dependency order.

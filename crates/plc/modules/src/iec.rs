@@ -271,7 +271,7 @@ impl Module for IecModule {
         {
             return Err(error(&self.name, format!("`project = {}` is not a PLCopen XML project; for Structured Text write `program = {}`", self.file, self.file)));
         }
-        let checked = petriplc_iec::check(&sources, &Natives::default())
+        let checked = petriplc_iec::check_to_run(&sources, &Natives::default())
             .map_err(|e| error(&self.name, format!("{} does not compile:\n{e}", self.file)))?;
         for w in &checked.warnings {
             log::warn!("{}: {w}", self.name);

@@ -123,6 +123,23 @@ fn a_program_that_does_not_compile_is_refused_with_every_error() {
 }
 
 #[test]
+fn a_global_the_program_needs_but_nobody_declares_is_an_error_to_run() {
+    // `petriplc check` of the same file only warns (W021): a library checked alone.
+    let dir = dir_with(&[(
+        "lib.st",
+        "PROGRAM p\nVAR_EXTERNAL PLC_TICKS_PER_SEC : INT; END_VAR\nVAR x : INT; END_VAR\nx := PLC_TICKS_PER_SEC;\nEND_PROGRAM\n",
+    )]);
+    let err = start_err(
+        "[PLC]\nmodule ctl iec\n[ctl]\nprogram = lib.st\n",
+        dir.path(),
+    );
+    assert!(
+        err.contains("lib.st:2:14: error[E106]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL"),
+        "{err}"
+    );
+}
+
+#[test]
 fn a_run_time_fault_fails_the_module_with_pou_line_and_values() {
     let src = "PROGRAM p
 VAR_INPUT d : INT; END_VAR

@@ -359,6 +359,15 @@ impl<'a> Checker<'a> {
                             }
                             VarClass::External(g)
                         }
+                        None if self.library => {
+                            // Checked as a local: nothing runs without the global (E106).
+                            self.diags.warning(
+                                diag::EXTERNAL_WITHOUT_GLOBAL,
+                                n.span,
+                                format!("VAR_EXTERNAL {} has no VAR_GLOBAL of that name among these sources; a program that uses this POU must declare `{} : {}` in a VAR_GLOBAL", n.name, n.name, self.types.name(ty)),
+                            );
+                            VarClass::Local
+                        }
                         None => {
                             self.error(
                                 diag::EXTERNAL_MISMATCH,

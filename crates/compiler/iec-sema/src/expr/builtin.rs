@@ -41,7 +41,7 @@ impl<'a> Checker<'a> {
             Replace => (&["IN1", "IN2", "L", "P"], 4, false),
             Find => (&["IN1", "IN2"], 2, false),
             ConcatDateTod => (&["IN1", "IN2"], 2, false),
-            DtToTod | DtToDate | Expt => (&["IN"], 1, false),
+            DtToTod | DtToDate | Expt | BcdToInt | IntToBcd => (&["IN"], 1, false),
         };
         let Some(args) = self.std_args(f, call, params, min, ext) else {
             return err(span);
@@ -61,8 +61,8 @@ impl<'a> Checker<'a> {
                 self.string_builtin(b, f, &args, span, cx)
             }
             ConcatDateTod => {
-                let d = self.expr(args[0].expr, cx, Some(ids::DATE));
-                let t = self.expr(args[1].expr, cx, Some(ids::TOD));
+                let d = self.std_arg(&args[0], cx, Some(ids::DATE));
+                let t = self.std_arg(&args[1], cx, Some(ids::TOD));
                 let d = self.coerce(d, ids::DATE, "CONCAT_DATE_TOD's first argument");
                 let t = self.coerce(t, ids::TOD, "CONCAT_DATE_TOD's second argument");
                 if d.ty == ids::ERROR || t.ty == ids::ERROR {
@@ -70,7 +70,7 @@ impl<'a> Checker<'a> {
                 }
                 self.fold(mk(vec![d, t], ids::DT))
             }
-            DtToTod | DtToDate | Expt => err(span),
+            DtToTod | DtToDate | Expt | BcdToInt | IntToBcd => err(span),
         }
     }
 
@@ -92,7 +92,7 @@ impl<'a> Checker<'a> {
         };
         match b {
             Abs => {
-                let x = self.expr(args[0].expr, cx, expected);
+                let x = self.std_arg(&args[0], cx, expected);
                 if x.ty == ids::ERROR {
                     return x;
                 }
@@ -122,13 +122,13 @@ impl<'a> Checker<'a> {
             Shl | Shr | Rol | Ror => {
                 let hint =
                     expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_bitstring()));
-                let x = self.expr(args[0].expr, cx, hint);
+                let x = self.std_arg(&args[0], cx, hint);
                 let x = match (self.types.get(x.ty), hint) {
                     (Type::IntLit, Some(h)) => self.coerce(x, h, f),
                     (Type::IntLit, None) => self.coerce(x, ids::DWORD, f),
                     _ => x,
                 };
-                let n = self.expr(args[1].expr, cx, Some(ids::DINT));
+                let n = self.std_arg(&args[1], cx, Some(ids::DINT));
                 if x.ty == ids::ERROR || n.ty == ids::ERROR {
                     return err(span);
                 }
@@ -175,10 +175,10 @@ impl<'a> Checker<'a> {
         };
         match b {
             Sel => {
-                let g = self.expr(args[0].expr, cx, Some(ids::BOOL));
+                let g = self.std_arg(&args[0], cx, Some(ids::BOOL));
                 let g = self.coerce(g, ids::BOOL, "SEL's G");
-                let a = self.expr(args[1].expr, cx, expected);
-                let c = self.expr(args[2].expr, cx, expected);
+                let a = self.std_arg(&args[1], cx, expected);
+                let c = self.std_arg(&args[2], cx, expected);
                 if g.ty == ids::ERROR {
                     return err(span);
                 }
@@ -189,10 +189,8 @@ impl<'a> Checker<'a> {
                 self.fold(mk(vec![g, a, c], t))
             }
             Max | Min | Limit => {
-                let mut xs: Vec<Expr> = args
-                    .iter()
-                    .map(|a| self.expr(a.expr, cx, expected))
-                    .collect();
+                let mut xs: Vec<Expr> =
+                    args.iter().map(|a| self.std_arg(a, cx, expected)).collect();
                 if xs.iter().any(|x| x.ty == ids::ERROR) {
                     return err(span);
                 }
@@ -219,7 +217,7 @@ impl<'a> Checker<'a> {
                 self.fold(mk(xs, t))
             }
             Mux => {
-                let k = self.expr(args[0].expr, cx, Some(ids::DINT));
+                let k = self.std_arg(&args[0], cx, Some(ids::DINT));
                 if k.ty == ids::ERROR {
                     return err(span);
                 }
@@ -230,7 +228,7 @@ impl<'a> Checker<'a> {
                 let k = self.widen_to_lint(k);
                 let mut xs: Vec<Expr> = args[1..]
                     .iter()
-                    .map(|a| self.expr(a.expr, cx, expected))
+                    .map(|a| self.std_arg(a, cx, expected))
                     .collect();
                 if xs.iter().any(|x| x.ty == ids::ERROR) {
                     return err(span);
@@ -366,7 +364,7 @@ impl<'a> Checker<'a> {
 
     fn real_arg(&mut self, f: &str, a: &StdArg<'_>, cx: &mut Cx, expected: Option<TypeId>) -> Expr {
         let real_hint = expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_real()));
-        let x = self.expr(a.expr, cx, real_hint);
+        let x = self.std_arg(a, cx, real_hint);
         if x.ty == ids::ERROR {
             return x;
         }
@@ -386,7 +384,7 @@ impl<'a> Checker<'a> {
     }
 
     fn string_arg(&mut self, f: &str, a: &StdArg<'_>, cx: &mut Cx) -> Option<Expr> {
-        let x = self.expr(a.expr, cx, Some(ids::STRING));
+        let x = self.std_arg(a, cx, Some(ids::STRING));
         if x.ty == ids::ERROR {
             return None;
         }
@@ -398,7 +396,7 @@ impl<'a> Checker<'a> {
     }
 
     fn int_arg(&mut self, f: &str, a: &StdArg<'_>, cx: &mut Cx) -> Option<Expr> {
-        let x = self.expr(a.expr, cx, Some(ids::INT));
+        let x = self.std_arg(a, cx, Some(ids::INT));
         if x.ty == ids::ERROR {
             return None;
         }

@@ -202,8 +202,40 @@ impl<'a> Checker<'a> {
                 }
             };
         }
+        if cx.const_only {
+            if let Some(x) = self.later_constant(id, cx) {
+                return x;
+            }
+        }
         self.undeclared(id, cx);
         err(id.span)
+    }
+
+    /// A VAR CONSTANT of the POU being declared, read in a declaration above its own (an
+    /// array bound: `fifo : ARRAY[0..n] OF DWORD;` before `VAR CONSTANT n : INT := 16;`), as
+    /// CODESYS and TwinCAT resolve it. Its value is computed here without reporting; its own
+    /// declaration reports any problem once. A constant defined through itself stays
+    /// undeclared.
+    fn later_constant(&mut self, id: &ast::Ident, cx: &mut Cx) -> Option<Expr> {
+        let pou: &'a ast::Pou = self.pou_asts[cx.pou? as usize];
+        let key = id.key();
+        let decl = pou
+            .var_blocks
+            .iter()
+            .filter(|b| b.constant && b.kind == ast::VarKind::Local)
+            .flat_map(|b| &b.vars)
+            .find(|d| d.names.iter().any(|n| n.key() == key))?;
+        let init = decl.init.as_ref()?;
+        if cx.ahead.contains(&key) {
+            return None;
+        }
+        cx.ahead.push(key);
+        let mark = self.diags.items.len();
+        let (ty, _) = self.resolve_spec(&decl.ty, cx);
+        let v = self.initial_value(init, ty, cx);
+        self.diags.items.truncate(mark);
+        cx.ahead.pop();
+        Some(konst(v?, ty, id.span))
     }
 
     pub(super) fn undeclared(&mut self, id: &ast::Ident, cx: &Cx) {

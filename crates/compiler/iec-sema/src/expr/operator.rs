@@ -63,34 +63,39 @@ impl<'a> Checker<'a> {
                     span,
                 })
             }
-            UnaryOp::Not => {
-                let x = if self.types.get(x.ty) == &Type::IntLit {
-                    match expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_bitstring()))
-                    {
-                        Some(t) => self.coerce(x, t, "the operand of NOT"),
-                        None => x,
-                    }
-                } else {
-                    x
-                };
-                let ok = self.types.elem(x.ty).is_some_and(|e| e.is_bit());
-                if !ok {
-                    let t = self.types.name(x.ty);
-                    self.error(
-                        diag::OPERAND_TYPE,
-                        span,
-                        format!("NOT applies to BOOL and bit strings (BYTE, WORD, DWORD, LWORD), not {t}"),
-                    );
-                    return err(span);
-                }
-                let ty = self.base_type(x.ty);
-                self.fold(Expr {
-                    kind: ExprKind::Unary(op, Box::new(x)),
-                    ty,
-                    span,
-                })
-            }
+            UnaryOp::Not => self.not_checked(x, expected, span),
         }
+    }
+
+    /// NOT of a checked operand.
+    pub(super) fn not_checked(&mut self, x: Expr, expected: Option<TypeId>, span: Span) -> Expr {
+        if x.ty == ids::ERROR {
+            return x;
+        }
+        let x = if self.types.get(x.ty) == &Type::IntLit {
+            match expected.filter(|t| self.types.elem(*t).is_some_and(|e| e.is_bitstring())) {
+                Some(t) => self.coerce(x, t, "the operand of NOT"),
+                None => x,
+            }
+        } else {
+            x
+        };
+        let ok = self.types.elem(x.ty).is_some_and(|e| e.is_bit());
+        if !ok {
+            let t = self.types.name(x.ty);
+            self.error(
+                diag::OPERAND_TYPE,
+                span,
+                format!("NOT applies to BOOL and bit strings (BYTE, WORD, DWORD, LWORD), not {t}"),
+            );
+            return err(span);
+        }
+        let ty = self.base_type(x.ty);
+        self.fold(Expr {
+            kind: ExprKind::Unary(UnaryOp::Not, Box::new(x)),
+            ty,
+            span,
+        })
     }
 
     /// A subrange's base type (operations compute in the base type).
@@ -231,11 +236,14 @@ impl<'a> Checker<'a> {
                 span,
             });
         }
+        let (x, y) = self.bits_with_int(op, x, y);
         let Some((x, y, t)) = self.unify(x, y, op.text(), span) else {
             return err(span);
         };
         let tt = self.types.get(t).clone();
         let elem = self.types.elem(t);
+        // Arithmetic on bit strings, as CODESYS, TwinCAT and matiec allow it.
+        let bits = elem.is_some_and(|e| e.is_bitstring());
         let ok = match op {
             Or | Xor | And => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_bit()),
             Eq | Ne => true,
@@ -245,12 +253,15 @@ impl<'a> Checker<'a> {
             ),
             Add | Sub => {
                 matches!(tt, Type::IntLit | Type::RealLit)
+                    || bits
                     || elem.is_some_and(|e| e.is_num() || e.is_duration())
             }
             Mul | Div => {
-                matches!(tt, Type::IntLit | Type::RealLit) || elem.is_some_and(|e| e.is_num())
+                matches!(tt, Type::IntLit | Type::RealLit)
+                    || bits
+                    || elem.is_some_and(|e| e.is_num())
             }
-            Mod => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_int()),
+            Mod => matches!(tt, Type::IntLit) || bits || elem.is_some_and(|e| e.is_int()),
             Power => true,
         };
         let ok = ok
@@ -275,11 +286,68 @@ impl<'a> Checker<'a> {
             return err(span);
         }
         let ty = if op.is_comparison() { ids::BOOL } else { t };
+        if let (Add | Sub | Mul, Some(e @ (Elem::Byte | Elem::Word | Elem::Dword))) = (op, elem) {
+            // A bit string's `+ - *` wraps around in its width, whatever the overflow rule
+            // of the integers: computed in 64 bits (where it cannot overflow), then cut to
+            // the type's bits as conversions do.
+            let wide = if op == Mul && e == Elem::Dword {
+                ids::ULINT
+            } else {
+                ids::LINT
+            };
+            let (x, y) = (self.convert(x, wide), self.convert(y, wide));
+            let inner = self.fold(Expr {
+                kind: ExprKind::Binary(op, Box::new(x), Box::new(y)),
+                ty: wide,
+                span,
+            });
+            return self.fold(Expr {
+                kind: ExprKind::Convert(Box::new(inner)),
+                ty,
+                span,
+            });
+        }
         self.fold(Expr {
             kind: ExprKind::Binary(op, Box::new(x), Box::new(y)),
             ty,
             span,
         })
+    }
+
+    /// A bit string and an integer of another type in one operation, as CODESYS and matiec
+    /// type them: the narrower converts to the wider (a bit string's value is unsigned, so
+    /// BYTE + INT is INT); at equal or smaller integer width, `+ - * / MOD` take the bit
+    /// string's type (the integer's bits, as INT_TO_WORD keeps them). A comparison of a bit
+    /// string with an integer no wider stays an error: its meaning for negative numbers
+    /// differs between the compilers.
+    fn bits_with_int(&mut self, op: BinaryOp, x: Expr, y: Expr) -> (Expr, Expr) {
+        use BinaryOp::*;
+        let elem = |c: &Self, t: TypeId| c.types.elem(c.base_type(t));
+        let (Some(a), Some(b)) = (elem(self, x.ty), elem(self, y.ty)) else {
+            return (x, y);
+        };
+        let arith = matches!(op, Add | Sub | Mul | Div | Mod);
+        let convertible = op.is_comparison() || arith;
+        if !convertible {
+            return (x, y);
+        }
+        let to = |e: Elem| TypeTable::elem_id(e);
+        if a.is_bitstring() && b.is_int() {
+            if b.bits() > a.bits() {
+                return (self.convert(x, to(b)), y);
+            }
+            if arith {
+                return (x, self.convert(y, to(a)));
+            }
+        } else if a.is_int() && b.is_bitstring() {
+            if a.bits() > b.bits() {
+                return (x, self.convert(y, to(a)));
+            }
+            if arith {
+                return (self.convert(x, to(b)), y);
+            }
+        }
+        (x, y)
     }
 
     /// Brings two operands to one type (literals take the other side's type, elementary
@@ -323,6 +391,15 @@ impl<'a> Checker<'a> {
             }
             (Some(a), Some(b)) if b.widens_to(a) => {
                 let y = self.convert(y, tx);
+                Some((x, y, tx))
+            }
+            // A bit string with a REAL or LREAL (bit strings with integers: `bits_with_int`).
+            (Some(a), Some(b)) if b.is_real() && bits_fit(a, b) => {
+                let x = self.bits_as_number(x, a, b, "this operand");
+                Some((x, y, ty))
+            }
+            (Some(a), Some(b)) if a.is_real() && bits_fit(b, a) => {
+                let y = self.bits_as_number(y, b, a, "this operand");
                 Some((x, y, tx))
             }
             _ => {
@@ -491,6 +568,11 @@ impl<'a> Checker<'a> {
             }
             _ => {}
         }
+        if let (Type::Elem(a), Type::Elem(b)) = (&from_t, &to_t) {
+            if bits_fit(*a, *b) {
+                return self.bits_as_number(x, *a, *b, what);
+            }
+        }
         let (a, b) = (self.types.name(x.ty), self.types.name(to));
         let hint = conversion_hint(&self.types, x.ty, to);
         self.error(
@@ -499,5 +581,35 @@ impl<'a> Checker<'a> {
             format!("{what} is {a} but {b} is needed{hint}"),
         );
         err(span)
+    }
+
+    /// A bit string's value where a number that holds all its values is needed: CODESYS and
+    /// TwinCAT convert it implicitly; the standard wants the conversion written (W022).
+    fn bits_as_number(&mut self, x: Expr, a: Elem, b: Elem, what: &str) -> Expr {
+        let (an, bn) = (a.name(), b.name());
+        self.diags.warning(
+            diag::IMPLICIT_BITS_TO_NUMBER,
+            x.span,
+            format!("{what} is {an}, converted to {bn} implicitly as CODESYS does; the standard wants {an}_TO_{bn}(…) written"),
+        );
+        self.convert(x, TypeTable::elem_id(b))
+    }
+}
+
+/// Whether every value of the bit string `a` is a value of the number type `b` (BYTE in INT,
+/// USINT, REAL; DWORD in LINT, LREAL), so the conversion loses nothing.
+fn bits_fit(a: Elem, b: Elem) -> bool {
+    if !a.is_bitstring() {
+        return false;
+    }
+    let (lo, hi) = a.range();
+    match b {
+        Elem::Real => a.bits() <= 16,
+        Elem::Lreal => a.bits() <= 32,
+        _ if b.is_int() => {
+            let (blo, bhi) = b.range();
+            blo <= lo && hi <= bhi
+        }
+        _ => false,
     }
 }

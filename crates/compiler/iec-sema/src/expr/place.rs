@@ -343,12 +343,13 @@ impl<'a> Checker<'a> {
             if var.class == VarClass::Input && cx.pou.is_some() {
                 let member_of_instance = p.path.iter().any(|s| matches!(s, Step::Member(_)));
                 if !member_of_instance {
-                    self.error(
+                    // matiec, CODESYS, TwinCAT and PCWorx accept it: it sets the POU's own
+                    // copy (in a function block, until a call passes the input again).
+                    self.diags.warning(
                         diag::ASSIGN_INPUT,
                         span,
-                        format!("`{}` is an input of this POU and cannot be assigned here; copy it into a local variable (VAR) and change that", var.name),
+                        format!("`{}` is an input of this POU: assigning it changes this POU's copy, which the next call that passes it overwrites; a local variable (VAR) says that better", var.name),
                     );
-                    return false;
                 }
             }
             if p.path.is_empty() && cx.for_vars.contains(&v) {

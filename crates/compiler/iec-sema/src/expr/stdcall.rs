@@ -23,6 +23,7 @@ impl<'a> Checker<'a> {
         extensible: bool,
     ) -> Option<Vec<StdArg<'e>>> {
         let formal = call.args.iter().any(|a| a.name.is_some());
+        let typed = stdlib::typed_form(fname).and_then(|(g, t)| Some((g, self.conv_type(&t)?)));
         let mut out: Vec<Option<StdArg<'e>>> = Vec::new();
         for (k, a) in call.args.iter().enumerate() {
             if a.output {
@@ -105,6 +106,9 @@ impl<'a> Checker<'a> {
             out[idx] = Some(StdArg {
                 expr: v,
                 span: a.span,
+                typed: typed
+                    .filter(|(g, _)| stdlib::typed_param(g, idx))
+                    .map(|(_, t)| (t, format!("argument {} of {fname}", idx + 1))),
             });
         }
         let n = out.len();
@@ -125,6 +129,18 @@ impl<'a> Checker<'a> {
         Some(out.into_iter().flatten().collect())
     }
 
+    /// A standard function's argument, checked; in a typed form, converted to its type
+    /// (implicitly only: anything else is an error naming the conversion to write).
+    pub(super) fn std_arg(&mut self, a: &StdArg<'_>, cx: &mut Cx, hint: Option<TypeId>) -> Expr {
+        match &a.typed {
+            None => self.expr(a.expr, cx, hint),
+            Some((t, what)) => {
+                let x = self.expr(a.expr, cx, Some(*t));
+                self.coerce(x, *t, what)
+            }
+        }
+    }
+
     /// A standard function call, or `None` when `name` is not one.
     pub(super) fn std_call(
         &mut self,
@@ -135,7 +151,14 @@ impl<'a> Checker<'a> {
     ) -> Option<Expr> {
         let key = name.key();
         let span = call.span;
-        let f = key.as_str();
+        if let Some(bcd) = stdlib::bcd_conversion(&key) {
+            return Some(self.bcd(name, call, cx, bcd, expected));
+        }
+        // A typed form (`SHR_DWORD`) is its generic function (`SHR`) with the arguments
+        // `std_args` types; messages name the form.
+        let typed = stdlib::typed_form(&key);
+        let shown = key.as_str();
+        let f = typed.as_ref().map_or(shown, |(g, _)| *g);
         use BinaryOp::*;
         // Operators as functions.
         let op = match f {
@@ -152,10 +175,10 @@ impl<'a> Checker<'a> {
             _ => None,
         };
         if let Some((op, ext)) = op {
-            let args = self.std_args(f, call, &["IN1", "IN2"], 2, ext)?;
-            let mut acc = self.expr(args[0].expr, cx, expected);
+            let args = self.std_args(shown, call, &["IN1", "IN2"], 2, ext)?;
+            let mut acc = self.std_arg(&args[0], cx, expected);
             for a in &args[1..] {
-                let y = self.expr(a.expr, cx, expected);
+                let y = self.std_arg(a, cx, expected);
                 acc = self.binary_checked(op, acc, y, span);
             }
             acc.span = span;
@@ -172,8 +195,8 @@ impl<'a> Checker<'a> {
         };
         if let Some(op) = cmp {
             let ext = op != Ne;
-            let args = self.std_args(f, call, &["IN1", "IN2"], 2, ext)?;
-            let xs: Vec<Expr> = args.iter().map(|a| self.expr(a.expr, cx, None)).collect();
+            let args = self.std_args(shown, call, &["IN1", "IN2"], 2, ext)?;
+            let xs: Vec<Expr> = args.iter().map(|a| self.std_arg(a, cx, None)).collect();
             let mut acc: Option<Expr> = None;
             for w in xs.windows(2) {
                 let c = self.binary_checked(op, w[0].clone(), w[1].clone(), span);
@@ -186,12 +209,16 @@ impl<'a> Checker<'a> {
         }
         match f {
             "NOT" => {
-                let args = self.std_args(f, call, &["IN"], 1, false)?;
+                let args = self.std_args(shown, call, &["IN"], 1, false)?;
+                if args[0].typed.is_some() {
+                    let x = self.std_arg(&args[0], cx, expected);
+                    return Some(self.not_checked(x, expected, span));
+                }
                 return Some(self.unary(UnaryOp::Not, args[0].expr, cx, expected, span));
             }
             "MOVE" => {
-                let args = self.std_args(f, call, &["IN"], 1, false)?;
-                return Some(self.expr(args[0].expr, cx, expected));
+                let args = self.std_args(shown, call, &["IN"], 1, false)?;
+                return Some(self.std_arg(&args[0], cx, expected));
             }
             _ => {}
         }
@@ -235,7 +262,7 @@ impl<'a> Checker<'a> {
             "FIND" => Builtin::Find,
             "CONCAT_DATE_TOD" => Builtin::ConcatDateTod,
             "TRUNC" => {
-                let args = self.std_args(f, call, &["IN"], 1, false)?;
+                let args = self.std_args(shown, call, &["IN"], 1, false)?;
                 let x = self.expr(args[0].expr, cx, None);
                 let to = expected
                     .filter(|t| self.types.elem(*t).is_some_and(|e| e.is_int()))
@@ -244,7 +271,7 @@ impl<'a> Checker<'a> {
             }
             _ => return None,
         };
-        Some(self.builtin(b, f, call, cx, expected))
+        Some(self.builtin(b, shown, call, cx, expected))
     }
 
     fn trunc(&mut self, x: Expr, to: TypeId, span: Span) -> Expr {

@@ -72,6 +72,15 @@ impl<'a, 'd> Parser<'a, 'd> {
         let op = match self.peek().tok {
             Tok::Minus => UnaryOp::Neg,
             Tok::Plus => UnaryOp::Plus,
+            // NOT(IN := x): the standard function with its parameter named (`NOT(x)` is the
+            // operator on a parenthesised operand, the same value).
+            Tok::Kw(Kw::Not)
+                if self.peek_at(1).tok == Tok::LParen
+                    && self.peek_at(2).tok == Tok::Ident
+                    && self.peek_at(3).tok == Tok::Assign =>
+            {
+                return self.postfix();
+            }
             Tok::Kw(Kw::Not) => UnaryOp::Not,
             _ => return self.postfix(),
         };
@@ -282,6 +291,18 @@ impl<'a, 'd> Parser<'a, 'd> {
                 lit(ExprKind::Direct(text))
             }
             Tok::TypedPrefix => self.typed_literal(),
+            // The standard functions AND, OR, XOR and MOD called by name (`AND(a, b, c)`):
+            // where an operand starts, these keywords cannot be operators (NOT comes here
+            // only from `unary`, with a named parameter).
+            Tok::Kw(k @ (Kw::And | Kw::Or | Kw::Xor | Kw::Mod | Kw::Not))
+                if self.peek_at(1).tok == Tok::LParen =>
+            {
+                self.bump();
+                Ok(Expr {
+                    span: t.span,
+                    kind: ExprKind::Name(Ident::new(k.text(), t.span)),
+                })
+            }
             _ if self.at_name() => {
                 let id = self.ident("a name")?;
                 Ok(Expr {

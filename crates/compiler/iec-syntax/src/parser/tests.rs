@@ -102,6 +102,17 @@ fn postfix_forms() {
 }
 
 #[test]
+fn and_or_xor_mod_called_as_functions() {
+    check_expr("AND(a, b, c)", "AND(a,b,c)");
+    check_expr("x OR XOR(IN1 := a, IN2 := b)", "(x OR XOR(IN1:=a,IN2:=b))");
+    check_expr("MOD(a, 3) + OR(a, b)", "(MOD(a,3) + OR(a,b))");
+    // Between operands they stay operators, parenthesised or not.
+    check_expr("a AND (b)", "(a AND b)");
+    check_expr("a MOD(b)", "(a MOD b)");
+    check_expr("NOT(IN := a) OR NOT(b)", "(NOT(IN:=a) OR (Not b))");
+}
+
+#[test]
 fn a_program_with_every_statement() {
     let lib = check_ok(
         "PROGRAM main

@@ -26,6 +26,20 @@ impl<'c, 'p> Fx<'c, 'p> {
         let re = elem_or_dint(p, ty);
         let cap = str_cap(p, ty);
         let d = self.builtin_result(b, k, ty, want, span);
+        if matches!(b, Builtin::BcdToInt | Builtin::IntToBcd) {
+            let from = elem_or_dint(p, args[0].ty);
+            self.ext(
+                ExtOp::Bcd {
+                    d,
+                    s: xs[0],
+                    from,
+                    to: re,
+                    decode: b == Builtin::BcdToInt,
+                },
+                span,
+            );
+            return Ok(d);
+        }
         let Some(op) = Self::builtin_op(b, d, xs, k, re, cap) else {
             return Err(CompileError::Unsupported(format!(
                 "{} as a builtin",
@@ -146,7 +160,11 @@ impl<'c, 'p> Fx<'c, 'p> {
                 a: xs[0],
                 b: xs[1],
             },
-            Builtin::DtToTod | Builtin::DtToDate | Builtin::Expt => return None,
+            Builtin::DtToTod
+            | Builtin::DtToDate
+            | Builtin::Expt
+            | Builtin::BcdToInt
+            | Builtin::IntToBcd => return None,
         })
     }
 }

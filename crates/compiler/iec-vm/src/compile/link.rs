@@ -276,7 +276,8 @@ impl ExtOp {
             | ExtOp::Trunc { d, s, .. }
             | ExtOp::Check { d, s, .. }
             | ExtOp::Math { d, s, .. }
-            | ExtOp::AbsI { d, s, .. } => {
+            | ExtOp::AbsI { d, s, .. }
+            | ExtOp::Bcd { d, s, .. } => {
                 g(d);
                 g(s);
             }
