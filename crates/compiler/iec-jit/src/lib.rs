@@ -34,7 +34,7 @@ use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, FuncId, Linkage, Module};
 use petriplc_iec_vm::compile::Code;
 use petriplc_iec_vm::exec::{self, MAX_DEPTH};
-use petriplc_iec_vm::op::{Arith, Cmp, Op, RANGES};
+use petriplc_iec_vm::op::{Arith, Cmp, Op, RANGES, WIDTHS};
 use petriplc_iec_vm::Engine;
 
 pub use call::Jit;
@@ -385,6 +385,26 @@ fn frame_reach(code: &Code, op: &Op) -> Option<u64> {
             b,
             ..
         } => max(&[d, a, b]),
+        Op::ArNW {
+            op: Arith::Add | Arith::Sub | Arith::Mul,
+            d,
+            a,
+            b,
+            ..
+        }
+        | Op::ArLW {
+            op: Arith::Add | Arith::Sub | Arith::Mul,
+            d,
+            a,
+            b,
+        }
+        | Op::ArUW {
+            op: Arith::Add | Arith::Sub | Arith::Mul,
+            d,
+            a,
+            b,
+        } => max(&[d, a, b]),
+        Op::NegNW { d, s, .. } | Op::NegLW { d, s } => max(&[d, s]),
         Op::GetBit { d, s, n } if n < 64 => max(&[d, s]),
         Op::AddrK { d, p, .. } => max(&[d, p]),
         Op::JmpF { c, .. } | Op::JmpT { c, .. } => max(&[c]),
@@ -562,6 +582,29 @@ impl Translator<'_, '_, '_> {
     /// An absolute slot the generated code may touch directly.
     fn abs_ok(&self, g: u32) -> bool {
         u64::from(g) < self.slots && g <= i32::MAX as u32 / 8
+    }
+
+    /// `x op y` in 64 bits, wrapping (Cranelift's integer arithmetic is modular).
+    fn wrapping(&mut self, op: Arith, x: Value, y: Value) -> Value {
+        match op {
+            Arith::Add => self.b.ins().iadd(x, y),
+            Arith::Sub => self.b.ins().isub(x, y),
+            _ => self.b.ins().imul(x, y),
+        }
+    }
+
+    /// The low bits of range `r`'s type, sign- or zero-extended: the VM's `op::wrap_to`.
+    fn wrap_to(&mut self, v: Value, r: u8) -> Value {
+        let (bits, signed) = WIDTHS[r as usize];
+        if bits >= 64 {
+            v
+        } else if signed {
+            let sh = 64 - i64::from(bits);
+            let l = self.b.ins().ishl_imm(v, sh);
+            self.b.ins().sshr_imm(l, sh)
+        } else {
+            self.b.ins().band_imm(v, (1i64 << bits) - 1)
+        }
     }
 
     fn ld(&mut self, env: &Env, slot: u32) -> Value {
@@ -879,6 +922,49 @@ impl Translator<'_, '_, '_> {
                 self.vm(env, pc);
                 self.b.ins().jump(after, &[]);
                 self.b.switch_to_block(after);
+            }
+            // Wrapping arithmetic: 64-bit wrapping, then the type's low bits (the VM's
+            // `wrap_to`); division and MOD, which can fault, are the VM's.
+            Op::ArNW {
+                op: ar @ (Arith::Add | Arith::Sub | Arith::Mul),
+                d,
+                a,
+                b,
+                r,
+            } => {
+                let x = self.ld(env, a);
+                let y = self.ld(env, b);
+                let v = self.wrapping(ar, x, y);
+                let v = self.wrap_to(v, r);
+                self.st(env, d, v);
+            }
+            Op::ArLW {
+                op: ar @ (Arith::Add | Arith::Sub | Arith::Mul),
+                d,
+                a,
+                b,
+            }
+            | Op::ArUW {
+                op: ar @ (Arith::Add | Arith::Sub | Arith::Mul),
+                d,
+                a,
+                b,
+            } => {
+                let x = self.ld(env, a);
+                let y = self.ld(env, b);
+                let v = self.wrapping(ar, x, y);
+                self.st(env, d, v);
+            }
+            Op::NegNW { d, s, r } => {
+                let x = self.ld(env, s);
+                let v = self.b.ins().ineg(x);
+                let v = self.wrap_to(v, r);
+                self.st(env, d, v);
+            }
+            Op::NegLW { d, s } => {
+                let x = self.ld(env, s);
+                let v = self.b.ins().ineg(x);
+                self.st(env, d, v);
             }
             Op::Lea { d, s } => {
                 let v = self.b.ins().iadd_imm(env.base, s as i64);

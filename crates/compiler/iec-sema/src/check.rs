@@ -11,6 +11,7 @@ use petriplc_iec_syntax::diag::{self, Diagnostics};
 use petriplc_iec_syntax::source::Span;
 
 use crate::ir::{self, GlobalId, NativeSig, PouId, Var, VarId};
+use crate::ops::Overflow;
 use crate::stdlib;
 use crate::types::{Elem, TypeId, TypeTable};
 use crate::value::Value;
@@ -101,6 +102,8 @@ pub(crate) struct Checker<'a> {
     pub(crate) shapes: HashMap<TypeId, Shape>,
     /// Per POU: depth and size of its variables (a function block's instance).
     pub(crate) fb_shapes: Vec<Shape>,
+    /// What integer overflow does (folding follows it; the project carries it to the VM).
+    pub overflow: Overflow,
 }
 
 impl<'a> Checker<'a> {
@@ -136,6 +139,7 @@ impl<'a> Checker<'a> {
             too_deep_reported: false,
             shapes: HashMap::new(),
             fb_shapes: Vec::new(),
+            overflow: options.overflow,
         }
     }
 
@@ -184,6 +188,7 @@ impl<'a> Checker<'a> {
             natives: self.natives,
             globals: self.globals,
             configuration,
+            overflow: self.overflow,
         };
         (Some(project), diags)
     }

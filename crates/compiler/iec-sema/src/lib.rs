@@ -23,6 +23,7 @@ pub mod value;
 use petriplc_iec_syntax::ast::Library;
 use petriplc_iec_syntax::Diagnostics;
 
+pub use ops::Overflow;
 pub use stdlib::{is_standard_function, standard_fbs, STANDARD_FUNCTIONS};
 
 /// What the checker knows besides the sources.
@@ -30,6 +31,9 @@ pub use stdlib::{is_standard_function, standard_fbs, STANDARD_FUNCTIONS};
 pub struct Options {
     /// Function blocks implemented in Rust, beside the standard ones (e.g. DSP blocks).
     pub natives: Vec<ir::NativeSig>,
+    /// What integer overflow, shift counts and REAL-to-integer conversions out of range do
+    /// (docs/iec.md, "Rules where the standard leaves a choice"): wrap by default.
+    pub overflow: ops::Overflow,
 }
 
 /// Checks a library. Returns the lowered project when there is no error, and every

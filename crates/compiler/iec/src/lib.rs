@@ -29,6 +29,9 @@ pub struct Sources {
     pub map: SourceMap,
     pub lib: Library,
     pub diags: Diagnostics,
+    /// What integer overflow does when the program runs: wrap (the default, as CODESYS,
+    /// TwinCAT, matiec and OpenPLC) or fault (docs/iec.md). Set after [`Sources::new`].
+    pub overflow: sema::Overflow,
 }
 
 /// The largest file read: [`petriplc_files::IEC_SOURCE`].
@@ -144,6 +147,7 @@ pub fn check(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> 
     let mut all = sources.diags.clone();
     let options = sema::Options {
         natives: natives.extra_signatures(),
+        overflow: sources.overflow,
     };
     // A source with syntax errors is not checked further (its tree is partial).
     let project = if all.has_errors() {
