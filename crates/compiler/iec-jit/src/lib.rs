@@ -20,6 +20,7 @@
 
 #[allow(unsafe_code)] // the one module that enters generated code: see its comment
 mod call;
+mod wrap;
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -34,7 +35,7 @@ use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, FuncId, Linkage, Module};
 use petriplc_iec_vm::compile::Code;
 use petriplc_iec_vm::exec::{self, MAX_DEPTH};
-use petriplc_iec_vm::op::{Arith, Cmp, Op, RANGES, WIDTHS};
+use petriplc_iec_vm::op::{Arith, Cmp, Op, RANGES};
 use petriplc_iec_vm::Engine;
 
 pub use call::Jit;
@@ -584,29 +585,6 @@ impl Translator<'_, '_, '_> {
         u64::from(g) < self.slots && g <= i32::MAX as u32 / 8
     }
 
-    /// `x op y` in 64 bits, wrapping (Cranelift's integer arithmetic is modular).
-    fn wrapping(&mut self, op: Arith, x: Value, y: Value) -> Value {
-        match op {
-            Arith::Add => self.b.ins().iadd(x, y),
-            Arith::Sub => self.b.ins().isub(x, y),
-            _ => self.b.ins().imul(x, y),
-        }
-    }
-
-    /// The low bits of range `r`'s type, sign- or zero-extended: the VM's `op::wrap_to`.
-    fn wrap_to(&mut self, v: Value, r: u8) -> Value {
-        let (bits, signed) = WIDTHS[r as usize];
-        if bits >= 64 {
-            v
-        } else if signed {
-            let sh = 64 - i64::from(bits);
-            let l = self.b.ins().ishl_imm(v, sh);
-            self.b.ins().sshr_imm(l, sh)
-        } else {
-            self.b.ins().band_imm(v, (1i64 << bits) - 1)
-        }
-    }
-
     fn ld(&mut self, env: &Env, slot: u32) -> Value {
         self.b
             .ins()
@@ -934,8 +912,8 @@ impl Translator<'_, '_, '_> {
             } => {
                 let x = self.ld(env, a);
                 let y = self.ld(env, b);
-                let v = self.wrapping(ar, x, y);
-                let v = self.wrap_to(v, r);
+                let v = wrap::wrapping(self.b, ar, x, y);
+                let v = wrap::wrap_to(self.b, v, r);
                 self.st(env, d, v);
             }
             Op::ArLW {
@@ -952,13 +930,13 @@ impl Translator<'_, '_, '_> {
             } => {
                 let x = self.ld(env, a);
                 let y = self.ld(env, b);
-                let v = self.wrapping(ar, x, y);
+                let v = wrap::wrapping(self.b, ar, x, y);
                 self.st(env, d, v);
             }
             Op::NegNW { d, s, r } => {
                 let x = self.ld(env, s);
                 let v = self.b.ins().ineg(x);
-                let v = self.wrap_to(v, r);
+                let v = wrap::wrap_to(self.b, v, r);
                 self.st(env, d, v);
             }
             Op::NegLW { d, s } => {
