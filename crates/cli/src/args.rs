@@ -242,6 +242,10 @@ pub struct SimArgs {
     /// IEC programs: trace every variable of the program, not only its outputs.
     #[arg(long)]
     pub vars: bool,
+    /// IEC programs: what an integer result outside its type does (docs/iec.md): `wrap`
+    /// keeps its low bits, as CODESYS, TwinCAT, matiec and OpenPLC; `fault` stops the run.
+    #[arg(long, value_enum, default_value = "wrap")]
+    pub overflow: OverflowArg,
 }
 
 #[derive(Debug, Args)]
@@ -260,6 +264,29 @@ pub struct CheckArgs {
     /// Also compile the named PROGRAM (or, without it, what would run) for the engine.
     #[arg(long, value_name = "NAME")]
     pub pou: Option<String>,
+    /// What an integer result outside its type does when the program runs: `wrap` or
+    /// `fault` (constant conversions and shift counts fold by it).
+    #[arg(long, value_enum, default_value = "wrap")]
+    pub overflow: OverflowArg,
+}
+
+/// `--overflow`: integer overflow, shift counts and REAL-to-integer conversions out of
+/// range (docs/iec.md, "Rules where the standard leaves a choice").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OverflowArg {
+    /// Two's complement in the result's type.
+    Wrap,
+    /// A run-time fault.
+    Fault,
+}
+
+impl From<OverflowArg> for petriplc_iec::sema::Overflow {
+    fn from(o: OverflowArg) -> Self {
+        match o {
+            OverflowArg::Wrap => petriplc_iec::sema::Overflow::Wrap,
+            OverflowArg::Fault => petriplc_iec::sema::Overflow::Fault,
+        }
+    }
 }
 
 #[derive(Debug, Args)]

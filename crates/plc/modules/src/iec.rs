@@ -8,6 +8,7 @@
 //! task = fast                # only the programs of this TASK of the configuration
 //! max_iterations = 10000000  # loop iterations one scan may make before it fails
 //! watchdog = T#100ms         # wall-clock limit of one scan (default: none)
+//! overflow = fault           # integer overflow a fault (default: wrap, as other PLCs)
 //! map lights L               # variable lights (a global, or instance.var) is point L
 //! ```
 //!
@@ -18,8 +19,9 @@
 //! scan; any other is read before it. Types must match the points' sizes (BOOL: 1 bit,
 //! SINT/USINT/BYTE: 8, INT/UINT/WORD: 16, DINT/UDINT/DWORD: 32, REAL: f32, TIME: i32 in ms).
 //! The scan period, when the section sets none, is the configuration's task interval.
-//! A run-time fault (division by zero, index out of range, overflow, an endless loop) fails
-//! the module with the POU, line and values; `on_failure` decides what follows.
+//! A run-time fault (division by zero, index out of range, an endless loop; overflow with
+//! `overflow = fault`) fails the module with the POU, line and values; `on_failure` decides
+//! what follows.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -27,6 +29,7 @@ use std::time::{Duration, Instant};
 use petriplc_config::{ModuleDecl, PointKind};
 use petriplc_iec::sema::ir::VarClass;
 use petriplc_iec::sema::types::{Elem, Type};
+use petriplc_iec::sema::Overflow;
 use petriplc_iec::vm::{Engine, FaultKind, Machine, VarRef};
 use petriplc_iec::{Natives, Select, Sources};
 use petriplc_runtime::image::{Handle, ModuleMap};
@@ -43,6 +46,7 @@ const SETTINGS: &[&str] = &[
     "task",
     "max_iterations",
     "watchdog",
+    "overflow",
 ];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
@@ -92,6 +96,7 @@ pub struct IecModule {
     task: Option<String>,
     iterations: u64,
     watchdog: Option<Duration>,
+    overflow: Overflow,
     /// The program declares RETAIN variables (see [`iec_retain::declares_retain`]).
     retains: bool,
     run: Option<Run>,
@@ -140,6 +145,15 @@ impl IecModule {
                 )
             })?,
         };
+        let overflow = match common::setting(decl, "overflow") {
+            None => Overflow::default(),
+            Some(v) => Overflow::parse(v).ok_or_else(|| {
+                error(
+                    &decl.name,
+                    format!("`overflow = {v}`: give `wrap` (an integer result outside its type keeps its low bits, as CODESYS, TwinCAT, matiec and OpenPLC) or `fault` (it stops the module)"),
+                )
+            })?,
+        };
         // Read by the configuration (C060 when it is not a duration): the runner's watchdog
         // and the engine's check are the same limit.
         let watchdog = decl.watchdog;
@@ -151,6 +165,7 @@ impl IecModule {
             task,
             iterations,
             watchdog,
+            overflow,
             retains: decl
                 .settings
                 .get(if project { "project" } else { "program" })
@@ -250,6 +265,7 @@ impl Module for IecModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         let path = ctx.path(&self.file);
         let mut sources = Sources::new();
+        sources.overflow = self.overflow;
         sources.add_file(&path).map_err(|e| error(&self.name, e))?;
         if self.project
             && !petriplc_iec::syntax::plcopen::is_plcopen(
