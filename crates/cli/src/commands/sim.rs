@@ -374,8 +374,8 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
     let mut sources = petriplc_iec::Sources::new();
     sources.overflow = args.overflow.into();
     sources.add_file(&args.net).bad_input()?;
-    let build = petriplc_iec::build(&sources, &select, petriplc_iec::Natives::default())
-        .bad_input()?;
+    let build =
+        petriplc_iec::build(&sources, &select, petriplc_iec::Natives::default()).bad_input()?;
     if !build.warnings.is_empty() {
         crate::diagnostics::eprint(&build.warnings.join("\n"));
     }
