@@ -78,8 +78,11 @@ fn literal(e: Elem, v: i128) -> String {
     format!("{}#{v}", e.name())
 }
 
-/// The program, and per statement its result type and what `ops` says it gives.
-fn program(stmts: &[Stmt], mode: Overflow) -> (String, Vec<(Elem, Result<i128, OpError>)>) {
+/// Per statement: its result type and what `ops` says it gives.
+type Expected = Vec<(Elem, Result<i128, OpError>)>;
+
+/// The program, and what each statement must give.
+fn program(stmts: &[Stmt], mode: Overflow) -> (String, Expected) {
     let mut vars = String::new();
     let mut body = String::new();
     let mut expect = Vec::new();
