@@ -247,6 +247,10 @@ pub struct SimArgs {
     /// files, else iec].
     #[arg(long, value_name = "DIALECT", value_parser = parse_dialect)]
     pub dialect: Option<petriplc_iec::Dialect>,
+    /// IEC programs: what an integer result outside its type does (docs/iec.md): `wrap`
+    /// keeps its low bits, as CODESYS, TwinCAT, matiec and OpenPLC; `fault` stops the run.
+    #[arg(long, value_enum, default_value = "wrap")]
+    pub overflow: OverflowArg,
 }
 
 #[derive(Debug, Args)]
@@ -270,11 +274,34 @@ pub struct CheckArgs {
     /// iec].
     #[arg(long, value_name = "DIALECT", value_parser = parse_dialect)]
     pub dialect: Option<petriplc_iec::Dialect>,
+    /// What an integer result outside its type does when the program runs: `wrap` or
+    /// `fault` (constant conversions and shift counts fold by it).
+    #[arg(long, value_enum, default_value = "wrap")]
+    pub overflow: OverflowArg,
 }
 
 fn parse_dialect(s: &str) -> Result<petriplc_iec::Dialect, String> {
     s.parse()
         .map_err(|e: petriplc_iec::syntax::dialect::UnknownDialect| e.to_string())
+}
+
+/// `--overflow`: integer overflow, shift counts and REAL-to-integer conversions out of
+/// range (docs/iec.md, "Rules where the standard leaves a choice").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OverflowArg {
+    /// Two's complement in the result's type.
+    Wrap,
+    /// A run-time fault.
+    Fault,
+}
+
+impl From<OverflowArg> for petriplc_iec::sema::Overflow {
+    fn from(o: OverflowArg) -> Self {
+        match o {
+            OverflowArg::Wrap => petriplc_iec::sema::Overflow::Wrap,
+            OverflowArg::Fault => petriplc_iec::sema::Overflow::Fault,
+        }
+    }
 }
 
 #[derive(Debug, Args)]

@@ -159,6 +159,55 @@ fn a_run_time_fault_fails_the_simulation_with_pou_line_and_values() {
         );
 }
 
+/// Integer overflow wraps by default, as other PLCs; `--overflow fault` makes it the fault it
+/// was; `check --overflow fault` folds constants by the same rule; nets refuse the flag.
+#[test]
+fn overflow_wraps_unless_sim_is_told_to_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = file(
+        &dir,
+        "ovf.st",
+        "PROGRAM p\nVAR_OUTPUT q : SINT := 126; END_VAR\nq := q + 1;\nEND_PROGRAM\n",
+    );
+    petriplc()
+        .args(["sim", &prog, "--until", "30ms"])
+        .assert()
+        .success()
+        .stdout("time,q\n0,127\n0.01,-128\n0.02,-127\n0.03,-126\n");
+    petriplc()
+        .args(["sim", &prog, "--until", "30ms", "--overflow", "fault"])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains(
+            "ovf.st:3: in PROGRAM p: overflow: 127 + 1 = 128 leaves -128..127",
+        ));
+    let conv = file(
+        &dir,
+        "conv.st",
+        "PROGRAM p\nVAR q : UDINT := REAL_TO_UDINT(-1.75); END_VAR\nEND_PROGRAM\n",
+    );
+    petriplc().args(["check", &conv]).assert().success();
+    petriplc()
+        .args(["check", &conv, "--overflow", "fault"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "error[E113]: this constant does not convert to UDINT",
+        ));
+    petriplc()
+        .args([
+            "sim",
+            &format!("{EXAMPLES}/blink/blink.pnml"),
+            "--overflow",
+            "fault",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "--overflow apply to IEC 61131-3 programs",
+        ));
+}
+
 #[test]
 fn the_chaser_runs_on_the_soft_plc() {
     let id = format!("test-chaser-{}", std::process::id());

@@ -8,6 +8,7 @@ use crate::failure::{BadInputExt, Failure};
 pub fn run(args: CheckArgs) -> Result<(), Failure> {
     let mut sources = Sources::new();
     sources.dialect = args.dialect;
+    sources.overflow = args.overflow.into();
     for f in &args.files {
         sources.add_file(f).bad_input()?;
     }

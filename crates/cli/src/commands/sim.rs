@@ -15,7 +15,7 @@ use petriplc_pnml::ReadOptions;
 use petriplc_sim::{NetPlant, Plant, PlotOptions, SimOptions, Simulation, Timeline};
 
 use super::step_through;
-use crate::args::{Names, SimArgs};
+use crate::args::{Names, OverflowArg, SimArgs};
 use crate::failure::{BadInputExt, Failure, RunExt};
 
 /// Whether the controller is an IEC 61131-3 source rather than a net.
@@ -45,9 +45,9 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     if is_iec(&args.net) {
         return run_iec(args);
     }
-    if args.pou.is_some() || args.vars {
+    if args.pou.is_some() || args.vars || args.overflow != OverflowArg::Wrap {
         return Err(anyhow!(
-            "--pou and --vars apply to IEC 61131-3 programs (.st, .il or a PLCopen XML project), not to nets"
+            "--pou, --vars and --overflow apply to IEC 61131-3 programs (.st, .il or a PLCopen XML project), not to nets"
         ))
         .bad_input();
     }
@@ -379,6 +379,7 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
     };
     let mut sources = petriplc_iec::Sources::new();
     sources.dialect = args.dialect;
+    sources.overflow = args.overflow.into();
     sources.add_file(&args.net).bad_input()?;
     let build =
         petriplc_iec::build(&sources, &select, petriplc_iec::Natives::default()).bad_input()?;

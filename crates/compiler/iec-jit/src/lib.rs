@@ -20,6 +20,7 @@
 
 #[allow(unsafe_code)] // the one module that enters generated code: see its comment
 mod call;
+mod wrap;
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -385,6 +386,26 @@ fn frame_reach(code: &Code, op: &Op) -> Option<u64> {
             b,
             ..
         } => max(&[d, a, b]),
+        Op::ArNW {
+            op: Arith::Add | Arith::Sub | Arith::Mul,
+            d,
+            a,
+            b,
+            ..
+        }
+        | Op::ArLW {
+            op: Arith::Add | Arith::Sub | Arith::Mul,
+            d,
+            a,
+            b,
+        }
+        | Op::ArUW {
+            op: Arith::Add | Arith::Sub | Arith::Mul,
+            d,
+            a,
+            b,
+        } => max(&[d, a, b]),
+        Op::NegNW { d, s, .. } | Op::NegLW { d, s } => max(&[d, s]),
         Op::GetBit { d, s, n } if n < 64 => max(&[d, s]),
         Op::AddrK { d, p, .. } => max(&[d, p]),
         Op::JmpF { c, .. } | Op::JmpT { c, .. } => max(&[c]),
@@ -879,6 +900,49 @@ impl Translator<'_, '_, '_> {
                 self.vm(env, pc);
                 self.b.ins().jump(after, &[]);
                 self.b.switch_to_block(after);
+            }
+            // Wrapping arithmetic: 64-bit wrapping, then the type's low bits (the VM's
+            // `wrap_to`); division and MOD, which can fault, are the VM's.
+            Op::ArNW {
+                op: ar @ (Arith::Add | Arith::Sub | Arith::Mul),
+                d,
+                a,
+                b,
+                r,
+            } => {
+                let x = self.ld(env, a);
+                let y = self.ld(env, b);
+                let v = wrap::wrapping(self.b, ar, x, y);
+                let v = wrap::wrap_to(self.b, v, r);
+                self.st(env, d, v);
+            }
+            Op::ArLW {
+                op: ar @ (Arith::Add | Arith::Sub | Arith::Mul),
+                d,
+                a,
+                b,
+            }
+            | Op::ArUW {
+                op: ar @ (Arith::Add | Arith::Sub | Arith::Mul),
+                d,
+                a,
+                b,
+            } => {
+                let x = self.ld(env, a);
+                let y = self.ld(env, b);
+                let v = wrap::wrapping(self.b, ar, x, y);
+                self.st(env, d, v);
+            }
+            Op::NegNW { d, s, r } => {
+                let x = self.ld(env, s);
+                let v = self.b.ins().ineg(x);
+                let v = wrap::wrap_to(self.b, v, r);
+                self.st(env, d, v);
+            }
+            Op::NegLW { d, s } => {
+                let x = self.ld(env, s);
+                let v = self.b.ins().ineg(x);
+                self.st(env, d, v);
             }
             Op::Lea { d, s } => {
                 let v = self.b.ins().iadd_imm(env.base, s as i64);

@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use petriplc_iec_sema::Options;
+use petriplc_iec_sema::{Options, Overflow};
 use petriplc_iec_syntax::{Diagnostics, SourceMap};
 use petriplc_iec_vm::{display, native, Backend, Engine, InstanceSpec, Machine};
 
@@ -12,12 +12,21 @@ use crate::{compile, compile_limited};
 
 /// `source` checked and compiled for its only PROGRAM, with `max_ops` as the JIT's limit.
 fn engine(source: &str, max_ops: usize) -> Arc<Engine> {
+    engine_in(source, max_ops, Overflow::default())
+}
+
+/// [`engine`] with an overflow rule.
+fn engine_in(source: &str, max_ops: usize, overflow: Overflow) -> Arc<Engine> {
     let mut map = SourceMap::new();
     let f = map.add("t.st", source);
     let mut diags = Diagnostics::new();
     let lib = petriplc_iec_syntax::parse(f, source, &mut diags);
     assert!(!diags.has_errors(), "{}", diags.render(&map));
-    let (project, diags) = petriplc_iec_sema::check(&lib, &Options::default());
+    let options = Options {
+        overflow,
+        ..Options::default()
+    };
+    let (project, diags) = petriplc_iec_sema::check(&lib, &options);
     let project = project.unwrap_or_else(|| panic!("{}", diags.render(&map)));
     let (pou, program) = project.programs().next().expect("a PROGRAM");
     let spec = InstanceSpec {
@@ -66,7 +75,11 @@ fn state(m: &Machine) -> String {
 /// every variable after every scan; a fault ends both runs with the same message. Returns
 /// the last state (or `fault: …`).
 fn lockstep(source: &str, scans: usize) -> String {
-    let e = engine(source, crate::MAX_OPS);
+    lockstep_in(source, scans, Overflow::default())
+}
+
+fn lockstep_in(source: &str, scans: usize, overflow: Overflow) -> String {
+    let e = engine_in(source, crate::MAX_OPS, overflow);
     let mut jit = Machine::new(e.clone());
     assert!(e.is_compiled(), "no machine code for\n{source}");
     assert_eq!(jit.backend(), Backend::Compiled);
@@ -159,12 +172,16 @@ fn calls_of_functions_and_blocks() {
 
 #[test]
 fn faults_are_the_vms() {
+    let got = lockstep_in(
+        &program("i : SINT := 126;", "i := i + 1;"),
+        4,
+        Overflow::Fault,
+    );
+    assert!(
+        got.starts_with("fault: ") && got.contains("overflow: 127 + 1 = 128 leaves -128..127"),
+        "{got}"
+    );
     for (vars, body, expect) in [
-        (
-            "i : SINT := 126;",
-            "i := i + 1;",
-            "overflow: 127 + 1 = 128 leaves -128..127",
-        ),
         (
             "d : DINT; z : DINT := 3;",
             "z := z - 1; d := 6 / z;",
@@ -184,6 +201,36 @@ fn faults_are_the_vms() {
         let got = lockstep(&program(vars, body), 4);
         assert!(got.starts_with("fault: ") && got.contains(expect), "{got}");
     }
+}
+
+/// Wrapping arithmetic compiled inline (narrow types through their width, 64-bit types) and
+/// run by the VM (division, MOD, ABS, shifts) gives the VM's values, and division by zero
+/// stays a fault.
+#[test]
+fn wrapping_is_the_vms() {
+    let s = lockstep(
+        &program(
+            "a : SINT := 120; b : INT := -32760; c : DINT := 2147483000; d : USINT := 3;
+             e : UINT := 65530; f : UDINT := 5; g : LINT := 9223372036854775800;
+             h : ULINT := 3; m : DINT := 65536; n : SINT := -128; q : SINT; r : INT;
+             k : INT := -1; w : WORD := 16#8001; x : WORD; y : SINT; z : DINT;",
+            "a := a + 5; b := b - 7; c := c + 500; d := d - 2; e := e * 3; f := f - 3;
+             g := g + 5; h := h - 2; m := m * m; q := n / -1; y := -n; r := -b;
+             x := ROL(w, k); z := ABS(c);",
+        ),
+        3,
+    );
+    assert_eq!(
+        s,
+        "a=-121 b=32755 c=-2147482796 d=253 e=65374 f=4294967292 g=-9223372036854775801 \
+         h=18446744073709551613 m=0 n=-128 q=-128 r=-32755 k=-1 w=32769 x=49152 y=-128 \
+         z=2147482796"
+    );
+    let got = lockstep(
+        &program("i : SINT := 1; d : SINT;", "i := i - 1; d := 5 / i;"),
+        2,
+    );
+    assert!(got.contains("division by zero: 5 / 0"), "{got}");
 }
 
 /// Past its size limit the JIT makes nothing and the machine runs on the VM, with the same

@@ -11,6 +11,7 @@ use petriplc_iec_syntax::diag::{self, Diagnostics};
 use petriplc_iec_syntax::source::Span;
 
 use crate::ir::{self, GlobalId, NativeSig, PouId, Var, VarId};
+use crate::ops::Overflow;
 use crate::stdlib;
 use crate::types::{Elem, TypeId, TypeTable};
 use crate::value::Value;
@@ -106,6 +107,8 @@ pub(crate) struct Checker<'a> {
     pub(crate) fb_shapes: Vec<Shape>,
     /// `Options::library`.
     pub(crate) library: bool,
+    /// What integer overflow does (folding follows it; the project carries it to the VM).
+    pub overflow: Overflow,
 }
 
 impl<'a> Checker<'a> {
@@ -142,6 +145,7 @@ impl<'a> Checker<'a> {
             shapes: HashMap::new(),
             fb_shapes: Vec::new(),
             library: options.library,
+            overflow: options.overflow,
         }
     }
 
@@ -190,6 +194,7 @@ impl<'a> Checker<'a> {
             natives: self.natives,
             globals: self.globals,
             configuration,
+            overflow: self.overflow,
         };
         (Some(project), diags)
     }

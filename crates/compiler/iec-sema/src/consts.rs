@@ -1,6 +1,8 @@
 //! Constant folding: expressions of literals and constants are computed at compile time with
 //! the same rules as the VM ([`crate::ops`]); an error there (a constant division by zero, an
-//! overflow) is reported where it is written.
+//! overflow) is reported where it is written. Arithmetic that overflows is an error here even
+//! where the run time wraps (as matiec refuses it): written out, it is a mistake; conversions
+//! and shift counts follow the project's [`crate::ops::Overflow`].
 
 use petriplc_iec_syntax::ast::{BinaryOp, UnaryOp};
 use petriplc_iec_syntax::diag;
@@ -116,10 +118,12 @@ impl Checker<'_> {
                 Value::Str(s) => ops::from_text(s, e),
                 _ => Err(OpError::Conversion),
             },
-            (Class::IntLit | Class::Enum, Class::Elem(e)) => ops::convert_elem(v, Elem::Lint, e),
-            (Class::RealLit, Class::Elem(e)) => ops::convert_elem(v, Elem::Lreal, e),
+            (Class::IntLit | Class::Enum, Class::Elem(e)) => {
+                ops::convert_elem(v, Elem::Lint, e, self.overflow)
+            }
+            (Class::RealLit, Class::Elem(e)) => ops::convert_elem(v, Elem::Lreal, e, self.overflow),
             (Class::Elem(a), Class::Elem(b)) => {
-                let r = ops::convert_elem(v, a, b)?;
+                let r = ops::convert_elem(v, a, b, self.overflow)?;
                 if let (Type::Subrange { lo, hi, .. }, Value::Int(i)) = (self.types.get(to), &r) {
                     if i < lo || i > hi {
                         return Err(OpError::Conversion);
@@ -161,7 +165,11 @@ impl Checker<'_> {
                 let Class::Elem(to) = self.class(e.ty) else {
                     return Ok(None);
                 };
-                Value::Int(ops::trunc_to_int(v.as_real().unwrap_or(0.0), to)?)
+                Value::Int(ops::trunc_to_int(
+                    v.as_real().unwrap_or(0.0),
+                    to,
+                    self.overflow,
+                )?)
             }
             ExprKind::Builtin(b, args) => {
                 let mut vals = Vec::new();
@@ -418,7 +426,7 @@ impl Checker<'_> {
                 let Some(e) = elem(args[0].ty) else {
                     return Ok(None);
                 };
-                Value::Int(ops::shift(b, x, n, e)?)
+                Value::Int(ops::shift(b, x, n, e, self.overflow)?)
             }
             Builtin::BcdToInt | Builtin::IntToBcd => {
                 let (Some(x), Some(to)) = (v[0].as_int(), elem(rt)) else {

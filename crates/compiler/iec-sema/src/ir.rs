@@ -29,6 +29,8 @@ pub struct Project {
     pub natives: Vec<NativeSig>,
     pub globals: Vec<Var>,
     pub configuration: Option<Configuration>,
+    /// What integer overflow does when the project runs ([`crate::Options::overflow`]).
+    pub overflow: crate::ops::Overflow,
 }
 
 impl Project {

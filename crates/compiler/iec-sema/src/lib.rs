@@ -23,6 +23,7 @@ pub mod value;
 use petriplc_iec_syntax::ast::Library;
 use petriplc_iec_syntax::Diagnostics;
 
+pub use ops::Overflow;
 pub use stdlib::{is_standard_function, standard_fbs, standard_fbs_in, STANDARD_FUNCTIONS};
 
 /// What the checker knows besides the sources.
@@ -36,6 +37,9 @@ pub struct Options {
     /// VAR_EXTERNAL whose VAR_GLOBAL is not among the sources is the warning W021 (the
     /// project using the library declares it), not the error E106.
     pub library: bool,
+    /// What integer overflow, shift counts and REAL-to-integer conversions out of range do
+    /// (docs/iec.md, "Rules where the standard leaves a choice"): wrap by default.
+    pub overflow: ops::Overflow,
 }
 
 /// Checks a library. Returns the lowered project when there is no error, and every

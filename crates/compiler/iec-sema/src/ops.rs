@@ -2,15 +2,18 @@
 //! checker's constant folding and the VM, so a folded constant and a computed value can
 //! never differ.
 //!
-//! Rules (docs/iec.md): integer arithmetic whose result leaves the type's range is an
-//! overflow (the standard: "it shall be an error"), integer division by zero is an error and
-//! `MOD` by zero gives 0 (the standard's definition); REAL and LREAL arithmetic is IEC 60559's
-//! (IEEE 754): a result too large is ±Inf, one without a value (0.0 / 0.0, SQRT(-1.0)) is NaN,
-//! and both propagate, as on every other PLC; conversions between integer types keep the low
-//! bits (wrap-around), REAL/LREAL to integers round half to even and fail for NaN, ±Inf and
-//! values outside the target's range (an integer has no value to stand for them); TIME ⇄
-//! integers count milliseconds, LTIME nanoseconds, DATE and DT seconds since 1970-01-01, TOD
-//! milliseconds since midnight.
+//! Rules (docs/iec.md): integer arithmetic whose result leaves the type's range wraps around
+//! (two's complement in the result's type, as CODESYS, TwinCAT, matiec and OpenPLC do), or is
+//! an overflow fault when the project chose [`Overflow::Fault`] (the standard: "it shall be an
+//! error"); a constant expression that overflows is a compile error either way. Integer
+//! division by zero is an error and `MOD` by zero gives 0 (the standard's definition); REAL
+//! and LREAL arithmetic is IEC 60559's (IEEE 754): a result too large is ±Inf, one without a
+//! value (0.0 / 0.0, SQRT(-1.0)) is NaN, and both propagate, as on every other PLC;
+//! conversions between integer types keep the low bits (wrap-around), REAL/LREAL to integers
+//! round half to even, fail for NaN and ±Inf (an integer has no value to stand for them) and,
+//! out of the target's range, wrap (or fail in fault mode); TIME ⇄ integers count
+//! milliseconds, LTIME nanoseconds, DATE and DT seconds since 1970-01-01, TOD milliseconds
+//! since midnight.
 
 use std::fmt;
 
@@ -44,6 +47,36 @@ impl fmt::Display for OpError {
 }
 
 pub type OpResult<T> = Result<T, OpError>;
+
+/// What an integer result outside its type does: the project's choice (`Sources::overflow`,
+/// `petriplc sim --overflow`, the `iec` module's `overflow` setting).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Overflow {
+    /// Two's complement in the result's type, as CODESYS, TwinCAT, matiec and OpenPLC; shift
+    /// counts read as unsigned; REAL to integer out of range keeps the low bits.
+    #[default]
+    Wrap,
+    /// A run-time fault, handled by the module's `on_failure`.
+    Fault,
+}
+
+impl Overflow {
+    /// `wrap` or `fault`, as the flag and the setting spell it.
+    pub fn parse(text: &str) -> Option<Overflow> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "wrap" => Some(Overflow::Wrap),
+            "fault" => Some(Overflow::Fault),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Overflow::Wrap => "wrap",
+            Overflow::Fault => "fault",
+        }
+    }
+}
 
 /// An integer operator on values of an integral type (integers, bit strings, BOOL,
 /// durations, dates). Comparisons give 0/1.
@@ -131,6 +164,25 @@ pub fn to_bcd(v: i128, to: Elem) -> OpResult<i128> {
     }
 }
 
+/// An integer operator at run time: [`int_binary`], except that in [`Overflow::Wrap`] a
+/// result outside the type keeps its low bits (128-bit arithmetic cannot itself overflow on
+/// 64-bit operands but for a product, whose low 64 bits wrapping keeps exact).
+pub fn int_binary_in(op: BinaryOp, a: i128, b: i128, e: Elem, mode: Overflow) -> OpResult<i128> {
+    match int_binary(op, a, b, e) {
+        Err(OpError::Overflow) if mode == Overflow::Wrap => {
+            let r = match op {
+                BinaryOp::Add => a.wrapping_add(b),
+                BinaryOp::Sub => a.wrapping_sub(b),
+                BinaryOp::Mul => a.wrapping_mul(b),
+                BinaryOp::Div => a.wrapping_div(b),
+                _ => return Err(OpError::Overflow),
+            };
+            Ok(wrap(r, e))
+        }
+        r => r,
+    }
+}
+
 /// Rounds to the type's precision: REAL is single precision, so an LREAL beyond its range
 /// becomes ±Inf, as IEC 60559 rounds.
 pub fn real_result(v: f64, e: Elem) -> f64 {
@@ -195,36 +247,40 @@ pub fn round_even(v: f64) -> f64 {
 }
 
 /// A real converted to an integral type, rounded half to even.
-pub fn real_to_int(v: f64, e: Elem) -> OpResult<i128> {
+pub fn real_to_int(v: f64, e: Elem, mode: Overflow) -> OpResult<i128> {
     if e == Elem::Bool {
         return Ok((v != 0.0) as i128);
     }
-    let r = round_even(v);
-    if !r.is_finite() || r.abs() > 1.8e19 {
-        return Err(OpError::Conversion);
-    }
-    let i = r as i128;
-    if e.is_bitstring() {
-        return Ok(wrap(i, e));
-    }
-    if fits(i, e) {
-        Ok(i)
-    } else {
-        Err(OpError::Conversion)
-    }
+    integral(round_even(v), e, mode)
 }
 
 /// TRUNC: toward zero.
-pub fn trunc_to_int(v: f64, e: Elem) -> OpResult<i128> {
-    let r = v.trunc();
-    if !r.is_finite() || r.abs() > 1.8e19 {
+pub fn trunc_to_int(v: f64, e: Elem, mode: Overflow) -> OpResult<i128> {
+    integral(v.trunc(), e, mode)
+}
+
+/// A whole real as a value of `e`: NaN and ±Inf fail in both modes (no integer stands for
+/// them, and a made-up one would reach an actuator as a plausible number); a finite value
+/// outside the range fails in fault mode and keeps its low bits (modulo 2^64, then the
+/// type's width) in wrap mode, as integer conversions do.
+fn integral(r: f64, e: Elem, mode: Overflow) -> OpResult<i128> {
+    if !r.is_finite() {
         return Err(OpError::Conversion);
     }
-    let i = r as i128;
-    if fits(i, e) {
-        Ok(i)
-    } else {
-        Err(OpError::Conversion)
+    if r.abs() < 1.8e19 {
+        let i = r as i128;
+        if fits(i, e) {
+            return Ok(i);
+        }
+    }
+    match mode {
+        Overflow::Fault => Err(OpError::Conversion),
+        Overflow::Wrap => {
+            // `%` of floats is exact, and so is a whole value below 2^64 as u64.
+            let m = (r.abs() % 18_446_744_073_709_551_616.0) as u64;
+            let bits = if r < 0.0 { m.wrapping_neg() } else { m };
+            Ok(wrap(bits as i128, e))
+        }
     }
 }
 
@@ -246,7 +302,7 @@ fn is_time_like(e: Elem) -> bool {
 }
 
 /// Converts a scalar between elementary types.
-pub fn convert_elem(v: &Value, from: Elem, to: Elem) -> OpResult<Value> {
+pub fn convert_elem(v: &Value, from: Elem, to: Elem, mode: Overflow) -> OpResult<Value> {
     if from == to {
         return Ok(v.clone());
     }
@@ -270,11 +326,12 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem) -> OpResult<Value> {
                 return Ok(Value::Int(wrap(units, to)));
             }
             if is_time_like(to) {
-                let ns = i.checked_mul(time_units(to)).ok_or(OpError::Conversion)?;
-                if !fits(ns, Elem::Lint) {
+                // 64-bit operands times at most 10^9 cannot leave i128.
+                let ns = i * time_units(to);
+                if !fits(ns, Elem::Lint) && mode == Overflow::Fault {
                     return Err(OpError::Conversion);
                 }
-                return Ok(Value::Int(ns));
+                return Ok(Value::Int(wrap(ns, Elem::Lint)));
             }
             if to.is_real() {
                 return Ok(Value::Real(real_result(i as f64, to)));
@@ -288,12 +345,9 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem) -> OpResult<Value> {
             }
             if is_time_like(to) {
                 let ns = round_even(f * time_units(to) as f64);
-                if !ns.is_finite() || ns.abs() > 9.2e18 {
-                    return Err(OpError::Conversion);
-                }
-                return Ok(Value::Int(ns as i128));
+                return Ok(Value::Int(integral(ns, Elem::Lint, mode)?));
             }
-            Ok(Value::Int(real_to_int(f, to)?))
+            Ok(Value::Int(real_to_int(f, to, mode)?))
         }
         _ => Err(OpError::Conversion),
     }
@@ -471,10 +525,19 @@ pub fn mask(e: Elem) -> u64 {
     }
 }
 
-/// SHL, SHR, ROL, ROR on the bit pattern of `v` (its type's width).
-pub fn shift(kind: crate::ir::Builtin, v: i128, n: i128, e: Elem) -> OpResult<i128> {
+/// SHL, SHR, ROL, ROR on the bit pattern of `v` (its type's width). A count at least the
+/// width shifts every bit out (0); a rotation turns by the count modulo the width. A negative
+/// count is a fault in fault mode; in wrap mode it is read as unsigned, as CODESYS passes a
+/// count (a BYTE or UDINT): past the width, so SHL and SHR give 0, and ROL by -1 is ROR by 1.
+pub fn shift(
+    kind: crate::ir::Builtin,
+    v: i128,
+    n: i128,
+    e: Elem,
+    mode: Overflow,
+) -> OpResult<i128> {
     use crate::ir::Builtin::*;
-    if n < 0 {
+    if n < 0 && mode == Overflow::Fault {
         return Err(OpError::Domain("a negative shift count"));
     }
     let bits = e.bits() as i128;
@@ -482,21 +545,21 @@ pub fn shift(kind: crate::ir::Builtin, v: i128, n: i128, e: Elem) -> OpResult<i1
     let x = (v as u64) & m;
     let r = match kind {
         Shl => {
-            if n >= bits {
+            if n >= bits || n < 0 {
                 0
             } else {
                 (x << n) & m
             }
         }
         Shr => {
-            if n >= bits {
+            if n >= bits || n < 0 {
                 0
             } else {
                 x >> n
             }
         }
         Rol | Ror => {
-            let k = (n % bits) as u32;
+            let k = n.rem_euclid(bits) as u32;
             if k == 0 {
                 x
             } else {
@@ -665,7 +728,7 @@ mod tests {
 
     #[test]
     fn rounding_is_half_to_even() {
-        let r = |v| real_to_int(v, Elem::Int).unwrap();
+        let r = |v| real_to_int(v, Elem::Int, Overflow::Fault).unwrap();
         assert_eq!(
             [
                 r(1.6),
@@ -679,13 +742,16 @@ mod tests {
             ],
             [2, -2, 2, -2, 1, -1, 2, -2]
         );
-        assert_eq!(real_to_int(40000.0, Elem::Int), Err(OpError::Conversion));
-        assert_eq!(trunc_to_int(-1.6, Elem::Int), Ok(-1));
+        assert_eq!(
+            real_to_int(40000.0, Elem::Int, Overflow::Fault),
+            Err(OpError::Conversion)
+        );
+        assert_eq!(trunc_to_int(-1.6, Elem::Int, Overflow::Fault), Ok(-1));
     }
 
     #[test]
     fn conversions() {
-        let c = |v: Value, f, t| convert_elem(&v, f, t).unwrap();
+        let c = |v: Value, f, t| convert_elem(&v, f, t, Overflow::Fault).unwrap();
         assert_eq!(c(Value::Int(300), Elem::Int, Elem::Sint), Value::Int(44));
         assert_eq!(c(Value::Int(-1), Elem::Dint, Elem::Word), Value::Int(65535));
         assert_eq!(
@@ -732,9 +798,122 @@ mod tests {
         assert!(mid(b"ABC", 1, 0).is_err());
         assert_eq!(left(b"ABC", 5).unwrap(), b"ABC");
         assert_eq!(right(b"ABC", 2).unwrap(), b"BC");
-        assert_eq!(shift(Builtin::Rol, 0x81, 1, Elem::Byte), Ok(0x03));
-        assert_eq!(shift(Builtin::Ror, 0x81, 1, Elem::Byte), Ok(0xC0));
-        assert_eq!(shift(Builtin::Shl, 0x81, 1, Elem::Byte), Ok(0x02));
-        assert_eq!(shift(Builtin::Shr, 0x81, 9, Elem::Byte), Ok(0));
+        assert_eq!(
+            shift(Builtin::Rol, 0x81, 1, Elem::Byte, Overflow::Fault),
+            Ok(0x03)
+        );
+        assert_eq!(
+            shift(Builtin::Ror, 0x81, 1, Elem::Byte, Overflow::Fault),
+            Ok(0xC0)
+        );
+        assert_eq!(
+            shift(Builtin::Shl, 0x81, 1, Elem::Byte, Overflow::Fault),
+            Ok(0x02)
+        );
+        assert_eq!(
+            shift(Builtin::Shr, 0x81, 9, Elem::Byte, Overflow::Fault),
+            Ok(0)
+        );
+    }
+
+    #[test]
+    fn wrap_mode_keeps_the_low_bits() {
+        let w = |op, a, b, e| int_binary_in(op, a, b, e, Overflow::Wrap);
+        assert_eq!(w(BinaryOp::Add, 127, 1, Elem::Sint), Ok(-128));
+        assert_eq!(w(BinaryOp::Sub, 0, 1, Elem::Usint), Ok(255));
+        assert_eq!(w(BinaryOp::Sub, 0, 1, Elem::Dword), Ok(0xFFFF_FFFF));
+        assert_eq!(w(BinaryOp::Div, -128, -1, Elem::Sint), Ok(-128));
+        assert_eq!(w(BinaryOp::Mul, 1 << 30, 4, Elem::Dint), Ok(0));
+        assert_eq!(
+            w(
+                BinaryOp::Mul,
+                u64::MAX as i128,
+                u64::MAX as i128,
+                Elem::Ulint
+            ),
+            Ok(1)
+        );
+        assert_eq!(
+            w(BinaryOp::Add, i64::MAX as i128, 1, Elem::Time),
+            Ok(i64::MIN as i128)
+        );
+        // Division by zero stays a fault in both modes.
+        assert_eq!(
+            w(BinaryOp::Div, 7, 0, Elem::Int),
+            Err(OpError::DivisionByZero)
+        );
+        assert_eq!(
+            int_binary_in(BinaryOp::Add, 127, 1, Elem::Sint, Overflow::Fault),
+            Err(OpError::Overflow)
+        );
+    }
+
+    #[test]
+    fn real_to_integers_one_rule_for_every_target() {
+        use Overflow::*;
+        // Unsigned and bit-string targets alike: a fault in fault mode, the low bits of the
+        // rounded value in wrap mode.
+        for e in [Elem::Udint, Elem::Dword] {
+            assert_eq!(real_to_int(-1.75, e, Fault), Err(OpError::Conversion));
+            assert_eq!(real_to_int(-1.75, e, Wrap), Ok(0xFFFF_FFFE));
+        }
+        assert_eq!(real_to_int(40000.0, Elem::Int, Wrap), Ok(-25536));
+        assert_eq!(real_to_int(-2.5, Elem::Usint, Wrap), Ok(254));
+        assert_eq!(
+            real_to_int(1e19, Elem::Lint, Wrap),
+            Ok(1e19 as u64 as i64 as i128)
+        );
+        let two64 = 2f64.powi(64);
+        assert_eq!(real_to_int(two64 + 4096.0, Elem::Ulint, Wrap), Ok(4096));
+        assert_eq!(
+            real_to_int(-two64 - 4096.0, Elem::Ulint, Wrap),
+            Ok(u64::MAX as i128 - 4095)
+        );
+        assert_eq!(trunc_to_int(-1.75, Elem::Uint, Wrap), Ok(65535));
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for mode in [Wrap, Fault] {
+                assert_eq!(
+                    real_to_int(bad, Elem::Dword, mode),
+                    Err(OpError::Conversion)
+                );
+                assert_eq!(
+                    trunc_to_int(bad, Elem::Dint, mode),
+                    Err(OpError::Conversion)
+                );
+            }
+        }
+        assert_eq!(
+            convert_elem(&Value::Real(1e300), Elem::Lreal, Elem::Time, Fault),
+            Err(OpError::Conversion)
+        );
+        assert!(convert_elem(&Value::Real(1e300), Elem::Lreal, Elem::Time, Wrap).is_ok());
+    }
+
+    #[test]
+    fn shift_counts_past_the_width_or_negative() {
+        use Builtin::*;
+        use Overflow::*;
+        for mode in [Wrap, Fault] {
+            assert_eq!(shift(Shl, 0x81, 8, Elem::Byte, mode), Ok(0));
+            assert_eq!(shift(Shr, 0x81, 200, Elem::Byte, mode), Ok(0));
+            assert_eq!(shift(Rol, 0x81, 9, Elem::Byte, mode), Ok(0x03));
+            assert_eq!(shift(Ror, 0x8001, 17, Elem::Word, mode), Ok(0xC000));
+        }
+        assert_eq!(
+            shift(Shl, 1, -1, Elem::Dword, Fault),
+            Err(OpError::Domain("a negative shift count"))
+        );
+        assert_eq!(shift(Shl, 1, -1, Elem::Dword, Wrap), Ok(0));
+        assert_eq!(shift(Shr, -1, -3, Elem::Dint, Wrap), Ok(0));
+        assert_eq!(shift(Rol, 0x81, -1, Elem::Byte, Wrap), Ok(0xC0));
+        assert_eq!(shift(Ror, 0x81, -1, Elem::Byte, Wrap), Ok(0x03));
+    }
+
+    #[test]
+    fn overflow_names() {
+        assert_eq!(Overflow::parse("Fault"), Some(Overflow::Fault));
+        assert_eq!(Overflow::parse("wrap"), Some(Overflow::Wrap));
+        assert_eq!(Overflow::parse("saturate"), None);
+        assert_eq!(Overflow::default().name(), "wrap");
     }
 }

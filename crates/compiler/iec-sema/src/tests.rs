@@ -2,16 +2,24 @@
 
 use petriplc_iec_syntax::{parser, SourceMap};
 
-use crate::{check, ir, Options};
+use crate::{check, ir, Options, Overflow};
 
 /// Checks `src`; returns the project and the rendered diagnostics.
 fn run(src: &str) -> (Option<ir::Project>, String) {
+    run_in(src, Overflow::default())
+}
+
+fn run_in(src: &str, overflow: Overflow) -> (Option<ir::Project>, String) {
     let mut map = SourceMap::new();
     let f = map.add("t.st", src);
     let mut d = petriplc_iec_syntax::Diagnostics::new();
     let lib = parser::parse(f, src, &mut d);
     assert!(!d.has_errors(), "syntax: {}", d.render(&map));
-    let (p, diags) = check(&lib, &Options::default());
+    let options = Options {
+        overflow,
+        ..Options::default()
+    };
+    let (p, diags) = check(&lib, &options);
     (p, diags.render(&map))
 }
 
@@ -227,6 +235,19 @@ fn literals_adapt_and_fold() {
             "E113]: this constant expression overflows INT",
         ],
     );
+    // Written out, an overflowing constant expression is a mistake in both modes (matiec
+    // refuses it too), though the same operation on variables wraps at run time.
+    for mode in [Overflow::Wrap, Overflow::Fault] {
+        let (_, d) = run_in(
+            &prog("x : INT; u : UDINT;", "x := -INT#-32768; u := UDINT#0 - 1;"),
+            mode,
+        );
+        assert_eq!(
+            d.matches("this constant expression overflows").count(),
+            2,
+            "{d}"
+        );
+    }
     // REAL arithmetic gives Inf and NaN at run time; written as constants they are refused.
     check_errors(
         &prog(
@@ -542,5 +563,46 @@ END_PROGRAM",
             "t.st:2:42: error[E100]: `v` is not declared",
             "t.st:3:25: error[E100]: `k` is not declared",
         ],
+    );
+}
+
+/// Conversions and shift counts of constants fold by the project's overflow rule, so a
+/// folded constant is what the run time computes: wrapped by default, an error with
+/// overflow = fault (where the run time faults).
+#[test]
+fn constant_conversions_and_shifts_follow_the_overflow_rule() {
+    let src = prog(
+        "a : UDINT := REAL_TO_UDINT(-1.75); b : DWORD := REAL_TO_DWORD(-1.75);
+         c : BYTE := ROL(BYTE#16#81, -1); d : WORD := SHL(WORD#1, -1);",
+        "",
+    );
+    let p = run_in(&src, Overflow::Wrap)
+        .0
+        .expect("wrap mode folds them");
+    let inits: Vec<_> = p.pous[0].vars.iter().map(|v| v.init.clone()).collect();
+    use crate::value::Value::Int;
+    assert_eq!(
+        inits,
+        [
+            Some(Int(0xFFFF_FFFE)),
+            Some(Int(0xFFFF_FFFE)),
+            Some(Int(0xC0)),
+            Some(Int(0))
+        ]
+    );
+    assert_eq!(p.overflow, Overflow::Wrap);
+    let (p, d) = run_in(&src, Overflow::Fault);
+    assert!(p.is_none());
+    assert_eq!(
+        d.matches("E113]: this constant does not convert to")
+            .count(),
+        2,
+        "{d}"
+    );
+    assert_eq!(
+        d.matches("E113]: this constant expression has no value: a negative shift count")
+            .count(),
+        2,
+        "{d}"
     );
 }

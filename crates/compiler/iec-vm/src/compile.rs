@@ -13,6 +13,7 @@ use std::collections::HashMap;
 use petriplc_iec_sema::ir::{self, Expr, Place, PouId, PouKind, Project};
 use petriplc_iec_sema::types::{Elem, Type, TypeId};
 use petriplc_iec_sema::value::{self, Value};
+use petriplc_iec_sema::Overflow;
 use petriplc_iec_syntax::source::Span;
 
 use crate::ext::{self, ExtOp, Kind};
@@ -76,6 +77,9 @@ pub struct Code {
     pub instances: Vec<InstanceRt>,
     /// Slots of each native function block's instance.
     pub native_sizes: Vec<u32>,
+    /// What integer overflow does: chosen by the instructions compiled ([`Op::ArNW`]…), and
+    /// read by the slower operations ([`crate::ext::exec`]).
+    pub overflow: Overflow,
 }
 
 /// A program instance in memory.

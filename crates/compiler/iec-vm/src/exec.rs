@@ -5,7 +5,7 @@ use petriplc_iec_sema::ops::OpError;
 use crate::compile::Code;
 use crate::ext::{self, read_str, OpFault};
 use crate::native::{NativeCtx, NativeFb};
-use crate::op::{Arith, Cmp, Op, RANGES};
+use crate::op::{wrap_to, Arith, Cmp, Op, RANGES};
 
 /// A run-time fault at an instruction.
 #[derive(Clone, Debug, PartialEq)]
@@ -544,6 +544,75 @@ fn data(
                 format!("-({}) leaves the 64-bit range", m!(s) as i64)
             ),
         },
+        Op::ArNW { op, d, a, b, r } => {
+            // Narrow operands are far inside i64: only a 32-bit product can leave it, and
+            // wrapping it keeps the low 32 bits exact.
+            let (x, y) = (m!(a) as i64, m!(b) as i64);
+            let v = match op {
+                Arith::Add => x.wrapping_add(y),
+                Arith::Sub => x.wrapping_sub(y),
+                Arith::Mul => x.wrapping_mul(y),
+                Arith::Div => {
+                    if y == 0 {
+                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
+                    }
+                    x / y
+                }
+                Arith::Mod => {
+                    if y == 0 {
+                        0
+                    } else {
+                        x % y
+                    }
+                }
+            };
+            m!(d) = wrap_to(v, r) as u64;
+        }
+        Op::ArLW { op, d, a, b } => {
+            let (x, y) = (m!(a) as i64, m!(b) as i64);
+            let v = match op {
+                Arith::Add => x.wrapping_add(y),
+                Arith::Sub => x.wrapping_sub(y),
+                Arith::Mul => x.wrapping_mul(y),
+                Arith::Div => {
+                    if y == 0 {
+                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
+                    }
+                    x.wrapping_div(y)
+                }
+                Arith::Mod => {
+                    if y == 0 {
+                        0
+                    } else {
+                        x.wrapping_rem(y)
+                    }
+                }
+            };
+            m!(d) = v as u64;
+        }
+        Op::ArUW { op, d, a, b } => {
+            let (x, y) = (m!(a), m!(b));
+            m!(d) = match op {
+                Arith::Add => x.wrapping_add(y),
+                Arith::Sub => x.wrapping_sub(y),
+                Arith::Mul => x.wrapping_mul(y),
+                Arith::Div => {
+                    if y == 0 {
+                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
+                    }
+                    x / y
+                }
+                Arith::Mod => {
+                    if y == 0 {
+                        0
+                    } else {
+                        x % y
+                    }
+                }
+            };
+        }
+        Op::NegNW { d, s, r } => m!(d) = wrap_to((m!(s) as i64).wrapping_neg(), r) as u64,
+        Op::NegLW { d, s } => m!(d) = (m!(s) as i64).wrapping_neg() as u64,
         Op::NegF { d, s } => m!(d) = (-f64::from_bits(m!(s))).to_bits(),
         Op::BNot { d, s, bits } => {
             let mask = if bits >= 64 {
@@ -625,7 +694,7 @@ fn data(
             }
         }
         Op::Ext { x } => {
-            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base) {
+            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base, code.overflow) {
                 fail!(FaultKind::Op(error), detail);
             }
         }

@@ -3,7 +3,7 @@
 //! [`petriplc_iec_sema::ops`], the same code the checker folds constants with.
 
 use petriplc_iec_sema::ir::Builtin;
-use petriplc_iec_sema::ops::{self, OpError};
+use petriplc_iec_sema::ops::{self, OpError, Overflow};
 use petriplc_iec_sema::types::{fits, wrap, Elem};
 use petriplc_iec_sema::value::Value;
 use petriplc_iec_syntax::ast::BinaryOp;
@@ -296,12 +296,13 @@ fn set_from(mem: &mut [u64], base: usize, d: u32, src: u32, kind: Kind, cap: u32
     }
 }
 
-pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
+/// Runs one operation; `mode` is what an integer result outside its type does.
+pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize, mode: Overflow) -> Result<(), OpFault> {
     match x {
         ExtOp::Conv { d, s, from, to } => {
             let raw = slot(mem, base, *s);
             let v = get_value(raw, *from);
-            let r = ops::convert_elem(&v, *from, *to).map_err(|e| {
+            let r = ops::convert_elem(&v, *from, *to, mode).map_err(|e| {
                 let call = format!("{}_TO_{}({})", from.name(), to.name(), show(raw, *from));
                 match ops::non_finite(v.as_real().unwrap_or(0.0)) {
                     Some(what) => fault(e, format!("{call}: {what} has no {} value", to.name())),
@@ -328,15 +329,16 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         }
         ExtOp::Trunc { d, s, to } => {
             let v = real(mem, base, *s);
-            let r = ops::trunc_to_int(v, *to).map_err(|e| {
-                fault(
-                    e,
-                    format!(
-                        "TRUNC({}) to {}",
-                        ops::format_real(v, Elem::Lreal),
-                        to.name()
-                    ),
-                )
+            let r = ops::trunc_to_int(v, *to, mode).map_err(|e| {
+                let call = format!(
+                    "TRUNC({}) to {}",
+                    ops::format_real(v, Elem::Lreal),
+                    to.name()
+                );
+                match ops::non_finite(v) {
+                    Some(what) => fault(e, format!("{call}: {what} has no {} value", to.name())),
+                    None => fault(e, call),
+                }
             })?;
             mem[base + *d as usize] = r as i64 as u64;
         }
@@ -385,8 +387,10 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
                     ));
                 }
                 let r = ops::round_even(if *div { t as f64 / f } else { t as f64 * f });
-                if !r.is_finite() || r.abs() > 9.2e18 {
-                    return Err(fault(
+                // NaN and ±Inf have no duration in either mode; a finite value out of range
+                // wraps like LINT, or is a fault in fault mode.
+                ops::real_to_int(r, Elem::Lint, mode).map_err(|_| {
+                    fault(
                         OpError::Overflow,
                         format!(
                             "T#{} {} {} leaves the range of TIME",
@@ -394,13 +398,12 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
                             if *div { "/" } else { "*" },
                             ops::format_real(f, Elem::Lreal)
                         ),
-                    ));
-                }
-                r as i128
+                    )
+                })?
             } else {
                 let n = int(mem, base, *b);
                 let op = if *div { BinaryOp::Div } else { BinaryOp::Mul };
-                ops::int_binary(op, t, n, Elem::Lint).map_err(|e| {
+                ops::int_binary_in(op, t, n, Elem::Lint, mode).map_err(|e| {
                     fault(
                         e,
                         format!(
@@ -423,6 +426,11 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         } => {
             let (x, y) = (int(mem, base, *a), int(mem, base, *b));
             let r = if *sub { x - y } else { x + y };
+            let r = if mode == Overflow::Wrap {
+                wrap(r, Elem::Lint)
+            } else {
+                r
+            };
             if !fits(r, Elem::Lint) {
                 return Err(fault(
                     OpError::Overflow,
@@ -450,7 +458,7 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         ExtOp::AbsI { d, s, e } => {
             let raw = slot(mem, base, *s);
             let v = get_value(raw, *e).as_int().unwrap_or(0);
-            let r = ops::int_binary(BinaryOp::Sub, 0, -v.abs(), *e)
+            let r = ops::int_binary_in(BinaryOp::Sub, 0, -v.abs(), *e, mode)
                 .map_err(|er| fault(er, format!("ABS({v}) in {}", e.name())))?;
             mem[base + *d as usize] = r as i64 as u64;
         }
@@ -526,7 +534,7 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         ExtOp::Shift { f, d, s, n, e } => {
             let v = get_value(slot(mem, base, *s), *e).as_int().unwrap_or(0);
             let k = int(mem, base, *n);
-            let r = ops::shift(*f, v, k, *e)
+            let r = ops::shift(*f, v, k, *e, mode)
                 .map_err(|er| fault(er, format!("{}(…, {k})", f.name())))?;
             mem[base + *d as usize] = r as i64 as u64;
         }

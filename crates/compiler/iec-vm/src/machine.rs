@@ -862,7 +862,10 @@ impl Machine {
                         Value::Int(*i)
                     }
                     (Value::Int(i), _) if e.is_duration() || e.is_date() => Value::Int(*i),
-                    _ => ops::convert_elem(value, from, e).map_err(|er| er.to_string())?,
+                    // A value from outside that does not fit is refused, whatever the
+                    // program's overflow rule: it is the sender's mistake, not arithmetic.
+                    _ => ops::convert_elem(value, from, e, ops::Overflow::Fault)
+                        .map_err(|er| er.to_string())?,
                 };
                 self.mem[v.addr as usize] = ext::put_value(&r, e);
                 Ok(())

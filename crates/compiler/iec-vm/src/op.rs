@@ -37,6 +37,33 @@ pub fn range_of(e: Elem) -> u8 {
     }
 }
 
+/// Width in bits and signedness of each `RANGES` entry: what a wrapped result keeps.
+pub const WIDTHS: [(u8, bool); 9] = [
+    (1, false),
+    (8, true),
+    (16, true),
+    (32, true),
+    (8, false),
+    (16, false),
+    (32, false),
+    (64, true),
+    (64, false),
+];
+
+/// `v` reduced to the low bits of range `r`'s type, sign- or zero-extended as slots hold it.
+#[inline(always)]
+pub fn wrap_to(v: i64, r: u8) -> i64 {
+    let (bits, signed) = WIDTHS[r as usize];
+    if bits >= 64 {
+        v
+    } else if signed {
+        let sh = 64 - bits as u32;
+        (v << sh) >> sh
+    } else {
+        v & ((1i64 << bits) - 1)
+    }
+}
+
 /// How integers of a type compute: narrow types in i64 with a range check, 64-bit signed
 /// checked, 64-bit unsigned checked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -289,6 +316,36 @@ pub enum Op {
         r: u8,
     },
     NegL {
+        d: u32,
+        s: u32,
+    },
+    /// The same operations when overflow wraps ([`petriplc_iec_sema::Overflow::Wrap`]): the
+    /// result keeps the type's low bits; division by zero is still a fault.
+    ArNW {
+        op: Arith,
+        d: u32,
+        a: u32,
+        b: u32,
+        r: u8,
+    },
+    ArLW {
+        op: Arith,
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    ArUW {
+        op: Arith,
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    NegNW {
+        d: u32,
+        s: u32,
+        r: u8,
+    },
+    NegLW {
         d: u32,
         s: u32,
     },

@@ -35,6 +35,9 @@ pub struct Sources {
     pub dialect: Option<Dialect>,
     /// The dialect a file read so far shows it is written in (a TwinCAT file).
     pub detected: Option<Dialect>,
+    /// What integer overflow does when the program runs: wrap (the default, as CODESYS,
+    /// TwinCAT, matiec and OpenPLC) or fault (docs/iec.md). Set after [`Sources::new`].
+    pub overflow: sema::Overflow,
 }
 
 /// The largest file read: [`petriplc_files::IEC_SOURCE`].
@@ -204,6 +207,7 @@ fn check_as(sources: &Sources, natives: &Natives, library: bool) -> Result<Check
         natives: natives.extra_signatures(),
         dialect: sources.dialect(),
         library,
+        overflow: sources.overflow,
     };
     // A source with syntax errors is not checked further (its tree is partial).
     let project = if all.has_errors() {

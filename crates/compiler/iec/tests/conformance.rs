@@ -8,8 +8,13 @@
 //!    set 2: go = TRUE                 before scan 2
 //!    after 3: n = 5, s = 'ab', t = T#1s, r = 1.5
 //!    fault 4: division by zero        scan 4 fails with a message containing this
+//!    overflow fault 3: leaves 0..255  run again with `overflow = fault`: the same values
+//!                                     before scan 3, and scan 3 fails so
 //! *)
 //! ```
+//!
+//! Programs run with the default overflow rule (wrap); a program with an `overflow fault`
+//! line runs a second time in fault mode, so both rules are tested by the same program.
 //!
 //! Names are the program's variables (`x`, `inst.q`, `a[2]`), or `instance.var` and globals
 //! for a configuration. BOOL is 1/0 (TRUE/FALSE accepted), reals compare with a relative
@@ -23,8 +28,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use petriplc_iec::{build_file, Select};
+use petriplc_iec::{build, Natives, Select, Sources};
 use petriplc_iec_sema::types::{Elem, Type};
+use petriplc_iec_sema::Overflow;
 use petriplc_iec_vm::{display, Backend, Machine};
 
 const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus");
@@ -40,6 +46,8 @@ struct Spec {
     sets: Vec<(usize, String, String)>,
     checks: Vec<(usize, String, String)>,
     fault: Option<(usize, String)>,
+    /// The fault in `overflow = fault` mode.
+    overflow_fault: Option<(usize, String)>,
     scans: usize,
 }
 
@@ -127,6 +135,8 @@ fn parse_spec(path: &Path, text: &str) -> Spec {
             for (name, value) in assignments(&body) {
                 spec.sets.push((n, name, value));
             }
+        } else if let Some(rest) = line.strip_prefix("overflow fault ") {
+            spec.overflow_fault = Some(scan(rest));
         } else if let Some(rest) = line.strip_prefix("fault ") {
             let (n, body) = scan(rest);
             spec.fault = Some((n, body));
@@ -175,11 +185,34 @@ fn same(expected: &str, actual: &str, real: bool) -> bool {
     e == actual
 }
 
-/// Runs one corpus program; returns its problems.
+/// Runs one corpus program (and again in fault mode when it says what that does); returns
+/// its problems.
 fn run(path: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(path).unwrap();
     let spec = parse_spec(path, &text);
-    let build = match build_file(path, &Select::Auto) {
+    let mut problems = run_in(path, &spec, Overflow::Wrap);
+    if let Some((n, text)) = spec.overflow_fault.clone() {
+        let faulting = Spec {
+            checks: spec.checks.iter().filter(|c| c.0 < n).cloned().collect(),
+            sets: spec.sets.iter().filter(|c| c.0 <= n).cloned().collect(),
+            fault: Some((n, text)),
+            scans: n,
+            ..spec
+        };
+        for p in run_in(path, &faulting, Overflow::Fault) {
+            problems.push(format!("with overflow = fault: {p}"));
+        }
+    }
+    problems
+}
+
+fn run_in(path: &Path, spec: &Spec, overflow: Overflow) -> Vec<String> {
+    let mut sources = Sources::new();
+    sources.overflow = overflow;
+    let built = sources
+        .add_file(path)
+        .and_then(|()| build(&sources, &Select::Auto, Natives::default()));
+    let build = match built {
         Ok(b) => b,
         Err(e) => return vec![format!("does not compile:\n{e}")],
     };

@@ -2,12 +2,15 @@
 //! the engine exactly as `petriplc sim` runs the net: for every example net and 500 random
 //! nets, under every step rule, evolution and marking representation, 2 s of 10 ms scans on
 //! a timeline, outputs and markings compared scan by scan (the harness: `common/mod.rs`).
+//! Half the runs build with `overflow = fault`, half with the default `wrap` (alternating
+//! by mode and net), so machine code and VM are held to each other under both rules.
 
 mod common;
 
 use common::random::{arb_desc, build, timeline_text, Desc};
 use common::{compare, example_timeline, modes, read, Figures, NETS};
 use petriplc_codegen::{Form, Language};
+use petriplc_iec::sema::Overflow;
 use petriplc_sim::Timeline;
 use proptest::strategy::{Strategy, ValueTree};
 use proptest::test_runner::{Config, TestRng, TestRunner};
@@ -19,6 +22,15 @@ const LANGUAGES: [(Language, Form); 4] = [
     (Language::Il, Form::Project),
 ];
 
+/// Every other run in fault mode.
+fn overflow_of(k: usize) -> Overflow {
+    if k % 2 == 0 {
+        Overflow::Wrap
+    } else {
+        Overflow::Fault
+    }
+}
+
 #[test]
 fn generated_code_of_the_examples_runs_as_the_nets_simulate() {
     let mut figures = Figures::default();
@@ -27,13 +39,14 @@ fn generated_code_of_the_examples_runs_as_the_nets_simulate() {
         let net = read(path, sipn);
         let timeline = example_timeline(timeline);
         figures.nets += 1;
-        for &mode in &modes {
+        for (k, &mode) in modes.iter().enumerate() {
             compare(
                 name,
                 &net,
                 timeline.as_ref(),
                 plant,
                 mode,
+                overflow_of(k),
                 &LANGUAGES,
                 &mut figures,
             );
@@ -67,13 +80,14 @@ fn generated_code_of_random_nets_runs_as_the_nets_simulate() {
                         let timeline = Timeline::parse(&timeline_text(d), "timeline.csv").unwrap();
                         let name = format!("random net {} {d:?}", half * 250 + i);
                         f.nets += 1;
-                        for &mode in modes {
+                        for (k, &mode) in modes.iter().enumerate() {
                             compare(
                                 &name,
                                 &net,
                                 Some(&timeline),
                                 None,
                                 mode,
+                                overflow_of(i + k),
                                 &[LANGUAGES[0], LANGUAGES[2]],
                                 &mut f,
                             );

@@ -9,6 +9,7 @@
 //! max_iterations = 10000000  # loop iterations one scan may make before it fails
 //! watchdog = T#100ms         # wall-clock limit of one scan (default: none)
 //! dialect = codesys          # iec, codesys, twincat, pcworx (default: detected, else iec)
+//! overflow = fault           # integer overflow a fault (default: wrap, as other PLCs)
 //! map lights L               # variable lights (a global, or instance.var) is point L
 //! ```
 //!
@@ -19,8 +20,9 @@
 //! scan; any other is read before it. Types must match the points' sizes (BOOL: 1 bit,
 //! SINT/USINT/BYTE: 8, INT/UINT/WORD: 16, DINT/UDINT/DWORD: 32, REAL: f32, TIME: i32 in ms).
 //! The scan period, when the section sets none, is the configuration's task interval.
-//! A run-time fault (division by zero, index out of range, overflow, an endless loop) fails
-//! the module with the POU, line and values; `on_failure` decides what follows.
+//! A run-time fault (division by zero, index out of range, an endless loop; overflow with
+//! `overflow = fault`) fails the module with the POU, line and values; `on_failure` decides
+//! what follows.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -28,6 +30,7 @@ use std::time::{Duration, Instant};
 use petriplc_config::{ModuleDecl, PointKind};
 use petriplc_iec::sema::ir::VarClass;
 use petriplc_iec::sema::types::{Elem, Type};
+use petriplc_iec::sema::Overflow;
 use petriplc_iec::vm::{Engine, FaultKind, Machine, VarRef};
 use petriplc_iec::{Dialect, Natives, Select, Sources};
 use petriplc_runtime::image::{Handle, ModuleMap};
@@ -45,6 +48,7 @@ const SETTINGS: &[&str] = &[
     "max_iterations",
     "watchdog",
     "dialect",
+    "overflow",
 ];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
@@ -96,6 +100,7 @@ pub struct IecModule {
     watchdog: Option<Duration>,
     /// `dialect = …`; `None`: detected from the files (docs/iec.md, "Dialects and vendor code").
     dialect: Option<Dialect>,
+    overflow: Overflow,
     /// The program declares RETAIN variables (see [`iec_retain::declares_retain`]).
     retains: bool,
     run: Option<Run>,
@@ -150,6 +155,15 @@ impl IecModule {
                 )
             })?,
         };
+        let overflow = match common::setting(decl, "overflow") {
+            None => Overflow::default(),
+            Some(v) => Overflow::parse(v).ok_or_else(|| {
+                error(
+                    &decl.name,
+                    format!("`overflow = {v}`: give `wrap` (an integer result outside its type keeps its low bits, as CODESYS, TwinCAT, matiec and OpenPLC) or `fault` (it stops the module)"),
+                )
+            })?,
+        };
         // Read by the configuration (C060 when it is not a duration): the runner's watchdog
         // and the engine's check are the same limit.
         let watchdog = decl.watchdog;
@@ -162,6 +176,7 @@ impl IecModule {
             iterations,
             watchdog,
             dialect,
+            overflow,
             retains: decl
                 .settings
                 .get(if project { "project" } else { "program" })
@@ -262,6 +277,7 @@ impl Module for IecModule {
         let path = ctx.path(&self.file);
         let mut sources = Sources::new();
         sources.dialect = self.dialect;
+        sources.overflow = self.overflow;
         sources.add_file(&path).map_err(|e| error(&self.name, e))?;
         if self.project
             && !petriplc_iec::syntax::plcopen::is_plcopen(

@@ -181,6 +181,37 @@ fn an_endless_loop_is_stopped_by_the_iteration_budget() {
     );
 }
 
+/// Overflow wraps by default (the point reads -32768); `overflow = fault` fails the module at
+/// the line, and a value other than `wrap` or `fault` is refused with both named.
+#[test]
+fn overflow_wraps_unless_the_module_says_fault() {
+    let src = "PROGRAM p
+VAR_OUTPUT q : INT := 32766; END_VAR
+q := q + 1;
+END_PROGRAM
+";
+    let dir = dir_with(&[("p.st", src)]);
+    let conf = |setting: &str| {
+        format!("[PLC]\nmodule ctl iec\npoint q \"\" ctl i16\n[ctl]\nprogram = p.st\n{setting}")
+    };
+    let mut plc = start(&conf(""), dir.path()).unwrap();
+    plc.tick(ms(0)).unwrap();
+    plc.tick(ms(10)).unwrap();
+    assert_eq!(plc.value("q"), -32768);
+    let mut plc = start(&conf("overflow = fault\n"), dir.path()).unwrap();
+    plc.tick(ms(0)).unwrap();
+    let e = plc.tick(ms(10)).unwrap_err().to_string();
+    assert!(
+        e.contains("p.st:3: in PROGRAM p: overflow: 32767 + 1 = 32768 leaves -32768..32767"),
+        "{e}"
+    );
+    let err = start_err(&conf("overflow = saturate\n"), dir.path());
+    assert!(
+        err.contains("`overflow = saturate`: give `wrap`") && err.contains("or `fault`"),
+        "{err}"
+    );
+}
+
 #[test]
 fn the_chaser_runs_on_the_plc() {
     // The example's configuration, with a timeline standing in for the vitrine's keys.

@@ -3,6 +3,7 @@
 use petriplc_iec_sema::ir::{BinaryOp, Expr, ExprKind, UnaryOp};
 use petriplc_iec_sema::types::{Elem, Type, TypeId};
 use petriplc_iec_sema::value::Value;
+use petriplc_iec_sema::Overflow;
 use petriplc_iec_syntax::source::Span;
 
 use crate::ext::{self, ExtOp, Kind};
@@ -98,9 +99,16 @@ impl<'c, 'p> Fx<'c, 'p> {
                         if el.is_real() {
                             self.emit(Op::NegF { d, s: a }, span);
                         } else {
-                            match int_class(el) {
-                                IntClass::Narrow(r) => self.emit(Op::NegN { d, s: a, r }, span),
-                                _ => self.emit(Op::NegL { d, s: a }, span),
+                            let wrap = p.overflow == Overflow::Wrap;
+                            match (int_class(el), wrap) {
+                                (IntClass::Narrow(r), false) => {
+                                    self.emit(Op::NegN { d, s: a, r }, span)
+                                }
+                                (IntClass::Narrow(r), true) => {
+                                    self.emit(Op::NegNW { d, s: a, r }, span)
+                                }
+                                (_, false) => self.emit(Op::NegL { d, s: a }, span),
+                                (_, true) => self.emit(Op::NegLW { d, s: a }, span),
                             };
                         }
                     }
@@ -190,7 +198,8 @@ impl<'c, 'p> Fx<'c, 'p> {
             self.emit(o, span);
             return Ok(d);
         }
-        self.emit(Self::logic_or_arith(op, re, d, x, y), span);
+        let wrap = p.overflow == Overflow::Wrap;
+        self.emit(Self::logic_or_arith(op, re, wrap, d, x, y), span);
         Ok(d)
     }
 
@@ -326,15 +335,22 @@ impl<'c, 'p> Fx<'c, 'p> {
                     } else {
                         Arith::Sub
                     };
-                    self.emit(
+                    let o = if self.p().overflow == Overflow::Wrap {
+                        Op::ArLW {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        }
+                    } else {
                         Op::ArL {
                             op: ar,
                             d,
                             a: x,
                             b: y,
-                        },
-                        span,
-                    );
+                        }
+                    };
+                    self.emit(o, span);
                 }
             }
             return true;
@@ -379,8 +395,9 @@ impl<'c, 'p> Fx<'c, 'p> {
         }
     }
 
-    /// The instruction of a logic or arithmetic operator with a result of type `re`.
-    fn logic_or_arith(op: BinaryOp, re: Elem, d: u32, x: u32, y: u32) -> Op {
+    /// The instruction of a logic or arithmetic operator with a result of type `re`
+    /// (`wrap`: an integer result outside the type keeps its low bits).
+    fn logic_or_arith(op: BinaryOp, re: Elem, wrap: bool, d: u32, x: u32, y: u32) -> Op {
         match op {
             BinaryOp::And => Op::And { d, a: x, b: y },
             BinaryOp::Or => Op::Or { d, a: x, b: y },
@@ -402,21 +419,40 @@ impl<'c, 'p> Fx<'c, 'p> {
                         single: re == Elem::Real,
                     }
                 } else {
-                    match int_class(re) {
-                        IntClass::Narrow(r) => Op::ArN {
+                    match (int_class(re), wrap) {
+                        (IntClass::Narrow(r), false) => Op::ArN {
                             op: ar,
                             d,
                             a: x,
                             b: y,
                             r,
                         },
-                        IntClass::Long => Op::ArL {
+                        (IntClass::Narrow(r), true) => Op::ArNW {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                            r,
+                        },
+                        (IntClass::Long, false) => Op::ArL {
                             op: ar,
                             d,
                             a: x,
                             b: y,
                         },
-                        IntClass::ULong => Op::ArU {
+                        (IntClass::Long, true) => Op::ArLW {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        },
+                        (IntClass::ULong, false) => Op::ArU {
+                            op: ar,
+                            d,
+                            a: x,
+                            b: y,
+                        },
+                        (IntClass::ULong, true) => Op::ArUW {
                             op: ar,
                             d,
                             a: x,

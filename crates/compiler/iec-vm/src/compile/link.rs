@@ -172,6 +172,7 @@ impl<'p> Compiler<'p> {
             global_addr,
             instances: inst_rt,
             native_sizes: self.p.natives.iter().map(|n| n.vars.len() as u32).collect(),
+            overflow: self.p.overflow,
         })
     }
 }
@@ -192,6 +193,8 @@ impl Op {
             | Op::BNot { d, s, .. }
             | Op::NegN { d, s, .. }
             | Op::NegL { d, s }
+            | Op::NegNW { d, s, .. }
+            | Op::NegLW { d, s }
             | Op::NegF { d, s }
             | Op::GetBit { d, s, .. } => {
                 *d = f(*d);
@@ -246,6 +249,9 @@ impl Op {
             | Op::ArN { d, a, b, .. }
             | Op::ArL { d, a, b, .. }
             | Op::ArU { d, a, b, .. }
+            | Op::ArNW { d, a, b, .. }
+            | Op::ArLW { d, a, b, .. }
+            | Op::ArUW { d, a, b, .. }
             | Op::ArF { d, a, b, .. } => {
                 *d = f(*d);
                 *a = f(*a);

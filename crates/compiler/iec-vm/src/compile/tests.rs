@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use petriplc_iec_sema::Options;
+use petriplc_iec_sema::{Options, Overflow};
 use petriplc_iec_syntax::{Diagnostics, SourceMap};
 
 use crate::op::Op;
@@ -12,12 +12,21 @@ use crate::{display, native, Backend, Engine, InstanceSpec, Machine};
 /// `source` checked and compiled for its only PROGRAM, with the standard function blocks;
 /// the diagnostics rendered in the panic when it does not compile.
 fn engine(source: &str) -> Arc<Engine> {
+    engine_in(source, Overflow::default())
+}
+
+/// [`engine`] with an overflow rule.
+fn engine_in(source: &str, overflow: Overflow) -> Arc<Engine> {
     let mut map = SourceMap::new();
     let f = map.add("t.st", source);
     let mut diags = Diagnostics::new();
     let lib = petriplc_iec_syntax::parse(f, source, &mut diags);
     assert!(!diags.has_errors(), "{}", diags.render(&map));
-    let (project, diags) = petriplc_iec_sema::check(&lib, &Options::default());
+    let options = Options {
+        overflow,
+        ..Options::default()
+    };
+    let (project, diags) = petriplc_iec_sema::check(&lib, &options);
     let project = project.unwrap_or_else(|| panic!("{}", diags.render(&map)));
     let (pou, program) = project
         .programs()
@@ -36,7 +45,11 @@ fn engine(source: &str) -> Arc<Engine> {
 /// Runs `scans` scans, 10 ms apart, on the VM alone; then `paths` as `path=value`, one
 /// space between them, or `fault: …` from the first scan that faults.
 fn run(source: &str, scans: usize, paths: &[&str]) -> String {
-    let engine = engine(source);
+    run_in(source, scans, paths, Overflow::default())
+}
+
+fn run_in(source: &str, scans: usize, paths: &[&str], overflow: Overflow) -> String {
+    let engine = engine_in(source, overflow);
     let mut m = Machine::new(engine.clone());
     m.set_backend(Backend::Vm);
     for k in 0..scans {
@@ -76,8 +89,12 @@ fn check(pous: &str, vars: &str, body: &str, scans: usize, expect: &str) {
 
 /// As [`check`], for a program that faults: the fault's message contains `expect`.
 fn check_fault(vars: &str, body: &str, scans: usize, expect: &str) {
+    check_fault_in(vars, body, scans, expect, Overflow::default());
+}
+
+fn check_fault_in(vars: &str, body: &str, scans: usize, expect: &str, overflow: Overflow) {
     let source = format!("PROGRAM main\nVAR\n{vars}\nEND_VAR\n{body}\nEND_PROGRAM\n");
-    let got = run(&source, scans, &[]);
+    let got = run_in(&source, scans, &[], overflow);
     assert!(
         got.starts_with("fault: ") && got.contains(expect),
         "{got}\nwanted a fault with {expect} from\n{source}"
@@ -273,11 +290,26 @@ fn faults_stop_the_scan_with_the_values() {
         1,
         "index 4 is outside the array's bounds 1..3",
     );
-    check_fault(
+    check_fault_in(
         "i : SINT := 120;",
         "i := i + 10;",
         1,
         "overflow: 120 + 10 = 130 leaves -128..127",
+        Overflow::Fault,
+    );
+    // Wrapping, the default, changes no other fault.
+    check_fault(
+        "i : SINT := 120; d : SINT;",
+        "i := i + 10; d := i / 0;",
+        1,
+        "division by zero",
+    );
+    check(
+        "",
+        "i : SINT := 120; j : SINT;",
+        "i := i + 10; j := -i;",
+        1,
+        "i=-126 j=126",
     );
     check_fault(
         "n : DINT;",

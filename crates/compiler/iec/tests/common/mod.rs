@@ -13,7 +13,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use petriplc_codegen::{generate, Form, Language, Markings, Options, Program, Request};
-use petriplc_iec::{build_text, Select};
+use petriplc_iec::sema::Overflow;
+use petriplc_iec::{build, Natives, Select, Sources};
 use petriplc_iec_sema::value::Value;
 use petriplc_iec_vm::{Backend, Engine, Machine, VarRef};
 use petriplc_net::{Evolution, Net, PlaceId, ScanOptions, SignalId, StepRule};
@@ -247,12 +248,14 @@ pub fn label(language: Language, form: Form) -> String {
 /// built-in `plant`), and the program `compile` writes in each of `languages` on the engine in
 /// step with it; panics at the first scan where an output or a marking differs. Languages
 /// `compile` refuses for this net are counted as refused.
+#[allow(clippy::too_many_arguments)]
 pub fn compare(
     name: &str,
     net: &Net,
     timeline: Option<&Timeline>,
     plant: Option<&str>,
     mode: Mode,
+    overflow: Overflow,
     languages: &[(Language, Form)],
     figures: &mut Figures,
 ) {
@@ -269,7 +272,7 @@ pub fn compare(
     let mut runners = Vec::new();
     for &(language, form) in languages {
         let key = label(language, form);
-        let what = format!("{name} {step:?} {evolve:?} {markings:?} {key}");
+        let what = format!("{name} {step:?} {evolve:?} {markings:?} {key} overflow={overflow:?}");
         let generated = generate(
             net,
             &Request {
@@ -292,10 +295,12 @@ pub fn compare(
             (Language::Il, _) => "il",
             _ => "st",
         };
-        let build =
-            build_text(&format!("{name}.{ext}"), &text, &Select::Auto).unwrap_or_else(|e| {
-                panic!("{what}: the engine refuses the generated code:\n{e}\n{text}")
-            });
+        let mut sources = Sources::new();
+        sources.overflow = overflow;
+        sources.add_text(&format!("{name}.{ext}"), &text);
+        let build = build(&sources, &Select::Auto, Natives::default()).unwrap_or_else(|e| {
+            panic!("{what}: the engine refuses the generated code:\n{e}\n{text}")
+        });
         runners.push((key, Runner::new(what, build.engine, &lowered, net)));
     }
     if runners.is_empty() {
