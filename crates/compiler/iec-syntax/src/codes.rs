@@ -199,6 +199,10 @@ pub const CODES: &[Entry] = &[
       "Warning: it holds its type's initial value (a structure's field defaults, 0, FALSE, ''), as in CODESYS and TwinCAT, which warn too (C0228).",
       "PROGRAM p\nVAR CONSTANT k : INT; END_VAR\nEND_PROGRAM",
       "give it its value: `k : INT := 3;`."),
+    e("W013", "TwinCAT's `AT %I*` or `%Q*` in a function block",
+      "Warning: TwinCAT maps such a variable of each instance to I/O in its project's I/O configuration, which petriplc does not read; the variable is an ordinary one.",
+      "FUNCTION_BLOCK fb\nVAR raw AT %I* : INT; END_VAR\nEND_FUNCTION_BLOCK\nPROGRAM p\nVAR i : fb; END_VAR\ni();\nEND_PROGRAM",
+      "on the soft PLC, bind `instance.variable` to a point with a `map` row of the `iec` module."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

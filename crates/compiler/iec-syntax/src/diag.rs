@@ -78,6 +78,7 @@ codes! {
     PRAGMA_IGNORED = "W010",
     PRAGMA_WARNING = "W011",
     CONSTANT_WITHOUT_VALUE = "W012",
+    LOCATION_IGNORED = "W013",
 }
 
 /// Diagnostics collected by a stage, in the order found.
