@@ -606,3 +606,32 @@ fn constant_conversions_and_shifts_follow_the_overflow_rule() {
         "{d}"
     );
 }
+
+#[test]
+fn twincat_incomplete_locations_in_function_blocks_are_ordinary_variables() {
+    let (p, d) = run("FUNCTION_BLOCK fb
+VAR_INPUT raw AT %I* : INT; END_VAR
+VAR_OUTPUT out AT %Q* : BOOL; END_VAR
+out := raw > 3;
+END_FUNCTION_BLOCK
+PROGRAM p
+VAR i : fb; END_VAR
+i(raw := 4);
+END_PROGRAM");
+    assert!(p.is_some(), "{d}");
+    let lines: Vec<&str> = d.lines().collect();
+    assert_eq!(lines.len(), 2, "{d}");
+    assert!(
+        lines[0].starts_with("t.st:2:11: warning[W013]: TwinCAT's `AT %I*`/`%Q*`"),
+        "{d}"
+    );
+    // A complete address in a function block is still refused.
+    check_errors(
+        "FUNCTION_BLOCK fb
+VAR raw AT %IW3 : INT; END_VAR
+END_FUNCTION_BLOCK
+PROGRAM p
+END_PROGRAM",
+        &["E109]: located variables (AT) belong in programs and configurations"],
+    );
+}

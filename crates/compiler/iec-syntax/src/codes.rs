@@ -207,6 +207,10 @@ pub const CODES: &[Entry] = &[
       "Warning: a BYTE, WORD or DWORD where an integer or real type that holds all its values is needed (BYTE for INT, WORD for DINT or REAL, DWORD for LINT or LREAL). CODESYS and TwinCAT convert it implicitly and so does petriplc; the standard wants the conversion written.",
       "PROGRAM p\nVAR b : BYTE; i : INT; END_VAR\ni := b;\nEND_PROGRAM",
       "write the conversion (`BYTE_TO_INT(b)`)."),
+    e("W013", "TwinCAT's `AT %I*` or `%Q*` in a function block",
+      "Warning: TwinCAT maps such a variable of each instance to I/O in its project's I/O configuration, which petriplc does not read; the variable is an ordinary one.",
+      "FUNCTION_BLOCK fb\nVAR raw AT %I* : INT; END_VAR\nEND_FUNCTION_BLOCK\nPROGRAM p\nVAR i : fb; END_VAR\ni();\nEND_PROGRAM",
+      "on the soft PLC, bind `instance.variable` to a point with a `map` row of the `iec` module."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

@@ -82,6 +82,7 @@ codes! {
     ASSIGN_INPUT = "W020",
     EXTERNAL_WITHOUT_GLOBAL = "W021",
     IMPLICIT_BITS_TO_NUMBER = "W022",
+    LOCATION_IGNORED = "W013",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -312,14 +312,27 @@ impl<'a> Checker<'a> {
             if constant && d.init.is_none() && b.kind == VarKind::Local {
                 self.constant_without_value(d.span);
             }
-            if d.location.is_some() && !matches!(b.kind, VarKind::Local | VarKind::Global) {
+            // TwinCAT's `AT %I*`, `%Q*`, `%M*` (an address the I/O configuration gives each
+            // instance): nothing here maps it, so the variable is an ordinary one.
+            let incomplete = d.location.as_ref().is_some_and(|l| l.text.ends_with('*'))
+                && pou.kind != PouKind::Program
+                && matches!(b.kind, VarKind::Local | VarKind::Input | VarKind::Output);
+            if incomplete {
+                self.diags.warning(
+                    diag::LOCATION_IGNORED,
+                    d.span,
+                    "TwinCAT's `AT %I*`/`%Q*` is mapped by its I/O configuration, which petriplc does not read: this is an ordinary variable (on the soft PLC, bind `instance.variable` to a point with a `map` row)",
+                );
+            }
+            let location = d.location.as_ref().filter(|_| !incomplete);
+            if location.is_some() && !matches!(b.kind, VarKind::Local | VarKind::Global) {
                 self.error(
                     diag::BAD_DECLARATION,
                     d.span,
                     "only VAR and VAR_GLOBAL variables can be located with AT",
                 );
             }
-            if d.location.is_some() && pou.kind != PouKind::Program {
+            if location.is_some() && pou.kind != PouKind::Program {
                 self.error(
                     diag::BAD_DECLARATION,
                     d.span,
@@ -394,7 +407,7 @@ impl<'a> Checker<'a> {
                     init,
                     constant,
                     retain: b.retain == ast::Retain::Retain,
-                    location: d.location.as_ref().map(|l| l.text.clone()),
+                    location: location.map(|l| l.text.clone()),
                     span: n.span,
                 });
                 cx.names.insert(key, id);

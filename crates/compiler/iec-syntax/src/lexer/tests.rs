@@ -62,6 +62,12 @@ fn times_and_dates() {
     check("LTIME#1h_2m", &[t(TimeKind::LTime, 3_720_000_000_000)]);
     check("D#1970-01-02", &[t(TimeKind::Date, NANOS_PER_DAY)]);
     check("TOD#00:00:01.5", &[t(TimeKind::Tod, 1_500_000_000)]);
+    // Seconds may be left out (CODESYS, TwinCAT): OSCAT writes `TOD#12:00`.
+    check("TOD#12:00", &[t(TimeKind::Tod, 12 * 3_600_000_000_000)]);
+    check(
+        "DT#1970-01-02-00:01",
+        &[t(TimeKind::Dt, 86_400_000_000_000 + 60_000_000_000)],
+    );
     check(
         "DT#1970-01-02-00:00:01",
         &[t(TimeKind::Dt, NANOS_PER_DAY + 1_000_000_000)],

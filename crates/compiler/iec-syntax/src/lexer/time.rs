@@ -104,8 +104,12 @@ pub fn parse_date(body: &str) -> Result<i64, String> {
 /// `hh:mm:ss[.fff]`: nanoseconds since midnight.
 pub fn parse_tod(body: &str) -> Result<i128, String> {
     const HINT: &str =
-        "write a time of day as hh:mm:ss with optional fraction (e.g. TOD#14:30:00.5)";
-    let parts: Vec<&str> = body.split(':').collect();
+        "write a time of day as hh:mm:ss with optional fraction (e.g. TOD#14:30:00.5), or hh:mm";
+    let mut parts: Vec<&str> = body.split(':').collect();
+    // `hh:mm` without seconds, as CODESYS and TwinCAT (and blark's grammar) accept.
+    if parts.len() == 2 {
+        parts.push("0");
+    }
     if parts.len() != 3 {
         return Err(HINT.into());
     }
