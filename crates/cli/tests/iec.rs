@@ -68,6 +68,29 @@ fn check_accepts_a_good_program_and_reports_every_error_of_a_bad_one() {
 }
 
 #[test]
+fn a_library_checks_with_a_warning_for_a_global_it_names_but_does_not_run_without_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let lib = file(
+        &dir,
+        "lib.st",
+        "PROGRAM ticks\nVAR_EXTERNAL PLC_TICKS_PER_SEC : INT; END_VAR\nVAR_OUTPUT n : INT; END_VAR\nn := PLC_TICKS_PER_SEC;\nEND_PROGRAM\n",
+    );
+    petriplc().args(["check", &lib]).assert().success().stderr(
+        predicate::str::contains(
+            "lib.st:2:14: warning[W021]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL",
+        )
+        .and(predicate::str::contains("1 warning(s)")),
+    );
+    petriplc()
+        .args(["sim", &lib, "--until", "0.1s"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "lib.st:2:14: error[E106]: VAR_EXTERNAL PLC_TICKS_PER_SEC has no VAR_GLOBAL",
+        ));
+}
+
+#[test]
 fn sim_traces_a_program_against_a_timeline() {
     let dir = tempfile::tempdir().unwrap();
     let prog = file(

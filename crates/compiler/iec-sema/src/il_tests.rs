@@ -198,3 +198,17 @@ fn parenthesised_operations_nest_100_deep() {
         &["t.il:106:1: error[E014]: parenthesised operations nested more than 100 deep"],
     );
 }
+
+#[test]
+fn typed_and_bcd_functions_and_bit_string_arithmetic_in_il() {
+    check_il(
+        "d : DWORD; w : WORD; i : INT; b : BYTE;",
+        "LD d\n  SHR_DWORD 3\n  ADD 16#10\n  ST d\n  LD i\n  LIMIT_INT 0, 100\n  ST i\n  LD w\n  WORD_BCD_TO_INT\n  ST i\n  LD b\n  MUL 3\n  ST b",
+        &[],
+    );
+    check_il(
+        "d : DWORD; i : INT;",
+        "LD i\n  SHR_DWORD 3\n  ST d",
+        &["error[E110]: argument 1 of SHR_DWORD is INT but DWORD is needed"],
+    );
+}

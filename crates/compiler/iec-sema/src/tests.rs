@@ -507,8 +507,8 @@ fn arithmetic_on_bit_strings() {
     );
     check_errors(
         &prog(
-            "w : WORD; i : INT; r : REAL; b : BOOL; d : DWORD;",
-            "i := w + i;\nb := w < i;\nr := d * r;\nw := w ** 2;",
+            "w : WORD; i : INT; r : REAL; b : BOOL; d : DWORD; t : TIME;",
+            "i := w + i;\nb := w < i;\nr := d * r;\nt := t ** 2;",
         ),
         &[
             "t.st:5:6: error[E110]: the value assigned to `i` is WORD but INT is needed",
@@ -633,5 +633,18 @@ END_FUNCTION_BLOCK
 PROGRAM p
 END_PROGRAM",
         &["E109]: located variables (AT) belong in programs and configurations"],
+    );
+}
+
+#[test]
+fn an_integer_base_raises_to_an_lreal() {
+    let p = check_ok(&prog(
+        "i : INT := 2; w : WORD := 3; lr : LREAL;",
+        "lr := EXPT(i, 7); lr := w ** 2.5 + i ** i;",
+    ));
+    assert!(format!("{:?}", p.pous[0].body).contains("Power"));
+    check_errors(
+        &prog("i : INT; r : REAL;", "r := EXPT(i, 2);"),
+        &["t.st:5:6: error[E110]: the value assigned to `r` is LREAL but REAL is needed"],
     );
 }

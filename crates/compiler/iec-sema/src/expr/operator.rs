@@ -212,6 +212,10 @@ impl<'a> Checker<'a> {
         if op == Power {
             let x = match self.types.get(x.ty) {
                 Type::IntLit | Type::RealLit => self.coerce(x, ids::LREAL, "the base"),
+                // An integer or bit-string base gives an LREAL, as in CODESYS and TwinCAT.
+                _ if xe.is_some_and(|e| e.is_int() || e.is_bitstring()) => {
+                    self.convert(x, ids::LREAL)
+                }
                 _ => x,
             };
             let y = match self.types.get(y.ty) {
@@ -221,11 +225,11 @@ impl<'a> Checker<'a> {
             };
             let (xe, ye) = (self.types.elem(x.ty), self.types.elem(y.ty));
             if !xe.is_some_and(|e| e.is_real()) || !ye.is_some_and(|e| e.is_num()) {
-                let an = self.types.name(x.ty);
+                let (an, bn) = (self.types.name(x.ty), self.types.name(y.ty));
                 self.error(
                     diag::OPERAND_TYPE,
                     span,
-                    format!("`**` (EXPT) raises REAL or LREAL to a number; this base is {an} (convert it, e.g. INT_TO_REAL(x) ** 2)"),
+                    format!("`**` (EXPT) raises a number to a number; here {an} to {bn}"),
                 );
                 return err(span);
             }

@@ -532,9 +532,17 @@ impl<'c, 'p> Fx<'c, 'p> {
             );
             return Ok(d);
         }
+        // A bit string's slot holds its unsigned value: it is already the value of an integer
+        // type that holds them all (BYTE as INT, DWORD as LINT), and of LWORD for any integer.
+        let holds = |a: Elem, b: Elem| {
+            let ((alo, ahi), (blo, bhi)) = (a.range(), b.range());
+            blo <= alo && ahi <= bhi
+        };
         if fe == te
             || (fe.is_int() && te.is_int() && fe.widens_to(te))
             || (fe.is_bitstring() && te.is_bitstring() && fe.widens_to(te))
+            || (fe.is_bitstring() && te.is_int() && holds(fe, te))
+            || (fe.is_int() && te == Elem::Lword)
             || (fe == Elem::Time && te == Elem::Ltime)
         {
             if let Some(d) = want {
@@ -544,6 +552,20 @@ impl<'c, 'p> Fx<'c, 'p> {
                 return Ok(d);
             }
             return Ok(s);
+        }
+        if fe.is_int() && te.is_bitstring() {
+            // An integer to a narrower bit string keeps the low bits: a mask, not a call.
+            let d = want.unwrap_or_else(|| self.temp(1));
+            let k = self.temp(1);
+            self.emit(
+                Op::MovK {
+                    d: k,
+                    k: (1u64 << te.bits()) - 1,
+                },
+                span,
+            );
+            self.emit(Op::And { d, a: s, b: k }, span);
+            return Ok(d);
         }
         let d = want.unwrap_or_else(|| self.temp(1));
         self.ext(
