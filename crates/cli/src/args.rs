@@ -242,6 +242,11 @@ pub struct SimArgs {
     /// IEC programs: trace every variable of the program, not only its outputs.
     #[arg(long)]
     pub vars: bool,
+    /// IEC programs: load a vendor library (`codesys`, `twincat`, `pcworx`; repeatable or
+    /// comma-separated): its functions, such as CODESYS's TIME() or PCWorx's GET_CHAR, become
+    /// callable (docs/iec.md, "Vendor libraries").
+    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    pub lib: Vec<String>,
 }
 
 #[derive(Debug, Args)]
@@ -260,6 +265,11 @@ pub struct CheckArgs {
     /// Also compile the named PROGRAM (or, without it, what would run) for the engine.
     #[arg(long, value_name = "NAME")]
     pub pou: Option<String>,
+    /// Load a vendor library (`codesys`, `twincat`, `pcworx`; repeatable or
+    /// comma-separated): its functions, such as CODESYS's TIME() or PCWorx's GET_CHAR, become
+    /// callable (docs/iec.md, "Vendor libraries").
+    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    pub lib: Vec<String>,
 }
 
 #[derive(Debug, Args)]

@@ -7,6 +7,7 @@ use crate::failure::{BadInputExt, Failure};
 
 pub fn run(args: CheckArgs) -> Result<(), Failure> {
     let mut sources = Sources::new();
+    sources.libs = args.lib.clone();
     for f in &args.files {
         sources.add_file(f).bad_input()?;
     }

@@ -45,9 +45,9 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     if is_iec(&args.net) {
         return run_iec(args);
     }
-    if args.pou.is_some() || args.vars {
+    if args.pou.is_some() || args.vars || !args.lib.is_empty() {
         return Err(anyhow!(
-            "--pou and --vars apply to IEC 61131-3 programs (.st, .il or a PLCopen XML project), not to nets"
+            "--pou, --vars and --lib apply to IEC 61131-3 programs (.st, .il or a PLCopen XML project), not to nets"
         ))
         .bad_input();
     }
@@ -371,7 +371,11 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
         Some(p) => petriplc_iec::Select::Pou(p.clone()),
         None => petriplc_iec::Select::Auto,
     };
-    let build = petriplc_iec::build_file(&args.net, &select).bad_input()?;
+    let mut sources = petriplc_iec::Sources::new();
+    sources.libs = args.lib.clone();
+    sources.add_file(&args.net).bad_input()?;
+    let build =
+        petriplc_iec::build(&sources, &select, petriplc_iec::Natives::default()).bad_input()?;
     if !build.warnings.is_empty() {
         crate::diagnostics::eprint(&build.warnings.join("\n"));
     }

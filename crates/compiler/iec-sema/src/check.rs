@@ -101,6 +101,8 @@ pub(crate) struct Checker<'a> {
     pub(crate) shapes: HashMap<TypeId, Shape>,
     /// Per POU: depth and size of its variables (a function block's instance).
     pub(crate) fb_shapes: Vec<Shape>,
+    /// The vendor libraries loaded (`Options::libs`).
+    pub libs: Vec<String>,
 }
 
 impl<'a> Checker<'a> {
@@ -136,6 +138,7 @@ impl<'a> Checker<'a> {
             too_deep_reported: false,
             shapes: HashMap::new(),
             fb_shapes: Vec::new(),
+            libs: options.libs.clone(),
         }
     }
 

@@ -328,6 +328,12 @@ pub enum Builtin {
     DtToTod,
     /// DT → DATE
     DtToDate,
+    /// CODESYS `TIME()`: the scan's clock (vendor library `codesys`).
+    Time,
+    /// PCWorx `GET_CHAR(string, position)` → INT (vendor library `pcworx`).
+    GetChar,
+    /// PCWorx `X_TO_STRING(value, format)`: the value by a C printf format.
+    Format,
 }
 
 impl Builtin {
@@ -367,6 +373,9 @@ impl Builtin {
             Builtin::ConcatDateTod => "CONCAT_DATE_TOD",
             Builtin::DtToTod => "DT_TO_TOD",
             Builtin::DtToDate => "DT_TO_DATE",
+            Builtin::Time => "TIME",
+            Builtin::GetChar => "GET_CHAR",
+            Builtin::Format => "X_TO_STRING",
         }
     }
 }

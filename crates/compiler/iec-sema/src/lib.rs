@@ -19,6 +19,7 @@ mod stdlib;
 mod stmt;
 pub mod types;
 pub mod value;
+pub mod vendor;
 
 use petriplc_iec_syntax::ast::Library;
 use petriplc_iec_syntax::Diagnostics;
@@ -30,6 +31,9 @@ pub use stdlib::{is_standard_function, standard_fbs, STANDARD_FUNCTIONS};
 pub struct Options {
     /// Function blocks implemented in Rust, beside the standard ones (e.g. DSP blocks).
     pub natives: Vec<ir::NativeSig>,
+    /// Vendor libraries loaded ([`vendor::LIBRARIES`]: `codesys`, `twincat`, `pcworx`):
+    /// their functions are callable, others' are refused naming their library.
+    pub libs: Vec<String>,
 }
 
 /// Checks a library. Returns the lowered project when there is no error, and every

@@ -625,7 +625,7 @@ fn data(
             }
         }
         Op::Ext { x } => {
-            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base) {
+            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base, now) {
                 fail!(FaultKind::Op(error), detail);
             }
         }

@@ -23,12 +23,17 @@ pub use petriplc_iec_sema as sema;
 pub use petriplc_iec_syntax as syntax;
 pub use petriplc_iec_vm as vm;
 
+pub use petriplc_iec_sema::vendor::vendor_libs_for;
+
 /// Sources read and parsed, with their diagnostics so far.
 #[derive(Debug, Default)]
 pub struct Sources {
     pub map: SourceMap,
     pub lib: Library,
     pub diags: Diagnostics,
+    /// Vendor libraries to load (`codesys`, `twincat`, `pcworx`: docs/iec.md, "Vendor
+    /// libraries"); a dialect's are [`vendor_libs_for`].
+    pub libs: Vec<String>,
 }
 
 /// The largest file read: [`petriplc_files::IEC_SOURCE`].
@@ -46,6 +51,9 @@ pub enum IecError {
     Invalid(String),
     #[error("{0}")]
     Compile(#[from] petriplc_iec_vm::CompileError),
+    /// A vendor library name that is not one (`--lib`, `libs =`), with the known ones.
+    #[error("{0}")]
+    UnknownLibrary(String),
 }
 
 impl Sources {
@@ -141,9 +149,11 @@ pub struct Checked {
 
 /// Checks sources: every error at once, rendered, or the project and its warnings.
 pub fn check(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> {
+    sema::vendor::check_names(&sources.libs).map_err(IecError::UnknownLibrary)?;
     let mut all = sources.diags.clone();
     let options = sema::Options {
         natives: natives.extra_signatures(),
+        libs: sources.libs.clone(),
     };
     // A source with syntax errors is not checked further (its tree is partial).
     let project = if all.has_errors() {

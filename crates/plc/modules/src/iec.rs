@@ -8,6 +8,7 @@
 //! task = fast                # only the programs of this TASK of the configuration
 //! max_iterations = 10000000  # loop iterations one scan may make before it fails
 //! watchdog = T#100ms         # wall-clock limit of one scan (default: none)
+//! libs = codesys, pcworx      # vendor libraries to load (default: none; docs/iec.md)
 //! map lights L               # variable lights (a global, or instance.var) is point L
 //! ```
 //!
@@ -43,6 +44,7 @@ const SETTINGS: &[&str] = &[
     "task",
     "max_iterations",
     "watchdog",
+    "libs",
 ];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
@@ -94,6 +96,8 @@ pub struct IecModule {
     watchdog: Option<Duration>,
     /// The program declares RETAIN variables (see [`iec_retain::declares_retain`]).
     retains: bool,
+    /// Vendor libraries loaded (`libs = codesys, pcworx`).
+    libs: Vec<String>,
     run: Option<Run>,
 }
 
@@ -140,6 +144,14 @@ impl IecModule {
                 )
             })?,
         };
+        let libs: Vec<String> = common::setting(decl, "libs")
+            .unwrap_or_default()
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|l| !l.is_empty())
+            .map(str::to_string)
+            .collect();
+        petriplc_iec::sema::vendor::check_names(&libs)
+            .map_err(|m| error(&decl.name, format!("`libs`: {m}")))?;
         // Read by the configuration (C060 when it is not a duration): the runner's watchdog
         // and the engine's check are the same limit.
         let watchdog = decl.watchdog;
@@ -155,6 +167,7 @@ impl IecModule {
                 .settings
                 .get(if project { "project" } else { "program" })
                 .is_some_and(|s| iec_retain::declares_retain(&s.origin.file, &s.value)),
+            libs,
             run: None,
         })
     }
@@ -250,6 +263,7 @@ impl Module for IecModule {
     fn init(&mut self, ctx: &mut InitContext<'_>) -> Result<(), ModuleError> {
         let path = ctx.path(&self.file);
         let mut sources = Sources::new();
+        sources.libs = self.libs.clone();
         sources.add_file(&path).map_err(|e| error(&self.name, e))?;
         if self.project
             && !petriplc_iec::syntax::plcopen::is_plcopen(

@@ -165,6 +165,31 @@ fn an_endless_loop_is_stopped_by_the_iteration_budget() {
 }
 
 #[test]
+fn libs_loads_vendor_libraries() {
+    // CODESYS's TIME() is the PLC's clock, as TON's: 0, 10, 20 ms at the first three ticks.
+    let src =
+        "PROGRAM p\nVAR_OUTPUT ms : DINT; END_VAR\nms := TIME_TO_DINT(TIME());\nEND_PROGRAM\n";
+    let dir = dir_with(&[("p.st", src)]);
+    let conf = "[PLC]\nmodule ctl iec\npoint ms \"\" ctl i32\n[ctl]\nprogram = p.st\n";
+    let mut plc = start(&format!("{conf}libs = codesys\n"), dir.path()).unwrap();
+    let mut seen = Vec::new();
+    for k in 0..3 {
+        plc.tick(ms(10 * k)).unwrap();
+        seen.push(plc.value("ms").to_string());
+    }
+    assert_eq!(seen.join(" "), "0 10 20");
+    let e = start_err(conf, dir.path());
+    assert!(e.contains("TIME is a CODESYS/TwinCAT function: add --lib codesys (`libs = codesys` on `module NAME iec`)"), "{e}");
+    let e = start_err(&format!("{conf}libs = codesys, step7\n"), dir.path());
+    assert!(
+        e.contains(
+            "`libs`: unknown vendor library `step7`; the libraries are codesys, twincat, pcworx"
+        ),
+        "{e}"
+    );
+}
+
+#[test]
 fn the_chaser_runs_on_the_plc() {
     // The example's configuration, with a timeline standing in for the vitrine's keys.
     let example = examples("chaser");
