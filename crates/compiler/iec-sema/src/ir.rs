@@ -334,6 +334,8 @@ pub enum Builtin {
     GetChar,
     /// PCWorx `X_TO_STRING(value, format)`: the value by a C printf format.
     Format,
+    /// TwinCAT `F_ToCHR(code)`: the one-character string of a code ('' for 0).
+    Chr,
 }
 
 impl Builtin {
@@ -376,6 +378,7 @@ impl Builtin {
             Builtin::Time => "TIME",
             Builtin::GetChar => "GET_CHAR",
             Builtin::Format => "X_TO_STRING",
+            Builtin::Chr => "F_ToCHR",
         }
     }
 }

@@ -14,38 +14,25 @@ pub use size::{size_of, SizeError};
 /// The libraries, by the name `--lib` and `libs =` take.
 pub const LIBRARIES: &[&str] = &["codesys", "twincat", "pcworx"];
 
-/// Every vendor function: its name, the library that provides it, and what it does (one
-/// line, for messages and docs).
-pub const FUNCTIONS: &[(&str, &str, &str)] = &[
-    ("TIME", "codesys", "TIME(): the time since the PLC started"),
-    (
-        "SIZEOF",
-        "codesys",
-        "SIZEOF(variable or type): its size in bytes",
-    ),
-    (
-        "GET_CHAR",
-        "pcworx",
-        "GET_CHAR(string, position): a character's code",
-    ),
-    (
-        "MUL_T_AI",
-        "pcworx",
-        "MUL_T_AI(TIME, ANY_INT): TIME times an integer",
-    ),
-    (
-        "DIV_T_AI",
-        "pcworx",
-        "DIV_T_AI(TIME, ANY_INT): TIME divided by an integer",
-    ),
+/// Every vendor function by name (upper case) and the library that provides it (docs/iec.md,
+/// "Vendor libraries", says what each does).
+pub const FUNCTIONS: &[(&str, &str)] = &[
+    ("TIME", "codesys"),
+    ("SIZEOF", "codesys"),
+    ("XSIZEOF", "codesys"),
+    ("F_TOASC", "twincat"),
+    ("F_TOCHR", "twincat"),
+    ("GET_CHAR", "pcworx"),
+    ("MUL_T_AI", "pcworx"),
+    ("DIV_T_AI", "pcworx"),
 ];
 
 /// The library providing `name` (any case), if it is a vendor function.
 pub fn provider(name: &str) -> Option<&'static str> {
     FUNCTIONS
         .iter()
-        .find(|(f, _, _)| f.eq_ignore_ascii_case(name))
-        .map(|(_, lib, _)| *lib)
+        .find(|(f, _)| f.eq_ignore_ascii_case(name))
+        .map(|(_, lib)| *lib)
 }
 
 /// Whether `name` (any case) is a vendor library.
@@ -107,6 +94,7 @@ mod tests {
         assert_eq!(provider("get_char"), Some("pcworx"));
         assert_eq!(provider("TIME"), Some("codesys"));
         assert_eq!(provider("LEN"), None);
+        assert_eq!(provider("F_ToAsc"), Some("twincat"));
         assert!(provides(&["TwinCAT".into()], "codesys"));
         assert!(!provides(&["codesys".into()], "pcworx"));
         assert!(!provides(&["codesys".into()], "twincat"));

@@ -177,6 +177,13 @@ pub enum ExtOp {
         from: Elem,
         cap: u32,
     },
+    /// TwinCAT `F_ToCHR`: the character of code `s` as a string at pointer `d` ('' for 0,
+    /// as a C string ends at NUL).
+    Chr {
+        d: u32,
+        s: u32,
+        cap: u32,
+    },
     /// A FOR loop's step must not be 0.
     NonZeroStep {
         s: u32,
@@ -576,6 +583,12 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize, now: i64) -> Result<(), OpF
             let text = petriplc_iec_sema::vendor::printf(&f, &v, *from);
             let at = ptr(mem, base, *d);
             write_str(mem, at, &text, *cap);
+        }
+        ExtOp::Chr { d, s, cap } => {
+            let c = slot(mem, base, *s) as u8;
+            let text: &[u8] = if c == 0 { &[] } else { &[c] };
+            let at = ptr(mem, base, *d);
+            write_str(mem, at, text, *cap);
         }
         ExtOp::ConcatDateTod { d, a, b } => {
             let date = int(mem, base, *a).div_euclid(NANOS_PER_DAY) * NANOS_PER_DAY;

@@ -10,8 +10,20 @@ use petriplc_iec_vm::{display, Backend, Machine};
 /// Runs `src` with `libs` for `scans` scans `period_ns` apart (the first at 0) on machine code
 /// and the VM; returns `name = value` of `names` after the last scan.
 fn run(libs: &[&str], src: &str, scans: i64, period_ns: i64, names: &[&str]) -> Vec<String> {
+    run_file("t.st", libs, src, scans, period_ns, names)
+}
+
+/// [`run`] for a file named `file` (`.il`: Instruction List).
+fn run_file(
+    file: &str,
+    libs: &[&str],
+    src: &str,
+    scans: i64,
+    period_ns: i64,
+    names: &[&str],
+) -> Vec<String> {
     let mut s = Sources::new();
-    s.add_text("t.st", src);
+    s.add_text(file, src);
     s.libs = libs.iter().map(|l| l.to_string()).collect();
     let b = build(&s, &Select::Auto, Natives::default()).unwrap_or_else(|e| panic!("{e}"));
     let engine = b.engine;
@@ -78,6 +90,16 @@ fn get_char_reads_a_code_and_0_outside_the_string() {
 }
 
 #[test]
+fn instruction_list_calls_them_too() {
+    let src = "PROGRAM p\nVAR c : INT; s : STRING := 'abc'; t : TIME; END_VAR\n\
+               LD s\nGET_CHAR 2\nST c\nLD T#2s\nMUL_T_AI 3\nST t\nEND_PROGRAM\n";
+    assert_eq!(
+        run_file("p.il", &["pcworx"], src, 1, 10 * MS, &["c", "t"]),
+        ["c = 98", "t = T#6s"]
+    );
+}
+
+#[test]
 fn to_string_with_a_format_is_c_printf() {
     let src = "PROGRAM p\nVAR a, b, c, d, e, f, g : STRING; s3 : STRING[3]; \
                fmt : STRING := '%02dm'; h : INT := 7; r : REAL := 2.5; u : UDINT := 9; END_VAR\n\
@@ -114,6 +136,17 @@ fn time_times_an_integer_and_sizeof() {
     assert_eq!(
         run(&["pcworx", "codesys"], src, 1, 10 * MS, &["t", "u", "n"]),
         ["t = T#3s", "u = T#1s500ms", "n = 18"]
+    );
+}
+
+#[test]
+fn twincat_character_functions() {
+    let src = "PROGRAM p\nVAR a, z : BYTE; s, e : STRING[4]; t : STRING[4] := 'xyz'; END_VAR\n\
+               a := F_ToASC(t); z := F_ToASC(''); s := F_ToCHR(16#31); e := F_ToCHR(0);\n\
+               s := CONCAT(s, F_ToCHR(a));\nEND_PROGRAM\n";
+    assert_eq!(
+        run(&["twincat"], src, 1, 10 * MS, &["a", "z", "s", "e"]),
+        ["a = 120", "z = 0", "s = '1x'", "e = ''"]
     );
 }
 

@@ -42,7 +42,7 @@ impl<'a> Checker<'a> {
             Find => (&["IN1", "IN2"], 2, false),
             ConcatDateTod => (&["IN1", "IN2"], 2, false),
             // Built elsewhere (conversions, operators, vendor functions in `vendor.rs`).
-            DtToTod | DtToDate | Expt | Time | GetChar | Format => (&["IN"], 1, false),
+            DtToTod | DtToDate | Expt | Time | GetChar | Format | Chr => (&["IN"], 1, false),
         };
         let Some(args) = self.std_args(f, call, params, min, ext) else {
             return err(span);
@@ -71,7 +71,7 @@ impl<'a> Checker<'a> {
                 }
                 self.fold(mk(vec![d, t], ids::DT))
             }
-            DtToTod | DtToDate | Expt | Time | GetChar | Format => err(span),
+            DtToTod | DtToDate | Expt | Time | GetChar | Format | Chr => err(span),
         }
     }
 

@@ -60,8 +60,52 @@ impl<'a> Checker<'a> {
                     span,
                 }
             }
-            "SIZEOF" => self.size_of(call, cx),
+            "SIZEOF" | "XSIZEOF" => self.size_of(&key, call, cx),
             "GET_CHAR" => self.get_char(call, cx),
+            "F_TOASC" => {
+                // TwinCAT's Tc2_System: the first character's code, 0 for ''.
+                let Some(args) = self.std_args("F_ToASC", call, &["STR"], 1, false) else {
+                    return Some(err(span));
+                };
+                let s = self.expr(args[0].expr, cx, Some(ids::STRING));
+                if s.ty == ids::ERROR {
+                    return Some(err(span));
+                }
+                if !matches!(self.types.get(s.ty), Type::Str { .. }) {
+                    let t = self.types.name(s.ty);
+                    self.error(
+                        diag::TYPE_MISMATCH,
+                        args[0].span,
+                        format!("F_ToASC reads a STRING, not {t}"),
+                    );
+                    return Some(err(span));
+                }
+                let first = Expr {
+                    kind: ExprKind::Const(Value::Int(1)),
+                    ty: ids::DINT,
+                    span,
+                };
+                Expr {
+                    kind: ExprKind::Builtin(Builtin::GetChar, vec![s, first]),
+                    ty: ids::BYTE,
+                    span,
+                }
+            }
+            "F_TOCHR" => {
+                let Some(args) = self.std_args("F_ToCHR", call, &["C"], 1, false) else {
+                    return Some(err(span));
+                };
+                let c = self.expr(args[0].expr, cx, Some(ids::BYTE));
+                let c = self.coerce(c, ids::BYTE, "F_ToCHR's code");
+                if c.ty == ids::ERROR {
+                    return Some(err(span));
+                }
+                Expr {
+                    kind: ExprKind::Builtin(Builtin::Chr, vec![c]),
+                    ty: ids::STRING,
+                    span,
+                }
+            }
             "MUL_T_AI" | "DIV_T_AI" => {
                 let op = if key == "MUL_T_AI" {
                     BinaryOp::Mul
@@ -94,11 +138,11 @@ impl<'a> Checker<'a> {
         })
     }
 
-    /// CODESYS `SIZEOF(variable or type)`: a constant, the bytes CODESYS's memory layout
+    /// CODESYS `SIZEOF(variable or type)` (and `XSIZEOF`, its newer name): a constant, the bytes CODESYS's memory layout
     /// gives it ([`vendor::size_of`]), typed by its context as an integer literal is.
-    fn size_of(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
+    fn size_of(&mut self, f: &str, call: &ast::Call, cx: &mut Cx) -> Expr {
         let span = call.span;
-        let Some(args) = self.std_args("SIZEOF", call, &["IN"], 1, false) else {
+        let Some(args) = self.std_args(f, call, &["IN"], 1, false) else {
             return err(span);
         };
         let arg = args[0].expr;
@@ -120,8 +164,8 @@ impl<'a> Checker<'a> {
             },
             Err(why) => {
                 let msg = match why {
-                    vendor::SizeError::FunctionBlock => format!("SIZEOF: {why}"),
-                    _ => format!("SIZEOF of {}: {why}", self.types.name(ty)),
+                    vendor::SizeError::FunctionBlock => format!("{f}: {why}"),
+                    _ => format!("{f} of {}: {why}", self.types.name(ty)),
                 };
                 self.error(diag::VENDOR_ARGUMENT, arg.span, msg);
                 err(span)

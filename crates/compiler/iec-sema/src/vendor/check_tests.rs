@@ -231,4 +231,47 @@ fn sizeof_is_a_constant_of_codesys_layout() {
         "n := SIZEOF(1 + 2);",
         "error[E181]",
     );
+    let p = run(&["codesys"], "n : UDINT; x : pair;", "n := XSIZEOF(x);").unwrap();
+    assert_eq!(first_const(&p), Some(16));
+    refused(
+        &["codesys"],
+        "f : fb; n : INT;",
+        "n := XSIZEOF(f);",
+        "error[E181]: XSIZEOF: a function block instance",
+    );
+}
+
+#[test]
+fn twincat_character_functions() {
+    assert!(run(
+        &["twincat"],
+        "b : BYTE; s : STRING[1];",
+        "b := F_ToASC('A'); s := F_ToCHR(b); s := F_ToCHR(c := 66);"
+    )
+    .is_ok());
+    // TwinCAT's own functions need `twincat`, CODESYS's alone do not give them.
+    refused(
+        &["codesys"],
+        "b : BYTE;",
+        "b := F_ToASC('A');",
+        "error[E180]: F_TOASC is a TwinCAT function: add --lib twincat",
+    );
+    refused(
+        &["twincat"],
+        "b : BYTE;",
+        "b := F_ToASC(65);",
+        "error[E110]: F_ToASC reads a STRING, not",
+    );
+    refused(
+        &["twincat"],
+        "s : STRING; r : REAL;",
+        "s := F_ToCHR(r);",
+        "error[E110]",
+    );
+    refused(
+        &["twincat"],
+        "i : INT;",
+        "i := F_ToASC('A');",
+        "error[E110]",
+    );
 }

@@ -166,6 +166,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                 s: xs[0],
                 p: xs[1],
             },
+            Builtin::Chr => ExtOp::Chr { d, s: xs[0], cap },
             Builtin::DtToTod | Builtin::DtToDate | Builtin::Expt | Builtin::Format => return None,
         })
     }

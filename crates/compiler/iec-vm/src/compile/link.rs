@@ -324,6 +324,10 @@ impl ExtOp {
             }
             ExtOp::NonZeroStep { s } => g(s),
             ExtOp::Now { d } => g(d),
+            ExtOp::Chr { d, s, .. } => {
+                g(d);
+                g(s);
+            }
             ExtOp::GetChar { d, s, p } => {
                 g(d);
                 g(s);
