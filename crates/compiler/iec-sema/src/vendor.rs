@@ -1,13 +1,16 @@
-//! Vendor libraries: optional packages of the functions CODESYS/TwinCAT and PCWorx programs
-//! call beside the standard library (`TIME()`, `SIZEOF`, `GET_CHAR`, `X_TO_STRING(value,
-//! format)`…), loaded by name (`--lib codesys`). This module is the catalogue (which
-//! library provides which function) and the meaning of those that are not plain
-//! operators: CODESYS's memory layout for SIZEOF (`size.rs`), PCWorx's printf-style
-//! formats (`format.rs`). The checker types the calls in `expr/vendor.rs`.
+//! Vendor libraries: optional packages of the functions and function blocks CODESYS/TwinCAT
+//! and PCWorx programs call beside the standard library (`TIME()`, `SIZEOF`, `GET_CHAR`,
+//! `X_TO_STRING(value, format)`, `HYSTERESIS`…), loaded by name (`--lib codesys`). This
+//! module is the catalogue (which library provides which) and the meaning of those that are
+//! not plain operators: CODESYS's memory layout for SIZEOF (`size.rs`), PCWorx's
+//! printf-style formats (`format.rs`), the function blocks' interfaces (`fbs.rs`). The
+//! checker types the calls in `expr/vendor.rs`.
 
+mod fbs;
 mod format;
 mod size;
 
+pub use fbs::{fb_provider, signature, signatures, FUNCTION_BLOCKS};
 pub use format::printf;
 pub use size::{size_of, SizeError};
 

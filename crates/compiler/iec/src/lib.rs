@@ -7,6 +7,7 @@
 mod code_examples;
 pub mod dsp_fbs;
 pub mod sim;
+pub mod vendor_fbs;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -134,6 +135,25 @@ impl Natives {
         self
     }
 
+    /// Adds the function blocks of vendor libraries `libs`: what [`build`] does with
+    /// [`Sources::libs`], for a caller that makes its own engine. A loaded library's block
+    /// replaces, in its place, a block of the same name (CODESYS's HYSTERESIS the DSP one):
+    /// the library was asked for by name.
+    pub fn with_libs(mut self, libs: &[String]) -> Self {
+        let std = petriplc_iec_sema::standard_fbs().len();
+        for fb in vendor_fbs::blocks(libs) {
+            let name = fb.signature().name;
+            match self.fbs[std..]
+                .iter()
+                .position(|f| f.signature().name == name)
+            {
+                Some(i) => self.fbs[std + i] = fb,
+                None => self.fbs.push(fb),
+            }
+        }
+        self
+    }
+
     fn extra_signatures(&self) -> Vec<sema::ir::NativeSig> {
         let std = petriplc_iec_sema::standard_fbs().len();
         self.fbs[std..].iter().map(|f| f.signature()).collect()
@@ -149,10 +169,24 @@ pub struct Checked {
 
 /// Checks sources: every error at once, rendered, or the project and its warnings.
 pub fn check(sources: &Sources, natives: &Natives) -> Result<Checked, IecError> {
+    // As `Natives::with_libs` places them (the same signature twice is harmless).
+    let mut extra = natives.extra_signatures();
+    for sig in sema::vendor::signatures(&sources.libs) {
+        match extra.iter().position(|e| e.name == sig.name) {
+            Some(i) => extra[i] = sig,
+            None => extra.push(sig),
+        }
+    }
+    check_with(sources, extra)
+}
+
+/// [`check`] with the native function blocks beside the standard ones (`extra`: the
+/// caller's, then the vendor libraries', in the order the engine gets them).
+fn check_with(sources: &Sources, extra: Vec<sema::ir::NativeSig>) -> Result<Checked, IecError> {
     sema::vendor::check_names(&sources.libs).map_err(IecError::UnknownLibrary)?;
     let mut all = sources.diags.clone();
     let options = sema::Options {
-        natives: natives.extra_signatures(),
+        natives: extra,
         libs: sources.libs.clone(),
     };
     // A source with syntax errors is not checked further (its tree is partial).
@@ -276,7 +310,8 @@ fn list(names: &[&str]) -> String {
 
 /// Checks and compiles sources for what `select` names.
 pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Build, IecError> {
-    let checked = check(sources, &natives)?;
+    let natives = natives.with_libs(&sources.libs);
+    let checked = check_with(sources, natives.extra_signatures())?;
     let specs = instances(&checked.project, select, &sources.map)?;
     #[cfg_attr(not(feature = "jit"), allow(unused_mut))]
     let mut engine = Engine::new(checked.project, &specs, natives.fbs, &sources.map)?;

@@ -151,6 +151,30 @@ fn twincat_character_functions() {
 }
 
 #[test]
+fn codesys_util_analog_monitors() {
+    // IN goes 70, 40, 70, 101, 70, 49 (one value a scan) against HIGH 100, LOW 50.
+    let src = "PROGRAM p\nVAR h : HYSTERESIS; a : LIMITALARM; k : INT; x : INT; \
+               xs : ARRAY[0..5] OF INT := [70, 40, 70, 101, 70, 49]; trace, alarms : STRING; END_VAR\n\
+               x := xs[k]; k := k + 1;\n\
+               h(IN := x, HIGH := 100, LOW := 50); a(IN := x, HIGH := 100, LOW := 50);\n\
+               trace := CONCAT(trace, BOOL_TO_STRING(h.OUT));\n\
+               IF a.O THEN alarms := CONCAT(alarms, 'O'); ELSIF a.U THEN alarms := CONCAT(alarms, 'U');\n\
+               ELSIF a.IL THEN alarms := CONCAT(alarms, '-'); END_IF;\nEND_PROGRAM\n";
+    assert_eq!(
+        run(&["codesys"], src, 6, 10 * MS, &["trace", "alarms"]),
+        ["trace = 'FALSETRUETRUEFALSEFALSETRUE'", "alarms = '-U-O-U'"]
+    );
+    // Without the library, HYSTERESIS is petriplc's DSP block (X, XON, XOFF → Q).
+    let dsp = "PROGRAM p\nVAR h : HYSTERESIS; q : BOOL; END_VAR\nh(X := 5.0, XON := 4.0, XOFF := 1.0); q := h.Q;\nEND_PROGRAM\n";
+    assert_eq!(run(&[], dsp, 1, 10 * MS, &["q"]), ["q = 1"]);
+    // A user's function block of that name is used instead, library or not.
+    let own = "FUNCTION_BLOCK HYSTERESIS\nVAR_INPUT IN : INT; END_VAR\nVAR_OUTPUT OUT : INT; END_VAR\nOUT := IN * 2;\nEND_FUNCTION_BLOCK\n\
+               PROGRAM p\nVAR h : HYSTERESIS; y : INT; END_VAR\nh(IN := 4); y := h.OUT;\nEND_PROGRAM\n";
+    assert_eq!(run(&["codesys"], own, 1, 10 * MS, &["y"]), ["y = 8"]);
+    assert_eq!(run(&[], own, 1, 10 * MS, &["y"]), ["y = 8"]);
+}
+
+#[test]
 fn libraries_are_named_and_dialects_map_to_them() {
     let mut s = Sources::new();
     s.add_text("t.st", "PROGRAM p\nEND_PROGRAM\n");

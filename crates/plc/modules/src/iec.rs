@@ -273,7 +273,7 @@ impl Module for IecModule {
         {
             return Err(error(&self.name, format!("`project = {}` is not a PLCopen XML project; for Structured Text write `program = {}`", self.file, self.file)));
         }
-        let checked = petriplc_iec::check(&sources, &Natives::default())
+        let checked = petriplc_iec::check(&sources, &Natives::default().with_libs(&self.libs))
             .map_err(|e| error(&self.name, format!("{} does not compile:\n{e}", self.file)))?;
         for w in &checked.warnings {
             log::warn!("{}: {w}", self.name);
@@ -305,7 +305,7 @@ impl Module for IecModule {
         let engine = Engine::new(
             checked.project,
             &specs,
-            Natives::default().fbs,
+            Natives::default().with_libs(&self.libs).fbs,
             &sources.map,
         )
         .map_err(|e| error(&self.name, e))?;

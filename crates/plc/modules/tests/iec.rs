@@ -178,6 +178,16 @@ fn libs_loads_vendor_libraries() {
         seen.push(plc.value("ms").to_string());
     }
     assert_eq!(seen.join(" "), "0 10 20");
+    // A vendor function block runs on the PLC as in `sim`.
+    let fb = "PROGRAM q\nVAR_OUTPUT lit : BOOL; END_VAR\nVAR h : HYSTERESIS; END_VAR\nh(IN := 1, HIGH := 9, LOW := 5); lit := h.OUT;\nEND_PROGRAM\n";
+    std::fs::write(dir.path().join("q.st"), fb).unwrap();
+    let mut plc = start(
+        "[PLC]\nmodule ctl iec\npoint lit \"\" ctl\n[ctl]\nprogram = q.st\nlibs = codesys\n",
+        dir.path(),
+    )
+    .unwrap();
+    plc.tick(ms(0)).unwrap();
+    assert_eq!(plc.value("lit"), 1);
     let e = start_err(conf, dir.path());
     assert!(e.contains("TIME is a CODESYS/TwinCAT function: add --lib codesys (`libs = codesys` on `module NAME iec`)"), "{e}");
     let e = start_err(&format!("{conf}libs = codesys, step7\n"), dir.path());

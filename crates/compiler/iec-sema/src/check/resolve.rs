@@ -323,6 +323,19 @@ impl<'a> Checker<'a> {
             );
             return (ids::ERROR, None);
         }
+        if let Some(lib) = crate::vendor::fb_provider(&key) {
+            // A vendor library's function block whose library is not loaded.
+            self.error(
+                diag::VENDOR_NOT_LOADED,
+                id.span,
+                format!(
+                    "{} is a {} function block: add --lib {lib} (`libs = {lib}` on `module NAME iec`), or declare a FUNCTION_BLOCK of that name",
+                    id.name,
+                    crate::vendor::title(lib)
+                ),
+            );
+            return (ids::ERROR, None);
+        }
         let hint = if ["CHAR", "WCHAR"].iter().any(|w| id.is(w)) {
             " (CHAR is not supported; use STRING[1] or BYTE)"
         } else {

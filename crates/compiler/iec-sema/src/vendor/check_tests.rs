@@ -18,9 +18,10 @@ fn run(libs: &[&str], decls: &str, body: &str) -> Result<ir::Project, String> {
     let mut d = petriplc_iec_syntax::Diagnostics::new();
     let lib = parser::parse(f, &src, &mut d);
     assert!(!d.has_errors(), "syntax: {}", d.render(&map));
+    let libs: Vec<String> = libs.iter().map(|s| s.to_string()).collect();
     let options = Options {
-        libs: libs.iter().map(|s| s.to_string()).collect(),
-        ..Options::default()
+        natives: crate::vendor::signatures(&libs),
+        libs,
     };
     match check(&lib, &options) {
         (Some(p), d) if !d.has_errors() => Ok(p),
@@ -272,6 +273,28 @@ fn twincat_character_functions() {
         &["twincat"],
         "i : INT;",
         "i := F_ToASC('A');",
+        "error[E110]",
+    );
+}
+
+#[test]
+fn function_blocks_with_their_library() {
+    assert!(run(
+        &["codesys"],
+        "h : HYSTERESIS; a : LIMITALARM; q : BOOL;",
+        "h(IN := 5, HIGH := 10, LOW := 2); q := h.OUT; a(IN := 5, HIGH := 10, LOW := 2); q := a.O OR a.U OR a.IL;"
+    )
+    .is_ok());
+    refused(
+        &[],
+        "h : HYSTERESIS;",
+        "h(IN := 5);",
+        "t.st:7:5: error[E180]: HYSTERESIS is a CODESYS/TwinCAT function block: add --lib codesys (`libs = codesys` on `module NAME iec`), or declare a FUNCTION_BLOCK of that name",
+    );
+    refused(
+        &["codesys"],
+        "h : HYSTERESIS;",
+        "h(IN := 5.5);",
         "error[E110]",
     );
 }
