@@ -251,6 +251,11 @@ pub struct SimArgs {
     /// keeps its low bits, as CODESYS, TwinCAT, matiec and OpenPLC; `fault` stops the run.
     #[arg(long, value_enum, default_value = "wrap")]
     pub overflow: OverflowArg,
+    /// IEC programs: load a vendor library (`codesys`, `twincat`, `pcworx`; repeatable or
+    /// comma-separated): its functions, such as CODESYS's TIME() or PCWorx's GET_CHAR, become
+    /// callable (docs/iec.md, "Vendor libraries").
+    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    pub lib: Vec<String>,
 }
 
 #[derive(Debug, Args)]
@@ -278,6 +283,11 @@ pub struct CheckArgs {
     /// `fault` (constant conversions and shift counts fold by it).
     #[arg(long, value_enum, default_value = "wrap")]
     pub overflow: OverflowArg,
+    /// Load a vendor library (`codesys`, `twincat`, `pcworx`; repeatable or
+    /// comma-separated): its functions, such as CODESYS's TIME() or PCWorx's GET_CHAR, become
+    /// callable (docs/iec.md, "Vendor libraries").
+    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    pub lib: Vec<String>,
 }
 
 fn parse_dialect(s: &str) -> Result<petriplc_iec::Dialect, String> {

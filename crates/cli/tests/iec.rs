@@ -91,6 +91,43 @@ fn a_library_checks_with_a_warning_for_a_global_it_names_but_does_not_run_withou
 }
 
 #[test]
+fn lib_loads_a_vendor_library_on_check_and_sim() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = file(
+        &dir,
+        "clock.st",
+        "PROGRAM p\nVAR_OUTPUT ms : DINT; hex : STRING[4]; END_VAR\nms := TIME_TO_DINT(TIME());\nhex := BYTE_TO_STRING(DINT_TO_BYTE(ms), '%02X');\nEND_PROGRAM\n",
+    );
+    petriplc()
+        .args(["check", &prog])
+        .assert()
+        .code(2)
+        .stderr(
+            predicate::str::contains("clock.st:3:20: error[E180]: TIME is a CODESYS/TwinCAT function: add --lib codesys")
+                .and(predicate::str::contains("clock.st:4:8: error[E180]: BYTE_TO_STRING(value, format) is a PCWorx function: add --lib pcworx")),
+        );
+    petriplc()
+        .args(["check", &prog, "--lib", "codesys,pcworx"])
+        .assert()
+        .success();
+    petriplc()
+        .args(["check", &prog, "--lib", "siemens"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "unknown vendor library `siemens`; the libraries are codesys, twincat, pcworx",
+        ));
+    // In simulation TIME() is the simulated clock: 0, 10 ms, 20 ms…
+    petriplc()
+        .args([
+            "sim", &prog, "--lib", "twincat", "--lib", "pcworx", "--until", "0.02s",
+        ])
+        .assert()
+        .success()
+        .stdout("time,ms,hex\n0,0,'00'\n0.01,10,'0A'\n0.02,20,'14'\n");
+}
+
+#[test]
 fn sim_traces_a_program_against_a_timeline() {
     let dir = tempfile::tempdir().unwrap();
     let prog = file(

@@ -9,6 +9,7 @@ pub fn run(args: CheckArgs) -> Result<(), Failure> {
     let mut sources = Sources::new();
     sources.dialect = args.dialect;
     sources.overflow = args.overflow.into();
+    sources.libs = args.lib.clone();
     for f in &args.files {
         sources.add_file(f).bad_input()?;
     }

@@ -45,9 +45,10 @@ pub fn run(args: SimArgs) -> Result<(), Failure> {
     if is_iec(&args.net) {
         return run_iec(args);
     }
-    if args.pou.is_some() || args.vars || args.overflow != OverflowArg::Wrap {
+    if args.pou.is_some() || args.vars || args.overflow != OverflowArg::Wrap || !args.lib.is_empty()
+    {
         return Err(anyhow!(
-            "--pou, --vars and --overflow apply to IEC 61131-3 programs (.st, .il or a PLCopen XML project), not to nets"
+            "--pou, --vars, --overflow and --lib apply to IEC 61131-3 programs (.st, .il or a PLCopen XML project), not to nets"
         ))
         .bad_input();
     }
@@ -380,6 +381,7 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
     let mut sources = petriplc_iec::Sources::new();
     sources.dialect = args.dialect;
     sources.overflow = args.overflow.into();
+    sources.libs = args.lib.clone();
     sources.add_file(&args.net).bad_input()?;
     let build =
         petriplc_iec::build(&sources, &select, petriplc_iec::Natives::default()).bad_input()?;

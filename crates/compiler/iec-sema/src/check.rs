@@ -109,6 +109,8 @@ pub(crate) struct Checker<'a> {
     pub(crate) library: bool,
     /// What integer overflow does (folding follows it; the project carries it to the VM).
     pub overflow: Overflow,
+    /// The vendor libraries loaded (`Options::libs`).
+    pub libs: Vec<String>,
 }
 
 impl<'a> Checker<'a> {
@@ -146,6 +148,7 @@ impl<'a> Checker<'a> {
             fb_shapes: Vec::new(),
             library: options.library,
             overflow: options.overflow,
+            libs: options.libs.clone(),
         }
     }
 

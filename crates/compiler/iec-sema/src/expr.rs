@@ -17,6 +17,7 @@ mod name;
 mod operator;
 mod place;
 mod stdcall;
+mod vendor;
 
 pub(crate) fn err(span: Span) -> Expr {
     Expr {

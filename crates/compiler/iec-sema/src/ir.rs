@@ -334,6 +334,14 @@ pub enum Builtin {
     BcdToInt,
     /// An integer → its BCD digits (a bit string): `INT_TO_BCD_WORD`.
     IntToBcd,
+    /// CODESYS `TIME()`: the scan's clock (vendor library `codesys`).
+    Time,
+    /// PCWorx `GET_CHAR(string, position)` → INT (vendor library `pcworx`).
+    GetChar,
+    /// PCWorx `X_TO_STRING(value, format)`: the value by a C printf format.
+    Format,
+    /// TwinCAT `F_ToCHR(code)`: the one-character string of a code ('' for 0).
+    Chr,
 }
 
 impl Builtin {
@@ -375,6 +383,10 @@ impl Builtin {
             Builtin::DtToDate => "DT_TO_DATE",
             Builtin::BcdToInt => "BCD_TO_*",
             Builtin::IntToBcd => "*_TO_BCD",
+            Builtin::Time => "TIME",
+            Builtin::GetChar => "GET_CHAR",
+            Builtin::Format => "X_TO_STRING",
+            Builtin::Chr => "F_ToCHR",
         }
     }
 }

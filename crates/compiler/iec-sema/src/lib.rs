@@ -19,6 +19,7 @@ mod stdlib;
 mod stmt;
 pub mod types;
 pub mod value;
+pub mod vendor;
 
 use petriplc_iec_syntax::ast::Library;
 use petriplc_iec_syntax::Diagnostics;
@@ -40,6 +41,9 @@ pub struct Options {
     /// What integer overflow, shift counts and REAL-to-integer conversions out of range do
     /// (docs/iec.md, "Rules where the standard leaves a choice"): wrap by default.
     pub overflow: ops::Overflow,
+    /// Vendor libraries loaded ([`vendor::LIBRARIES`]: `codesys`, `twincat`, `pcworx`):
+    /// their functions are callable, others' are refused naming their library.
+    pub libs: Vec<String>,
 }
 
 /// Checks a library. Returns the lowered project when there is no error, and every

@@ -694,7 +694,7 @@ fn data(
             }
         }
         Op::Ext { x } => {
-            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base, code.overflow) {
+            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base, code.overflow, now) {
                 fail!(FaultKind::Op(error), detail);
             }
         }

@@ -166,6 +166,33 @@ pub enum ExtOp {
         to: Elem,
         decode: bool,
     },
+    /// CODESYS `TIME()`: the scan's time, in whole milliseconds as CODESYS counts it.
+    Now {
+        d: u32,
+    },
+    /// PCWorx `GET_CHAR`: the code of the character at position `p` (1-based) of the string
+    /// at pointer `s`, 0 outside it.
+    GetChar {
+        d: u32,
+        s: u32,
+        p: u32,
+    },
+    /// PCWorx `X_TO_STRING(value, format)`: slot `s` (of type `from`) by the C format at
+    /// pointer `fmt`, into the buffer at pointer `d`.
+    Format {
+        d: u32,
+        s: u32,
+        fmt: u32,
+        from: Elem,
+        cap: u32,
+    },
+    /// TwinCAT `F_ToCHR`: the character of code `s` as a string at pointer `d` ('' for 0,
+    /// as a C string ends at NUL).
+    Chr {
+        d: u32,
+        s: u32,
+        cap: u32,
+    },
     /// A FOR loop's step must not be 0.
     NonZeroStep {
         s: u32,
@@ -296,8 +323,15 @@ fn set_from(mem: &mut [u64], base: usize, d: u32, src: u32, kind: Kind, cap: u32
     }
 }
 
-/// Runs one operation; `mode` is what an integer result outside its type does.
-pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize, mode: Overflow) -> Result<(), OpFault> {
+/// Runs `x` on the frame at `base`; `mode` is what an integer result outside its type does,
+/// `now` the scan's time (nanoseconds).
+pub fn exec(
+    x: &ExtOp,
+    mem: &mut [u64],
+    base: usize,
+    mode: Overflow,
+    now: i64,
+) -> Result<(), OpFault> {
     match x {
         ExtOp::Conv { d, s, from, to } => {
             let raw = slot(mem, base, *s);
@@ -546,6 +580,38 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize, mode: Overflow) -> Result<(
                     "the step (BY) is 0".to_string(),
                 ));
             }
+        }
+        ExtOp::Now { d } => {
+            mem[base + *d as usize] = (now - now.rem_euclid(1_000_000)) as u64;
+        }
+        ExtOp::GetChar { d, s, p } => {
+            let text = read_str(mem, ptr(mem, base, *s));
+            let at = int(mem, base, *p);
+            let c = usize::try_from(at - 1)
+                .ok()
+                .and_then(|i| text.get(i))
+                .copied()
+                .unwrap_or(0);
+            mem[base + *d as usize] = u64::from(c);
+        }
+        ExtOp::Format {
+            d,
+            s,
+            fmt,
+            from,
+            cap,
+        } => {
+            let v = get_value(slot(mem, base, *s), *from);
+            let f = read_str(mem, ptr(mem, base, *fmt));
+            let text = petriplc_iec_sema::vendor::printf(&f, &v, *from);
+            let at = ptr(mem, base, *d);
+            write_str(mem, at, &text, *cap);
+        }
+        ExtOp::Chr { d, s, cap } => {
+            let c = slot(mem, base, *s) as u8;
+            let text: &[u8] = if c == 0 { &[] } else { &[c] };
+            let at = ptr(mem, base, *d);
+            write_str(mem, at, text, *cap);
         }
         ExtOp::ConcatDateTod { d, a, b } => {
             let date = int(mem, base, *a).div_euclid(NANOS_PER_DAY) * NANOS_PER_DAY;

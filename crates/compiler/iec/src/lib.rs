@@ -7,6 +7,7 @@
 mod code_examples;
 pub mod dsp_fbs;
 pub mod sim;
+pub mod vendor_fbs;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -24,6 +25,8 @@ pub use petriplc_iec_syntax as syntax;
 pub use petriplc_iec_syntax::Dialect;
 pub use petriplc_iec_vm as vm;
 
+pub use petriplc_iec_sema::vendor::vendor_libs_for;
+
 /// Sources read and parsed, with their diagnostics so far.
 #[derive(Debug, Default)]
 pub struct Sources {
@@ -38,6 +41,9 @@ pub struct Sources {
     /// What integer overflow does when the program runs: wrap (the default, as CODESYS,
     /// TwinCAT, matiec and OpenPLC) or fault (docs/iec.md). Set after [`Sources::new`].
     pub overflow: sema::Overflow,
+    /// Vendor libraries to load (`codesys`, `twincat`, `pcworx`: docs/iec.md, "Vendor
+    /// libraries"); a dialect's are [`vendor_libs_for`].
+    pub libs: Vec<String>,
 }
 
 /// The largest file read: [`petriplc_files::IEC_SOURCE`].
@@ -55,6 +61,9 @@ pub enum IecError {
     Invalid(String),
     #[error("{0}")]
     Compile(#[from] petriplc_iec_vm::CompileError),
+    /// A vendor library name that is not one (`--lib`, `libs =`), with the known ones.
+    #[error("{0}")]
+    UnknownLibrary(String),
 }
 
 impl Sources {
@@ -101,6 +110,19 @@ impl Sources {
     /// the standard's.
     pub fn dialect(&self) -> Dialect {
         self.dialect.or(self.detected).unwrap_or_default()
+    }
+
+    /// The vendor libraries loaded: those asked for ([`Sources::libs`] the field: `--lib`,
+    /// `libs = …`), then the dialect's own (`codesys` for CODESYS, `codesys` and `twincat`
+    /// for TwinCAT, `pcworx` for PCWorx; none for `iec`), each once.
+    pub fn libs(&self) -> Vec<String> {
+        let mut libs = self.libs.clone();
+        for l in sema::vendor::vendor_libs_for(self.dialect().name()) {
+            if !libs.iter().any(|x| x.eq_ignore_ascii_case(&l)) {
+                libs.push(l);
+            }
+        }
+        libs
     }
 
     /// Adds a source by its text; `name` is what messages print.
@@ -174,6 +196,25 @@ impl Natives {
         self
     }
 
+    /// Adds the function blocks of vendor libraries `libs`: what [`build`] does with
+    /// [`Sources::libs`], for a caller that makes its own engine. A loaded library's block
+    /// replaces, in its place, a block of the same name (CODESYS's HYSTERESIS the DSP one):
+    /// the library was asked for by name.
+    pub fn with_libs(mut self, libs: &[String]) -> Self {
+        let std = petriplc_iec_sema::standard_fbs().len();
+        for fb in vendor_fbs::blocks(libs) {
+            let name = fb.signature().name;
+            match self.fbs[std..]
+                .iter()
+                .position(|f| f.signature().name == name)
+            {
+                Some(i) => self.fbs[std + i] = fb,
+                None => self.fbs.push(fb),
+            }
+        }
+        self
+    }
+
     fn extra_signatures(&self) -> Vec<sema::ir::NativeSig> {
         let std = petriplc_iec_sema::standard_fbs().len();
         self.fbs[std..].iter().map(|f| f.signature()).collect()
@@ -200,14 +241,35 @@ pub fn check_to_run(sources: &Sources, natives: &Natives) -> Result<Checked, Iec
     check_as(sources, natives, false)
 }
 
-/// [`check`], of a `library` or of a program to run.
+/// [`check`], of a `library` or of a program to run, with the vendor libraries' blocks.
 fn check_as(sources: &Sources, natives: &Natives, library: bool) -> Result<Checked, IecError> {
+    // As `Natives::with_libs` places them (the same signature twice is harmless).
+    let mut extra = natives.extra_signatures();
+    for sig in sema::vendor::signatures(&sources.libs()) {
+        match extra.iter().position(|e| e.name == sig.name) {
+            Some(i) => extra[i] = sig,
+            None => extra.push(sig),
+        }
+    }
+    check_with(sources, extra, library)
+}
+
+/// [`check`] with the native function blocks beside the standard ones (`extra`: the
+/// caller's, then the vendor libraries', in the order the engine gets them).
+fn check_with(
+    sources: &Sources,
+    extra: Vec<sema::ir::NativeSig>,
+    library: bool,
+) -> Result<Checked, IecError> {
+    let libs = sources.libs();
+    sema::vendor::check_names(&libs).map_err(IecError::UnknownLibrary)?;
     let mut all = sources.diags.clone();
     let options = sema::Options {
-        natives: natives.extra_signatures(),
+        natives: extra,
         dialect: sources.dialect(),
         library,
         overflow: sources.overflow,
+        libs,
     };
     // A source with syntax errors is not checked further (its tree is partial).
     let project = if all.has_errors() {
@@ -330,8 +392,10 @@ fn list(names: &[&str]) -> String {
 
 /// Checks and compiles sources for what `select` names.
 pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Build, IecError> {
-    let natives = natives.in_dialect(sources.dialect());
-    let checked = check_as(sources, &natives, false)?;
+    let natives = natives
+        .in_dialect(sources.dialect())
+        .with_libs(&sources.libs());
+    let checked = check_with(sources, natives.extra_signatures(), false)?;
     let specs = instances(&checked.project, select, &sources.map)?;
     #[cfg_attr(not(feature = "jit"), allow(unused_mut))]
     let mut engine = Engine::new(checked.project, &specs, natives.fbs, &sources.map)?;

@@ -9,13 +9,13 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use petriplc_iec::{check, Natives, Sources};
+use petriplc_iec::{check, Dialect, Natives, Sources};
 
 /// Files accepted per flavour, at least: raise these when more is accepted, never lower them.
 const ACCEPTED_AT_LEAST: &[(&str, usize)] = &[
-    ("oscat_basic", 518),
-    ("oscat_building", 52),
-    ("tcoscat", 383),
+    ("oscat_basic", 580),
+    ("oscat_building", 53),
+    ("tcoscat", 479),
 ];
 
 /// One manifest entry: the file and the files defining what it uses, in dependency order.
@@ -47,6 +47,14 @@ fn manifest(root: &Path) -> Vec<Entry> {
 /// `None` when the file and its dependencies check, else the first error line.
 fn first_error(root: &Path, e: &Entry) -> Option<String> {
     let mut sources = Sources::new();
+    // Each flavour in its vendor's dialect, which loads the vendor's library: the PCWorx
+    // exports call PCWorx's functions (GET_CHAR, BYTE_TO_STRING(x, format)), the TwinCAT one
+    // CODESYS's (TIME(), SIZEOF) and names CTU's inputs as CODESYS does.
+    sources.dialect = Some(if e.set == "tcoscat" {
+        Dialect::Twincat
+    } else {
+        Dialect::Pcworx
+    });
     for f in e.deps.iter().chain(std::iter::once(&e.file)) {
         if let Err(err) = sources.add_file(&root.join(f)) {
             return Some(err.to_string());

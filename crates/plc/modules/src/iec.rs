@@ -10,6 +10,7 @@
 //! watchdog = T#100ms         # wall-clock limit of one scan (default: none)
 //! dialect = codesys          # iec, codesys, twincat, pcworx (default: detected, else iec)
 //! overflow = fault           # integer overflow a fault (default: wrap, as other PLCs)
+//! libs = codesys, pcworx      # vendor libraries to load (default: none; docs/iec.md)
 //! map lights L               # variable lights (a global, or instance.var) is point L
 //! ```
 //!
@@ -49,6 +50,7 @@ const SETTINGS: &[&str] = &[
     "watchdog",
     "dialect",
     "overflow",
+    "libs",
 ];
 
 pub(crate) fn factory(decl: &ModuleDecl) -> Result<Box<dyn Module>, ModuleError> {
@@ -103,6 +105,8 @@ pub struct IecModule {
     overflow: Overflow,
     /// The program declares RETAIN variables (see [`iec_retain::declares_retain`]).
     retains: bool,
+    /// Vendor libraries loaded (`libs = codesys, pcworx`).
+    libs: Vec<String>,
     run: Option<Run>,
 }
 
@@ -164,6 +168,14 @@ impl IecModule {
                 )
             })?,
         };
+        let libs: Vec<String> = common::setting(decl, "libs")
+            .unwrap_or_default()
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|l| !l.is_empty())
+            .map(str::to_string)
+            .collect();
+        petriplc_iec::sema::vendor::check_names(&libs)
+            .map_err(|m| error(&decl.name, format!("`libs`: {m}")))?;
         // Read by the configuration (C060 when it is not a duration): the runner's watchdog
         // and the engine's check are the same limit.
         let watchdog = decl.watchdog;
@@ -181,6 +193,7 @@ impl IecModule {
                 .settings
                 .get(if project { "project" } else { "program" })
                 .is_some_and(|s| iec_retain::declares_retain(&s.origin.file, &s.value)),
+            libs,
             run: None,
         })
     }
@@ -278,6 +291,7 @@ impl Module for IecModule {
         let mut sources = Sources::new();
         sources.dialect = self.dialect;
         sources.overflow = self.overflow;
+        sources.libs = self.libs.clone();
         sources.add_file(&path).map_err(|e| error(&self.name, e))?;
         if self.project
             && !petriplc_iec::syntax::plcopen::is_plcopen(
@@ -287,8 +301,9 @@ impl Module for IecModule {
         {
             return Err(error(&self.name, format!("`project = {}` is not a PLCopen XML project; for Structured Text write `program = {}`", self.file, self.file)));
         }
-        let checked = petriplc_iec::check_to_run(&sources, &Natives::default())
-            .map_err(|e| error(&self.name, format!("{} does not compile:\n{e}", self.file)))?;
+        let checked =
+            petriplc_iec::check_to_run(&sources, &Natives::default().with_libs(&sources.libs()))
+                .map_err(|e| error(&self.name, format!("{} does not compile:\n{e}", self.file)))?;
         for w in &checked.warnings {
             log::warn!("{}: {w}", self.name);
         }
@@ -319,7 +334,10 @@ impl Module for IecModule {
         let engine = Engine::new(
             checked.project,
             &specs,
-            Natives::default().in_dialect(sources.dialect()).fbs,
+            Natives::default()
+                .in_dialect(sources.dialect())
+                .with_libs(&sources.libs())
+                .fbs,
             &sources.map,
         )
         .map_err(|e| error(&self.name, e))?;

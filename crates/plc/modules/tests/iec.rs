@@ -213,6 +213,41 @@ END_PROGRAM
 }
 
 #[test]
+fn libs_loads_vendor_libraries() {
+    // CODESYS's TIME() is the PLC's clock, as TON's: 0, 10, 20 ms at the first three ticks.
+    let src =
+        "PROGRAM p\nVAR_OUTPUT ms : DINT; END_VAR\nms := TIME_TO_DINT(TIME());\nEND_PROGRAM\n";
+    let dir = dir_with(&[("p.st", src)]);
+    let conf = "[PLC]\nmodule ctl iec\npoint ms \"\" ctl i32\n[ctl]\nprogram = p.st\n";
+    let mut plc = start(&format!("{conf}libs = codesys\n"), dir.path()).unwrap();
+    let mut seen = Vec::new();
+    for k in 0..3 {
+        plc.tick(ms(10 * k)).unwrap();
+        seen.push(plc.value("ms").to_string());
+    }
+    assert_eq!(seen.join(" "), "0 10 20");
+    // A vendor function block runs on the PLC as in `sim`.
+    let fb = "PROGRAM q\nVAR_OUTPUT lit : BOOL; END_VAR\nVAR h : HYSTERESIS; END_VAR\nh(IN := 1, HIGH := 9, LOW := 5); lit := h.OUT;\nEND_PROGRAM\n";
+    std::fs::write(dir.path().join("q.st"), fb).unwrap();
+    let mut plc = start(
+        "[PLC]\nmodule ctl iec\npoint lit \"\" ctl\n[ctl]\nprogram = q.st\nlibs = codesys\n",
+        dir.path(),
+    )
+    .unwrap();
+    plc.tick(ms(0)).unwrap();
+    assert_eq!(plc.value("lit"), 1);
+    let e = start_err(conf, dir.path());
+    assert!(e.contains("TIME is a CODESYS/TwinCAT function: add --lib codesys (`libs = codesys` on `module NAME iec`)"), "{e}");
+    let e = start_err(&format!("{conf}libs = codesys, step7\n"), dir.path());
+    assert!(
+        e.contains(
+            "`libs`: unknown vendor library `step7`; the libraries are codesys, twincat, pcworx"
+        ),
+        "{e}"
+    );
+}
+
+#[test]
 fn the_chaser_runs_on_the_plc() {
     // The example's configuration, with a timeline standing in for the vitrine's keys.
     let example = examples("chaser");

@@ -341,6 +341,19 @@ impl<'a> Checker<'a> {
             );
             return (ids::ERROR, None);
         }
+        if let Some(lib) = crate::vendor::fb_provider(&key) {
+            // A vendor library's function block whose library is not loaded.
+            self.error(
+                diag::VENDOR_NOT_LOADED,
+                id.span,
+                format!(
+                    "{} is a {} function block: add --lib {lib} (`libs = {lib}` on `module NAME iec`), or declare a FUNCTION_BLOCK of that name",
+                    id.name,
+                    crate::vendor::title(lib)
+                ),
+            );
+            return (ids::ERROR, None);
+        }
         self.error(
             diag::UNKNOWN_TYPE,
             id.span,

@@ -41,7 +41,11 @@ impl<'a> Checker<'a> {
             Replace => (&["IN1", "IN2", "L", "P"], 4, false),
             Find => (&["IN1", "IN2"], 2, false),
             ConcatDateTod => (&["IN1", "IN2"], 2, false),
-            DtToTod | DtToDate | Expt | BcdToInt | IntToBcd => (&["IN"], 1, false),
+            // Built elsewhere (conversions, operators, BCD in `expr/bcd.rs`, vendor functions in
+            // `vendor.rs`).
+            DtToTod | DtToDate | Expt | BcdToInt | IntToBcd | Time | GetChar | Format | Chr => {
+                (&["IN"], 1, false)
+            }
         };
         let Some(args) = self.std_args(f, call, params, min, ext) else {
             return err(span);
@@ -70,7 +74,9 @@ impl<'a> Checker<'a> {
                 }
                 self.fold(mk(vec![d, t], ids::DT))
             }
-            DtToTod | DtToDate | Expt | BcdToInt | IntToBcd => err(span),
+            DtToTod | DtToDate | Expt | BcdToInt | IntToBcd | Time | GetChar | Format | Chr => {
+                err(span)
+            }
         }
     }
 

@@ -57,6 +57,9 @@ impl<'a> Checker<'a> {
         if let Some(x) = self.std_call(name, call, cx, expected) {
             return x;
         }
+        if let Some(x) = self.vendor_call(name, call, cx) {
+            return x;
+        }
         let hint = if self.native_names.contains_key(&key) {
             format!("; {} is a function block: declare an instance (VAR t : {}; END_VAR) and call it as a statement", name.name, name.name)
         } else {

@@ -225,6 +225,8 @@ impl<'a> Checker<'a> {
         if let Some((from, to, trunc)) = stdlib::conversion_of(f) {
             if f == "TRUNC" {
                 // handled below
+            } else if let Some(x) = self.vendor_format(name, call, cx, from.as_deref(), &to) {
+                return Some(x);
             } else {
                 return Some(self.conversion(name, call, cx, from, &to, trunc));
             }

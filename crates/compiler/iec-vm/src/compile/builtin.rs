@@ -1,4 +1,5 @@
-//! Built-in functions: the standard library's numeric, bit-string, selection and string functions.
+//! Built-in functions: the standard library's numeric, bit-string, selection and string
+//! functions, and the vendor libraries' (`TIME()`, `GET_CHAR`, `X_TO_STRING(value, format)`).
 
 use petriplc_iec_sema::ir::{Builtin, Expr};
 use petriplc_iec_sema::types::{Elem, TypeId};
@@ -40,7 +41,18 @@ impl<'c, 'p> Fx<'c, 'p> {
             );
             return Ok(d);
         }
-        let Some(op) = Self::builtin_op(b, d, xs, k, re, cap) else {
+        let op = match b {
+            // PCWorx X_TO_STRING(value, format): the value's own type decides its text.
+            Builtin::Format => Some(ExtOp::Format {
+                d,
+                s: xs[0],
+                fmt: xs[1],
+                from: elem_or_dint(p, args[0].ty),
+                cap,
+            }),
+            _ => Self::builtin_op(b, d, xs, k, re, cap),
+        };
+        let Some(op) = op else {
             return Err(CompileError::Unsupported(format!(
                 "{} as a builtin",
                 b.name()
@@ -61,7 +73,9 @@ impl<'c, 'p> Fx<'c, 'p> {
         span: Span,
     ) -> u32 {
         match b {
-            Builtin::Len | Builtin::Find => want.unwrap_or_else(|| self.temp(1)),
+            Builtin::Len | Builtin::Find | Builtin::GetChar | Builtin::Time => {
+                want.unwrap_or_else(|| self.temp(1))
+            }
             Builtin::Left
             | Builtin::Right
             | Builtin::Mid
@@ -160,9 +174,17 @@ impl<'c, 'p> Fx<'c, 'p> {
                 a: xs[0],
                 b: xs[1],
             },
+            Builtin::Time => ExtOp::Now { d },
+            Builtin::GetChar => ExtOp::GetChar {
+                d,
+                s: xs[0],
+                p: xs[1],
+            },
+            Builtin::Chr => ExtOp::Chr { d, s: xs[0], cap },
             Builtin::DtToTod
             | Builtin::DtToDate
             | Builtin::Expt
+            | Builtin::Format
             | Builtin::BcdToInt
             | Builtin::IntToBcd => return None,
         })

@@ -330,6 +330,21 @@ impl ExtOp {
                 g(n);
             }
             ExtOp::NonZeroStep { s } => g(s),
+            ExtOp::Now { d } => g(d),
+            ExtOp::Chr { d, s, .. } => {
+                g(d);
+                g(s);
+            }
+            ExtOp::GetChar { d, s, p } => {
+                g(d);
+                g(s);
+                g(p);
+            }
+            ExtOp::Format { d, s, fmt, .. } => {
+                g(d);
+                g(s);
+                g(fmt);
+            }
         }
     }
 }

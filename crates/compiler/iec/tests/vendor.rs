@@ -1,0 +1,205 @@
+//! Vendor libraries run (`--lib codesys`, `--lib pcworx`): CODESYS's `TIME()` and `SIZEOF`,
+//! PCWorx's `GET_CHAR`, `X_TO_STRING(value, format)` and `MUL_T_AI`/`DIV_T_AI`, each program
+//! on machine code and on the VM in step (the same memory after every scan), with the
+//! values the vendors' documentation gives. These programs need a library, so they are
+//! here rather than in the standard corpus (which blark, a strict grammar, also reads).
+
+use petriplc_iec::{build, vendor_libs_for, IecError, Natives, Select, Sources};
+use petriplc_iec_vm::{display, Backend, Machine};
+
+/// Runs `src` with `libs` for `scans` scans `period_ns` apart (the first at 0) on machine code
+/// and the VM; returns `name = value` of `names` after the last scan.
+fn run(libs: &[&str], src: &str, scans: i64, period_ns: i64, names: &[&str]) -> Vec<String> {
+    run_file("t.st", libs, src, scans, period_ns, names)
+}
+
+/// [`run`] for a file named `file` (`.il`: Instruction List).
+fn run_file(
+    file: &str,
+    libs: &[&str],
+    src: &str,
+    scans: i64,
+    period_ns: i64,
+    names: &[&str],
+) -> Vec<String> {
+    let mut s = Sources::new();
+    s.add_text(file, src);
+    s.libs = libs.iter().map(|l| l.to_string()).collect();
+    let b = build(&s, &Select::Auto, Natives::default()).unwrap_or_else(|e| panic!("{e}"));
+    let engine = b.engine;
+    assert!(engine.is_compiled(), "no machine code was made");
+    let mut m = Machine::new(engine.clone());
+    let mut vm = Machine::new(engine.clone());
+    vm.set_backend(Backend::Vm);
+    let slots = engine.code.init.len() as u32;
+    for k in 0..scans {
+        let now = k * period_ns;
+        let (a, b) = (m.scan(now, &mut || true), vm.scan(now, &mut || true));
+        assert_eq!(
+            a.map_err(|f| f.to_string()),
+            b.map_err(|f| f.to_string()),
+            "scan {k}"
+        );
+        for a in 0..slots {
+            assert_eq!(m.slot(a), vm.slot(a), "scan {k}: slot {a} differs");
+        }
+    }
+    let inst = engine.instances()[0].name.clone();
+    names
+        .iter()
+        .map(|n| {
+            let v = engine
+                .lookup(&format!("{inst}.{n}"))
+                .unwrap_or_else(|| panic!("no variable {n}"));
+            let x = m.get(v).unwrap();
+            format!("{n} = {}", display(&engine.project, v.ty, &x))
+        })
+        .collect()
+}
+
+const MS: i64 = 1_000_000;
+
+#[test]
+fn time_is_the_scan_clock_in_milliseconds() {
+    let src = "FUNCTION t_ms : DWORD\nt_ms := TIME_TO_DWORD(TIME());\nEND_FUNCTION\n\
+               PROGRAM p\nVAR t : TIME; ms : DWORD; first : TIME; n : INT; END_VAR\n\
+               t := TIME(); ms := t_ms();\n\
+               IF n = 0 THEN first := t; END_IF; n := n + 1;\nEND_PROGRAM\n";
+    assert_eq!(
+        run(&["codesys"], src, 3, 10 * MS, &["t", "ms", "first"]),
+        ["t = T#20ms", "ms = 20", "first = T#0s"]
+    );
+    // A clock between two milliseconds reads the one before, as CODESYS's millisecond
+    // counter does: the fourth scan is at 4.5 ms.
+    assert_eq!(
+        run(&["twincat"], src, 4, 1_500_000, &["t", "ms"]),
+        ["t = T#4ms", "ms = 4"]
+    );
+}
+
+#[test]
+fn get_char_reads_a_code_and_0_outside_the_string() {
+    let src =
+        "PROGRAM p\nVAR s : STRING[10] := 'AbC'; a, b, c, d, e : INT; i : USINT := 2; END_VAR\n\
+               a := GET_CHAR(s, 1); b := GET_CHAR(s, i); c := GET_CHAR(s, 3);\n\
+               d := GET_CHAR(s, 4); e := GET_CHAR(s, -7);\nEND_PROGRAM\n";
+    assert_eq!(
+        run(&["pcworx"], src, 1, 10 * MS, &["a", "b", "c", "d", "e"]),
+        ["a = 65", "b = 98", "c = 67", "d = 0", "e = 0"]
+    );
+}
+
+#[test]
+fn instruction_list_calls_them_too() {
+    let src = "PROGRAM p\nVAR c : INT; s : STRING := 'abc'; t : TIME; END_VAR\n\
+               LD s\nGET_CHAR 2\nST c\nLD T#2s\nMUL_T_AI 3\nST t\nEND_PROGRAM\n";
+    assert_eq!(
+        run_file("p.il", &["pcworx"], src, 1, 10 * MS, &["c", "t"]),
+        ["c = 98", "t = T#6s"]
+    );
+}
+
+#[test]
+fn to_string_with_a_format_is_c_printf() {
+    let src = "PROGRAM p\nVAR a, b, c, d, e, f, g : STRING; s3 : STRING[3]; \
+               fmt : STRING := '%02dm'; h : INT := 7; r : REAL := 2.5; u : UDINT := 9; END_VAR\n\
+               a := BYTE_TO_STRING(BYTE#10, '%02X'); b := INT_TO_STRING(-5, '%04d');\n\
+               c := REAL_TO_STRING(r, '%.2f'); d := INT_TO_STRING(h, fmt);\n\
+               e := UDINT_TO_STRING(u, '%02us'); f := BYTE_TO_STRING(BYTE#65, '%c');\n\
+               g := DWORD_TO_STRING(DWORD#16#FFFFFFFF, '%u');\n\
+               s3 := DWORD_TO_STRING(DWORD#123456, '%u');\nEND_PROGRAM\n";
+    assert_eq!(
+        run(
+            &["pcworx"],
+            src,
+            1,
+            10 * MS,
+            &["a", "b", "c", "d", "e", "f", "g", "s3"]
+        ),
+        [
+            "a = '0A'",
+            "b = '-005'",
+            "c = '2.50'",
+            "d = '07m'",
+            "e = '09s'",
+            "f = 'A'",
+            "g = '4294967295'",
+            "s3 = '123'"
+        ]
+    );
+}
+
+#[test]
+fn time_times_an_integer_and_sizeof() {
+    let src = "PROGRAM p\nVAR t, u : TIME; k : INT := 3; n : UDINT; a : ARRAY[0..4] OF INT; END_VAR\n\
+               t := MUL_T_AI(T#1s, k); u := DIV_T_AI(t, 2); n := SIZEOF(a) + SIZEOF(LREAL);\nEND_PROGRAM\n";
+    assert_eq!(
+        run(&["pcworx", "codesys"], src, 1, 10 * MS, &["t", "u", "n"]),
+        ["t = T#3s", "u = T#1s500ms", "n = 18"]
+    );
+}
+
+#[test]
+fn twincat_character_functions() {
+    let src = "PROGRAM p\nVAR a, z : BYTE; s, e : STRING[4]; t : STRING[4] := 'xyz'; END_VAR\n\
+               a := F_ToASC(t); z := F_ToASC(''); s := F_ToCHR(16#31); e := F_ToCHR(0);\n\
+               s := CONCAT(s, F_ToCHR(a));\nEND_PROGRAM\n";
+    assert_eq!(
+        run(&["twincat"], src, 1, 10 * MS, &["a", "z", "s", "e"]),
+        ["a = 120", "z = 0", "s = '1x'", "e = ''"]
+    );
+}
+
+#[test]
+fn codesys_util_analog_monitors() {
+    // IN goes 70, 40, 70, 101, 70, 49 (one value a scan) against HIGH 100, LOW 50.
+    let src = "PROGRAM p\nVAR h : HYSTERESIS; a : LIMITALARM; k : INT; x : INT; \
+               xs : ARRAY[0..5] OF INT := [70, 40, 70, 101, 70, 49]; trace, alarms : STRING; END_VAR\n\
+               x := xs[k]; k := k + 1;\n\
+               h(IN := x, HIGH := 100, LOW := 50); a(IN := x, HIGH := 100, LOW := 50);\n\
+               trace := CONCAT(trace, BOOL_TO_STRING(h.OUT));\n\
+               IF a.O THEN alarms := CONCAT(alarms, 'O'); ELSIF a.U THEN alarms := CONCAT(alarms, 'U');\n\
+               ELSIF a.IL THEN alarms := CONCAT(alarms, '-'); END_IF;\nEND_PROGRAM\n";
+    assert_eq!(
+        run(&["codesys"], src, 6, 10 * MS, &["trace", "alarms"]),
+        ["trace = 'FALSETRUETRUEFALSEFALSETRUE'", "alarms = '-U-O-U'"]
+    );
+    // Without the library, HYSTERESIS is petriplc's DSP block (X, XON, XOFF → Q).
+    let dsp = "PROGRAM p\nVAR h : HYSTERESIS; q : BOOL; END_VAR\nh(X := 5.0, XON := 4.0, XOFF := 1.0); q := h.Q;\nEND_PROGRAM\n";
+    assert_eq!(run(&[], dsp, 1, 10 * MS, &["q"]), ["q = 1"]);
+    // A user's function block of that name is used instead, library or not.
+    let own = "FUNCTION_BLOCK HYSTERESIS\nVAR_INPUT IN : INT; END_VAR\nVAR_OUTPUT OUT : INT; END_VAR\nOUT := IN * 2;\nEND_FUNCTION_BLOCK\n\
+               PROGRAM p\nVAR h : HYSTERESIS; y : INT; END_VAR\nh(IN := 4); y := h.OUT;\nEND_PROGRAM\n";
+    assert_eq!(run(&["codesys"], own, 1, 10 * MS, &["y"]), ["y = 8"]);
+    assert_eq!(run(&[], own, 1, 10 * MS, &["y"]), ["y = 8"]);
+}
+
+#[test]
+fn libraries_are_named_and_dialects_map_to_them() {
+    let mut s = Sources::new();
+    s.add_text("t.st", "PROGRAM p\nEND_PROGRAM\n");
+    s.libs = vec!["siemens".into()];
+    match build(&s, &Select::Auto, Natives::default()) {
+        Err(IecError::UnknownLibrary(m)) => assert_eq!(
+            m,
+            "unknown vendor library `siemens`; the libraries are codesys, twincat, pcworx"
+        ),
+        Err(e) => panic!("{e}"),
+        Ok(_) => panic!("accepted an unknown library"),
+    }
+    assert_eq!(vendor_libs_for("pcworx"), ["pcworx"]);
+    // Without the library the call is refused, naming the library.
+    s.libs = Vec::new();
+    s.add_text(
+        "u.st",
+        "FUNCTION f : INT\nf := GET_CHAR('a', 1);\nEND_FUNCTION\n",
+    );
+    let e = build(&s, &Select::Auto, Natives::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("u.st:2:6: error[E180]: GET_CHAR is a PCWorx function: add --lib pcworx"),
+        "{e}"
+    );
+}
