@@ -8,7 +8,7 @@ use crate::failure::{BadInputExt, Failure};
 pub fn run(args: CheckArgs) -> Result<(), Failure> {
     let mut sources = Sources::new();
     for f in &args.files {
-        sources.add_file(f).bad_input()?;
+        sources.add_path(f).bad_input()?;
     }
     let checked = petriplc_iec::check(&sources, &Natives::default()).bad_input()?;
     if !checked.warnings.is_empty() {

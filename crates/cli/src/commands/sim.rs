@@ -24,7 +24,7 @@ fn is_iec(path: &Path) -> bool {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if ext == "st" || ext == "il" {
+    if ext == "st" || ext == "il" || petriplc_iec::project::is_iec_path(path) {
         return true;
     }
     if ext == "xml" {
@@ -353,7 +353,7 @@ impl ScanProgress {
     }
 }
 
-/// `petriplc sim PROGRAM.st|PROJECT.xml`.
+/// `petriplc sim PROGRAM.st|PROJECT.xml|PROJECT.plcproj|FOLDER`.
 fn run_iec(args: SimArgs) -> Result<(), Failure> {
     if args.step_through {
         return Err(anyhow!(
