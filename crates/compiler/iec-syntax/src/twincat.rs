@@ -192,7 +192,7 @@ impl Reader<'_> {
             diag::UNSUPPORTED,
             span,
             format!(
-                "{what} {} is not supported yet (object orientation, issue 29); the rest of the file is checked",
+                "{what} {} is not supported yet; the rest of the file is checked",
                 Self::object_name(el)
             ),
         );
@@ -213,7 +213,7 @@ impl Reader<'_> {
                 diag::UNSUPPORTED,
                 span,
                 format!(
-                    "{what} {} of {owner} is not supported yet (object orientation, issue 29); the rest of the file is checked",
+                    "{what} {} of {owner} is not supported yet; the rest of the file is checked",
                     Self::object_name(c)
                 ),
             );
