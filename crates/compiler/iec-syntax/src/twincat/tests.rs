@@ -314,3 +314,15 @@ fn a_project_lists_its_sources() {
     assert!(files.is_empty());
     assert!(d.items[0].render(&map).contains("error[E055]"));
 }
+
+#[test]
+fn no_cut_of_a_file_panics_and_every_problem_is_coded() {
+    let mut ends: Vec<usize> = (0..=FB.len()).filter(|&i| FB.is_char_boundary(i)).collect();
+    ends.retain(|&i| i % 3 == 0 || FB[..i].ends_with('>'));
+    for end in ends {
+        let (_, msgs, _) = read_text("cut.TcPOU", &FB[..end]);
+        for m in msgs {
+            assert!(m.contains(": error[E"), "{end}: {m}");
+        }
+    }
+}
