@@ -2,8 +2,8 @@
 //! XML/TwinCAT files, or a TwinCAT `.plcproj` and the files it compiles ([`Sources::add_path`]).
 //!
 //! A folder is walked in a fixed order (paths compared byte by byte), bounded in files, bytes
-//! and depth; links are followed only inside the folder, and a link back to a folder being
-//! walked is refused (it would never end).
+//! and depth; links to sources and folders are followed only inside the folder, and a link
+//! back to a folder being walked is refused (it would never end).
 
 use std::collections::BTreeSet;
 use std::fs;
@@ -196,13 +196,21 @@ fn walk(root: &Path) -> Result<Vec<PathBuf>, IecError> {
                 .file_name()
                 .is_some_and(|n| n.to_string_lossy().starts_with('.'));
             let meta = fs::symlink_metadata(&path).map_err(|e| io(&path, e.to_string()))?;
+            let source = FOLDER_EXTENSIONS.contains(&extension(&path).as_str());
             let (real, is_dir) = if meta.file_type().is_symlink() {
                 let Ok(target) = fs::canonicalize(&path) else {
+                    if !source {
+                        continue;
+                    }
                     return Err(io(
                         &path,
                         "it is a link to nothing; remove it or restore its target",
                     ));
                 };
+                // A link to another kind of file is not read, wherever it points.
+                if !source && !target.is_dir() {
+                    continue;
+                }
                 if !target.starts_with(&top) {
                     return Err(io(
                         &path,
@@ -246,7 +254,7 @@ fn walk(root: &Path) -> Result<Vec<PathBuf>, IecError> {
                 }
                 continue;
             }
-            if !FOLDER_EXTENSIONS.contains(&extension(&path).as_str()) {
+            if !source {
                 continue;
             }
             let real = if meta.file_type().is_symlink() {

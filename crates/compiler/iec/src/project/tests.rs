@@ -86,6 +86,18 @@ fn links_are_followed_only_inside_the_folder_and_never_round() {
     assert!(e.contains("src/up") && e.contains("a loop"), "{e}");
     fs::remove_file(root.join("src/up")).unwrap();
 
+    // A link to another kind of file, inside or out, or to nothing, is left alone.
+    write(d.path(), "outside/notes.txt", "x");
+    symlink(d.path().join("outside/notes.txt"), root.join("notes.txt")).unwrap();
+    symlink(d.path().join("gone"), root.join("gone.md")).unwrap();
+    let mut s = Sources::new();
+    s.add_path(&root).unwrap();
+    assert_eq!(names(&s).len(), 1, "{:?}", names(&s));
+    symlink(d.path().join("gone.st"), root.join("gone.st")).unwrap();
+    let e = Sources::new().add_path(&root).unwrap_err().to_string();
+    assert!(e.contains("gone.st: it is a link to nothing"), "{e}");
+    fs::remove_file(root.join("gone.st")).unwrap();
+
     write(d.path(), "outside/b.st", "PROGRAM b\nEND_PROGRAM\n");
     symlink(d.path().join("outside"), root.join("out")).unwrap();
     let e = Sources::new().add_path(&root).unwrap_err().to_string();
