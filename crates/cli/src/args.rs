@@ -179,7 +179,8 @@ impl From<EvolveArg> for Evolution {
     run. A run-time fault in the program exits 1.\n\n",
     exit_codes!()))]
 pub struct SimArgs {
-    /// The controller: a net (PNML), or an IEC 61131-3 program (.st, .il) or PLCopen XML project.
+    /// The controller: a net (PNML), or an IEC 61131-3 program (.st, .il), PLCopen XML project,
+    /// TwinCAT .plcproj project or folder of sources.
     pub net: PathBuf,
     /// How names in the net are read.
     #[arg(long, value_enum, default_value = "plain")]
@@ -268,7 +269,8 @@ pub struct SimArgs {
     2 otherwise.\n\n",
     exit_codes!()))]
 pub struct CheckArgs {
-    /// Structured Text files and/or PLCopen XML projects, checked together as one project.
+    /// Structured Text, Instruction List, PLCopen XML and TwinCAT 3 files, folders of them and
+    /// TwinCAT .plcproj projects, checked together as one project.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
     /// Also compile the named PROGRAM (or, without it, what would run) for the engine.

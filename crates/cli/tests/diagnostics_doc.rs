@@ -51,6 +51,12 @@ fn groups() -> Vec<Group> {
             entries: petriplc_iec::syntax::codes::PLCOPEN_CODES,
         },
         Group {
+            heading: "TwinCAT 3 files and projects (E055–E069)",
+            intro: "TwinCAT 3 `.TcPOU`, `.TcDUT`, `.TcGVL`, `.TcTTO` files and `.plcproj` projects (docs/migrating.md); their declarations and ST bodies get the codes above, placed at their line in the XML file. Each example is a whole `.TcPOU` file.",
+            example_lang: "xml",
+            entries: petriplc_iec::syntax::codes::TWINCAT_CODES,
+        },
+        Group {
             heading: "PLC configurations (C)",
             intro: "The configuration files of `petriplc run` and `petriplc check` (docs/runtime.md, docs/configuration.md); each example is a whole file.",
             example_lang: "conf refused",

@@ -495,3 +495,62 @@ fn wiring_warnings_are_worded_the_same_for_a_net_and_a_program() {
     assert_eq!(warnings(&["sim", &net, "--names", "sipn"]), expect);
     assert_eq!(warnings(&["sim", &prog]), expect);
 }
+
+#[test]
+fn check_and_sim_take_a_folder_and_a_twincat_project() {
+    for target in ["twincat-blink/Blink.plcproj", "twincat-blink", "st-folder"] {
+        petriplc()
+            .args(["check", &format!("{EXAMPLES}/{target}")])
+            .assert()
+            .success()
+            .stderr(predicate::str::contains("ok: ").and(predicate::str::contains("1 PROGRAM")));
+    }
+    // The task object's 10 ms cycle is the scan period; the lamp turns every 70 ms once on.
+    let trace = |target: &str| {
+        let out = petriplc()
+            .args([
+                "sim",
+                &format!("{EXAMPLES}/{target}"),
+                "--inputs",
+                &format!("{EXAMPLES}/twincat-blink/timeline.csv"),
+                "--until",
+                "0.3s",
+            ])
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        String::from_utf8(out).unwrap()
+    };
+    assert_eq!(
+        trace("twincat-blink/Blink.plcproj"),
+        "time,in:run,lamp,mode\n0,0,0,Off\n0.1,1,0,Blinking\n0.15,1,1,Blinking\n0.22,1,0,Blinking\n0.29,1,1,Blinking\n"
+    );
+    assert_eq!(
+        trace("st-folder"),
+        "time,in:run,lamp\n0,0,0\n0.1,1,0\n0.15,1,1\n0.22,1,0\n0.29,1,1\n"
+    );
+
+    // A project naming a missing file: the error is at its <Compile> item.
+    let dir = tempfile::tempdir().unwrap();
+    let proj = file(
+        &dir,
+        "p.plcproj",
+        "<Project>\n  <ItemGroup>\n    <Compile Include=\"POUs\\MAIN.TcPOU\" />\n  </ItemGroup>\n</Project>\n",
+    );
+    petriplc()
+        .args(["check", &proj])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "p.plcproj:3:5: error[E056]: the project compiles POUs/MAIN.TcPOU, which does not exist beside it",
+        ));
+    // An empty folder says what it lacks.
+    let empty = tempfile::tempdir().unwrap();
+    petriplc()
+        .args(["check", &empty.path().display().to_string()])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("holds no IEC 61131-3 source"));
+}

@@ -90,6 +90,11 @@ pub fn parse(src: &str) -> Result<Element, XmlError> {
 
 /// Parses `src` (whose first byte is at `base` in the file) into its root element.
 pub fn parse_at(src: &str, base: usize, blanks: LeadingBlanks) -> Result<Element, XmlError> {
+    // quick-xml skips a byte order mark without counting it in its positions (TwinCAT writes
+    // one at the start of every file): the offsets stay the file's when it is left out here.
+    if let Some(rest) = src.strip_prefix('\u{feff}') {
+        return parse_at(rest, base + '\u{feff}'.len_utf8(), blanks);
+    }
     // quick-xml does not check characters; text that cannot be written back is refused here.
     if let Some((at, c)) = src.char_indices().find(|(_, c)| !allowed(*c)) {
         return Err(XmlError {
@@ -315,6 +320,14 @@ mod tests {
             Err(e) => format!("error at {}: {}", e.offset, e.message),
         };
         assert_eq!(got, expect, "{input}");
+    }
+
+    #[test]
+    fn offsets_count_a_byte_order_mark() {
+        check(
+            "\u{feff}<a>\n <b/><![CDATA[x]]></a>",
+            "a@3..29 \"\\n x\"[b@8..12]",
+        );
     }
 
     #[test]

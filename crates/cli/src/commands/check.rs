@@ -11,7 +11,7 @@ pub fn run(args: CheckArgs) -> Result<(), Failure> {
     sources.overflow = args.overflow.into();
     sources.libs = args.lib.clone();
     for f in &args.files {
-        sources.add_file(f).bad_input()?;
+        sources.add_path(f).bad_input()?;
     }
     let checked = petriplc_iec::check(&sources, &Natives::default()).bad_input()?;
     if !checked.warnings.is_empty() {

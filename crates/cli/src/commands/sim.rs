@@ -24,7 +24,7 @@ fn is_iec(path: &Path) -> bool {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if ext == "st" || ext == "il" {
+    if ext == "st" || ext == "il" || petriplc_iec::project::is_iec_path(path) {
         return true;
     }
     if ext == "xml" {
@@ -360,7 +360,7 @@ impl ScanProgress {
     }
 }
 
-/// `petriplc sim PROGRAM.st|PROJECT.xml`.
+/// `petriplc sim PROGRAM.st|PROJECT.xml|PROJECT.plcproj|FOLDER`.
 fn run_iec(args: SimArgs) -> Result<(), Failure> {
     if args.step_through {
         return Err(anyhow!(
@@ -382,7 +382,7 @@ fn run_iec(args: SimArgs) -> Result<(), Failure> {
     sources.dialect = args.dialect;
     sources.overflow = args.overflow.into();
     sources.libs = args.lib.clone();
-    sources.add_file(&args.net).bad_input()?;
+    sources.add_path(&args.net).bad_input()?;
     let build =
         petriplc_iec::build(&sources, &select, petriplc_iec::Natives::default()).bad_input()?;
     if !build.warnings.is_empty() {

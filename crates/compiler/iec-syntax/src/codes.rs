@@ -239,3 +239,15 @@ pub const PLCOPEN_CODES: &[Entry] = &[
       "A connection to a missing localId, an unconnected input, a loop, a transition after no step, a jump to an unknown step, no initial step, two elements with one localId. The diagnostic names the POU, the language, the element and its localId instead of a line.",
       "", "connect the element as the message says, in the editor that made the file."),
 ];
+
+/// The codes of TwinCAT 3 files, TwinCAT projects and folders read as one project.
+pub const TWINCAT_CODES: &[Entry] = &[
+    e("E055", "a TwinCAT file whose structure is not what TwinCAT 3 writes",
+      "Another root than `<TcPlcObject>` (a .plcproj: `<Project>`), an object without its `<Declaration>`, an object kind petriplc does not read, a task whose cycle time or priority is not a whole number.",
+      "<TcPlcObject Version=\"1.1.0.1\">\n  <POU Name=\"p\"/>\n</TcPlcObject>",
+      "give the file as TwinCAT 3 saves it; the message says what is missing."),
+    e("E056", "a project file that names a file petriplc cannot read",
+      "A .plcproj's `<Compile Include=\"…\">` naming a missing or unreadable file; the diagnostic points at the `<Compile>` element.",
+      "",
+      "restore the file, or remove its `<Compile>` item from the project."),
+];

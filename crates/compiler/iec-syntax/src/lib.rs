@@ -1,4 +1,4 @@
-//! IEC 61131-3 sources: Structured Text text and PLCopen XML projects read into one syntax
+//! IEC 61131-3 sources: Structured Text text, PLCopen XML projects and TwinCAT 3 files read into one syntax
 //! tree ([`ast`]) with a source position on every node, and the diagnostics of every stage
 //! ([`diag`]) with stable codes and `file:line:col` positions ([`source`]).
 //!
@@ -14,6 +14,7 @@ pub mod lexer;
 pub mod parser;
 pub mod plcopen;
 pub mod source;
+pub mod twincat;
 pub mod xml;
 
 pub use diag::{Code, Diagnostic, Diagnostics, Severity};

@@ -76,6 +76,69 @@ pub fn parse_body(file: FileId, text: &str, diags: &mut Diagnostics) -> Vec<Stmt
     body
 }
 
+/// Parses a POU's declaration alone, as TwinCAT keeps it apart from the body: the header and
+/// the variable blocks, with no statements and no `END_…` (one is accepted if written). The
+/// POU is returned with an empty body.
+pub fn parse_declaration(file: FileId, text: &str, diags: &mut Diagnostics) -> Option<Pou> {
+    let mut tokens = lexer::lex(file, text, diags);
+    let first = tokens.first().map(|t| t.tok.clone());
+    let (kind, end_kw) = match first {
+        Some(Tok::Kw(Kw::Program)) => (PouKind::Program, Kw::EndProgram),
+        Some(Tok::Kw(Kw::FunctionBlock)) => (PouKind::FunctionBlock, Kw::EndFunctionBlock),
+        Some(Tok::Kw(Kw::Function)) => (PouKind::Function, Kw::EndFunction),
+        _ => {
+            let span = tokens.first().map_or(Span::new(file, 0, 0), |t| t.span);
+            if !diags.has_errors() {
+                diags.error(
+                    diag::SYNTAX,
+                    span,
+                    "a POU's declaration starts with PROGRAM, FUNCTION_BLOCK or FUNCTION",
+                );
+            }
+            return None;
+        }
+    };
+    // The END_ keyword the declaration leaves out, at its end, so that the POU parser sees a
+    // complete POU whose body is empty.
+    let eof = tokens.len() - 1;
+    let written = eof > 0 && tokens[eof - 1].tok == Tok::Kw(end_kw);
+    if !written {
+        let at = tokens[eof].span.at_start();
+        tokens.insert(
+            eof,
+            Token {
+                tok: Tok::Kw(end_kw),
+                span: at,
+            },
+        );
+    }
+    let mut p = Parser::new(file, text, tokens, diags);
+    let mut pou = p.pou(kind).ok()?;
+    if let Body::St(body) = &pou.body {
+        if let Some(s) = body.first() {
+            p.error_at(
+                diag::SYNTAX,
+                s.span,
+                format!(
+                    "a statement in the declaration of {}; statements go in the POU's implementation",
+                    pou.name.name
+                ),
+            );
+        }
+    }
+    if !p.at(&Tok::Eof) {
+        let t = p.peek().clone();
+        let msg = format!(
+            "{} after the declaration of {}",
+            p.describe(&t),
+            pou.name.name
+        );
+        p.error_at(diag::SYNTAX, t.span, msg);
+    }
+    pou.body = Body::St(Vec::new());
+    Some(pou)
+}
+
 /// Parses one expression alone (a PLCopen initial value, a task interval).
 pub fn parse_expression(file: FileId, text: &str, diags: &mut Diagnostics) -> Option<Expr> {
     let tokens = lexer::lex(file, text, diags);

@@ -60,6 +60,7 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
         diags,
         hidden: Vec::new(),
         steps: false,
+        found: Vec::new(),
     };
     if let Some(types) = root.child("types") {
         if let Some(dts) = types.child("dataTypes") {
@@ -94,6 +95,8 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
             }
         }
     }
+    r.project_add_data(&root);
+    lib.elements.append(&mut r.found);
     lib
 }
 
@@ -106,6 +109,8 @@ struct Reader<'a> {
     hidden: Vec<VarDecl>,
     /// Whether an SFC body needs the step structure type.
     steps: bool,
+    /// Elements CODESYS keeps in `<addData>` (global variable lists, a resource's POUs).
+    found: Vec<Element>,
 }
 
 impl Reader<'_> {
@@ -461,6 +466,7 @@ impl Reader<'_> {
             );
         }
         let body = self.body(el, &name);
+        self.pou_add_data(el, &name);
         if !self.hidden.is_empty() {
             var_blocks.push(VarBlock {
                 kind: VarKind::Local,
@@ -523,7 +529,7 @@ impl Reader<'_> {
         let name = self.name_attr(c)?;
         let globals = c
             .children_named("globalVars")
-            .map(|b| self.var_block(b, VarKind::Global))
+            .flat_map(|b| self.global_vars(b))
             .collect();
         let mut resources = Vec::new();
         for r in c.children_named("resource") {
@@ -535,7 +541,7 @@ impl Reader<'_> {
                 on: None,
                 globals: r
                     .children_named("globalVars")
-                    .map(|b| self.var_block(b, VarKind::Global))
+                    .flat_map(|b| self.global_vars(b))
                     .collect(),
                 tasks: Vec::new(),
                 programs: Vec::new(),
@@ -546,7 +552,16 @@ impl Reader<'_> {
                     continue;
                 };
                 let interval = t.attr("interval").map(str::to_string);
-                let interval = interval.and_then(|i| self.expr_at(&i, t));
+                let interval = interval.and_then(|i| match codesys::iso_duration(&i) {
+                    Some(nanos) => Some(Expr {
+                        kind: ExprKind::Literal(Literal::Time {
+                            kind: crate::lexer::TimeKind::Time,
+                            nanos,
+                        }),
+                        span: self.span(t),
+                    }),
+                    None => self.expr_at(&i, t),
+                });
                 let priority = t.attr("priority").map(str::to_string);
                 let priority = priority.and_then(|p| self.expr_at(&p, t));
                 let single = t.attr("single").map(str::to_string);
@@ -569,6 +584,7 @@ impl Reader<'_> {
                     res.programs.push(p);
                 }
             }
+            self.resource_add_data(r);
             resources.push(res);
         }
         Some(Configuration {
@@ -581,9 +597,14 @@ impl Reader<'_> {
 
     fn pou_instance(&mut self, pi: &X, task: Option<Ident>) -> Option<ProgramConfig> {
         let name = self.name_attr(pi)?;
-        let Some(ty) = pi.attr("typeName") else {
-            self.missing(pi, "typeName attribute");
-            return None;
+        // CODESYS writes `typeName=""` for a program called by its own name.
+        let ty = match pi.attr("typeName").map(str::trim) {
+            Some("") => name.name.clone(),
+            Some(t) => t.to_string(),
+            None => {
+                self.missing(pi, "typeName attribute");
+                return None;
+            }
         };
         Some(ProgramConfig {
             span: name.span,
@@ -607,6 +628,7 @@ fn text_of(lang: &X) -> (String, Option<usize>) {
     (lang.text.clone(), lang.text_start)
 }
 
+mod codesys;
 mod graphical;
 #[cfg(test)]
 mod tests;

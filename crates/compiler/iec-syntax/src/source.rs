@@ -59,6 +59,9 @@ pub struct SourceFile {
     /// For a text taken from an element of a graphical body (LD, SFC): the element, printed
     /// in messages instead of a line and column (`LD contact localId 3 (start)`).
     pub element: Option<String>,
+    /// Whether the text came from a TwinCAT 3 file (`.TcPOU`, `.plcproj`…), for the choice of
+    /// dialect.
+    pub from_twincat: bool,
     /// Characters before every [`CHUNK`]th byte, so that a column is counted from the nearest
     /// mark rather than from its line's start: a megabyte on one line with an error every few
     /// bytes would otherwise take quadratic time to render. Empty for ASCII text, whose
@@ -100,6 +103,7 @@ impl SourceFile {
             line_base,
             col_base,
             element: None,
+            from_twincat: false,
             char_marks,
         }
     }
@@ -193,6 +197,13 @@ impl SourceMap {
         let id = self.add_embedded(name, text, line_base, col_base);
         self.files[id.0 as usize].element = Some(element);
         id
+    }
+
+    /// Marks a source as read from a TwinCAT file.
+    pub fn mark_twincat(&mut self, id: FileId) {
+        if let Some(f) = self.files.get_mut(id.0 as usize) {
+            f.from_twincat = true;
+        }
     }
 
     pub fn file(&self, id: FileId) -> &SourceFile {

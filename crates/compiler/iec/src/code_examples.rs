@@ -1,7 +1,7 @@
 //! Every example of docs/diagnostics.md's IEC sections, built as a user's file would be,
 //! gets the code it illustrates (the tables are petriplc-iec-syntax's `codes.rs`).
 
-use petriplc_iec_syntax::codes::{CODES, PLCOPEN_CODES};
+use petriplc_iec_syntax::codes::{CODES, PLCOPEN_CODES, TWINCAT_CODES};
 
 use crate::{build_text, Select};
 
@@ -16,7 +16,11 @@ fn diagnostics(name: &str, text: &str) -> String {
 #[test]
 fn every_example_gets_its_code() {
     let mut missing = Vec::new();
-    let tables = [(CODES, "t.st"), (PLCOPEN_CODES, "t.xml")];
+    let tables = [
+        (CODES, "t.st"),
+        (PLCOPEN_CODES, "t.xml"),
+        (TWINCAT_CODES, "t.TcPOU"),
+    ];
     for (table, name) in tables {
         for entry in table.iter().filter(|e| !e.example.is_empty()) {
             let got = diagnostics(name, entry.example);

@@ -1,11 +1,12 @@
 //! IEC 61131-3 programs in one call: read sources (Structured Text and Instruction List files, PLCopen XML
-//! projects), check them, choose what runs (a configuration's tasks, or one PROGRAM) and
+//! projects, TwinCAT 3 files and projects, folders of them: [`project`]), check them, choose what runs (a configuration's tasks, or one PROGRAM) and
 //! compile it for the engine ([`build`]); simulate a program against a timeline and a plant
 //! with the trace format of `petriplc sim` ([`sim`]).
 
 #[cfg(test)]
 mod code_examples;
 pub mod dsp_fbs;
+pub mod project;
 pub mod sim;
 pub mod vendor_fbs;
 
@@ -13,7 +14,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use petriplc_iec_sema::ir::{PouKind, Project};
-use petriplc_iec_syntax::ast::Library;
+use petriplc_iec_syntax::ast::{Element, Library};
 use petriplc_iec_syntax::diag::{self, Diagnostic, Diagnostics, Severity};
 use petriplc_iec_syntax::source::{SourceMap, Span};
 use petriplc_iec_vm::{Engine, InstanceSpec, NativeFb};
@@ -71,8 +72,9 @@ impl Sources {
         Sources::default()
     }
 
-    /// Adds a file: a PLCopen XML project when it looks like one, Instruction List when its
-    /// name ends in `.il`, Structured Text otherwise.
+    /// Adds a file: a TwinCAT 3 file (`.TcPOU`, `.TcDUT`, `.TcGVL`, `.TcTTO`, `.TcIO`) or a
+    /// PLCopen XML project when it looks like one, Instruction List when its name ends in
+    /// `.il`, Structured Text otherwise. A folder or a `.plcproj`: [`Sources::add_path`].
     /// Only a regular file of at most [`MAX_SOURCE_BYTES`] is read: a directory, a device
     /// (`/dev/zero` would never end) or a pipe is refused with what to name instead.
     pub fn add_file(&mut self, path: &Path) -> Result<(), IecError> {
@@ -130,7 +132,9 @@ impl Sources {
         if self.detected.is_none() {
             self.detected = Dialect::detect(name, text);
         }
-        let lib = if syntax::plcopen::is_plcopen(text)
+        let lib = if syntax::twincat::is_twincat(name, text) {
+            syntax::twincat::read(&mut self.map, name, text, &mut self.diags)
+        } else if syntax::plcopen::is_plcopen(text)
             || (name.to_ascii_lowercase().ends_with(".xml") && text.trim_start().starts_with('<'))
         {
             syntax::plcopen::read(&mut self.map, name, text, &mut self.diags)
@@ -142,7 +146,38 @@ impl Sources {
                 syntax::parse(f, text, &mut self.diags)
             }
         };
-        self.lib.elements.extend(lib.elements);
+        for e in lib.elements {
+            self.push_element(e);
+        }
+    }
+
+    /// Adds an element; the tasks of TwinCAT's task objects go into one configuration, the
+    /// project's, whichever file they come from.
+    fn push_element(&mut self, e: Element) {
+        let existing = match &e {
+            Element::Configuration(c) if self.is_twincat_tasks(c) => {
+                self.lib.elements.iter().position(
+                    |x| matches!(x, Element::Configuration(o) if self.is_twincat_tasks(o)),
+                )
+            }
+            _ => None,
+        };
+        match (existing, e) {
+            (Some(i), Element::Configuration(c)) => {
+                if let Element::Configuration(o) = &mut self.lib.elements[i] {
+                    for (ours, theirs) in o.resources.iter_mut().zip(c.resources) {
+                        ours.tasks.extend(theirs.tasks);
+                        ours.programs.extend(theirs.programs);
+                    }
+                }
+            }
+            (_, e) => self.lib.elements.push(e),
+        }
+    }
+
+    fn is_twincat_tasks(&self, c: &syntax::ast::Configuration) -> bool {
+        c.name.is(syntax::twincat::TASKS_CONFIGURATION)
+            && self.map.get(c.span.file).is_some_and(|f| f.from_twincat)
     }
 
     /// Every diagnostic rendered, one per line.
@@ -415,10 +450,10 @@ pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Bui
     })
 }
 
-/// Reads, checks and compiles one file.
+/// Reads, checks and compiles one file, folder or TwinCAT project ([`Sources::add_path`]).
 pub fn build_file(path: &Path, select: &Select) -> Result<Build, IecError> {
     let mut s = Sources::new();
-    s.add_file(path)?;
+    s.add_path(path)?;
     build(&s, select, Natives::default())
 }
 

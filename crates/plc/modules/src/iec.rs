@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! [chaser]
-//! program = chaser.st        # or project = plc.xml (relative to the configuration file)
+//! program = chaser.st        # or project = plc.xml (relative to the configuration file); a
+//!                            # folder of sources or a TwinCAT .plcproj is one project
 //! pou = main                 # a PROGRAM to run; default: the CONFIGURATION's programs
 //! task = fast                # only the programs of this TASK of the configuration
 //! max_iterations = 10000000  # loop iterations one scan may make before it fails
@@ -132,7 +133,7 @@ impl IecModule {
             (None, None) => {
                 return Err(error(
                     &decl.name,
-                    format!("no program: add `program = FILE.st` (Structured Text; FILE.il: Instruction List) or `project = FILE.xml` (PLCopen XML) to section [{}]", decl.name),
+                    format!("no program: add `program = FILE.st` (Structured Text; FILE.il: Instruction List; a FOLDER of sources; a TwinCAT FILE.plcproj) or `project = FILE.xml` (PLCopen XML) to section [{}]", decl.name),
                 ))
             }
         };
@@ -292,8 +293,9 @@ impl Module for IecModule {
         sources.dialect = self.dialect;
         sources.overflow = self.overflow;
         sources.libs = self.libs.clone();
-        sources.add_file(&path).map_err(|e| error(&self.name, e))?;
+        sources.add_path(&path).map_err(|e| error(&self.name, e))?;
         if self.project
+            && !petriplc_iec::project::is_project(&path)
             && !petriplc_iec::syntax::plcopen::is_plcopen(
                 &petriplc_files::read_to_string(&path, petriplc_files::IEC_SOURCE)
                     .unwrap_or_default(),

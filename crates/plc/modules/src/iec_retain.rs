@@ -37,19 +37,40 @@ impl Kept {
 
 /// Whether the program `file` (relative to `conf`'s folder) declares anything RETAIN: known
 /// before it is compiled, so that the PLC opens its retain file before any module starts.
-/// A word `RETAIN` anywhere (`VAR RETAIN`, `VAR_GLOBAL RETAIN`, PLCopen's `retain="true"`)
-/// counts; `NON_RETAIN`/`nonretain` do not. An unreadable file is reported by `init`.
+/// A word `RETAIN` or TwinCAT's `PERSISTENT` anywhere (`VAR RETAIN`, `VAR_GLOBAL RETAIN`,
+/// PLCopen's `retain="true"`) counts; `NON_RETAIN`/`nonretain` do not. A folder or a
+/// `.plcproj` counts when any of its files does. An unreadable file is reported by `init`.
 pub(crate) fn declares_retain(conf: &str, file: &str) -> bool {
     let base = Path::new(conf).parent().unwrap_or(Path::new("."));
-    let Ok(text) = petriplc_files::read(&base.join(file), petriplc_files::IEC_SOURCE) else {
+    let path = base.join(file);
+    if petriplc_iec::project::is_project(&path) {
+        let mut sources = petriplc_iec::Sources::new();
+        if sources.add_path(&path).is_err() {
+            return false;
+        }
+        return sources
+            .map
+            .files()
+            .any(|(_, f)| mentions_retain(f.text.as_bytes()));
+    }
+    let Ok(text) = petriplc_files::read(&path, petriplc_files::IEC_SOURCE) else {
         return false;
     };
+    mentions_retain(&text)
+}
+
+/// Whether `text` holds the word RETAIN or PERSISTENT (any case).
+fn mentions_retain(text: &[u8]) -> bool {
     let word = |i: usize| {
         text.get(i)
             .is_some_and(|b| b.is_ascii_alphanumeric() || *b == b'_')
     };
-    (0..text.len().saturating_sub(5)).any(|i| {
-        text[i..i + 6].eq_ignore_ascii_case(b"RETAIN") && !word(i + 6) && (i == 0 || !word(i - 1))
+    [&b"RETAIN"[..], b"PERSISTENT"].iter().any(|w| {
+        (0..(text.len() + 1).saturating_sub(w.len())).any(|i| {
+            text[i..i + w.len()].eq_ignore_ascii_case(w)
+                && !word(i + w.len())
+                && (i == 0 || !word(i - 1))
+        })
     })
 }
 
@@ -126,5 +147,30 @@ pub(crate) fn stage(kept: &mut [Kept], machine: &Machine) {
             }
             k.handle.set(bytes(&k.last));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn retain_and_persistent_are_seen_in_files_and_folders() {
+        assert!(mentions_retain(b"VAR RETAIN x : INT; END_VAR"));
+        assert!(mentions_retain(b"VAR PERSISTENT x : INT; END_VAR"));
+        assert!(mentions_retain(b"RETAIN"));
+        assert!(!mentions_retain(b"VAR NON_RETAIN x : INT; END_VAR"));
+        assert!(!mentions_retain(b"VAR retained : INT; END_VAR"));
+        let d = tempfile::tempdir().unwrap();
+        let conf = d.path().join("plc.conf").display().to_string();
+        std::fs::create_dir_all(d.path().join("src/sub")).unwrap();
+        std::fs::write(d.path().join("src/a.st"), "PROGRAM a END_PROGRAM").unwrap();
+        assert!(!declares_retain(&conf, "src"));
+        std::fs::write(
+            d.path().join("src/sub/g.st"),
+            "VAR_GLOBAL PERSISTENT n : INT; END_VAR",
+        )
+        .unwrap();
+        assert!(declares_retain(&conf, "src"));
     }
 }

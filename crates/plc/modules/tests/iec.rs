@@ -298,3 +298,47 @@ fn a_ladder_project_runs_as_a_module() {
     }
     assert_eq!(seen.join(""), "001100");
 }
+
+#[test]
+fn a_folder_of_sources_runs_as_one_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("plc");
+    std::fs::create_dir_all(src.join("POUs")).unwrap();
+    // The function block in TwinCAT's file format, the program in Structured Text.
+    std::fs::write(
+        src.join("POUs/Edges.TcPOU"),
+        "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<TcPlcObject Version=\"1.1.0.1\">\n  <POU Name=\"Edges\">\n    <Declaration><![CDATA[FUNCTION_BLOCK Edges\nVAR_INPUT\n\tgo : BOOL;\nEND_VAR\nVAR_OUTPUT\n\tn : INT;\nEND_VAR\nVAR\n\tedge : R_TRIG;\nEND_VAR]]></Declaration>\n    <Implementation>\n      <ST><![CDATA[edge(CLK := go);\nIF edge.Q THEN\n\tn := n + 1;\nEND_IF;]]></ST>\n    </Implementation>\n  </POU>\n</TcPlcObject>\n",
+    )
+    .unwrap();
+    std::fs::write(
+        src.join("main.st"),
+        "PROGRAM counter\nVAR_INPUT go : BOOL; END_VAR\nVAR_OUTPUT n : INT; END_VAR\nVAR e : Edges; END_VAR\ne(go := go);\nn := e.n;\nEND_PROGRAM\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("drive.csv"),
+        "time,go\n0,0\n0.02,1\n0.04,0\n0.06,1\n",
+    )
+    .unwrap();
+    let mut plc = start(
+        "[PLC]\nmodule drive timeline\nmodule ctl iec\n\
+         point go \"\" drive\npoint n \"\" ctl i16\n\
+         [drive]\nfile = drive.csv\n[ctl]\nprogram = plc\n",
+        dir.path(),
+    )
+    .unwrap();
+    let mut seen = Vec::new();
+    for k in 0..8 {
+        plc.tick(ms(10 * k)).unwrap();
+        seen.push(plc.value("n").to_string());
+    }
+    assert_eq!(seen.join(" "), "0 0 1 1 1 1 2 2");
+
+    // An empty folder is refused with what it lacks.
+    std::fs::create_dir_all(dir.path().join("empty")).unwrap();
+    let e = start_err(
+        "[PLC]\nmodule ctl iec\n[ctl]\nprogram = empty\n",
+        dir.path(),
+    );
+    assert!(e.contains("holds no IEC 61131-3 source"), "{e}");
+}

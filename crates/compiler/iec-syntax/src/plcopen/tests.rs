@@ -51,3 +51,123 @@ fn malformed_xml_and_other_roots_are_positioned_errors() {
     let (_, msgs) = read_text("<pnml/>");
     assert!(msgs[0].contains("error[E051]"), "{msgs:?}");
 }
+
+/// What CODESYS V3.5 writes in `<addData>`: lines are counted in the test below.
+const CODESYS: &str = r#"<?xml version="1.0" encoding="utf-8"?>
+<project xmlns="http://www.plcopen.org/xml/tc6_0200">
+  <types><dataTypes/><pous>
+    <pou name="Lamp" pouType="functionBlock">
+      <interface>
+        <inputVars><variable name="on"><type><BOOL/></type><documentation><xhtml xmlns="http://www.w3.org/1999/xhtml">switch</xhtml></documentation></variable></inputVars>
+      </interface>
+      <body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">;</xhtml></ST></body>
+      <actions>
+        <action name="Reset"><body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">on := FALSE;</xhtml></ST></body></action>
+      </actions>
+      <addData>
+        <data name="http://www.3s-software.com/plcopenxml/method" handleUnknown="implementation">
+          <Method name="Toggle" ObjectId="1"><interface/><body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">;</xhtml></ST></body></Method>
+        </data>
+        <data name="http://www.3s-software.com/plcopenxml/property" handleUnknown="implementation">
+          <Property name="Level" ObjectId="2"/>
+        </data>
+        <data name="http://www.3s-software.com/plcopenxml/pouinheritance" handleUnknown="implementation">
+          <Inheritance><Extends>Base</Extends></Inheritance>
+        </data>
+        <data name="http://www.3s-software.com/plcopenxml/objectid" handleUnknown="discard"><ObjectId>3</ObjectId></data>
+      </addData>
+    </pou>
+  </pous></types>
+  <instances><configurations>
+    <configuration name="Device">
+      <resource name="Application">
+        <task name="Main" interval="PT0.01S" priority="1">
+          <pouInstance name="PLC_PRG" typeName=""/>
+        </task>
+        <globalVars name="GVL_IO">
+          <variable name="a"><type><INT/></type></variable>
+          <variable name="k"><type><INT/></type></variable>
+          <addData>
+            <data name="http://www.3s-software.com/plcopenxml/mixedattrsvarlist" handleUnknown="implementation">
+              <MixedAttrsVarList>
+                <globalVars name="GVL_IO"><variable name="a"><type><INT/></type></variable></globalVars>
+                <globalVars name="GVL_IO" constant="true"><variable name="k"><type><INT/></type></variable></globalVars>
+              </MixedAttrsVarList>
+            </data>
+          </addData>
+        </globalVars>
+        <addData>
+          <data name="http://www.3s-software.com/plcopenxml/pou" handleUnknown="implementation">
+            <pou name="PLC_PRG" pouType="program">
+              <interface><localVars><variable name="x"><type><INT/></type></variable></localVars></interface>
+              <body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">x := x + 1;</xhtml></ST></body>
+            </pou>
+          </data>
+        </addData>
+      </resource>
+    </configuration>
+  </configurations></instances>
+  <addData>
+    <data name="http://www.3s-software.com/plcopenxml/globalvars" handleUnknown="implementation">
+      <globalVars name="GVL"><variable name="limit"><type><INT/></type></variable></globalVars>
+    </data>
+    <data name="http://www.3s-software.com/plcopenxml/interface" handleUnknown="implementation">
+      <Interface name="I_Switch" ObjectId="4"/>
+    </data>
+  </addData>
+</project>"#;
+
+#[test]
+fn codesys_add_data_is_read_or_reported_where_it_is() {
+    let (lib, msgs) = read_text(CODESYS);
+    let expect = [
+        "p.xml:14:11: error[E190]: METHOD Toggle of Lamp is not supported yet; the rest of the project is checked",
+        "p.xml:17:11: error[E190]: PROPERTY Level of Lamp",
+        "p.xml:20:24: error[E190]: Lamp EXTENDS Base",
+        "p.xml:10:9: error[E190]: ACTION Reset of Lamp",
+        "p.xml:60:7: error[E190]: INTERFACE I_Switch",
+    ];
+    assert_eq!(msgs.len(), expect.len(), "{msgs:?}");
+    for (m, e) in msgs.iter().zip(expect) {
+        assert!(m.starts_with(e), "{msgs:?}");
+    }
+    // The resource's program, the project's global list; the typeless instance is PLC_PRG.
+    let pous: Vec<&str> = lib
+        .elements
+        .iter()
+        .filter_map(|e| match e {
+            Element::Pou(p) => Some(p.name.name.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(pous, ["Lamp", "PLC_PRG"]);
+    assert!(lib
+        .elements
+        .iter()
+        .any(|e| matches!(e, Element::Globals(b) if b.vars[0].names[0].is("limit"))));
+    let c = lib
+        .elements
+        .iter()
+        .find_map(|e| match e {
+            Element::Configuration(c) => Some(c),
+            _ => None,
+        })
+        .unwrap();
+    let r = &c.resources[0];
+    assert!(r.programs[0].type_name.is("PLC_PRG"));
+    // The interval is an XML duration, 10 ms.
+    assert!(matches!(
+        r.tasks[0].interval.as_ref().map(|e| &e.kind),
+        Some(ExprKind::Literal(Literal::Time {
+            nanos: 10_000_000,
+            ..
+        }))
+    ));
+    // The mixed list's two blocks, not the flat one.
+    let blocks: Vec<(bool, usize)> = r
+        .globals
+        .iter()
+        .map(|b| (b.constant, b.vars.len()))
+        .collect();
+    assert_eq!(blocks, [(false, 1), (true, 1)]);
+}

@@ -1,0 +1,179 @@
+//! What CODESYS keeps in PLCopen XML's `<addData>` (its `http://www.3s-software.com/plcopenxml/…`
+//! data): global variable lists of the project, programs of a resource (a device's application),
+//! the blocks of a global list whose variables differ in attributes; and what is reported as not
+//! supported yet, each at its element, rather than dropped unseen: methods, properties,
+//! inheritance (EXTENDS, IMPLEMENTS), interfaces, and the actions of a POU whose body is not
+//! SFC. A task's interval may be an XML duration (`PT0.05S`), as CODESYS writes it. Other data (object ids, attributes, folders, task settings) changes nothing here.
+
+use super::{Reader, X};
+use crate::ast::*;
+use crate::diag;
+
+/// The names of CODESYS's data, after `http://www.3s-software.com/plcopenxml/`.
+fn data<'a>(holder: &'a X, kind: &'a str) -> impl Iterator<Item = &'a X> + 'a {
+    holder
+        .children_named("addData")
+        .flat_map(|a| a.children_named("data"))
+        .filter(move |d| {
+            d.attr("name").is_some_and(|n| {
+                n.strip_prefix("http://www.3s-software.com/plcopenxml/")
+                    .is_some_and(|k| k.eq_ignore_ascii_case(kind))
+            })
+        })
+}
+
+impl Reader<'_> {
+    fn not_yet(&mut self, el: &X, what: String) {
+        let span = self.span(el);
+        self.diags.error(
+            diag::UNSUPPORTED,
+            span,
+            format!("{what} is not supported yet; the rest of the project is checked"),
+        );
+    }
+
+    /// A `<globalVars>` block, or the blocks of its `MixedAttrsVarList` when CODESYS wrote
+    /// one: then the block itself holds every variable under the first block's attributes.
+    pub(super) fn global_vars(&mut self, b: &X) -> Vec<VarBlock> {
+        let mixed: Vec<&X> = data(b, "mixedattrsvarlist")
+            .flat_map(|d| d.children_named("MixedAttrsVarList"))
+            .flat_map(|m| m.children_named("globalVars"))
+            .collect();
+        if mixed.is_empty() {
+            return vec![self.var_block(b, VarKind::Global)];
+        }
+        mixed
+            .into_iter()
+            .map(|m| self.var_block(m, VarKind::Global))
+            .collect()
+    }
+
+    /// The project's own data: global variable lists, interfaces.
+    pub(super) fn project_add_data(&mut self, root: &X) {
+        for d in data(root, "globalvars") {
+            for b in d.children_named("globalVars") {
+                for block in self.global_vars(b) {
+                    self.found.push(Element::Globals(block));
+                }
+            }
+        }
+        for d in data(root, "interface") {
+            for i in d.children_named("Interface") {
+                let name = i.attr("name").unwrap_or("?").to_string();
+                self.not_yet(i, format!("INTERFACE {name}"));
+            }
+        }
+    }
+
+    /// A resource's data: the programs of the application CODESYS exports with its device.
+    pub(super) fn resource_add_data(&mut self, r: &X) {
+        for d in data(r, "pou") {
+            for p in d.children_named("pou") {
+                if let Some(p) = self.pou(p) {
+                    self.found.push(Element::Pou(p));
+                }
+            }
+        }
+    }
+
+    /// A POU's data: what object orientation adds to it, and actions outside SFC.
+    pub(super) fn pou_add_data(&mut self, pou: &X, name: &Ident) {
+        for d in data(pou, "method") {
+            for m in d.children_named("Method") {
+                let m_name = m.attr("name").unwrap_or("?").to_string();
+                self.not_yet(m, format!("METHOD {m_name} of {}", name.name));
+            }
+        }
+        for d in data(pou, "property") {
+            for p in d.children_named("Property") {
+                let p_name = p.attr("name").unwrap_or("?").to_string();
+                self.not_yet(p, format!("PROPERTY {p_name} of {}", name.name));
+            }
+        }
+        for d in data(pou, "pouinheritance") {
+            for i in d.children_named("Inheritance") {
+                for (tag, word) in [("Extends", "EXTENDS"), ("Implements", "IMPLEMENTS")] {
+                    for e in i.children_named(tag) {
+                        let base = e.text.trim().to_string();
+                        self.not_yet(e, format!("{} {word} {base}", name.name));
+                    }
+                }
+            }
+        }
+        let sfc = pou
+            .child("body")
+            .is_some_and(|b| b.children.iter().any(|c| c.name == "SFC"));
+        if !sfc {
+            for a in pou
+                .child("actions")
+                .into_iter()
+                .flat_map(|a| a.children_named("action"))
+            {
+                let a_name = a.attr("name").unwrap_or("?").to_string();
+                self.not_yet(a, format!("ACTION {a_name} of {}", name.name));
+            }
+        }
+    }
+}
+
+/// An XML Schema duration (`PT0.05S`, `PT1M30S`, `P1DT2H`) in nanoseconds; `None` for anything
+/// else (an IEC literal such as `T#20ms` is parsed as one).
+pub(super) fn iso_duration(text: &str) -> Option<i128> {
+    let rest = text.trim().strip_prefix('P')?;
+    let (days, time) = match rest.split_once('T') {
+        Some((d, t)) => (d, t),
+        None => (rest, ""),
+    };
+    let mut total: i128 = 0;
+    let mut any = false;
+    let mut add = |part: &str, units: &[(char, i128)]| -> Option<()> {
+        let mut num = String::new();
+        for c in part.chars() {
+            if c.is_ascii_digit() || c == '.' {
+                num.push(c);
+                continue;
+            }
+            let scale = units.iter().find(|(u, _)| *u == c.to_ascii_uppercase())?.1;
+            let (whole, frac) = num.split_once('.').unwrap_or((&num, ""));
+            if whole.is_empty() && frac.is_empty() {
+                return None;
+            }
+            let whole: i128 = if whole.is_empty() {
+                0
+            } else {
+                whole.parse().ok()?
+            };
+            let mut f: i128 = 0;
+            let mut div: i128 = 1;
+            for d in frac.chars().take(18) {
+                f = f * 10 + i128::from(d.to_digit(10)?);
+                div *= 10;
+            }
+            total = total.checked_add(whole.checked_mul(scale)? + f * scale / div)?;
+            any = true;
+            num.clear();
+        }
+        num.is_empty().then_some(())
+    };
+    const S: i128 = 1_000_000_000;
+    add(days, &[('D', 86_400 * S)])?;
+    add(time, &[('H', 3_600 * S), ('M', 60 * S), ('S', S)])?;
+    any.then_some(total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::iso_duration;
+
+    #[test]
+    fn xml_durations() {
+        assert_eq!(iso_duration("PT0.05S"), Some(50_000_000));
+        assert_eq!(iso_duration("PT10S"), Some(10_000_000_000));
+        assert_eq!(iso_duration("PT1M30S"), Some(90_000_000_000));
+        assert_eq!(iso_duration("P1DT2H"), Some(93_600_000_000_000));
+        assert_eq!(iso_duration("PT0.000001S"), Some(1_000));
+        for bad in ["T#20ms", "P", "PT", "PT5", "PTS", "PT1X", "20ms"] {
+            assert_eq!(iso_duration(bad), None, "{bad}");
+        }
+    }
+}

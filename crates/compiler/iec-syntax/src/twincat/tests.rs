@@ -1,0 +1,328 @@
+use super::*;
+
+fn read_text(name: &str, text: &str) -> (Library, Vec<String>, SourceMap) {
+    let mut map = SourceMap::new();
+    let mut d = Diagnostics::new();
+    let lib = read(&mut map, name, text, &mut d);
+    let msgs = d.items.iter().map(|x| x.render(&map)).collect();
+    (lib, msgs, map)
+}
+
+/// A function block as TwinCAT 3 saves it, with a byte order mark, a method, a property, an
+/// action and a transition after its body (lines counted in the tests below).
+const FB: &str = "\u{feff}<?xml version=\"1.0\" encoding=\"utf-8\"?>
+<TcPlcObject Version=\"1.1.0.1\">
+  <POU Name=\"Counter\" Id=\"{00000000-0000-0000-0000-000000000001}\" SpecialFunc=\"None\">
+    <Declaration><![CDATA[{attribute 'hide'}
+FUNCTION_BLOCK Counter
+VAR_INPUT
+\tstep : INT := 1;
+END_VAR
+VAR_OUTPUT
+\tcount : INT;
+END_VAR]]></Declaration>
+    <Implementation>
+      <ST><![CDATA[// counts
+count := count + step;]]></ST>
+    </Implementation>
+    <Method Name=\"Reset\" Id=\"{00000000-0000-0000-0000-000000000002}\">
+      <Declaration><![CDATA[METHOD Reset]]></Declaration>
+      <Implementation>
+        <ST><![CDATA[count := 0;]]></ST>
+      </Implementation>
+    </Method>
+    <Property Name=\"Value\" Id=\"{00000000-0000-0000-0000-000000000003}\">
+      <Declaration><![CDATA[PROPERTY Value : INT]]></Declaration>
+    </Property>
+    <Action Name=\"Twice\" Id=\"{00000000-0000-0000-0000-000000000004}\">
+      <Implementation>
+        <ST><![CDATA[count := count * 2;]]></ST>
+      </Implementation>
+    </Action>
+    <Transition Name=\"Done\" Id=\"{00000000-0000-0000-0000-000000000005}\">
+      <Implementation>
+        <ST><![CDATA[count > 10]]></ST>
+      </Implementation>
+    </Transition>
+    <LineIds Name=\"Counter\">
+      <LineId Id=\"1\" Count=\"0\" />
+    </LineIds>
+  </POU>
+</TcPlcObject>";
+
+#[test]
+fn a_pou_is_its_declaration_and_its_body() {
+    let (lib, msgs, map) = read_text("Counter.TcPOU", FB);
+    let [Element::Pou(p)] = lib.elements.as_slice() else {
+        panic!("{:?}", lib.elements);
+    };
+    assert_eq!(p.kind, PouKind::FunctionBlock);
+    assert!(p.name.is("Counter"));
+    assert_eq!(p.var_blocks.len(), 2);
+    let Body::St(body) = &p.body else {
+        panic!("{:?}", p.body)
+    };
+    assert_eq!(body.len(), 1);
+    // The statement is on line 14 of the file, column 1.
+    assert_eq!(map.position(body[0].span).to_string(), "Counter.TcPOU:14:1");
+    assert!(map.files().all(|(_, f)| f.from_twincat));
+    // The methods and the rest are each reported at their own element.
+    let lines: Vec<&str> = msgs
+        .iter()
+        .map(|m| m.split(": error").next().unwrap())
+        .collect();
+    assert_eq!(
+        lines,
+        [
+            "Counter.TcPOU:16:5",
+            "Counter.TcPOU:22:5",
+            "Counter.TcPOU:25:5",
+            "Counter.TcPOU:30:5"
+        ],
+        "{msgs:?}"
+    );
+    assert!(msgs[0].contains("error[E190]: METHOD Reset of Counter is not supported yet"));
+    assert!(msgs[1].contains("PROPERTY Value of Counter"));
+    assert!(msgs[2].contains("ACTION Twice of Counter"));
+    assert!(msgs[3].contains("TRANSITION Done of Counter"));
+}
+
+#[test]
+fn errors_point_into_the_declaration_and_the_body() {
+    let text = "<TcPlcObject>
+  <POU Name=\"f\">
+    <Declaration><![CDATA[FUNCTION f : INT
+VAR_INPUT
+  a : INT
+END_VAR]]></Declaration>
+    <Implementation>
+      <ST><![CDATA[f := a +;]]></ST>
+    </Implementation>
+  </POU>
+</TcPlcObject>";
+    let (_, msgs, _) = read_text("f.TcPOU", text);
+    assert_eq!(msgs.len(), 2, "{msgs:?}");
+    assert!(msgs[0].starts_with("f.TcPOU:5:10: error[E012]"), "{msgs:?}");
+    assert!(msgs[1].starts_with("f.TcPOU:8:28: error[E010]"), "{msgs:?}");
+}
+
+#[test]
+fn a_declaration_may_close_its_pou_but_holds_no_statement() {
+    let closed = "<TcPlcObject><POU Name=\"p\"><Declaration><![CDATA[PROGRAM p
+VAR x : INT; END_VAR
+END_PROGRAM]]></Declaration><Implementation><ST><![CDATA[x := 1;]]></ST></Implementation></POU></TcPlcObject>";
+    let (lib, msgs, _) = read_text("p.TcPOU", closed);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    assert_eq!(lib.elements.len(), 1);
+
+    let statement = "<TcPlcObject><POU Name=\"p\"><Declaration><![CDATA[PROGRAM p
+VAR x : INT; END_VAR
+x := 1;]]></Declaration></POU></TcPlcObject>";
+    let (_, msgs, _) = read_text("p.TcPOU", statement);
+    assert_eq!(msgs.len(), 1, "{msgs:?}");
+    assert!(
+        msgs[0].starts_with("p.TcPOU:3:1: error[E010]: a statement in the declaration of p"),
+        "{msgs:?}"
+    );
+
+    let not_a_pou = "<TcPlcObject><POU Name=\"p\"><Declaration><![CDATA[VAR x : INT; END_VAR]]></Declaration></POU></TcPlcObject>";
+    let (lib, msgs, _) = read_text("p.TcPOU", not_a_pou);
+    assert!(lib.elements.is_empty());
+    assert!(
+        msgs[0].contains("error[E010]: a POU's declaration starts with PROGRAM"),
+        "{msgs:?}"
+    );
+}
+
+#[test]
+fn types_and_global_lists_are_read_as_written() {
+    let dut = "<?xml version=\"1.0\" encoding=\"utf-8\"?>
+<TcPlcObject Version=\"1.1.0.1\">
+  <DUT Name=\"Pair\" Id=\"{1}\">
+    <Declaration><![CDATA[TYPE Pair :
+STRUCT
+\ta : INT;
+\tb : BOOL;
+END_STRUCT;
+END_TYPE
+]]></Declaration>
+  </DUT>
+</TcPlcObject>";
+    let (lib, msgs, _) = read_text("Pair.TcDUT", dut);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    assert!(matches!(lib.elements.as_slice(), [Element::Types(t)] if t[0].name.is("Pair")));
+
+    let gvl = "<TcPlcObject Version=\"1.1.0.1\">
+  <GVL Name=\"GVL\" Id=\"{2}\">
+    <Declaration><![CDATA[{attribute 'qualified_only'}
+VAR_GLOBAL
+\tlimit : INT := 10;
+\tbad : INT := ;
+END_VAR]]></Declaration>
+  </GVL>
+</TcPlcObject>";
+    let (lib, msgs, _) = read_text("GVL.TcGVL", gvl);
+    assert!(matches!(lib.elements.as_slice(), [Element::Globals(_)]));
+    assert!(
+        msgs[0].starts_with("GVL.TcGVL:6:15: error[E010]"),
+        "{msgs:?}"
+    );
+}
+
+#[test]
+fn a_task_object_is_a_configured_task() {
+    let tto = "<?xml version=\"1.0\" encoding=\"utf-8\"?>
+<TcPlcObject Version=\"1.1.0.1\">
+  <Task Name=\"PlcTask\" Id=\"{3}\">
+    <!--CycleTime in micro seconds.-->
+    <CycleTime>10000</CycleTime>
+    <Priority>20</Priority>
+    <PouCall>
+      <Name>MAIN</Name>
+    </PouCall>
+    <TaskFBGuid>{4}</TaskFBGuid>
+  </Task>
+</TcPlcObject>";
+    let (lib, msgs, _) = read_text("PlcTask.TcTTO", tto);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let [Element::Configuration(c)] = lib.elements.as_slice() else {
+        panic!("{:?}", lib.elements)
+    };
+    assert!(c.name.is(TASKS_CONFIGURATION));
+    let r = &c.resources[0];
+    let t = &r.tasks[0];
+    assert!(t.name.is("PlcTask"));
+    assert!(matches!(
+        t.interval.as_ref().map(|e| &e.kind),
+        Some(ExprKind::Literal(Literal::Time {
+            nanos: 10_000_000,
+            ..
+        }))
+    ));
+    assert!(matches!(
+        t.priority.as_ref().map(|e| &e.kind),
+        Some(ExprKind::Literal(Literal::Int { value: 20, .. }))
+    ));
+    assert!(r.programs[0].type_name.is("MAIN"));
+    assert!(r.programs[0].task.as_ref().is_some_and(|t| t.is("PlcTask")));
+
+    let bad = "<TcPlcObject>\n<Task Name=\"t\">\n<CycleTime>10 ms</CycleTime></Task></TcPlcObject>";
+    let (_, msgs, _) = read_text("t.TcTTO", bad);
+    assert!(
+        msgs[0].starts_with("t.TcTTO:3:1: error[E055]: task t: <CycleTime> is `10 ms`"),
+        "{msgs:?}"
+    );
+}
+
+#[test]
+fn malformed_files_are_positioned_errors() {
+    let (_, msgs, _) = read_text(
+        "x.TcPOU",
+        "<TcPlcObject>\n  <POU Name=\"x\">\n</TcPlcObject>",
+    );
+    assert!(msgs[0].starts_with("x.TcPOU:3:"), "{msgs:?}");
+    assert!(msgs[0].contains("error[E050]"), "{msgs:?}");
+    let (_, msgs, _) = read_text("x.TcPOU", "<project/>");
+    assert!(
+        msgs[0].contains("error[E055]: the root element is <project>"),
+        "{msgs:?}"
+    );
+    let (_, msgs, _) = read_text("x.TcPOU", "<TcPlcObject>\n <POU Name=\"x\"/></TcPlcObject>");
+    assert!(
+        msgs[0].starts_with("x.TcPOU:2:2: error[E055]: <POU Name=\"x\"> has no <Declaration>"),
+        "{msgs:?}"
+    );
+    let (_, msgs, _) = read_text(
+        "x.TcPOU",
+        "<TcPlcObject>\n <Visu Name=\"v\"/></TcPlcObject>",
+    );
+    assert!(
+        msgs[0].contains("error[E055]: <Visu> is not a TwinCAT object"),
+        "{msgs:?}"
+    );
+    let (_, msgs, _) = read_text(
+        "i.TcIO",
+        "<TcPlcObject>\n <Itf Name=\"I_Run\"><Declaration><![CDATA[INTERFACE I_Run]]></Declaration></Itf></TcPlcObject>",
+    );
+    assert!(
+        msgs[0].starts_with("i.TcIO:2:2: error[E190]: INTERFACE I_Run is not supported yet"),
+        "{msgs:?}"
+    );
+}
+
+#[test]
+fn a_graphical_implementation_is_reported() {
+    let text = "<TcPlcObject><POU Name=\"p\"><Declaration><![CDATA[PROGRAM p]]></Declaration>
+<Implementation>
+  <SFC>…</SFC>
+</Implementation></POU></TcPlcObject>";
+    let (lib, msgs, _) = read_text("p.TcPOU", text);
+    assert_eq!(lib.elements.len(), 1);
+    assert!(
+        msgs[0].starts_with("p.TcPOU:3:3: error[E190]: POU p: TwinCAT's <SFC> body is not read"),
+        "{msgs:?}"
+    );
+}
+
+#[test]
+fn files_are_recognised_by_extension_or_root() {
+    assert!(is_twincat("a/B.TcPOU", ""));
+    assert!(is_twincat("b.tcgvl", ""));
+    assert!(is_twincat(
+        "x.xml",
+        "<?xml version=\"1.0\"?>\n<TcPlcObject>"
+    ));
+    assert!(!is_twincat("x.st", "PROGRAM p END_PROGRAM"));
+    // The sniffed head ends inside no character.
+    let mut text = "x".repeat(1023);
+    text.push('é');
+    assert!(!is_twincat("x", &text));
+}
+
+#[test]
+fn a_project_lists_its_sources() {
+    let proj = r#"<?xml version="1.0" encoding="utf-8"?>
+<Project DefaultTargets="Build" xmlns="http://schemas.microsoft.com/developer/msbuild/2003">
+  <ItemGroup>
+    <Folder Include="POUs" />
+  </ItemGroup>
+  <ItemGroup>
+    <Compile Include="DUTs\Pair.TcDUT">
+      <SubType>Code</SubType>
+    </Compile>
+    <Compile Include="POUs\Time&amp;Date\MAIN.TcPOU" />
+    <Compile Include="Visu.TcVIS" />
+    <Compile Include="PlcTask.TcTTO" />
+  </ItemGroup>
+</Project>"#;
+    let mut map = SourceMap::new();
+    let mut d = Diagnostics::new();
+    let files = project_files(&mut map, "p.plcproj", proj, &mut d);
+    assert!(d.items.is_empty());
+    let names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "DUTs/Pair.TcDUT",
+            "POUs/Time&Date/MAIN.TcPOU",
+            "PlcTask.TcTTO"
+        ]
+    );
+    assert_eq!(map.position(files[1].1).to_string(), "p.plcproj:10:5");
+
+    let files = project_files(&mut map, "q.plcproj", "<Solution/>", &mut d);
+    assert!(files.is_empty());
+    assert!(d.items[0].render(&map).contains("error[E055]"));
+}
+
+#[test]
+fn no_cut_of_a_file_panics_and_every_problem_is_coded() {
+    let mut ends: Vec<usize> = (0..=FB.len()).filter(|&i| FB.is_char_boundary(i)).collect();
+    ends.retain(|&i| i % 3 == 0 || FB[..i].ends_with('>'));
+    for end in ends {
+        let (_, msgs, _) = read_text("cut.TcPOU", &FB[..end]);
+        for m in msgs {
+            assert!(m.contains(": error[E"), "{end}: {m}");
+        }
+    }
+}
