@@ -204,6 +204,9 @@ pub enum Step {
     Index(Vec<Expr>),
     /// One bit of a bit string or integer.
     Bit(u32),
+    /// What the reference or pointer here designates (checked when the program runs: not
+    /// NULL, of the designated type).
+    Deref,
 }
 
 #[derive(Clone, Debug)]
@@ -230,7 +233,7 @@ impl Expr {
             most = most.max(d);
             match &e.kind {
                 ExprKind::Const(_) => {}
-                ExprKind::Load(p) => place(p, d + 1, &mut todo),
+                ExprKind::Load(p) | ExprKind::Ref(p) => place(p, d + 1, &mut todo),
                 ExprKind::Unary(_, x) | ExprKind::Convert(x) | ExprKind::Trunc(x) => {
                     todo.push((x, d + 1))
                 }
@@ -263,6 +266,9 @@ pub enum ExprKind {
     Trunc(Box<Expr>),
     Call(FnCall),
     Builtin(Builtin, Vec<Expr>),
+    /// `REF(x)`, `ADR(x)`: a reference to a place with a lasting address (this
+    /// expression's type is the reference type).
+    Ref(Place),
 }
 
 /// A call of a user FUNCTION: every input given (defaults filled in).

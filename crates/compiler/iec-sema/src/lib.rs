@@ -41,4 +41,6 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
 #[cfg(test)]
 mod il_tests;
 #[cfg(test)]
+mod reference_tests;
+#[cfg(test)]
 mod tests;

@@ -228,7 +228,13 @@ fn str_cap(p: &Project, ty: TypeId) -> u32 {
 fn scalar(p: &Project, ty: TypeId) -> bool {
     matches!(
         p.types.get(ty),
-        Type::Elem(_) | Type::Enum { .. } | Type::Subrange { .. } | Type::IntLit | Type::RealLit
+        Type::Elem(_)
+            | Type::Enum { .. }
+            | Type::Subrange { .. }
+            | Type::IntLit
+            | Type::RealLit
+            | Type::Ref { .. }
+            | Type::Null
     )
 }
 

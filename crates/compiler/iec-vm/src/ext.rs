@@ -55,6 +55,22 @@ pub enum ExtOp {
         s: u32,
         to: Elem,
     },
+    /// `d` = the handle of the variable whose address is in `s`, of type id `ty`
+    /// ([`crate::pointer`]).
+    MakeRef {
+        d: u32,
+        s: u32,
+        ty: u32,
+    },
+    /// `d` = the address the handle in `p` designates, checked against type id `ty` and its
+    /// `n` slots; `what` is the reference type, for the fault.
+    Deref {
+        d: u32,
+        p: u32,
+        ty: u32,
+        n: u32,
+        what: String,
+    },
     /// A value stored into a subrange: `lo <= s <= hi`.
     Check {
         d: u32,
@@ -330,6 +346,10 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
                 )
             })?;
             mem[base + *d as usize] = r as i64 as u64;
+        }
+        ExtOp::MakeRef { d, s, ty } => crate::pointer::make(mem, base, *d, *s, *ty),
+        ExtOp::Deref { d, p, ty, n, what } => {
+            crate::pointer::deref(mem, base, *d, *p, *ty, *n, what)?
         }
         ExtOp::Check { d, s, lo, hi } => {
             let v = slot(mem, base, *s) as i64;

@@ -30,6 +30,9 @@ use petriplc_iec_vm::{display, Backend, Machine};
 const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus");
 /// Instruction List programs (`*.il`), with the same header format.
 const CORPUS_IL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus-il");
+/// Programs with the standard's `REF_TO`, which blark's grammar (TwinCAT's, with `POINTER TO`
+/// instead) lacks: run like the others, not given to blark.
+const CORPUS_REF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus-ref");
 
 #[derive(Debug, Default)]
 struct Spec {
@@ -298,6 +301,11 @@ fn files_of(dir: &str, ext: &str) -> Vec<PathBuf> {
 #[test]
 fn every_corpus_program_gives_its_expected_values() {
     check_corpus(&corpus(), 150);
+}
+
+#[test]
+fn every_ref_to_corpus_program_gives_its_expected_values() {
+    check_corpus(&files_of(CORPUS_REF, "st"), 3);
 }
 
 #[test]

@@ -59,6 +59,9 @@ impl<'a> Checker<'a> {
                         self.duplicate(n, prev);
                         continue;
                     }
+                    if b.retain == ast::Retain::Retain && self.contains_reference(ty) {
+                        self.retained_reference(n);
+                    }
                     let g = self.globals.len() as GlobalId;
                     self.globals.push(Var {
                         name: n.name.clone(),
@@ -369,6 +372,9 @@ impl<'a> Checker<'a> {
                 } else {
                     init.clone()
                 };
+                if b.retain == ast::Retain::Retain && self.contains_reference(ty) {
+                    self.retained_reference(n);
+                }
                 let id = cx.vars.len() as VarId;
                 cx.vars.push(Var {
                     name: n.name.clone(),
@@ -383,5 +389,16 @@ impl<'a> Checker<'a> {
                 cx.names.insert(key, id);
             }
         }
+    }
+
+    fn retained_reference(&mut self, n: &ast::Ident) {
+        self.error(
+            diag::RETAINED_REFERENCE,
+            n.span,
+            format!(
+                "`{}` holds a reference, which cannot be RETAIN: an address of this build means nothing after a restart; declare it without RETAIN",
+                n.name
+            ),
+        );
     }
 }

@@ -54,6 +54,9 @@ impl<'a> Checker<'a> {
             );
             return err(span);
         }
+        if name.is("REF") || name.is("ADR") {
+            return self.ref_of(name, call, cx);
+        }
         if let Some(x) = self.std_call(name, call, cx, expected) {
             return x;
         }
@@ -219,6 +222,8 @@ impl<'a> Checker<'a> {
             (Type::Subrange { base, .. }, Type::Elem(b)) => base.widens_to(*b),
             (Type::Elem(a), Type::Subrange { base, .. }) => a.widens_to(*base),
             (Type::Subrange { base: a, .. }, Type::Subrange { base, .. }) => a.widens_to(*base),
+            (Type::Null, Type::Ref { .. }) => true,
+            (Type::Ref { target: a, .. }, Type::Ref { target: b, .. }) => a == b,
             _ => false,
         }
     }

@@ -202,6 +202,9 @@ impl<'a> Checker<'a> {
                 }
             };
         }
+        if id.is("NULL") {
+            return self.null(id.span);
+        }
         self.undeclared(id, cx);
         err(id.span)
     }

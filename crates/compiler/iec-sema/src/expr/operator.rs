@@ -241,7 +241,12 @@ impl<'a> Checker<'a> {
             Eq | Ne => true,
             Lt | Le | Gt | Ge => !matches!(
                 tt,
-                Type::Enum { .. } | Type::Struct { .. } | Type::Array { .. } | Type::Fb(_)
+                Type::Enum { .. }
+                    | Type::Struct { .. }
+                    | Type::Array { .. }
+                    | Type::Fb(_)
+                    | Type::Ref { .. }
+                    | Type::Null
             ),
             Add | Sub => {
                 matches!(tt, Type::IntLit | Type::RealLit)
@@ -253,11 +258,11 @@ impl<'a> Checker<'a> {
             Mod => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_int()),
             Power => true,
         };
-        let ok = ok
-            && !matches!(
+        let ok =
+            ok && !matches!(
                 tt,
                 Type::Struct { .. } | Type::Array { .. } | Type::Fb(_) | Type::Void
-            );
+            ) && (op.is_comparison() || !matches!(tt, Type::Ref { .. } | Type::Null));
         if !ok {
             let tn = self.types.name(t);
             let what = match op {
@@ -265,6 +270,9 @@ impl<'a> Checker<'a> {
                 Add | Sub => "numbers and durations",
                 Mul | Div => "numbers",
                 Mod => "integers",
+                _ if matches!(tt, Type::Ref { .. } | Type::Null) => {
+                    "elementary values and strings (references compare with = and <> only)"
+                }
                 _ => "elementary values and strings",
             };
             self.error(
@@ -308,6 +316,19 @@ impl<'a> Checker<'a> {
         if lit(ty) {
             let y = self.coerce_quiet(y, tx)?;
             return Some((x, y, tx));
+        }
+        if let Some(r) = self.unify_refs(&x, &y) {
+            return match r {
+                Ok(t) => {
+                    let x = self.coerce(x, t, op);
+                    let y = self.coerce(y, t, op);
+                    Some((x, y, t))
+                }
+                Err(()) => {
+                    self.op_error(op, x.ty, Some(y.ty), span);
+                    None
+                }
+            };
         }
         // Strings of any lengths compare and combine.
         if let (Type::Str { len: a }, Type::Str { len: b }) =
@@ -462,6 +483,11 @@ impl<'a> Checker<'a> {
                     ty: to,
                     span,
                 };
+            }
+            (Type::Null, Type::Ref { .. }) => return konst(Value::Int(0), to, span),
+            (Type::Ref { target: a, .. }, Type::Ref { target: b, .. }) if a == b => {
+                // POINTER TO T and REF_TO T share one representation.
+                return Expr { ty: to, ..x };
             }
             (Type::Elem(a), Type::Elem(b)) if a.widens_to(*b) => return self.convert(x, to),
             (Type::Subrange { base, .. }, Type::Elem(b)) if base.widens_to(*b) => {

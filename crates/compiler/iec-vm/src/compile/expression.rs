@@ -70,6 +70,20 @@ impl<'c, 'p> Fx<'c, 'p> {
                     self.addr_of(pl.loc, span)
                 }
             }
+            ExprKind::Ref(place) => {
+                let pl = self.place_loc(place)?;
+                let a = self.addr_of(pl.loc, span)?;
+                let d = want.unwrap_or_else(|| self.temp(1));
+                self.ext(
+                    ExtOp::MakeRef {
+                        d,
+                        s: a,
+                        ty: place.ty,
+                    },
+                    span,
+                );
+                Ok(d)
+            }
             ExprKind::Unary(op, x) => {
                 let a = self.expr(x, None)?;
                 let d = want.unwrap_or_else(|| self.temp(1));

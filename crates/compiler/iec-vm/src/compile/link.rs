@@ -276,9 +276,14 @@ impl ExtOp {
             | ExtOp::Trunc { d, s, .. }
             | ExtOp::Check { d, s, .. }
             | ExtOp::Math { d, s, .. }
-            | ExtOp::AbsI { d, s, .. } => {
+            | ExtOp::AbsI { d, s, .. }
+            | ExtOp::MakeRef { d, s, .. } => {
                 g(d);
                 g(s);
+            }
+            ExtOp::Deref { d, p, .. } => {
+                g(d);
+                g(p);
             }
             ExtOp::ToStr { dp, s, .. } => {
                 g(dp);

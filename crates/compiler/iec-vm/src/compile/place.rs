@@ -109,6 +109,27 @@ impl<'c, 'p> Fx<'c, 'p> {
                     ty = elem;
                 }
                 Step::Bit(n) => bit = Some(*n as u8),
+                Step::Deref => {
+                    let Some(target) = self.c.p.types.ref_target(ty) else {
+                        continue;
+                    };
+                    let h = self.load_loc(loc, p.span)?;
+                    let d = self.temp(1);
+                    let what = self.c.p.types.name(ty);
+                    let n = self.size(target);
+                    self.ext(
+                        ExtOp::Deref {
+                            d,
+                            p: h,
+                            ty: target,
+                            n,
+                            what,
+                        },
+                        p.span,
+                    );
+                    loc = Loc::Ind(d, 0);
+                    ty = target;
+                }
             }
         }
         Ok(PlaceLoc { loc, bit })

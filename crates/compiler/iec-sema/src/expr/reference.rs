@@ -1,0 +1,177 @@
+//! References and pointers: `NULL`, `REF(x)` and CODESYS's `ADR(x)`, `r^`, and the rule that a
+//! reference only designates a variable that outlives it (docs/iec.md, "References and
+//! pointers").
+
+use petriplc_iec_syntax::ast::{self, ExprKind as A, RefKind};
+use petriplc_iec_syntax::diag;
+use petriplc_iec_syntax::source::Span;
+
+use crate::check::{Checker, Cx};
+use crate::ir::{Expr, ExprKind, Place, PouKind, Root, Step, VarClass};
+use crate::types::{ids, Type, TypeId};
+use crate::value::Value;
+
+use super::{err, konst};
+
+impl<'a> Checker<'a> {
+    /// `NULL` (a name no declaration takes).
+    pub(super) fn null(&mut self, span: Span) -> Expr {
+        let t = self.types.null();
+        konst(Value::Int(0), t, span)
+    }
+
+    /// `base^`: the variable the reference held by `base` designates.
+    pub(super) fn deref_place(
+        &mut self,
+        e: &ast::Expr,
+        base: &ast::Expr,
+        cx: &mut Cx,
+    ) -> Option<Place> {
+        // The reference itself is only read, whether its target is read or written.
+        let mut p = self.place(base, cx, false)?;
+        let Some(target) = self.types.ref_target(p.ty) else {
+            if p.ty != ids::ERROR {
+                let t = self.types.name(p.ty);
+                self.error(
+                    diag::NOT_A_REFERENCE,
+                    e.span,
+                    format!("`^` dereferences a REF_TO or POINTER TO; this is {t}"),
+                );
+            }
+            return None;
+        };
+        p.path.push(Step::Deref);
+        p.ty = target;
+        p.span = e.span;
+        Some(p)
+    }
+
+    /// `REF(x)` (IEC 61131-3) or `ADR(x)` (CODESYS): a reference to a variable, typed
+    /// `REF_TO T` or `POINTER TO T` by the variable's type.
+    pub(super) fn ref_of(&mut self, name: &ast::Ident, call: &ast::Call, cx: &mut Cx) -> Expr {
+        let span = call.span;
+        let fname = name.name.to_ascii_uppercase();
+        let arg = match call.args.as_slice() {
+            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
+            _ => None,
+        };
+        let Some(arg) = arg else {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                span,
+                format!("{fname} takes one variable: {fname}(x)"),
+            );
+            return err(span);
+        };
+        if !matches!(
+            arg.kind,
+            A::Name(_) | A::Field(..) | A::Index(..) | A::Deref(_) | A::Bit(..)
+        ) {
+            self.error(
+                diag::NO_ADDRESS,
+                arg.span,
+                format!("{fname} takes a variable, not an expression: its value has no address"),
+            );
+            return err(span);
+        }
+        let Some(place) = self.place(arg, cx, false) else {
+            return err(span);
+        };
+        if let Some(why) = self.no_lasting_address(&place, cx) {
+            self.error(
+                diag::NO_ADDRESS,
+                arg.span,
+                format!("{fname}: {why}; docs/iec.md, \"References and pointers\""),
+            );
+            return err(span);
+        }
+        let kind = if fname == "REF" {
+            RefKind::RefTo
+        } else {
+            RefKind::PointerTo
+        };
+        let ty = self.types.reference(kind, place.ty);
+        Expr {
+            kind: ExprKind::Ref(place),
+            ty,
+            span,
+        }
+    }
+
+    /// Why a place cannot be referenced (`None`: it can): a reference must never outlive
+    /// what it designates, nor let a constant be written.
+    fn no_lasting_address(&self, p: &Place, cx: &Cx) -> Option<String> {
+        if p.path.iter().any(|s| matches!(s, Step::Bit(_))) {
+            return Some("a single bit has no address; reference the whole variable".into());
+        }
+        if matches!(self.types.get(p.ty), Type::Fb(_)) {
+            return Some(
+                "references to function block instances are not supported yet; reference a variable"
+                    .into(),
+            );
+        }
+        // Behind a dereference the place is inside a variable already referenced.
+        let behind_ref = p.path.iter().any(|s| matches!(s, Step::Deref));
+        let var = self.var_of(p, cx);
+        if behind_ref {
+            return None;
+        }
+        if var.constant {
+            return Some(format!(
+                "`{}` is a CONSTANT: a reference would let it be written",
+                var.name
+            ));
+        }
+        if let Root::Var(_) = p.root {
+            match var.class {
+                VarClass::Temp => {
+                    return Some(format!(
+                        "`{}` is a VAR_TEMP, gone when the POU returns",
+                        var.name
+                    ))
+                }
+                VarClass::InOut => {
+                    return Some(format!(
+                        "`{}` is a VAR_IN_OUT, which may be a caller's temporary; reference the caller's variable",
+                        var.name
+                    ))
+                }
+                _ => {}
+            }
+            if cx.kind == Some(PouKind::Function) && !matches!(var.class, VarClass::External(_)) {
+                return Some(format!(
+                    "`{}` is a variable of a FUNCTION, gone when it returns",
+                    var.name
+                ));
+            }
+        }
+        None
+    }
+
+    /// Whether a type holds a reference anywhere (a RETAIN variable must not: E202).
+    pub fn contains_reference(&self, ty: TypeId) -> bool {
+        match self.types.get(ty) {
+            Type::Ref { .. } | Type::Null => true,
+            Type::Array { elem, .. } => self.contains_reference(*elem),
+            Type::Struct { fields, .. } => fields.iter().any(|f| self.contains_reference(f.ty)),
+            _ => false,
+        }
+    }
+
+    /// Two operands of which one is a reference: the type they compare as (`Err`: they do
+    /// not compare), `None` when neither is a reference.
+    pub(super) fn unify_refs(&self, x: &Expr, y: &Expr) -> Option<Result<TypeId, ()>> {
+        let (a, b) = (self.types.get(x.ty), self.types.get(y.ty));
+        match (a, b) {
+            (Type::Null, Type::Ref { .. }) => Some(Ok(y.ty)),
+            (Type::Ref { .. }, Type::Null) => Some(Ok(x.ty)),
+            (Type::Ref { target: s, .. }, Type::Ref { target: t, .. }) => {
+                Some(if s == t { Ok(x.ty) } else { Err(()) })
+            }
+            (Type::Ref { .. } | Type::Null, _) | (_, Type::Ref { .. } | Type::Null) => {
+                Some(Err(()))
+            }
+            _ => None,
+        }
+    }
+}

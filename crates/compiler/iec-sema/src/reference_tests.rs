@@ -1,0 +1,105 @@
+//! The checker's rules for references and pointers (docs/iec.md, "References and pointers").
+
+use petriplc_iec_syntax::{parser, SourceMap};
+
+use crate::types::Type;
+use crate::{check, Options};
+
+fn run(src: &str) -> (bool, String) {
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", src);
+    let mut d = petriplc_iec_syntax::Diagnostics::new();
+    let lib = parser::parse(f, src, &mut d);
+    assert!(!d.has_errors(), "syntax: {}", d.render(&map));
+    let (p, diags) = check(&lib, &Options::default());
+    (p.is_some() && !diags.has_errors(), diags.render(&map))
+}
+
+fn prog(decls: &str, body: &str) -> String {
+    format!("PROGRAM p\nVAR\n{decls}\nEND_VAR\n{body}\nEND_PROGRAM\n")
+}
+
+fn errors(src: &str, expect: &[&str]) {
+    let (_, d) = run(src);
+    let lines: Vec<&str> = d.lines().collect();
+    assert_eq!(lines.len(), expect.len(), "got:\n{d}");
+    for (l, e) in lines.iter().zip(expect) {
+        assert!(l.contains(e), "expected `{e}` in\n{l}\n(all:\n{d})");
+    }
+}
+
+#[test]
+fn references_type_and_compare() {
+    let src = prog(
+        "a : INT; r : REF_TO INT; p : POINTER TO INT; b : BOOL;",
+        "r := REF(a); p := ADR(a); r := p; p := NULL; b := r = p; b := NULL <> r; r^ := r^ + 1;",
+    );
+    let (ok, d) = run(&src);
+    assert!(ok, "{d}");
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", &src);
+    let mut diags = petriplc_iec_syntax::Diagnostics::new();
+    let lib = parser::parse(f, &src, &mut diags);
+    let (p, _) = check(&lib, &Options::default());
+    let p = p.unwrap();
+    let r = &p.pous[0].vars[1];
+    assert!(matches!(p.types.get(r.ty), Type::Ref { .. }));
+    assert_eq!(p.types.name(r.ty), "REF_TO INT");
+}
+
+#[test]
+fn dereferencing_something_else_is_refused() {
+    errors(
+        &prog("x : INT;", "x^ := 1;"),
+        &["t.st:5:1: error[E200]: `^` dereferences a REF_TO or POINTER TO; this is INT"],
+    );
+}
+
+#[test]
+fn references_to_other_types_do_not_mix() {
+    errors(
+        &prog("a : INT; r : REF_TO DINT; q : REF_TO INT; b : BOOL;", "r := REF(a); b := r = q; b := q < q; q := q + 1;"),
+        &[
+            "error[E110]: the value assigned to `r` is REF_TO INT but REF_TO DINT is needed",
+            "error[E111]: `=` cannot combine REF_TO DINT and REF_TO INT",
+            "error[E111]: `<` applies to elementary values and strings (references compare with = and <> only), not REF_TO INT",
+            "error[E110]: this operand is an integer literal but REF_TO INT is needed",
+        ],
+    );
+}
+
+#[test]
+fn only_variables_with_a_lasting_address_are_referenced() {
+    errors(
+        "FUNCTION f : INT\nVAR_INPUT i : INT; END_VAR\nVAR x : INT; r : REF_TO INT; END_VAR\nr := REF(x);\nr := REF(i);\nf := 0;\nEND_FUNCTION\n",
+        &[
+            "t.st:4:10: error[E201]: REF: `x` is a variable of a FUNCTION, gone when it returns",
+            "t.st:5:10: error[E201]: REF: `i` is a variable of a FUNCTION",
+        ],
+    );
+    errors(
+        &prog(
+            "w : WORD; c : INT; r : REF_TO INT; rb : REF_TO BOOL; END_VAR\nVAR CONSTANT k : INT := 1; END_VAR\nVAR_TEMP t : INT;",
+            "r := REF(t); r := REF(k); rb := REF(w.3); r := REF(c + 1); r := ADR(c, c);",
+        ),
+        &[
+            "error[E201]: REF: `t` is a VAR_TEMP",
+            "error[E201]: REF: `k` is a CONSTANT",
+            "error[E201]: REF: a single bit has no address",
+            "error[E201]: REF takes a variable, not an expression",
+            "error[E130]: ADR takes one variable: ADR(x)",
+        ],
+    );
+}
+
+#[test]
+fn a_reference_is_not_retained_and_reference_to_is_told() {
+    errors(
+        "TYPE S : STRUCT r : REF_TO INT; END_STRUCT; END_TYPE\nPROGRAM p\nVAR RETAIN r : REF_TO INT; s : S; n : INT; END_VAR\nVAR c : REFERENCE TO INT; END_VAR\nEND_PROGRAM\n",
+        &[
+            "t.st:3:12: error[E202]: `r` holds a reference, which cannot be RETAIN",
+            "t.st:3:28: error[E202]: `s` holds a reference",
+            "t.st:4:9: error[E190]: REFERENCE TO is not supported yet",
+        ],
+    );
+}
