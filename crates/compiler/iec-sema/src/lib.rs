@@ -14,6 +14,7 @@ mod expr;
 mod il;
 pub mod ir;
 mod limits;
+pub mod memory;
 pub mod ops;
 mod stdlib;
 mod stmt;

@@ -103,3 +103,50 @@ fn a_reference_is_not_retained_and_reference_to_is_told() {
         ],
     );
 }
+
+#[test]
+fn adr_of_a_functions_variables_stays_in_the_function() {
+    let ok = "FUNCTION f : DINT\nVAR_INPUT s : STRING(10); END_VAR\nVAR p : POINTER TO BYTE; q : POINTER TO BYTE; END_VAR\np := ADR(s);\nq := p + 1;\nIF q <> p THEN f := BYTE_TO_DINT(q^); END_IF;\nEND_FUNCTION\n";
+    let (good, d) = run(ok);
+    assert!(good, "{d}");
+    errors(
+        "VAR_GLOBAL g : POINTER TO BYTE; END_VAR\nFUNCTION h : BOOL\nVAR_INPUT p : POINTER TO BYTE; END_VAR\nh := TRUE;\nEND_FUNCTION\nFUNCTION f : POINTER TO BYTE\nVAR_EXTERNAL g : POINTER TO BYTE; END_VAR\nVAR s : STRING; p : POINTER TO BYTE; b : BOOL; END_VAR\np := ADR(s);\ng := p;\nf := ADR(s) + 1;\nb := h(p);\nEND_FUNCTION\n",
+        &[
+            "t.st:10:6: error[E201]: a pointer to this FUNCTION's own variables is stored in `g`, which outlives the call",
+            "t.st:11:6: error[E201]: a pointer to this FUNCTION's own variables is stored in `f`",
+            "t.st:12:8: error[E201]: a pointer to this FUNCTION's own variables may only be kept in its VAR or VAR_TEMP pointers",
+        ],
+    );
+}
+
+#[test]
+fn pointers_move_by_bytes_and_sizeof_is_the_byte_image() {
+    let src = "TYPE S : STRUCT a : BYTE; b : DINT; END_STRUCT; END_TYPE\nPROGRAM p\nVAR s : S; a : ARRAY[1..3] OF REAL; n : UDINT; m : UDINT; k : UDINT; pb : POINTER TO BYTE; pr : POINTER TO REAL; r : REF_TO BYTE; END_VAR\nn := SIZEOF(s);\nm := SIZEOF(a);\nk := SIZEOF(LREAL);\npb := ADR(a);\npb := pb + n;\npb := 2 + pb - 1;\npr := pb;\nEND_PROGRAM\n";
+    let (ok, d) = run(src);
+    assert!(ok, "{d}");
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", src);
+    let mut diags = petriplc_iec_syntax::Diagnostics::new();
+    let lib = parser::parse(f, src, &mut diags);
+    let (p, _) = check(&lib, &Options::default());
+    let body = &p.unwrap().pous[0].body;
+    let consts: Vec<i128> = body[..3]
+        .iter()
+        .filter_map(|s| match &s.kind {
+            crate::ir::StmtKind::Assign { value, .. } => value.const_int(),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(consts, vec![8, 12, 8]);
+    errors(
+        &prog(
+            "a : INT; r : REF_TO BYTE; p : POINTER TO INT; x : REAL;",
+            "r := ADR(a); p := p + x; r := r + 1;",
+        ),
+        &[
+            "error[E110]: the value assigned to `r` is POINTER TO INT but REF_TO BYTE is needed",
+            "error[E111]: a pointer moves by a whole number of bytes, not REAL",
+            "error[E110]",
+        ],
+    );
+}

@@ -76,6 +76,8 @@ pub struct Code {
     pub instances: Vec<InstanceRt>,
     /// Slots of each native function block's instance.
     pub native_sizes: Vec<u32>,
+    /// The byte image of every referenced type (`REF`, `ADR`), for pointer views.
+    pub shapes: crate::pointer::Shapes,
 }
 
 /// A program instance in memory.

@@ -625,7 +625,10 @@ fn data(
             }
         }
         Op::Ext { x } => {
-            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base) {
+            let op = &code.ext[x as usize];
+            let r = crate::pointer::exec(op, &code.shapes, mem, base)
+                .unwrap_or_else(|| ext::exec(op, mem, base));
+            if let Err(OpFault { error, detail }) = r {
                 fail!(FaultKind::Op(error), detail);
             }
         }

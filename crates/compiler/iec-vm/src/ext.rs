@@ -71,6 +71,31 @@ pub enum ExtOp {
         n: u32,
         what: String,
     },
+    /// `d` = the pointer in `p` moved by `n` (a LINT slot) bytes, back when `sub`.
+    PtrAdd {
+        d: u32,
+        p: u32,
+        n: u32,
+        sub: bool,
+    },
+    /// `d` = the elementary value of type `e` the pointer in `p` designates (moved by
+    /// `(i - lo)` elements with `idx`), through the variable's byte image when its type
+    /// differs.
+    ViewLoad {
+        d: u32,
+        p: u32,
+        idx: Option<(u32, i64)>,
+        e: Elem,
+        what: String,
+    },
+    /// The same, stored from `s`.
+    ViewStore {
+        s: u32,
+        p: u32,
+        idx: Option<(u32, i64)>,
+        e: Elem,
+        what: String,
+    },
     /// A value stored into a subrange: `lo <= s <= hi`.
     Check {
         d: u32,
@@ -347,9 +372,16 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
             })?;
             mem[base + *d as usize] = r as i64 as u64;
         }
-        ExtOp::MakeRef { d, s, ty } => crate::pointer::make(mem, base, *d, *s, *ty),
-        ExtOp::Deref { d, p, ty, n, what } => {
-            crate::pointer::deref(mem, base, *d, *p, *ty, *n, what)?
+        ExtOp::MakeRef { .. }
+        | ExtOp::Deref { .. }
+        | ExtOp::PtrAdd { .. }
+        | ExtOp::ViewLoad { .. }
+        | ExtOp::ViewStore { .. } => {
+            // Run by crate::pointer::exec, which has the shapes.
+            return Err(fault(
+                OpError::Domain("internal error"),
+                "a pointer instruction without its shapes".into(),
+            ));
         }
         ExtOp::Check { d, s, lo, hi } => {
             let v = slot(mem, base, *s) as i64;

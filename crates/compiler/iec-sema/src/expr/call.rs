@@ -5,7 +5,7 @@ use petriplc_iec_syntax::diag;
 
 use crate::check::{Checker, Cx};
 use crate::ir::{Expr, ExprKind, FnCall, VarClass, VarId};
-use crate::types::{ids, Type, TypeId};
+use crate::types::{ids, RefKind, Type, TypeId};
 
 use super::{err, konst, Bound};
 
@@ -56,6 +56,9 @@ impl<'a> Checker<'a> {
         }
         if name.is("REF") || name.is("ADR") {
             return self.ref_of(name, call, cx);
+        }
+        if name.is("SIZEOF") {
+            return self.size_of(call, cx);
         }
         if let Some(x) = self.std_call(name, call, cx, expected) {
             return x;
@@ -223,7 +226,9 @@ impl<'a> Checker<'a> {
             (Type::Elem(a), Type::Subrange { base, .. }) => a.widens_to(*base),
             (Type::Subrange { base: a, .. }, Type::Subrange { base, .. }) => a.widens_to(*base),
             (Type::Null, Type::Ref { .. }) => true,
-            (Type::Ref { target: a, .. }, Type::Ref { target: b, .. }) => a == b,
+            (Type::Ref { target: a, kind: k }, Type::Ref { target: b, kind: l }) => {
+                a == b || (*k == RefKind::PointerTo && *l == RefKind::PointerTo)
+            }
             _ => false,
         }
     }

@@ -6,7 +6,7 @@ use petriplc_iec_syntax::source::Span;
 
 use crate::check::{Checker, Cx};
 use crate::ir::{Expr, ExprKind};
-use crate::types::{ids, Elem, Type, TypeId, TypeTable};
+use crate::types::{ids, Elem, RefKind, Type, TypeId, TypeTable};
 use crate::value::{self, Value};
 
 use super::{conversion_hint, err, konst};
@@ -231,6 +231,18 @@ impl<'a> Checker<'a> {
                 span,
             });
         }
+        if matches!(op, Add | Sub) {
+            let (x, y) = match self.pointer_arith(op, x, y, span) {
+                Ok(done) => return done,
+                Err(xy) => xy,
+            };
+            return self.binary_plain(op, x, y, span);
+        }
+        self.binary_plain(op, x, y, span)
+    }
+
+    fn binary_plain(&mut self, op: BinaryOp, x: Expr, y: Expr, span: Span) -> Expr {
+        use BinaryOp::*;
         let Some((x, y, t)) = self.unify(x, y, op.text(), span) else {
             return err(span);
         };
@@ -485,8 +497,11 @@ impl<'a> Checker<'a> {
                 };
             }
             (Type::Null, Type::Ref { .. }) => return konst(Value::Int(0), to, span),
-            (Type::Ref { target: a, .. }, Type::Ref { target: b, .. }) if a == b => {
-                // POINTER TO T and REF_TO T share one representation.
+            (Type::Ref { target: a, kind: k }, Type::Ref { target: b, kind: l })
+                if a == b || (*k == RefKind::PointerTo && *l == RefKind::PointerTo) =>
+            {
+                // One representation; a POINTER TO of another type is checked where it is
+                // dereferenced (CODESYS pointers are untyped addresses).
                 return Expr { ty: to, ..x };
             }
             (Type::Elem(a), Type::Elem(b)) if a.widens_to(*b) => return self.convert(x, to),

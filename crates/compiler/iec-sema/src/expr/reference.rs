@@ -2,7 +2,7 @@
 //! reference only designates a variable that outlives it (docs/iec.md, "References and
 //! pointers").
 
-use petriplc_iec_syntax::ast::{self, ExprKind as A, RefKind};
+use petriplc_iec_syntax::ast::{self, BinaryOp, ExprKind as A, RefKind};
 use petriplc_iec_syntax::diag;
 use petriplc_iec_syntax::source::Span;
 
@@ -77,7 +77,7 @@ impl<'a> Checker<'a> {
         let Some(place) = self.place(arg, cx, false) else {
             return err(span);
         };
-        if let Some(why) = self.no_lasting_address(&place, cx) {
+        if let Some(why) = self.no_lasting_address(&place, cx, fname == "ADR") {
             self.error(
                 diag::NO_ADDRESS,
                 arg.span,
@@ -99,8 +99,9 @@ impl<'a> Checker<'a> {
     }
 
     /// Why a place cannot be referenced (`None`: it can): a reference must never outlive
-    /// what it designates, nor let a constant be written.
-    fn no_lasting_address(&self, p: &Place, cx: &Cx) -> Option<String> {
+    /// what it designates, nor let a constant be written. `adr`: CODESYS's ADR, which may
+    /// take a FUNCTION's variables and a VAR_TEMP (then kept in the POU: check/escape.rs).
+    fn no_lasting_address(&self, p: &Place, cx: &Cx, adr: bool) -> Option<String> {
         if p.path.iter().any(|s| matches!(s, Step::Bit(_))) {
             return Some("a single bit has no address; reference the whole variable".into());
         }
@@ -124,9 +125,10 @@ impl<'a> Checker<'a> {
         }
         if let Root::Var(_) = p.root {
             match var.class {
+                VarClass::Temp if adr => {}
                 VarClass::Temp => {
                     return Some(format!(
-                        "`{}` is a VAR_TEMP, gone when the POU returns",
+                        "`{}` is a VAR_TEMP, gone when the POU returns (CODESYS's ADR may take it, kept in the POU)",
                         var.name
                     ))
                 }
@@ -138,9 +140,12 @@ impl<'a> Checker<'a> {
                 }
                 _ => {}
             }
-            if cx.kind == Some(PouKind::Function) && !matches!(var.class, VarClass::External(_)) {
+            if !adr
+                && cx.kind == Some(PouKind::Function)
+                && !matches!(var.class, VarClass::External(_))
+            {
                 return Some(format!(
-                    "`{}` is a variable of a FUNCTION, gone when it returns",
+                    "`{}` is a variable of a FUNCTION, gone when it returns (CODESYS's ADR may take it, kept in the POU)",
                     var.name
                 ));
             }
@@ -165,13 +170,123 @@ impl<'a> Checker<'a> {
         match (a, b) {
             (Type::Null, Type::Ref { .. }) => Some(Ok(y.ty)),
             (Type::Ref { .. }, Type::Null) => Some(Ok(x.ty)),
-            (Type::Ref { target: s, .. }, Type::Ref { target: t, .. }) => {
-                Some(if s == t { Ok(x.ty) } else { Err(()) })
-            }
+            (Type::Ref { target: s, kind: k }, Type::Ref { target: t, kind: l }) => Some(
+                if s == t || (*k == RefKind::PointerTo && *l == RefKind::PointerTo) {
+                    Ok(x.ty)
+                } else {
+                    Err(())
+                },
+            ),
             (Type::Ref { .. } | Type::Null, _) | (_, Type::Ref { .. } | Type::Null) => {
                 Some(Err(()))
             }
             _ => None,
+        }
+    }
+
+    /// `p + n`, `n + p`, `p - n` on a CODESYS POINTER TO: the pointer moved by `n` bytes
+    /// (checked where it is dereferenced). `Err` gives the operands back when neither is a
+    /// pointer.
+    pub(super) fn pointer_arith(
+        &mut self,
+        op: BinaryOp,
+        x: Expr,
+        y: Expr,
+        span: Span,
+    ) -> Result<Expr, (Expr, Expr)> {
+        let is_ptr = |t: &Type| {
+            matches!(
+                t,
+                Type::Ref {
+                    kind: RefKind::PointerTo,
+                    ..
+                }
+            )
+        };
+        let (px, py) = (is_ptr(self.types.get(x.ty)), is_ptr(self.types.get(y.ty)));
+        let (p, n) = match (px, py) {
+            (true, false) => (x, y),
+            (false, true) if op == BinaryOp::Add => (y, x),
+            _ => return Err((x, y)),
+        };
+        let n = if n.ty == ids::INT_LIT {
+            self.coerce(n, ids::LINT, "the byte count")
+        } else if self
+            .types
+            .elem(n.ty)
+            .is_some_and(|e| e.is_int() || e.is_bitstring())
+        {
+            if n.ty == ids::LINT {
+                n
+            } else {
+                let s = n.span;
+                Expr {
+                    kind: ExprKind::Convert(Box::new(n)),
+                    ty: ids::LINT,
+                    span: s,
+                }
+            }
+        } else {
+            if n.ty != ids::ERROR {
+                let t = self.types.name(n.ty);
+                self.error(
+                    diag::OPERAND_TYPE,
+                    span,
+                    format!("a pointer moves by a whole number of bytes, not {t}"),
+                );
+            }
+            return Ok(err(span));
+        };
+        if n.ty == ids::ERROR {
+            return Ok(err(span));
+        }
+        let ty = p.ty;
+        Ok(Expr {
+            kind: ExprKind::Binary(op, Box::new(p), Box::new(n)),
+            ty,
+            span,
+        })
+    }
+
+    /// `SIZEOF(x)` (CODESYS): the bytes of a variable's or a type's image, a constant.
+    pub(super) fn size_of(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
+        let span = call.span;
+        let arg = match call.args.as_slice() {
+            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
+            _ => None,
+        };
+        let Some(arg) = arg else {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                span,
+                "SIZEOF takes one variable or type: SIZEOF(x)",
+            );
+            return err(span);
+        };
+        let ty = match &arg.kind {
+            A::Name(id) if self.var_place(id, cx).is_none() && !id.is("NULL") => {
+                let (t, _) = self.type_by_name(id);
+                t
+            }
+            _ => match self.place(arg, cx, false) {
+                Some(p) => p.ty,
+                None => return err(span),
+            },
+        };
+        if ty == ids::ERROR {
+            return err(span);
+        }
+        match crate::memory::size_align(&self.types, ty) {
+            Some((n, _)) => konst(Value::Int(i128::from(n)), ids::INT_LIT, span),
+            None => {
+                let t = self.types.name(ty);
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    arg.span,
+                    format!("SIZEOF: {t} has no byte image (a function block instance)"),
+                );
+                err(span)
+            }
         }
     }
 }
