@@ -334,6 +334,12 @@ pub enum Builtin {
     DtToTod,
     /// DT → DATE
     DtToDate,
+    /// CODESYS/TwinCAT MEMCPY(dest, src, n): `n` bytes through pointers.
+    MemCpy,
+    /// MEMSET(dest, fill, n).
+    MemSet,
+    /// MEMCMP(a, b, n): -1, 0 or 1.
+    MemCmp,
 }
 
 impl Builtin {
@@ -373,6 +379,9 @@ impl Builtin {
             Builtin::ConcatDateTod => "CONCAT_DATE_TOD",
             Builtin::DtToTod => "DT_TO_TOD",
             Builtin::DtToDate => "DT_TO_DATE",
+            Builtin::MemCpy => "MEMCPY",
+            Builtin::MemSet => "MEMSET",
+            Builtin::MemCmp => "MEMCMP",
         }
     }
 }

@@ -150,3 +150,23 @@ fn pointers_move_by_bytes_and_sizeof_is_the_byte_image() {
         ],
     );
 }
+
+#[test]
+fn memcpy_memset_memcmp_take_pointers_and_a_count() {
+    let (ok, d) = run(&prog(
+        "a : ARRAY[1..2] OF INT; b : ARRAY[1..2] OF INT; r : DINT;",
+        "MEMCPY(ADR(a), ADR(b), SIZEOF(a)); MEMSET(ADR(a), 16#FF, 4); r := MEMCMP(ADR(a), ADR(b), 4);",
+    ));
+    assert!(ok && !d.contains("W003"), "{d}");
+    errors(
+        &prog(
+            "a : INT; r : UDINT;",
+            "r := MEMCPY(a, ADR(a), 2); r := MEMSET(ADR(a), 0); r := MEMSET(ADR(a), 0, 1.5);",
+        ),
+        &[
+            "error[E130]: MEMCPY: argument 1 is a pointer (ADR(x)), not INT",
+            "error[E130]: MEMSET takes a pointer, the fill BYTE and a byte count",
+            "error[E111]: a pointer moves by a whole number of bytes, not",
+        ],
+    );
+}

@@ -88,6 +88,15 @@ pub enum ExtOp {
         e: Elem,
         what: String,
     },
+    /// MEMCPY, MEMSET, MEMCMP (`f`) over pointers `a`, `b` (MEMSET: the fill byte) and a
+    /// LINT count `n`; `d` gets the result.
+    Mem {
+        f: Builtin,
+        d: u32,
+        a: u32,
+        b: u32,
+        n: u32,
+    },
     /// The same, stored from `s`.
     ViewStore {
         s: u32,
@@ -376,6 +385,7 @@ pub fn exec(x: &ExtOp, mem: &mut [u64], base: usize) -> Result<(), OpFault> {
         | ExtOp::Deref { .. }
         | ExtOp::PtrAdd { .. }
         | ExtOp::ViewLoad { .. }
+        | ExtOp::Mem { .. }
         | ExtOp::ViewStore { .. } => {
             // Run by crate::pointer::exec, which has the shapes.
             return Err(fault(

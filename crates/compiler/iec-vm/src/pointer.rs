@@ -13,7 +13,7 @@
 
 use std::collections::BTreeMap;
 
-use petriplc_iec_sema::ir::Project;
+use petriplc_iec_sema::ir::{Builtin, Project};
 use petriplc_iec_sema::memory;
 use petriplc_iec_sema::ops::OpError;
 use petriplc_iec_sema::types::{Elem, Type, TypeId};
@@ -436,8 +436,94 @@ pub fn exec(
             what,
         }
         .store(mem, base, *s, shapes),
+        ExtOp::Mem { f, d, a, b, n } => mem_fn(*f, mem, base, [*d, *a, *b, *n], shapes),
         _ => return None,
     })
+}
+
+/// The variable a pointer designates and the `n` bytes from it, checked to lie inside it.
+fn bytes_at<'s>(
+    mem: &[u64],
+    base: usize,
+    p: u32,
+    n: u64,
+    shapes: &'s Shapes,
+    f: &str,
+) -> Result<(u64, &'s Shape, u64), OpFault> {
+    let (b, t, off) = live(mem, base, p, f)?;
+    let Some(img) = shapes.get(&t) else {
+        return Err(domain(
+            "invalid reference",
+            format!("{f}: the pointer designates nothing the program referenced"),
+        ));
+    };
+    if off < 0 || off as u64 + n > img.bytes {
+        return Err(domain(
+            "pointer out of range",
+            format!(
+                "{f}: {n} bytes at byte {off} of a {} of {} bytes",
+                img.name, img.bytes
+            ),
+        ));
+    }
+    Ok((b, &img.shape, off as u64))
+}
+
+/// MEMCPY (result 1), MEMSET (result 1), MEMCMP (-1, 0, 1) as TwinCAT's Tc2_System and
+/// CODESYS's MemoryUtils define them, over checked pointers.
+fn mem_fn(
+    f: Builtin,
+    mem: &mut [u64],
+    base: usize,
+    [d, a, b, n]: [u32; 4],
+    shapes: &Shapes,
+) -> Result<(), OpFault> {
+    let name = f.name();
+    let count = mem[base + n as usize] as i64;
+    if count < 0 {
+        return Err(domain(
+            "pointer out of range",
+            format!("{name}: a negative byte count ({count})"),
+        ));
+    }
+    let count = count as u64;
+    let (ab, ashape, aoff) = bytes_at(mem, base, a, count, shapes, name)?;
+    let result = match f {
+        Builtin::MemSet => {
+            let fill = mem[base + b as usize] as u8;
+            for k in 0..count {
+                write_byte(mem, locate(ashape, ab, aoff + k)?, fill);
+            }
+            1
+        }
+        Builtin::MemCpy => {
+            let (bb, bshape, boff) = bytes_at(mem, base, b, count, shapes, name)?;
+            // Read all, then write: overlapping copies give the source's bytes (memmove).
+            let mut buf = Vec::with_capacity(count as usize);
+            for k in 0..count {
+                buf.push(read_byte(mem, locate(bshape, bb, boff + k)?));
+            }
+            for (k, v) in buf.into_iter().enumerate() {
+                write_byte(mem, locate(ashape, ab, aoff + k as u64)?, v);
+            }
+            1
+        }
+        _ => {
+            let (bb, bshape, boff) = bytes_at(mem, base, b, count, shapes, name)?;
+            let mut r = 0i64;
+            for k in 0..count {
+                let x = read_byte(mem, locate(ashape, ab, aoff + k)?);
+                let y = read_byte(mem, locate(bshape, bb, boff + k)?);
+                if x != y {
+                    r = if x < y { -1 } else { 1 };
+                    break;
+                }
+            }
+            r
+        }
+    };
+    mem[base + d as usize] = result as u64;
+    Ok(())
 }
 
 #[cfg(test)]

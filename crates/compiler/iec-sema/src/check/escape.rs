@@ -8,7 +8,9 @@ use std::collections::BTreeSet;
 
 use petriplc_iec_syntax::diag;
 
-use crate::ir::{BinaryOp, Expr, ExprKind, Place, PouId, PouKind, Root, Step, Stmt, StmtKind};
+use crate::ir::{
+    BinaryOp, Builtin, Expr, ExprKind, Place, PouId, PouKind, Root, Step, Stmt, StmtKind,
+};
 use crate::ir::{GlobalId, VarClass, VarId};
 
 use super::Checker;
@@ -234,6 +236,10 @@ impl Flow<'_> {
                 c.inputs.iter().for_each(|(_, x)| self.expr(x));
                 c.in_outs.iter().for_each(|(_, p)| self.place(p));
                 c.outputs.iter().for_each(|(_, p)| self.place(p));
+            }
+            // MEMCPY, MEMSET and MEMCMP use the pointers they are given and keep none.
+            ExprKind::Builtin(Builtin::MemCpy | Builtin::MemSet | Builtin::MemCmp, args) => {
+                args.iter().for_each(|x| self.inner(x))
             }
             ExprKind::Builtin(_, args) => args.iter().for_each(|x| self.expr(x)),
         }

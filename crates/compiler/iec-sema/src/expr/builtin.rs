@@ -42,6 +42,8 @@ impl<'a> Checker<'a> {
             Find => (&["IN1", "IN2"], 2, false),
             ConcatDateTod => (&["IN1", "IN2"], 2, false),
             DtToTod | DtToDate | Expt => (&["IN"], 1, false),
+            // Checked by mem_call (expr/reference.rs), never by name here.
+            MemCpy | MemSet | MemCmp => (&["DEST", "SRC", "N"], 3, false),
         };
         let Some(args) = self.std_args(f, call, params, min, ext) else {
             return err(span);
@@ -70,7 +72,7 @@ impl<'a> Checker<'a> {
                 }
                 self.fold(mk(vec![d, t], ids::DT))
             }
-            DtToTod | DtToDate | Expt => err(span),
+            DtToTod | DtToDate | Expt | MemCpy | MemSet | MemCmp => err(span),
         }
     }
 

@@ -60,6 +60,9 @@ impl<'a> Checker<'a> {
         if name.is("SIZEOF") {
             return self.size_of(call, cx);
         }
+        if name.is("MEMCPY") || name.is("MEMSET") || name.is("MEMCMP") {
+            return self.mem_call(name, call, cx);
+        }
         if let Some(x) = self.std_call(name, call, cx, expected) {
             return x;
         }

@@ -7,7 +7,7 @@ use petriplc_iec_syntax::diag;
 use petriplc_iec_syntax::source::Span;
 
 use crate::check::{Checker, Cx};
-use crate::ir::{Expr, ExprKind, Place, PouKind, Root, Step, VarClass};
+use crate::ir::{Builtin, Expr, ExprKind, Place, PouKind, Root, Step, VarClass};
 use crate::types::{ids, Type, TypeId};
 use crate::value::Value;
 
@@ -209,32 +209,7 @@ impl<'a> Checker<'a> {
             (false, true) if op == BinaryOp::Add => (y, x),
             _ => return Err((x, y)),
         };
-        let n = if n.ty == ids::INT_LIT {
-            self.coerce(n, ids::LINT, "the byte count")
-        } else if self
-            .types
-            .elem(n.ty)
-            .is_some_and(|e| e.is_int() || e.is_bitstring())
-        {
-            if n.ty == ids::LINT {
-                n
-            } else {
-                let s = n.span;
-                Expr {
-                    kind: ExprKind::Convert(Box::new(n)),
-                    ty: ids::LINT,
-                    span: s,
-                }
-            }
-        } else {
-            if n.ty != ids::ERROR {
-                let t = self.types.name(n.ty);
-                self.error(
-                    diag::OPERAND_TYPE,
-                    span,
-                    format!("a pointer moves by a whole number of bytes, not {t}"),
-                );
-            }
+        let Some(n) = self.byte_count(n, span) else {
             return Ok(err(span));
         };
         if n.ty == ids::ERROR {
@@ -288,5 +263,99 @@ impl<'a> Checker<'a> {
                 err(span)
             }
         }
+    }
+
+    /// `MEMCPY(dest, src, n)`, `MEMSET(dest, fill, n)`, `MEMCMP(a, b, n)` (TwinCAT
+    /// Tc2_System, CODESYS MemoryUtils): bytes through pointers, checked when they run.
+    pub(super) fn mem_call(&mut self, name: &ast::Ident, call: &ast::Call, cx: &mut Cx) -> Expr {
+        let span = call.span;
+        let f = name.name.to_ascii_uppercase();
+        let (b, second, rt) = match f.as_str() {
+            "MEMCPY" => (Builtin::MemCpy, "a source pointer", ids::UDINT),
+            "MEMSET" => (Builtin::MemSet, "the fill BYTE", ids::UDINT),
+            _ => (Builtin::MemCmp, "a second pointer", ids::DINT),
+        };
+        let args: Vec<&ast::Expr> = call
+            .args
+            .iter()
+            .filter(|a| !a.output)
+            .filter_map(|a| a.value.as_ref())
+            .collect();
+        if args.len() != 3 || call.args.iter().any(|a| a.output) {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                span,
+                format!(
+                    "{f} takes a pointer, {second} and a byte count: {f}(ADR(x), …, SIZEOF(x))"
+                ),
+            );
+            return err(span);
+        }
+        let mut out = Vec::new();
+        for (k, a) in args.iter().enumerate() {
+            let x = self.expr(a, cx, None);
+            if x.ty == ids::ERROR {
+                return err(span);
+            }
+            let x = if k == 1 && b == Builtin::MemSet {
+                self.coerce(x, ids::BYTE, "the fill value")
+            } else if k == 2 {
+                match self.byte_count(x, span) {
+                    Some(x) => x,
+                    None => return err(span),
+                }
+            } else if matches!(self.types.get(x.ty), Type::Ref { .. }) {
+                x
+            } else {
+                let t = self.types.name(x.ty);
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    a.span,
+                    format!("{f}: argument {} is a pointer (ADR(x)), not {t}", k + 1),
+                );
+                return err(span);
+            };
+            if x.ty == ids::ERROR {
+                return err(span);
+            }
+            out.push(x);
+        }
+        Expr {
+            kind: ExprKind::Builtin(b, out),
+            ty: rt,
+            span,
+        }
+    }
+
+    /// An integer count of bytes as LINT (`None` once reported).
+    fn byte_count(&mut self, n: Expr, span: Span) -> Option<Expr> {
+        if n.ty == ids::INT_LIT {
+            let x = self.coerce(n, ids::LINT, "the byte count");
+            return (x.ty != ids::ERROR).then_some(x);
+        }
+        if self
+            .types
+            .elem(n.ty)
+            .is_some_and(|e| e.is_int() || e.is_bitstring())
+        {
+            if n.ty == ids::LINT {
+                return Some(n);
+            }
+            let s = n.span;
+            return Some(Expr {
+                kind: ExprKind::Convert(Box::new(n)),
+                ty: ids::LINT,
+                span: s,
+            });
+        }
+        if n.ty != ids::ERROR {
+            let t = self.types.name(n.ty);
+            self.error(
+                diag::OPERAND_TYPE,
+                span,
+                format!("a pointer moves by a whole number of bytes, not {t}"),
+            );
+        }
+        None
     }
 }

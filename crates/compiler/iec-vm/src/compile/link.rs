@@ -294,6 +294,12 @@ impl ExtOp {
                 g(d);
                 g(p);
             }
+            ExtOp::Mem { d, a, b, n, .. } => {
+                g(d);
+                g(a);
+                g(b);
+                g(n);
+            }
             ExtOp::PtrAdd { d, p, n, .. } => {
                 g(d);
                 g(p);
