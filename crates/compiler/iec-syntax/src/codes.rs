@@ -177,7 +177,7 @@ pub const CODES: &[Entry] = &[
       "PROGRAM p\nVAR x : INT; END_VAR\nx^ := 1;\nEND_PROGRAM",
       "declare the variable `REF_TO INT` (or `POINTER TO INT`) and set it with `REF(x)`/`ADR(x)`, or drop the `^`."),
     e("E201", "REF() or ADR() of something without a lasting address",
-      "A reference designates a variable that lives as long as the program: not an expression, a constant, a bit, a VAR_TEMP, a VAR_IN_OUT, nor a FUNCTION's own variables (gone when it returns, like the standard's rule for temporaries).",
+      "A reference designates a variable that lives as long as the program: not an expression, a constant, a bit, a VAR_TEMP, a VAR_IN_OUT, nor a FUNCTION's own variables (gone when it returns, like the standard's rule for temporaries). CODESYS's `ADR` may take a FUNCTION's variables and a VAR_TEMP when the pointer stays in the POU's own VAR_TEMP (a FUNCTION's VAR) pointers: dereferenced, compared, moved, never stored elsewhere, returned or passed to a call.",
       "FUNCTION f : INT\nVAR x : INT; r : REF_TO INT; END_VAR\nr := REF(x);\nf := 0;\nEND_FUNCTION",
       "take the reference of a variable of a PROGRAM or FUNCTION_BLOCK (VAR, VAR_INPUT, VAR_OUTPUT) or of a global, or pass the value instead."),
     e("E202", "a reference or pointer declared RETAIN",
