@@ -231,12 +231,8 @@ impl<'a> Checker<'a> {
                 span,
             });
         }
-        if matches!(op, Add | Sub) {
-            let (x, y) = match self.pointer_arith(op, x, y, span) {
-                Ok(done) => return done,
-                Err(xy) => xy,
-            };
-            return self.binary_plain(op, x, y, span);
+        if self.is_pointer_arith(op, &x, &y) {
+            return self.pointer_arith(op, x, y, span);
         }
         self.binary_plain(op, x, y, span)
     }

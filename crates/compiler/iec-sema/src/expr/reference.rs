@@ -184,16 +184,8 @@ impl<'a> Checker<'a> {
         }
     }
 
-    /// `p + n`, `n + p`, `p - n` on a CODESYS POINTER TO: the pointer moved by `n` bytes
-    /// (checked where it is dereferenced). `Err` gives the operands back when neither is a
-    /// pointer.
-    pub(super) fn pointer_arith(
-        &mut self,
-        op: BinaryOp,
-        x: Expr,
-        y: Expr,
-        span: Span,
-    ) -> Result<Expr, (Expr, Expr)> {
+    /// Whether `x op y` moves a CODESYS POINTER TO (`p + n`, `n + p`, `p - n`).
+    pub(super) fn is_pointer_arith(&self, op: BinaryOp, x: &Expr, y: &Expr) -> bool {
         let is_ptr = |t: &Type| {
             matches!(
                 t,
@@ -204,23 +196,39 @@ impl<'a> Checker<'a> {
             )
         };
         let (px, py) = (is_ptr(self.types.get(x.ty)), is_ptr(self.types.get(y.ty)));
-        let (p, n) = match (px, py) {
-            (true, false) => (x, y),
-            (false, true) if op == BinaryOp::Add => (y, x),
-            _ => return Err((x, y)),
+        match op {
+            BinaryOp::Add => px != py,
+            BinaryOp::Sub => px && !py,
+            _ => false,
+        }
+    }
+
+    /// `p + n`, `n + p`, `p - n` (see `is_pointer_arith`): the pointer moved by `n` bytes,
+    /// checked where it is dereferenced.
+    pub(super) fn pointer_arith(&mut self, op: BinaryOp, x: Expr, y: Expr, span: Span) -> Expr {
+        let (p, n) = if matches!(
+            self.types.get(x.ty),
+            Type::Ref {
+                kind: RefKind::PointerTo,
+                ..
+            }
+        ) {
+            (x, y)
+        } else {
+            (y, x)
         };
         let Some(n) = self.byte_count(n, span) else {
-            return Ok(err(span));
+            return err(span);
         };
         if n.ty == ids::ERROR {
-            return Ok(err(span));
+            return err(span);
         }
         let ty = p.ty;
-        Ok(Expr {
+        Expr {
             kind: ExprKind::Binary(op, Box::new(p), Box::new(n)),
             ty,
             span,
-        })
+        }
     }
 
     /// `SIZEOF(x)` (CODESYS): the bytes of a variable's or a type's image, a constant.
