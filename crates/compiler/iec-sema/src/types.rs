@@ -392,6 +392,16 @@ impl TypeTable {
         self.intern(Key::Null, Type::Null)
     }
 
+    /// Whether a value of the type holds a reference anywhere (in a field or an element).
+    pub fn holds_reference(&self, id: TypeId) -> bool {
+        match self.get(id) {
+            Type::Ref { .. } | Type::Null => true,
+            Type::Array { elem, .. } => self.holds_reference(*elem),
+            Type::Struct { fields, .. } => fields.iter().any(|f| self.holds_reference(f.ty)),
+            _ => false,
+        }
+    }
+
     /// What a reference or pointer type designates (`None` for other types).
     pub fn ref_target(&self, id: TypeId) -> Option<TypeId> {
         match self.get(id) {

@@ -155,12 +155,7 @@ impl<'a> Checker<'a> {
 
     /// Whether a type holds a reference anywhere (a RETAIN variable must not: E202).
     pub fn contains_reference(&self, ty: TypeId) -> bool {
-        match self.types.get(ty) {
-            Type::Ref { .. } | Type::Null => true,
-            Type::Array { elem, .. } => self.contains_reference(*elem),
-            Type::Struct { fields, .. } => fields.iter().any(|f| self.contains_reference(f.ty)),
-            _ => false,
-        }
+        self.types.holds_reference(ty)
     }
 
     /// Two operands of which one is a reference: the type they compare as (`Err`: they do
