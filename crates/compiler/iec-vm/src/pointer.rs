@@ -160,6 +160,8 @@ pub enum Shape {
 pub struct Image {
     pub shape: Shape,
     pub bytes: u64,
+    /// Slots of the variable, checked against the memory before any access.
+    pub slots: u64,
     pub name: String,
 }
 
@@ -178,6 +180,7 @@ pub fn image_of(p: &Project, sizes: &Sizes, ty: TypeId) -> Image {
     Image {
         shape,
         bytes,
+        slots: u64::from(sizes.of(p, ty).unwrap_or(1)),
         name: p.types.name(ty),
     }
 }
@@ -338,7 +341,7 @@ impl View<'_> {
         }
         let Some(Image {
             shape, bytes: size, ..
-        }) = shapes.get(&t)
+        }) = shapes.get(&t).filter(|i| b + i.slots <= mem.len() as u64)
         else {
             return Err(domain(
                 "invalid reference",
@@ -451,7 +454,7 @@ fn bytes_at<'s>(
     f: &str,
 ) -> Result<(u64, &'s Shape, u64), OpFault> {
     let (b, t, off) = live(mem, base, p, f)?;
-    let Some(img) = shapes.get(&t) else {
+    let Some(img) = shapes.get(&t).filter(|i| b + i.slots <= mem.len() as u64) else {
         return Err(domain(
             "invalid reference",
             format!("{f}: the pointer designates nothing the program referenced"),
