@@ -18,6 +18,7 @@ use crate::value::Value;
 use crate::Options;
 
 mod body;
+mod escape;
 mod interface;
 mod resolve;
 

@@ -140,6 +140,8 @@ impl Checker<'_> {
     fn eval(&self, e: &Expr) -> Result<Option<Value>, OpError> {
         let v = match &e.kind {
             ExprKind::Const(v) => return Ok(Some(v.clone())),
+            // An address is known when the program runs.
+            ExprKind::Ref(_) => return Ok(None),
             ExprKind::Unary(op, x) => {
                 let Some(v) = self.eval(x)? else {
                     return Ok(None);

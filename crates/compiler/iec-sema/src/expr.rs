@@ -16,6 +16,7 @@ mod call;
 mod name;
 mod operator;
 mod place;
+mod reference;
 mod stdcall;
 mod vendor;
 
@@ -58,14 +59,16 @@ impl<'a> Checker<'a> {
                 x
             }
             A::Name(id) => self.name(id, cx, expected),
-            A::Field(..) | A::Index(..) | A::Bit(..) => match self.place(e, cx, false) {
-                Some(p) => Expr {
-                    ty: p.ty,
-                    kind: ExprKind::Load(p),
-                    span,
-                },
-                None => err(span),
-            },
+            A::Field(..) | A::Index(..) | A::Bit(..) | A::Deref(_) => {
+                match self.place(e, cx, false) {
+                    Some(p) => Expr {
+                        ty: p.ty,
+                        kind: ExprKind::Load(p),
+                        span,
+                    },
+                    None => err(span),
+                }
+            }
             A::Direct(text) => {
                 self.error(
                     diag::UNSUPPORTED,

@@ -113,7 +113,7 @@ fn consumes(k: &IlKind) -> bool {
 fn reads(e: &Expr, out: &mut Vec<Root>) -> bool {
     match &e.kind {
         ExprKind::Const(_) => true,
-        ExprKind::Load(p) => place_reads(p, out),
+        ExprKind::Load(p) | ExprKind::Ref(p) => place_reads(p, out),
         ExprKind::Unary(_, x) | ExprKind::Convert(x) | ExprKind::Trunc(x) => reads(x, out),
         ExprKind::Binary(_, a, b) => reads(a, out) & reads(b, out),
         ExprKind::Call(_) => false,
@@ -125,10 +125,15 @@ fn place_reads(p: &Place, out: &mut Vec<Root>) -> bool {
     out.push(p.root);
     let mut ok = true;
     for s in &p.path {
-        if let crate::ir::Step::Index(ix) = s {
-            for i in ix {
-                ok &= reads(i, out);
+        match s {
+            crate::ir::Step::Index(ix) => {
+                for i in ix {
+                    ok &= reads(i, out);
+                }
             }
+            // Behind a reference any variable may be read: evaluate it once.
+            crate::ir::Step::Deref => ok = false,
+            _ => {}
         }
     }
     ok

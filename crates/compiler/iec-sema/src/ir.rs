@@ -206,6 +206,9 @@ pub enum Step {
     Index(Vec<Expr>),
     /// One bit of a bit string or integer.
     Bit(u32),
+    /// What the reference or pointer here designates (checked when the program runs: not
+    /// NULL, of the designated type).
+    Deref,
 }
 
 #[derive(Clone, Debug)]
@@ -232,7 +235,7 @@ impl Expr {
             most = most.max(d);
             match &e.kind {
                 ExprKind::Const(_) => {}
-                ExprKind::Load(p) => place(p, d + 1, &mut todo),
+                ExprKind::Load(p) | ExprKind::Ref(p) => place(p, d + 1, &mut todo),
                 ExprKind::Unary(_, x) | ExprKind::Convert(x) | ExprKind::Trunc(x) => {
                     todo.push((x, d + 1))
                 }
@@ -265,6 +268,9 @@ pub enum ExprKind {
     Trunc(Box<Expr>),
     Call(FnCall),
     Builtin(Builtin, Vec<Expr>),
+    /// `REF(x)`, `ADR(x)`: a reference to a place with a lasting address (this
+    /// expression's type is the reference type).
+    Ref(Place),
 }
 
 /// A call of a user FUNCTION: every input given (defaults filled in).
@@ -342,6 +348,12 @@ pub enum Builtin {
     Format,
     /// TwinCAT `F_ToCHR(code)`: the one-character string of a code ('' for 0).
     Chr,
+    /// CODESYS/TwinCAT MEMCPY(dest, src, n): `n` bytes through pointers.
+    MemCpy,
+    /// MEMSET(dest, fill, n).
+    MemSet,
+    /// MEMCMP(a, b, n): -1, 0 or 1.
+    MemCmp,
 }
 
 impl Builtin {
@@ -387,6 +399,9 @@ impl Builtin {
             Builtin::GetChar => "GET_CHAR",
             Builtin::Format => "X_TO_STRING",
             Builtin::Chr => "F_ToCHR",
+            Builtin::MemCpy => "MEMCPY",
+            Builtin::MemSet => "MEMSET",
+            Builtin::MemCmp => "MEMCMP",
         }
     }
 }

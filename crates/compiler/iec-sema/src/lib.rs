@@ -14,6 +14,7 @@ mod expr;
 mod il;
 pub mod ir;
 mod limits;
+pub mod memory;
 pub mod ops;
 mod stdlib;
 mod stmt;
@@ -54,5 +55,7 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
 
 #[cfg(test)]
 mod il_tests;
+#[cfg(test)]
+mod reference_tests;
 #[cfg(test)]
 mod tests;

@@ -426,7 +426,12 @@ impl Checker<'_> {
                 if x.ty == ids::ERROR {
                     return None;
                 }
-                if !matches!(x.kind, ir::ExprKind::Call(_)) {
+                let effects = matches!(
+                    x.kind,
+                    ir::ExprKind::Call(_)
+                        | ir::ExprKind::Builtin(ir::Builtin::MemCpy | ir::Builtin::MemSet, _)
+                );
+                if !effects {
                     self.diags.warning(
                         diag::UNUSED_RESULT,
                         span,

@@ -6,6 +6,8 @@ use std::collections::HashMap;
 
 use crate::value::Value;
 
+pub use petriplc_iec_syntax::ast::RefKind;
+
 /// The elementary types. `LDATE`, `LTOD` and `LDT` are read as `DATE`, `TOD` and `DT`: all
 /// of them are 64-bit nanosecond counts here.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -245,6 +247,14 @@ pub enum Type {
         hi: i128,
     },
     Fb(FbRef),
+    /// `REF_TO T`, `POINTER TO T`, `REFERENCE TO T`: a checked handle to a variable of type
+    /// `target` (docs/iec.md, "References and pointers"), one slot.
+    Ref {
+        kind: RefKind,
+        target: TypeId,
+    },
+    /// `NULL`, which converts to every reference type.
+    Null,
     /// An integer literal whose type the context decides.
     IntLit,
     /// A real literal whose type the context decides.
@@ -299,6 +309,8 @@ enum Key {
     Array(Vec<(i64, i64)>, TypeId),
     Subrange(Elem, i128, i128),
     Fb(FbRef),
+    Ref(RefKind, TypeId),
+    Null,
 }
 
 /// Every type of a compilation.
@@ -371,6 +383,33 @@ impl TypeTable {
         self.intern(Key::Fb(r), Type::Fb(r))
     }
 
+    pub fn reference(&mut self, kind: RefKind, target: TypeId) -> TypeId {
+        self.intern(Key::Ref(kind, target), Type::Ref { kind, target })
+    }
+
+    /// The type of `NULL`.
+    pub fn null(&mut self) -> TypeId {
+        self.intern(Key::Null, Type::Null)
+    }
+
+    /// Whether a value of the type holds a reference anywhere (in a field or an element).
+    pub fn holds_reference(&self, id: TypeId) -> bool {
+        match self.get(id) {
+            Type::Ref { .. } | Type::Null => true,
+            Type::Array { elem, .. } => self.holds_reference(*elem),
+            Type::Struct { fields, .. } => fields.iter().any(|f| self.holds_reference(f.ty)),
+            _ => false,
+        }
+    }
+
+    /// What a reference or pointer type designates (`None` for other types).
+    pub fn ref_target(&self, id: TypeId) -> Option<TypeId> {
+        match self.get(id) {
+            Type::Ref { target, .. } => Some(*target),
+            _ => None,
+        }
+    }
+
     /// A named (nominal) type: a new id every time.
     pub fn add(&mut self, ty: Type) -> TypeId {
         let id = self.types.len() as TypeId;
@@ -397,7 +436,11 @@ impl TypeTable {
     pub fn is_scalar(&self, id: TypeId) -> bool {
         matches!(
             self.get(id),
-            Type::Elem(_) | Type::Enum { .. } | Type::Subrange { .. }
+            Type::Elem(_)
+                | Type::Enum { .. }
+                | Type::Subrange { .. }
+                | Type::Ref { .. }
+                | Type::Null
         )
     }
 
@@ -422,6 +465,8 @@ impl TypeTable {
             Type::Struct { name, .. } | Type::Enum { name, .. } => name.clone(),
             Type::Subrange { base, lo, hi } => format!("{} ({lo}..{hi})", base.name()),
             Type::Fb(_) => "function block".into(),
+            Type::Ref { kind, target } => format!("{} {}", kind.text(), self.name(*target)),
+            Type::Null => "NULL".into(),
             Type::IntLit => "an integer literal".into(),
             Type::RealLit => "a real literal".into(),
             Type::Void => "no value".into(),

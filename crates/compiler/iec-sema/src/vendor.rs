@@ -1,18 +1,16 @@
 //! Vendor libraries: optional packages of the functions and function blocks CODESYS/TwinCAT
-//! and PCWorx programs call beside the standard library (`TIME()`, `SIZEOF`, `GET_CHAR`,
+//! and PCWorx programs call beside the standard library (`TIME()`, `GET_CHAR`,
 //! `X_TO_STRING(value, format)`, `HYSTERESIS`…), loaded by name (`--lib codesys`). This
 //! module is the catalogue (which library provides which) and the meaning of those that are
-//! not plain operators: CODESYS's memory layout for SIZEOF (`size.rs`), PCWorx's
-//! printf-style formats (`format.rs`), the function blocks' interfaces (`fbs.rs`). The
-//! checker types the calls in `expr/vendor.rs`.
+//! not plain operators: PCWorx's printf-style formats (`format.rs`), the function blocks'
+//! interfaces (`fbs.rs`). The checker types the calls in `expr/vendor.rs`. SIZEOF, ADR and
+//! MEMCPY go with the pointers, always available (`expr/reference.rs`, `memory.rs`).
 
 mod fbs;
 mod format;
-mod size;
 
 pub use fbs::{fb_provider, signature, signatures, FUNCTION_BLOCKS};
 pub use format::printf;
-pub use size::{size_of, SizeError};
 
 /// The libraries, by the name `--lib` and `libs =` take.
 pub const LIBRARIES: &[&str] = &["codesys", "twincat", "pcworx"];
@@ -21,8 +19,6 @@ pub const LIBRARIES: &[&str] = &["codesys", "twincat", "pcworx"];
 /// "Vendor libraries", says what each does).
 pub const FUNCTIONS: &[(&str, &str)] = &[
     ("TIME", "codesys"),
-    ("SIZEOF", "codesys"),
-    ("XSIZEOF", "codesys"),
     ("F_TOASC", "twincat"),
     ("F_TOCHR", "twincat"),
     ("GET_CHAR", "pcworx"),

@@ -91,7 +91,13 @@ pub enum TypeSpec {
         hi: Box<Expr>,
         span: Span,
     },
-    /// `REF_TO`, `POINTER TO` and other forms the engine does not support (reported).
+    /// `REF_TO T` (the standard's reference), `POINTER TO T` (CODESYS), `REFERENCE TO T`.
+    Ref {
+        kind: RefKind,
+        target: Box<TypeSpec>,
+        span: Span,
+    },
+    /// Forms the engine does not support (reported).
     Unsupported {
         what: String,
         span: Span,
@@ -107,7 +113,30 @@ impl TypeSpec {
             | TypeSpec::Struct { span, .. }
             | TypeSpec::Enum { span, .. }
             | TypeSpec::Subrange { span, .. }
+            | TypeSpec::Ref { span, .. }
             | TypeSpec::Unsupported { span, .. } => *span,
+        }
+    }
+}
+
+/// How a reference type was written: they share one representation (docs/iec.md,
+/// "References and pointers").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RefKind {
+    /// `REF_TO T` (IEC 61131-3 third edition).
+    RefTo,
+    /// `POINTER TO T` (CODESYS, TwinCAT).
+    PointerTo,
+    /// `REFERENCE TO T` (CODESYS, TwinCAT: dereferenced implicitly; refused for now).
+    ReferenceTo,
+}
+
+impl RefKind {
+    pub fn text(self) -> &'static str {
+        match self {
+            RefKind::RefTo => "REF_TO",
+            RefKind::PointerTo => "POINTER TO",
+            RefKind::ReferenceTo => "REFERENCE TO",
         }
     }
 }
@@ -514,6 +543,8 @@ pub enum ExprKind {
     Paren(Box<Expr>),
     /// A direct variable `%IX0.1` used in code.
     Direct(String),
+    /// `r^`: what a reference or pointer designates.
+    Deref(Box<Expr>),
     /// A parse error; the checker skips it silently.
     Error,
 }

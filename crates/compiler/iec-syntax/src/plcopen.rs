@@ -282,10 +282,19 @@ impl Reader<'_> {
                     span,
                 })
             }
-            "pointer" => Some(TypeSpec::Unsupported {
-                what: "POINTER".into(),
-                span,
-            }),
+            "pointer" => {
+                // CODESYS exports POINTER TO T so (TC6 v2.01's <pointer>).
+                let Some(base) = t.child("baseType") else {
+                    self.missing(t, "<baseType>");
+                    return None;
+                };
+                let target = self.type_of(base)?;
+                Some(TypeSpec::Ref {
+                    kind: RefKind::PointerTo,
+                    target: Box::new(target),
+                    span,
+                })
+            }
             other => {
                 self.diags.error(
                     diag::PLCOPEN_TYPE,

@@ -80,6 +80,8 @@ pub struct Code {
     /// What integer overflow does: chosen by the instructions compiled ([`Op::ArNW`]…), and
     /// read by the slower operations ([`crate::ext::exec`]).
     pub overflow: Overflow,
+    /// The byte image of every referenced type (`REF`, `ADR`), for pointer views.
+    pub shapes: crate::pointer::Shapes,
 }
 
 /// A program instance in memory.
@@ -232,7 +234,13 @@ fn str_cap(p: &Project, ty: TypeId) -> u32 {
 fn scalar(p: &Project, ty: TypeId) -> bool {
     matches!(
         p.types.get(ty),
-        Type::Elem(_) | Type::Enum { .. } | Type::Subrange { .. } | Type::IntLit | Type::RealLit
+        Type::Elem(_)
+            | Type::Enum { .. }
+            | Type::Subrange { .. }
+            | Type::IntLit
+            | Type::RealLit
+            | Type::Ref { .. }
+            | Type::Null
     )
 }
 

@@ -694,7 +694,10 @@ fn data(
             }
         }
         Op::Ext { x } => {
-            if let Err(OpFault { error, detail }) = ext::exec(&code.ext[x as usize], mem, base, code.overflow, now) {
+            let op = &code.ext[x as usize];
+            let r = crate::pointer::exec(op, &code.shapes, mem, base)
+                .unwrap_or_else(|| ext::exec(op, mem, base, code.overflow, now));
+            if let Err(OpFault { error, detail }) = r {
                 fail!(FaultKind::Op(error), detail);
             }
         }

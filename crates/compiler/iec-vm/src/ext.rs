@@ -55,6 +55,56 @@ pub enum ExtOp {
         s: u32,
         to: Elem,
     },
+    /// `d` = the handle of the variable whose address is in `s`, of type id `ty`
+    /// ([`crate::pointer`]).
+    MakeRef {
+        d: u32,
+        s: u32,
+        ty: u32,
+    },
+    /// `d` = the address the handle in `p` designates, checked against type id `ty` and its
+    /// `n` slots; `what` is the reference type, for the fault.
+    Deref {
+        d: u32,
+        p: u32,
+        ty: u32,
+        n: u32,
+        what: String,
+    },
+    /// `d` = the pointer in `p` moved by `n` (a LINT slot) bytes, back when `sub`.
+    PtrAdd {
+        d: u32,
+        p: u32,
+        n: u32,
+        sub: bool,
+    },
+    /// `d` = the elementary value of type `e` the pointer in `p` designates (moved by
+    /// `(i - lo)` elements with `idx`), through the variable's byte image when its type
+    /// differs.
+    ViewLoad {
+        d: u32,
+        p: u32,
+        idx: Option<(u32, i64)>,
+        e: Elem,
+        what: String,
+    },
+    /// MEMCPY, MEMSET, MEMCMP (`f`) over pointers `a`, `b` (MEMSET: the fill byte) and a
+    /// LINT count `n`; `d` gets the result.
+    Mem {
+        f: Builtin,
+        d: u32,
+        a: u32,
+        b: u32,
+        n: u32,
+    },
+    /// The same, stored from `s`.
+    ViewStore {
+        s: u32,
+        p: u32,
+        idx: Option<(u32, i64)>,
+        e: Elem,
+        what: String,
+    },
     /// A value stored into a subrange: `lo <= s <= hi`.
     Check {
         d: u32,
@@ -375,6 +425,18 @@ pub fn exec(
                 }
             })?;
             mem[base + *d as usize] = r as i64 as u64;
+        }
+        ExtOp::MakeRef { .. }
+        | ExtOp::Deref { .. }
+        | ExtOp::PtrAdd { .. }
+        | ExtOp::ViewLoad { .. }
+        | ExtOp::Mem { .. }
+        | ExtOp::ViewStore { .. } => {
+            // Run by crate::pointer::exec, which has the shapes.
+            return Err(fault(
+                OpError::Domain("internal error"),
+                "a pointer instruction without its shapes".into(),
+            ));
         }
         ExtOp::Check { d, s, lo, hi } => {
             let v = slot(mem, base, *s) as i64;

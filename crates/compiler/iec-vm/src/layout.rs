@@ -21,7 +21,11 @@ impl Sizes {
     /// Slots a value of `ty` takes (`None` while a function block's size is unknown).
     pub fn of(&self, project: &Project, ty: TypeId) -> Option<u32> {
         Some(match project.types.get(ty) {
-            Type::Elem(_) | Type::Enum { .. } | Type::Subrange { .. } => 1,
+            Type::Elem(_)
+            | Type::Enum { .. }
+            | Type::Subrange { .. }
+            | Type::Ref { .. }
+            | Type::Null => 1,
             Type::Str { len } => string_slots(*len),
             Type::Array { elem, .. } => {
                 let n = project.types.element_count(ty);

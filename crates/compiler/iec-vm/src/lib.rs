@@ -16,6 +16,7 @@ pub mod layout;
 mod machine;
 pub mod native;
 pub mod op;
+pub mod pointer;
 mod vars;
 
 pub use compile::{CompileError, InstanceSpec};

@@ -446,12 +446,33 @@ impl Engine {
                 continue;
             }
             let name = format!("{path}.{}", v.name);
-            if v.retain || all {
+            if (v.retain || all) && self.holds_reference(v.ty) {
+                // An address of this build means nothing after a restart (E202): the
+                // references of a retained instance start NULL again, its other variables
+                // are kept.
+                if let Type::Fb(FbRef::User(q)) = self.project.types.get(v.ty) {
+                    self.retained_in(&name, frame + off, *q, true, out);
+                }
+            } else if v.retain || all {
                 out.push(self.retained_var(name, frame + off, v.ty));
             } else if let Type::Fb(FbRef::User(q)) = self.project.types.get(v.ty) {
                 // RETAIN variables inside a non-retained instance.
                 self.retained_in(&name, frame + off, *q, false, out);
             }
+        }
+    }
+
+    /// Whether a value of `ty` holds a reference, in a function block instance too.
+    fn holds_reference(&self, ty: TypeId) -> bool {
+        let types = &self.project.types;
+        match types.get(ty) {
+            Type::Fb(FbRef::User(q)) => {
+                self.project.pou(*q).vars.iter().any(|v| {
+                    !matches!(v.class, VarClass::External(_)) && self.holds_reference(v.ty)
+                })
+            }
+            Type::Array { elem, .. } => self.holds_reference(*elem),
+            _ => types.holds_reference(ty),
         }
     }
 

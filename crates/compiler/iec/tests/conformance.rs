@@ -39,6 +39,9 @@ const CORPUS_IL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus-il");
 /// ST programs using standard or widely accepted forms that blark's grammar refuses (AND,
 /// OR, XOR, MOD called as functions), with the same header format; not given to blark.
 const CORPUS_LENIENT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus-lenient");
+/// Programs with the standard's `REF_TO`, which blark's grammar (TwinCAT's, with `POINTER TO`
+/// instead) lacks: run like the others, not given to blark.
+const CORPUS_REF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/corpus-ref");
 
 #[derive(Debug, Default)]
 struct Spec {
@@ -339,6 +342,11 @@ fn every_corpus_program_gives_its_expected_values() {
 #[test]
 fn every_lenient_corpus_program_gives_its_expected_values() {
     check_corpus(&files_of(CORPUS_LENIENT, "st"), 1);
+}
+
+#[test]
+fn every_ref_to_corpus_program_gives_its_expected_values() {
+    check_corpus(&files_of(CORPUS_REF, "st"), 3);
 }
 
 #[test]

@@ -27,6 +27,7 @@ impl<'a> Checker<'a> {
                     .collect();
                 let mut body = self.edge_prologue(p, ast.name.span);
                 body.extend(self.stmts(stmts, &mut cx));
+                self.frame_escapes(p, ast.kind, &body);
                 self.pous[p as usize].body = body;
             }
             ast::Body::Il { code, .. } => {
@@ -45,6 +46,7 @@ impl<'a> Checker<'a> {
                 body.extend(self.il_body(code, &mut cx));
                 // The accumulator's temporaries are variables of the POU.
                 self.pous[p as usize].vars = cx.vars;
+                self.frame_escapes(p, ast.kind, &body);
                 self.pous[p as usize].body = body;
             }
             ast::Body::Graphical { language, span, .. } => {

@@ -56,6 +56,12 @@ impl<'a> Checker<'a> {
                         self.duplicate(n, prev);
                         continue;
                     }
+                    if b.retain == ast::Retain::Retain && self.contains_reference(ty) {
+                        self.retained_reference(n);
+                    }
+                    if d.location.is_some() && self.contains_reference(ty) {
+                        self.located_reference(n);
+                    }
                     let g = self.globals.len() as GlobalId;
                     self.globals.push(Var {
                         name: n.name.clone(),
@@ -399,6 +405,12 @@ impl<'a> Checker<'a> {
                 } else {
                     init.clone()
                 };
+                if b.retain == ast::Retain::Retain && self.contains_reference(ty) {
+                    self.retained_reference(n);
+                }
+                if d.location.is_some() && self.contains_reference(ty) {
+                    self.located_reference(n);
+                }
                 let id = cx.vars.len() as VarId;
                 cx.vars.push(Var {
                     name: n.name.clone(),
@@ -413,5 +425,27 @@ impl<'a> Checker<'a> {
                 cx.names.insert(key, id);
             }
         }
+    }
+
+    fn retained_reference(&mut self, n: &ast::Ident) {
+        self.error(
+            diag::RETAINED_REFERENCE,
+            n.span,
+            format!(
+                "`{}` holds a reference, which cannot be RETAIN: an address of this build means nothing after a restart; declare it without RETAIN",
+                n.name
+            ),
+        );
+    }
+
+    fn located_reference(&mut self, n: &ast::Ident) {
+        self.error(
+            diag::RETAINED_REFERENCE,
+            n.span,
+            format!(
+                "`{}` holds a reference, which cannot be located (AT %…): the process image would write addresses into it; declare it without AT",
+                n.name
+            ),
+        );
     }
 }

@@ -274,6 +274,21 @@ impl<'a> Checker<'a> {
                 let id = self.enum_type("(anonymous enumeration)", values, base.as_ref(), cx);
                 (id, None)
             }
+            TypeSpec::Ref { kind, target, span } => {
+                if *kind == ast::RefKind::ReferenceTo {
+                    self.error(
+                        diag::UNSUPPORTED,
+                        *span,
+                        "REFERENCE TO is not supported yet; declare a POINTER TO and dereference it with `^`",
+                    );
+                    return (ids::ERROR, None);
+                }
+                let (t, _) = self.resolve_spec(target, cx);
+                if t == ids::ERROR {
+                    return (ids::ERROR, None);
+                }
+                (self.types.reference(*kind, t), None)
+            }
             TypeSpec::Unsupported { what, span } => {
                 self.error(
                     diag::UNSUPPORTED,

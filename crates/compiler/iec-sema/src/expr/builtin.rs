@@ -46,6 +46,8 @@ impl<'a> Checker<'a> {
             DtToTod | DtToDate | Expt | BcdToInt | IntToBcd | Time | GetChar | Format | Chr => {
                 (&["IN"], 1, false)
             }
+            // Checked by mem_call (expr/reference.rs), never by name here.
+            MemCpy | MemSet | MemCmp => (&["DEST", "SRC", "N"], 3, false),
         };
         let Some(args) = self.std_args(f, call, params, min, ext) else {
             return err(span);
@@ -74,9 +76,8 @@ impl<'a> Checker<'a> {
                 }
                 self.fold(mk(vec![d, t], ids::DT))
             }
-            DtToTod | DtToDate | Expt | BcdToInt | IntToBcd | Time | GetChar | Format | Chr => {
-                err(span)
-            }
+            DtToTod | DtToDate | Expt | BcdToInt | IntToBcd | Time | GetChar | Format | Chr
+            | MemCpy | MemSet | MemCmp => err(span),
         }
     }
 

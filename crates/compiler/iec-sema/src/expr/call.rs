@@ -5,7 +5,7 @@ use petriplc_iec_syntax::diag;
 
 use crate::check::{Checker, Cx};
 use crate::ir::{Expr, ExprKind, FnCall, VarClass, VarId};
-use crate::types::{ids, Type, TypeId};
+use crate::types::{ids, RefKind, Type, TypeId};
 
 use super::{err, konst, Bound};
 
@@ -53,6 +53,16 @@ impl<'a> Checker<'a> {
                 format!("`{}`: {what}", name.name),
             );
             return err(span);
+        }
+        if name.is("REF") || name.is("ADR") {
+            return self.ref_of(name, call, cx);
+        }
+        // XSIZEOF: SIZEOF's name in CODESYS 3.5.16 and TwinCAT 3.1.4026.
+        if name.is("SIZEOF") || name.is("XSIZEOF") {
+            return self.size_of(call, cx);
+        }
+        if name.is("MEMCPY") || name.is("MEMSET") || name.is("MEMCMP") {
+            return self.mem_call(name, call, cx);
         }
         if let Some(x) = self.std_call(name, call, cx, expected) {
             return x;
@@ -222,6 +232,10 @@ impl<'a> Checker<'a> {
             (Type::Subrange { base, .. }, Type::Elem(b)) => base.widens_to(*b),
             (Type::Elem(a), Type::Subrange { base, .. }) => a.widens_to(*base),
             (Type::Subrange { base: a, .. }, Type::Subrange { base, .. }) => a.widens_to(*base),
+            (Type::Null, Type::Ref { .. }) => true,
+            (Type::Ref { target: a, kind: k }, Type::Ref { target: b, kind: l }) => {
+                a == b || (*k == RefKind::PointerTo && *l == RefKind::PointerTo)
+            }
             _ => false,
         }
     }

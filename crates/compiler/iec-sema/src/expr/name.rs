@@ -207,6 +207,9 @@ impl<'a> Checker<'a> {
                 return x;
             }
         }
+        if id.is("NULL") {
+            return self.null(id.span);
+        }
         self.undeclared(id, cx);
         err(id.span)
     }

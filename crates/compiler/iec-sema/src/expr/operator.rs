@@ -6,7 +6,7 @@ use petriplc_iec_syntax::source::Span;
 
 use crate::check::{Checker, Cx};
 use crate::ir::{Expr, ExprKind};
-use crate::types::{ids, Elem, Type, TypeId, TypeTable};
+use crate::types::{ids, Elem, RefKind, Type, TypeId, TypeTable};
 use crate::value::{self, Value};
 
 use super::{conversion_hint, err, konst};
@@ -240,6 +240,14 @@ impl<'a> Checker<'a> {
                 span,
             });
         }
+        if self.is_pointer_arith(op, &x, &y) {
+            return self.pointer_arith(op, x, y, span);
+        }
+        self.binary_plain(op, x, y, span)
+    }
+
+    fn binary_plain(&mut self, op: BinaryOp, x: Expr, y: Expr, span: Span) -> Expr {
+        use BinaryOp::*;
         let (x, y) = self.bits_with_int(op, x, y);
         let Some((x, y, t)) = self.unify(x, y, op.text(), span) else {
             return err(span);
@@ -253,7 +261,12 @@ impl<'a> Checker<'a> {
             Eq | Ne => true,
             Lt | Le | Gt | Ge => !matches!(
                 tt,
-                Type::Enum { .. } | Type::Struct { .. } | Type::Array { .. } | Type::Fb(_)
+                Type::Enum { .. }
+                    | Type::Struct { .. }
+                    | Type::Array { .. }
+                    | Type::Fb(_)
+                    | Type::Ref { .. }
+                    | Type::Null
             ),
             Add | Sub => {
                 matches!(tt, Type::IntLit | Type::RealLit)
@@ -268,11 +281,11 @@ impl<'a> Checker<'a> {
             Mod => matches!(tt, Type::IntLit) || bits || elem.is_some_and(|e| e.is_int()),
             Power => true,
         };
-        let ok = ok
-            && !matches!(
+        let ok =
+            ok && !matches!(
                 tt,
                 Type::Struct { .. } | Type::Array { .. } | Type::Fb(_) | Type::Void
-            );
+            ) && (op.is_comparison() || !matches!(tt, Type::Ref { .. } | Type::Null));
         if !ok {
             let tn = self.types.name(t);
             let what = match op {
@@ -280,6 +293,9 @@ impl<'a> Checker<'a> {
                 Add | Sub => "numbers and durations",
                 Mul | Div => "numbers",
                 Mod => "integers",
+                _ if matches!(tt, Type::Ref { .. } | Type::Null) => {
+                    "elementary values and strings (references compare with = and <> only)"
+                }
                 _ => "elementary values and strings",
             };
             self.error(
@@ -380,6 +396,19 @@ impl<'a> Checker<'a> {
         if lit(ty) {
             let y = self.coerce_quiet(y, tx)?;
             return Some((x, y, tx));
+        }
+        if let Some(r) = self.unify_refs(&x, &y) {
+            return match r {
+                Ok(t) => {
+                    let x = self.coerce(x, t, op);
+                    let y = self.coerce(y, t, op);
+                    Some((x, y, t))
+                }
+                Err(()) => {
+                    self.op_error(op, x.ty, Some(y.ty), span);
+                    None
+                }
+            };
         }
         // Strings of any lengths compare and combine.
         if let (Type::Str { len: a }, Type::Str { len: b }) =
@@ -543,6 +572,14 @@ impl<'a> Checker<'a> {
                     ty: to,
                     span,
                 };
+            }
+            (Type::Null, Type::Ref { .. }) => return konst(Value::Int(0), to, span),
+            (Type::Ref { target: a, kind: k }, Type::Ref { target: b, kind: l })
+                if a == b || (*k == RefKind::PointerTo && *l == RefKind::PointerTo) =>
+            {
+                // One representation; a POINTER TO of another type is checked where it is
+                // dereferenced (CODESYS pointers are untyped addresses).
+                return Expr { ty: to, ..x };
             }
             (Type::Elem(a), Type::Elem(b)) if a.widens_to(*b) => return self.convert(x, to),
             (Type::Subrange { base, .. }, Type::Elem(b)) if base.widens_to(*b) => {

@@ -19,6 +19,7 @@ impl<'a> Checker<'a> {
             A::Field(base, f) => self.field_place(e, base, f, cx, write),
             A::Index(base, idx) => self.index_place(e, base, idx, cx, write),
             A::Bit(base, n) => self.bit_place(e, base, n, cx, write),
+            A::Deref(base) => self.deref_place(e, base, cx),
             _ => {
                 self.error(
                     diag::NOT_ASSIGNABLE,
@@ -330,6 +331,11 @@ impl<'a> Checker<'a> {
                 "a function block instance cannot be assigned; call it or set its inputs",
             );
             return false;
+        }
+        if p.path.iter().any(|s| matches!(s, Step::Deref)) {
+            // Written through a reference: the variable holding it is only read, and what it
+            // designates was writable when the reference was taken (E201).
+            return true;
         }
         if var.constant {
             self.error(

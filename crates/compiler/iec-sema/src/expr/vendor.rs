@@ -2,7 +2,7 @@
 //! refused naming the library otherwise (E180), so that a CODESYS or PCWorx program says
 //! what to load instead of "unknown function".
 
-use petriplc_iec_syntax::ast::{self, BinaryOp, ExprKind as A};
+use petriplc_iec_syntax::ast::{self, BinaryOp};
 use petriplc_iec_syntax::diag;
 use petriplc_iec_syntax::source::Span;
 
@@ -60,7 +60,6 @@ impl<'a> Checker<'a> {
                     span,
                 }
             }
-            "SIZEOF" | "XSIZEOF" => self.size_of(&key, call, cx),
             "GET_CHAR" => self.get_char(call, cx),
             "F_TOASC" => {
                 // TwinCAT's Tc2_System: the first character's code, 0 for ''.
@@ -136,41 +135,6 @@ impl<'a> Checker<'a> {
             }
             _ => return None,
         })
-    }
-
-    /// CODESYS `SIZEOF(variable or type)` (and `XSIZEOF`, its newer name): a constant, the bytes CODESYS's memory layout
-    /// gives it ([`vendor::size_of`]), typed by its context as an integer literal is.
-    fn size_of(&mut self, f: &str, call: &ast::Call, cx: &mut Cx) -> Expr {
-        let span = call.span;
-        let Some(args) = self.std_args(f, call, &["IN"], 1, false) else {
-            return err(span);
-        };
-        let arg = args[0].expr;
-        let ty = match &arg.kind {
-            A::Name(id) => match self.var_place(id, cx) {
-                Some(p) => p.ty,
-                None => self.type_by_name(id).0,
-            },
-            _ => self.expr(arg, cx, None).ty,
-        };
-        if ty == ids::ERROR {
-            return err(span);
-        }
-        match vendor::size_of(&self.types, ty) {
-            Ok(n) => Expr {
-                kind: ExprKind::Const(Value::Int(i128::from(n))),
-                ty: ids::INT_LIT,
-                span,
-            },
-            Err(why) => {
-                let msg = match why {
-                    vendor::SizeError::FunctionBlock => format!("{f}: {why}"),
-                    _ => format!("{f} of {}: {why}", self.types.name(ty)),
-                };
-                self.error(diag::VENDOR_ARGUMENT, arg.span, msg);
-                err(span)
-            }
-        }
     }
 
     /// PCWorx `GET_CHAR(string, position)`: the code of the character at `position` (1 is

@@ -69,12 +69,6 @@ fn without_its_library_a_call_names_the_library() {
         "s := BYTE_TO_STRING(BYTE#10, '%02X');",
         "error[E180]: BYTE_TO_STRING(value, format) is a PCWorx function: add --lib pcworx",
     );
-    refused(
-        &[],
-        "n : INT;",
-        "n := SIZEOF(n);",
-        "error[E180]: SIZEOF is a CODESYS/TwinCAT function",
-    );
     // The standard's one-argument conversion needs no library.
     assert!(run(&[], "s : STRING;", "s := BYTE_TO_STRING(BYTE#10);").is_ok());
 }
@@ -189,58 +183,26 @@ fn formats_with_the_library() {
 }
 
 #[test]
-fn sizeof_is_a_constant_of_codesys_layout() {
-    let size = |decls: &str, arg: &str| {
+fn sizeof_and_xsizeof_need_no_library_and_give_the_byte_image() {
+    // One SIZEOF, the pointers' byte image (memory.rs), so that `p + SIZEOF(T)` steps over
+    // exactly one T; XSIZEOF is its newer CODESYS name.
+    let size = |decls: &str, f: &str, arg: &str| {
         let p = run(
-            &["codesys"],
+            &[],
             &format!("n : UDINT; {decls}"),
-            &format!("n := SIZEOF({arg});"),
+            &format!("n := {f}({arg});"),
         )
         .unwrap_or_else(|e| panic!("{e}"));
         first_const(&p)
     };
-    assert_eq!(size("a : ARRAY[0..4] OF INT;", "a"), Some(10));
-    assert_eq!(size("", "pair"), Some(16));
-    assert_eq!(size("x : pair;", "x"), Some(16));
-    assert_eq!(size("x : ARRAY[1..3] OF pair;", "x[2]"), Some(16));
-    assert_eq!(size("x : pair;", "x.b"), Some(8));
-    assert_eq!(size("s : STRING[20];", "s"), Some(21));
-    assert_eq!(size("", "STRING"), Some(255));
-    assert_eq!(size("", "BOOL"), Some(1));
-    assert_eq!(size("", "TIME"), Some(4));
-    // An integer constant typed by its context: it fits a SINT as 10.
-    assert!(run(
-        &["codesys"],
-        "k : SINT; a : ARRAY[0..4] OF INT;",
-        "k := SIZEOF(a);"
-    )
-    .is_ok());
-    refused(
-        &["codesys"],
-        "f : fb; n : INT;",
-        "n := SIZEOF(f);",
-        "error[E181]: SIZEOF: a function block instance has no portable size",
+    assert_eq!(size("a : ARRAY[0..4] OF INT;", "SIZEOF", "a"), Some(10));
+    assert_eq!(
+        size("x : pair;", "SIZEOF", "x"),
+        size("x : pair;", "XSIZEOF", "x")
     );
-    refused(
-        &["codesys"],
-        "n : INT;",
-        "n := SIZEOF(nothing);",
-        "error[E101]: unknown type `nothing`",
-    );
-    refused(
-        &["codesys"],
-        "n : INT;",
-        "n := SIZEOF(1 + 2);",
-        "error[E181]",
-    );
-    let p = run(&["codesys"], "n : UDINT; x : pair;", "n := XSIZEOF(x);").unwrap();
-    assert_eq!(first_const(&p), Some(16));
-    refused(
-        &["codesys"],
-        "f : fb; n : INT;",
-        "n := XSIZEOF(f);",
-        "error[E181]: XSIZEOF: a function block instance",
-    );
+    assert_eq!(size("s : STRING[20];", "XSIZEOF", "s"), Some(21));
+    // petriplc's durations are 64-bit nanoseconds: 8 bytes (CODESYS's 32-bit TIME takes 4).
+    assert_eq!(size("", "SIZEOF", "TIME"), Some(8));
 }
 
 #[test]

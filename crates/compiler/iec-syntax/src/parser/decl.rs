@@ -217,15 +217,23 @@ impl<'a, 'd> Parser<'a, 'd> {
                         span: start.to(self.prev_span()),
                     });
                 }
-                if (name.is("REF_TO") || name.is("POINTER") || name.is("REFERENCE"))
-                    && !self.at(&Tok::Semi)
-                {
-                    let what = name.name.to_ascii_uppercase();
-                    while !matches!(self.peek().tok, Tok::Semi | Tok::Assign | Tok::Eof) {
-                        self.bump();
-                    }
-                    return Ok(TypeSpec::Unsupported {
-                        what,
+                let kind = if name.is("REF_TO") {
+                    Some(RefKind::RefTo)
+                } else if (name.is("POINTER") || name.is("REFERENCE")) && self.at_kw(Kw::To) {
+                    self.bump();
+                    Some(if name.is("POINTER") {
+                        RefKind::PointerTo
+                    } else {
+                        RefKind::ReferenceTo
+                    })
+                } else {
+                    None
+                };
+                if let Some(kind) = kind {
+                    let target = self.type_spec(false)?;
+                    return Ok(TypeSpec::Ref {
+                        kind,
+                        target: Box::new(target),
                         span: start.to(self.prev_span()),
                     });
                 }

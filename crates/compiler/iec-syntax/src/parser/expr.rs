@@ -107,7 +107,10 @@ impl<'a, 'd> Parser<'a, 'd> {
     fn postfix_chain(&mut self, links: &mut usize) -> PResult<Expr> {
         let mut e = self.primary()?;
         loop {
-            if matches!(self.peek().tok, Tok::Dot | Tok::LBracket | Tok::LParen) {
+            if matches!(
+                self.peek().tok,
+                Tok::Dot | Tok::LBracket | Tok::LParen | Tok::Caret
+            ) {
                 self.link(links)?;
             }
             match self.peek().tok {
@@ -188,12 +191,11 @@ impl<'a, 'd> Parser<'a, 'd> {
                 }
                 Tok::Caret => {
                     let t = self.bump();
-                    self.error_at(
-                        diag::UNSUPPORTED,
-                        t.span,
-                        "pointers and references (^) are not supported",
-                    );
-                    return Err(Reported);
+                    let span = e.span.to(t.span);
+                    e = Expr {
+                        kind: ExprKind::Deref(Box::new(e)),
+                        span,
+                    };
                 }
                 _ => break,
             }

@@ -103,7 +103,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             }
             _ if self.at_name() => matches!(
                 self.peek_at(1).tok,
-                Tok::Assign | Tok::LBracket | Tok::Dot | Tok::LParen
+                Tok::Assign | Tok::LBracket | Tok::Dot | Tok::LParen | Tok::Caret
             ),
             _ => false,
         }

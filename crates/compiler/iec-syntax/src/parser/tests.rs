@@ -59,6 +59,7 @@ fn sexpr(e: &Expr) -> String {
         ExprKind::Binary(op, a, b) => format!("({} {} {})", sexpr(a), op.text(), sexpr(b)),
         ExprKind::Paren(e) => sexpr(e),
         ExprKind::Direct(t) => format!("%{t}"),
+        ExprKind::Deref(e) => format!("{}^", sexpr(e)),
         ExprKind::Error => "?".into(),
     }
 }
@@ -99,6 +100,37 @@ fn postfix_forms() {
     );
     check_expr("f(q => y, r =>)", "f(q=>y,r=>)");
     check_expr("INT#-5", "-5");
+    check_expr("r^", "r^");
+    check_expr("p^[i].x^.y", "p^[i].x^.y");
+    check_expr("r^ + 1 = REF(a)", "((r^ + 1) = REF(a))");
+}
+
+#[test]
+fn references_and_pointers() {
+    let lib = check_ok(
+        "TYPE P : REF_TO INT; END_TYPE\n\
+         PROGRAM p\n\
+         VAR r : REF_TO INT; q : POINTER TO ARRAY[0..3] OF BYTE; c : REFERENCE TO REAL; END_VAR\n\
+         r^ := 1; q^[2] := r^; r := NULL;\n\
+         END_PROGRAM",
+    );
+    let Element::Pou(p) = &lib.elements[1] else {
+        panic!("not a POU")
+    };
+    let kinds: Vec<String> = p.var_blocks[0]
+        .vars
+        .iter()
+        .map(|d| match &d.ty {
+            TypeSpec::Ref { kind, target, .. } => format!("{} {:?}", kind.text(), target.span()),
+            other => format!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(kinds.len(), 3);
+    assert!(kinds[0].starts_with("REF_TO"), "{kinds:?}");
+    assert!(kinds[1].starts_with("POINTER TO"), "{kinds:?}");
+    assert!(kinds[2].starts_with("REFERENCE TO"), "{kinds:?}");
+    // `POINTER` alone is a name (a variable or type called so), not the start of a type.
+    check_errors("PROGRAM p\nVAR x : POINTER; END_VAR\nEND_PROGRAM", &[]);
 }
 
 #[test]

@@ -171,3 +171,33 @@ fn codesys_add_data_is_read_or_reported_where_it_is() {
         .collect();
     assert_eq!(blocks, [(false, 1), (true, 1)]);
 }
+
+#[test]
+fn a_pointer_type_is_a_pointer_to_its_base_type() {
+    let text = r#"<?xml version="1.0" encoding="utf-8"?>
+<project xmlns="http://www.plcopen.org/xml/tc6_0201">
+  <types><dataTypes/><pous>
+    <pou name="main" pouType="program">
+      <interface><localVars><variable name="p"><type><pointer><baseType><INT/></baseType></pointer></type></variable></localVars></interface>
+      <body><ST><xhtml:p xmlns:xhtml="http://www.w3.org/1999/xhtml"><![CDATA[p := p;]]></xhtml:p></ST></body>
+    </pou>
+  </pous></types>
+</project>"#;
+    let (lib, msgs) = read_text(text);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let Element::Pou(p) = &lib.elements[0] else {
+        panic!("not a POU")
+    };
+    match &p.var_blocks[0].vars[0].ty {
+        TypeSpec::Ref { kind, target, .. } => {
+            assert_eq!(*kind, RefKind::PointerTo);
+            assert!(
+                matches!(&**target, TypeSpec::Named(i) if i.name == "INT"),
+                "{target:?}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    let (_, msgs) = read_text(&text.replace("<baseType><INT/></baseType>", ""));
+    assert!(msgs[0].contains("error[E052]"), "{msgs:?}");
+}

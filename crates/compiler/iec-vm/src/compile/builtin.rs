@@ -174,6 +174,13 @@ impl<'c, 'p> Fx<'c, 'p> {
                 a: xs[0],
                 b: xs[1],
             },
+            Builtin::MemCpy | Builtin::MemSet | Builtin::MemCmp => ExtOp::Mem {
+                f: b,
+                d,
+                a: xs[0],
+                b: xs[1],
+                n: xs[2],
+            },
             Builtin::Time => ExtOp::Now { d },
             Builtin::GetChar => ExtOp::GetChar {
                 d,

@@ -45,6 +45,11 @@ impl<'c, 'p> Fx<'c, 'p> {
                 }
             }
             ExprKind::Load(place) => {
+                if let Some(view) = self.view_of(place)? {
+                    let d = want.unwrap_or_else(|| self.temp(1));
+                    self.view_load(view, d, span);
+                    return Ok(d);
+                }
                 let pl = self.place_loc(place)?;
                 if scalar(p, place.ty) {
                     if let (Some(d), None, Loc::Abs(..) | Loc::Ind(..)) = (want, pl.bit, pl.loc) {
@@ -70,6 +75,26 @@ impl<'c, 'p> Fx<'c, 'p> {
                 } else {
                     self.addr_of(pl.loc, span)
                 }
+            }
+            ExprKind::Ref(place) => {
+                if place.ty > crate::pointer::MAX_TAGGED_TYPE {
+                    return Err(CompileError::Unsupported(format!(
+                        "a reference to a type beyond the first {} types of a project",
+                        crate::pointer::MAX_TAGGED_TYPE
+                    )));
+                }
+                let pl = self.place_loc(place)?;
+                let a = self.addr_of(pl.loc, span)?;
+                let d = want.unwrap_or_else(|| self.temp(1));
+                self.ext(
+                    ExtOp::MakeRef {
+                        d,
+                        s: a,
+                        ty: place.ty,
+                    },
+                    span,
+                );
+                Ok(d)
             }
             ExprKind::Unary(op, x) => {
                 let a = self.expr(x, None)?;
@@ -113,6 +138,23 @@ impl<'c, 'p> Fx<'c, 'p> {
                         }
                     }
                 }
+                Ok(d)
+            }
+            ExprKind::Binary(op, a, b) if matches!(p.types.get(e.ty), Type::Ref { .. }) => {
+                // Pointer arithmetic: the checker puts the pointer first, the bytes (LINT)
+                // second.
+                let pv = self.expr(a, None)?;
+                let n = self.expr(b, None)?;
+                let d = want.unwrap_or_else(|| self.temp(1));
+                self.ext(
+                    ExtOp::PtrAdd {
+                        d,
+                        p: pv,
+                        n,
+                        sub: *op == BinaryOp::Sub,
+                    },
+                    span,
+                );
                 Ok(d)
             }
             ExprKind::Binary(op, a, b) => self.binary(*op, a, b, e.ty, want, span),

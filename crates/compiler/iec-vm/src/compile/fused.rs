@@ -64,7 +64,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                     || target
                         .path
                         .iter()
-                        .any(|s| matches!(s, Step::Index(_) | Step::Bit(_)))
+                        .any(|s| matches!(s, Step::Index(_) | Step::Bit(_) | Step::Deref))
                 {
                     return Ok(None);
                 }

@@ -159,6 +159,14 @@ impl<'p> Compiler<'p> {
                 },
             })
             .collect();
+        let mut shapes = crate::pointer::Shapes::new();
+        for x in &ext_all {
+            if let ExtOp::MakeRef { ty, .. } = x {
+                shapes
+                    .entry(*ty)
+                    .or_insert_with(|| crate::pointer::image_of(self.p, &self.sizes, *ty));
+            }
+        }
         Ok(Code {
             ops,
             ext: ext_all,
@@ -173,6 +181,7 @@ impl<'p> Compiler<'p> {
             instances: inst_rt,
             native_sizes: self.p.natives.iter().map(|n| n.vars.len() as u32).collect(),
             overflow: self.p.overflow,
+            shapes,
         })
     }
 }
@@ -283,9 +292,32 @@ impl ExtOp {
             | ExtOp::Check { d, s, .. }
             | ExtOp::Math { d, s, .. }
             | ExtOp::AbsI { d, s, .. }
-            | ExtOp::Bcd { d, s, .. } => {
+            | ExtOp::Bcd { d, s, .. }
+            | ExtOp::MakeRef { d, s, .. } => {
                 g(d);
                 g(s);
+            }
+            ExtOp::Deref { d, p, .. } => {
+                g(d);
+                g(p);
+            }
+            ExtOp::Mem { d, a, b, n, .. } => {
+                g(d);
+                g(a);
+                g(b);
+                g(n);
+            }
+            ExtOp::PtrAdd { d, p, n, .. } => {
+                g(d);
+                g(p);
+                g(n);
+            }
+            ExtOp::ViewLoad { d: s, p, idx, .. } | ExtOp::ViewStore { s, p, idx, .. } => {
+                g(s);
+                g(p);
+                if let Some((i, _)) = idx {
+                    g(i);
+                }
             }
             ExtOp::ToStr { dp, s, .. } => {
                 g(dp);

@@ -2,7 +2,7 @@
 //! between slots.
 
 use petriplc_iec_sema::ir::{self, Expr, Place, Root, Step, VarClass};
-use petriplc_iec_sema::types::{FbRef, Type, TypeId};
+use petriplc_iec_sema::types::{Elem, FbRef, RefKind, Type, TypeId};
 use petriplc_iec_syntax::source::Span;
 
 use crate::ext::ExtOp;
@@ -11,6 +11,14 @@ use crate::op::{ArrayInfo, Op};
 use super::{
     elem_or_dint, is_string, scalar, str_cap, Fx, Loc, PlaceLoc, Region, FRAME, R, SYM, TAG,
 };
+
+/// An elementary access through a pointer (see `view_of`).
+pub(super) struct ViewAt {
+    h: u32,
+    idx: Option<(u32, i64)>,
+    e: Elem,
+    what: String,
+}
 
 impl<'c, 'p> Fx<'c, 'p> {
     pub(super) fn place_loc(&mut self, p: &Place) -> R<PlaceLoc> {
@@ -109,9 +117,141 @@ impl<'c, 'p> Fx<'c, 'p> {
                     ty = elem;
                 }
                 Step::Bit(n) => bit = Some(*n as u8),
+                Step::Deref => {
+                    let Some(target) = self.c.p.types.ref_target(ty) else {
+                        continue;
+                    };
+                    let h = self.load_loc(loc, p.span)?;
+                    let d = self.temp(1);
+                    let what = self.c.p.types.name(ty);
+                    let n = self.size(target);
+                    self.ext(
+                        ExtOp::Deref {
+                            d,
+                            p: h,
+                            ty: target,
+                            n,
+                            what,
+                        },
+                        p.span,
+                    );
+                    loc = Loc::Ind(d, 0);
+                    ty = target;
+                }
             }
         }
         Ok(PlaceLoc { loc, bit })
+    }
+
+    /// An elementary value reached through a CODESYS pointer (`p^`, `p^[i]` of a 1-dimension
+    /// array): read and written through the designated variable's byte image
+    /// ([`crate::pointer::View`]), so a pointer of another type than the variable's works
+    /// as in CODESYS. The handle's slot, the subscript and its lower bound, the type.
+    pub(super) fn view_of(&mut self, p: &Place) -> R<Option<ViewAt>> {
+        let Some(k) = p.path.iter().rposition(|s| matches!(s, Step::Deref)) else {
+            return Ok(None);
+        };
+        let Some(e) = self.c.p.types.elem(p.ty) else {
+            return Ok(None);
+        };
+        if matches!(self.c.p.types.get(p.ty), Type::Subrange { .. }) {
+            return Ok(None);
+        }
+        let mut ty = self.root_ty(p.root);
+        for s in &p.path[..k] {
+            ty = self.step_ty(ty, s);
+        }
+        let Type::Ref {
+            kind: RefKind::PointerTo,
+            target,
+        } = *self.c.p.types.get(ty)
+        else {
+            return Ok(None);
+        };
+        let rest = &p.path[k + 1..];
+        let idx = match rest {
+            [] => None,
+            [Step::Index(subs)] if subs.len() == 1 => match self.c.p.types.get(target) {
+                Type::Array { dims, .. } if dims.len() == 1 => Some((&subs[0], dims[0].0)),
+                _ => return Ok(None),
+            },
+            _ => return Ok(None),
+        };
+        let prefix = Place {
+            root: p.root,
+            path: p.path[..k].to_vec(),
+            ty,
+            span: p.span,
+        };
+        let pl = self.place_loc(&prefix)?;
+        let h = self.load_place(&pl, p.span)?;
+        let idx = match idx {
+            Some((x, lo)) => Some((self.expr(x, None)?, lo)),
+            None => None,
+        };
+        Ok(Some(ViewAt {
+            h,
+            idx,
+            e,
+            what: self.c.p.types.name(ty),
+        }))
+    }
+
+    pub(super) fn view_load(&mut self, v: ViewAt, d: u32, span: Span) {
+        self.ext(
+            ExtOp::ViewLoad {
+                d,
+                p: v.h,
+                idx: v.idx,
+                e: v.e,
+                what: v.what,
+            },
+            span,
+        );
+    }
+
+    pub(super) fn view_store(&mut self, v: ViewAt, s: u32, span: Span) {
+        self.ext(
+            ExtOp::ViewStore {
+                s,
+                p: v.h,
+                idx: v.idx,
+                e: v.e,
+                what: v.what,
+            },
+            span,
+        );
+    }
+
+    fn root_ty(&self, root: Root) -> TypeId {
+        match root {
+            Root::Var(v) => {
+                if self.glue_of.is_some() {
+                    self.glue_var_ty(v)
+                } else {
+                    self.c.p.pou(self.pou).vars[v as usize].ty
+                }
+            }
+            Root::Global(g) => self.c.p.globals[g as usize].ty,
+        }
+    }
+
+    /// The type a step of a path leads to from `ty`.
+    fn step_ty(&self, ty: TypeId, s: &Step) -> TypeId {
+        let types = &self.c.p.types;
+        match (s, types.get(ty)) {
+            (Step::Field(i), Type::Struct { fields, .. }) => fields[*i as usize].ty,
+            (Step::Member(i), Type::Fb(FbRef::User(q))) => self.c.p.pou(*q).vars[*i as usize].ty,
+            (Step::Member(i), Type::Fb(FbRef::Native(k))) => {
+                petriplc_iec_sema::types::TypeTable::elem_id(
+                    self.c.p.natives[*k as usize].vars[*i as usize].ty,
+                )
+            }
+            (Step::Index(_), Type::Array { elem, .. }) => *elem,
+            (Step::Bit(_), _) => petriplc_iec_sema::types::ids::BOOL,
+            (Step::Deref, Type::Ref { target, .. }) => *target,
+            _ => ty,
+        }
     }
 
     fn glue_var_ty(&self, v: ir::VarId) -> TypeId {

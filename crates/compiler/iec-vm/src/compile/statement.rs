@@ -32,6 +32,11 @@ impl<'c, 'p> Fx<'c, 'p> {
         let span = s.span;
         match &s.kind {
             StmtKind::Assign { target, value } => {
+                if let Some(view) = self.view_of(target)? {
+                    let v = self.expr(value, None)?;
+                    self.view_store(view, v, span);
+                    return Ok(());
+                }
                 let dst = self.place_loc(target)?;
                 self.store_expr(&dst, target.ty, value)?;
             }
@@ -123,7 +128,13 @@ impl<'c, 'p> Fx<'c, 'p> {
         // IF c THEN x := constant; END_IF → one instruction.
         if branches.len() == 1 && else_body.is_empty() && branches[0].1.len() == 1 {
             if let StmtKind::Assign { target, value } = &branches[0].1[0].kind {
-                if let (ExprKind::Const(v), true) = (&value.kind, scalar(self.p(), target.ty)) {
+                let deref = target
+                    .path
+                    .iter()
+                    .any(|s| matches!(s, petriplc_iec_sema::ir::Step::Deref));
+                if let (ExprKind::Const(v), true, false) =
+                    (&value.kind, scalar(self.p(), target.ty), deref)
+                {
                     let dst = self.place_loc(target)?;
                     if let (Loc::Slot(d), None) = (dst.loc, dst.bit) {
                         let k = raw_const(self.p(), v, target.ty);

@@ -318,3 +318,13 @@ fn faults_stop_the_scan_with_the_values() {
         "watchdog: a loop ran out of the scan's iteration budget",
     );
 }
+
+#[test]
+fn a_reference_in_a_retained_instance_is_not_retained() {
+    let e = engine(
+        "FUNCTION_BLOCK Keep\nVAR_INPUT n : INT; END_VAR\nVAR p : POINTER TO INT; s : INT; END_VAR\np := ADR(s);\nEND_FUNCTION_BLOCK\n\
+         PROGRAM main\nVAR RETAIN k : Keep; END_VAR\nk(n := 1);\nEND_PROGRAM\n",
+    );
+    let paths: Vec<String> = e.retained().into_iter().map(|r| r.path).collect();
+    assert_eq!(paths, vec!["main.k.n", "main.k.s"]);
+}

@@ -1,0 +1,255 @@
+//! CODESYS's `ADR` of a variable that lives only during one call (a FUNCTION's variables, a
+//! VAR_TEMP) is allowed only where the pointer cannot outlive the call: it is kept in the
+//! POU's own VAR/VAR_TEMP pointer variables, dereferenced, compared and moved by pointer
+//! arithmetic, never stored elsewhere nor passed on (E201). No run-time check is needed then:
+//! a pointer to a frame exists only while the frame does.
+
+use std::collections::BTreeSet;
+
+use petriplc_iec_syntax::diag;
+
+use crate::ir::{
+    BinaryOp, Builtin, Expr, ExprKind, Place, PouId, PouKind, Root, Step, Stmt, StmtKind,
+};
+use crate::ir::{GlobalId, VarClass, VarId};
+
+use super::Checker;
+
+impl<'a> Checker<'a> {
+    /// Checks that no pointer to the frame of POU `p` escapes its body.
+    pub(super) fn frame_escapes(&mut self, p: PouId, kind: PouKind, body: &[Stmt]) {
+        let vars = self.pous[p as usize].vars.clone();
+        let frame: Vec<bool> = vars
+            .iter()
+            .map(|v| {
+                v.class == VarClass::Temp
+                    || (kind == PouKind::Function
+                        && !matches!(v.class, VarClass::External(_) | VarClass::Global))
+            })
+            .collect();
+        let local: Vec<bool> = vars
+            .iter()
+            .map(|v| matches!(v.class, VarClass::Local | VarClass::Temp))
+            .collect();
+        // Variables that may hold such a pointer: plain VAR/VAR_TEMP pointers assigned one.
+        let mut holders = BTreeSet::new();
+        loop {
+            let before = holders.len();
+            let mut f = Flow {
+                frame: &frame,
+                local: &local,
+                holders: &mut holders,
+                errors: None,
+            };
+            f.stmts(body);
+            if holders.len() == before {
+                break;
+            }
+        }
+        let mut errors = Vec::new();
+        let mut f = Flow {
+            frame: &frame,
+            local: &local,
+            holders: &mut holders,
+            errors: Some(&mut errors),
+        };
+        f.stmts(body);
+        errors.sort_by_key(|e| (e.0.start, e.0.end));
+        errors.dedup_by_key(|e| (e.0.start, e.0.end));
+        for (span, target) in errors {
+            let name = match target {
+                Into::Var(v) => Some(vars[v as usize].name.clone()),
+                Into::Global(g) => Some(self.globals[g as usize].name.clone()),
+                Into::Elsewhere => None,
+            };
+            let msg = match name {
+                Some(n) => format!(
+                    "a pointer to this {}'s own variables is stored in `{}`, which outlives the call; keep it in a pointer declared in the POU's VAR_TEMP (a FUNCTION's VAR)",
+                    kind.keyword(),
+                    n
+                ),
+                _ => format!(
+                    "a pointer to this {}'s own variables may only be kept in its VAR or VAR_TEMP pointers, dereferenced, compared and moved (p + n); it must not be stored elsewhere or passed to a call, since the variables end with the call",
+                    kind.keyword()
+                ),
+            };
+            self.error(diag::NO_ADDRESS, span, msg);
+        }
+    }
+}
+
+struct Flow<'f> {
+    frame: &'f [bool],
+    local: &'f [bool],
+    holders: &'f mut BTreeSet<VarId>,
+    /// `None` while the holders are gathered; then every escape found, with the variable
+    /// it was stored in, if any.
+    errors: Option<&'f mut Vec<(petriplc_iec_syntax::source::Span, Into)>>,
+}
+
+/// Where an escaping frame pointer goes.
+#[derive(Clone, Copy)]
+enum Into {
+    Var(VarId),
+    Global(GlobalId),
+    Elsewhere,
+}
+
+impl Flow<'_> {
+    /// Whether the value of `e` may be a pointer into the frame.
+    fn carries(&self, e: &Expr) -> bool {
+        match &e.kind {
+            ExprKind::Ref(p) => {
+                !p.path.iter().any(|s| matches!(s, Step::Deref))
+                    && matches!(p.root, Root::Var(v) if self.frame[v as usize])
+            }
+            ExprKind::Load(p) => {
+                p.path.is_empty() && matches!(p.root, Root::Var(v) if self.holders.contains(&v))
+            }
+            ExprKind::Binary(BinaryOp::Add | BinaryOp::Sub, a, b) => {
+                self.carries(a) || self.carries(b)
+            }
+            ExprKind::Convert(x) => self.carries(x),
+            _ => false,
+        }
+    }
+
+    fn escape(&mut self, e: &Expr, into: Into) {
+        if let Some(errs) = self.errors.as_deref_mut() {
+            errs.push((e.span, into));
+        }
+    }
+
+    fn stmts(&mut self, body: &[Stmt]) {
+        for s in body {
+            self.stmt(s);
+        }
+    }
+
+    fn stmt(&mut self, s: &Stmt) {
+        match &s.kind {
+            StmtKind::Assign { target, value } => {
+                self.place(target);
+                if self.carries(value) {
+                    match (target.root, target.path.is_empty()) {
+                        (Root::Var(v), true) if self.is_holder_slot(v) => {
+                            self.holders.insert(v);
+                        }
+                        (Root::Var(v), _) => self.escape(value, Into::Var(v)),
+                        (Root::Global(g), _) => self.escape(value, Into::Global(g)),
+                    }
+                    self.inner(value);
+                } else {
+                    self.expr(value);
+                }
+            }
+            StmtKind::CallFb(c) => {
+                self.place(&c.instance);
+                c.inputs.iter().for_each(|(_, x)| self.expr(x));
+                c.in_outs.iter().for_each(|(_, p)| self.place(p));
+                c.outputs.iter().for_each(|(_, p, _)| self.place(p));
+            }
+            StmtKind::Eval(x) => self.expr(x),
+            StmtKind::If {
+                branches,
+                else_body,
+            } => {
+                for (c, b) in branches {
+                    self.expr(c);
+                    self.stmts(b);
+                }
+                self.stmts(else_body);
+            }
+            StmtKind::Case {
+                selector,
+                arms,
+                else_body,
+            } => {
+                self.expr(selector);
+                arms.iter().for_each(|a| self.stmts(&a.body));
+                self.stmts(else_body);
+            }
+            StmtKind::For(f) => {
+                self.place(&f.var);
+                self.expr(&f.from);
+                self.expr(&f.to);
+                self.expr(&f.by);
+                self.stmts(&f.body);
+            }
+            StmtKind::While { cond, body } => {
+                self.expr(cond);
+                self.stmts(body);
+            }
+            StmtKind::Repeat { body, until } => {
+                self.stmts(body);
+                self.expr(until);
+            }
+            StmtKind::Goto {
+                cond: Some((c, _)), ..
+            } => self.expr(c),
+            StmtKind::Exit
+            | StmtKind::Continue
+            | StmtKind::Return
+            | StmtKind::Label(_)
+            | StmtKind::Goto { cond: None, .. } => {}
+        }
+    }
+
+    /// A plain VAR/VAR_TEMP of the POU of a frame's lifetime (a FUNCTION's inputs, outputs
+    /// and result are not: the caller sees them; a function block's VAR outlives the call).
+    fn is_holder_slot(&self, v: VarId) -> bool {
+        self.local[v as usize] && self.frame[v as usize]
+    }
+
+    /// An expression whose value must not be a frame pointer.
+    fn expr(&mut self, e: &Expr) {
+        if self.carries(e) {
+            self.escape(e, Into::Elsewhere);
+        }
+        self.inner(e);
+    }
+
+    /// The operands of `e`: comparisons and pointer arithmetic may take a frame pointer.
+    fn inner(&mut self, e: &Expr) {
+        match &e.kind {
+            ExprKind::Const(_) => {}
+            ExprKind::Load(p) | ExprKind::Ref(p) => self.place(p),
+            ExprKind::Unary(_, x) | ExprKind::Trunc(x) => self.expr(x),
+            ExprKind::Convert(x) => {
+                if self.carries(e) {
+                    self.inner(x)
+                } else {
+                    self.expr(x)
+                }
+            }
+            ExprKind::Binary(op, a, b) => {
+                let ok = matches!(op, BinaryOp::Eq | BinaryOp::Ne) || self.carries(e);
+                for x in [a, b] {
+                    if ok {
+                        self.inner(x)
+                    } else {
+                        self.expr(x)
+                    }
+                }
+            }
+            ExprKind::Call(c) => {
+                c.inputs.iter().for_each(|(_, x)| self.expr(x));
+                c.in_outs.iter().for_each(|(_, p)| self.place(p));
+                c.outputs.iter().for_each(|(_, p)| self.place(p));
+            }
+            // MEMCPY, MEMSET and MEMCMP use the pointers they are given and keep none.
+            ExprKind::Builtin(Builtin::MemCpy | Builtin::MemSet | Builtin::MemCmp, args) => {
+                args.iter().for_each(|x| self.inner(x))
+            }
+            ExprKind::Builtin(_, args) => args.iter().for_each(|x| self.expr(x)),
+        }
+    }
+
+    fn place(&mut self, p: &Place) {
+        for s in &p.path {
+            if let Step::Index(ix) = s {
+                ix.iter().for_each(|x| self.expr(x));
+            }
+        }
+    }
+}

@@ -1,0 +1,364 @@
+//! References and pointers: `NULL`, `REF(x)` and CODESYS's `ADR(x)`, `r^`, and the rule that a
+//! reference only designates a variable that outlives it (docs/iec.md, "References and
+//! pointers").
+
+use petriplc_iec_syntax::ast::{self, BinaryOp, ExprKind as A, RefKind};
+use petriplc_iec_syntax::diag;
+use petriplc_iec_syntax::source::Span;
+
+use crate::check::{Checker, Cx};
+use crate::ir::{Builtin, Expr, ExprKind, Place, PouKind, Root, Step, VarClass};
+use crate::types::{ids, Type, TypeId};
+use crate::value::Value;
+
+use super::{err, konst};
+
+impl<'a> Checker<'a> {
+    /// `NULL` (a name no declaration takes).
+    pub(super) fn null(&mut self, span: Span) -> Expr {
+        let t = self.types.null();
+        konst(Value::Int(0), t, span)
+    }
+
+    /// `base^`: the variable the reference held by `base` designates.
+    pub(super) fn deref_place(
+        &mut self,
+        e: &ast::Expr,
+        base: &ast::Expr,
+        cx: &mut Cx,
+    ) -> Option<Place> {
+        // The reference itself is only read, whether its target is read or written.
+        let mut p = self.place(base, cx, false)?;
+        let Some(target) = self.types.ref_target(p.ty) else {
+            if p.ty != ids::ERROR {
+                let t = self.types.name(p.ty);
+                self.error(
+                    diag::NOT_A_REFERENCE,
+                    e.span,
+                    format!("`^` dereferences a REF_TO or POINTER TO; this is {t}"),
+                );
+            }
+            return None;
+        };
+        p.path.push(Step::Deref);
+        p.ty = target;
+        p.span = e.span;
+        Some(p)
+    }
+
+    /// `REF(x)` (IEC 61131-3) or `ADR(x)` (CODESYS): a reference to a variable, typed
+    /// `REF_TO T` or `POINTER TO T` by the variable's type.
+    pub(super) fn ref_of(&mut self, name: &ast::Ident, call: &ast::Call, cx: &mut Cx) -> Expr {
+        let span = call.span;
+        let fname = name.name.to_ascii_uppercase();
+        let arg = match call.args.as_slice() {
+            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
+            _ => None,
+        };
+        let Some(arg) = arg else {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                span,
+                format!("{fname} takes one variable: {fname}(x)"),
+            );
+            return err(span);
+        };
+        if !matches!(
+            arg.kind,
+            A::Name(_) | A::Field(..) | A::Index(..) | A::Deref(_) | A::Bit(..)
+        ) {
+            self.error(
+                diag::NO_ADDRESS,
+                arg.span,
+                format!("{fname} takes a variable, not an expression: its value has no address"),
+            );
+            return err(span);
+        }
+        let Some(place) = self.place(arg, cx, false) else {
+            return err(span);
+        };
+        if let Some(why) = self.no_lasting_address(&place, cx, fname == "ADR") {
+            self.error(
+                diag::NO_ADDRESS,
+                arg.span,
+                format!("{fname}: {why}; docs/iec.md, \"References and pointers\""),
+            );
+            return err(span);
+        }
+        let kind = if fname == "REF" {
+            RefKind::RefTo
+        } else {
+            RefKind::PointerTo
+        };
+        let ty = self.types.reference(kind, place.ty);
+        Expr {
+            kind: ExprKind::Ref(place),
+            ty,
+            span,
+        }
+    }
+
+    /// Why a place cannot be referenced (`None`: it can): a reference must never outlive
+    /// what it designates, nor let a constant be written. `adr`: CODESYS's ADR, which may
+    /// take a FUNCTION's variables and a VAR_TEMP (then kept in the POU: check/escape.rs).
+    fn no_lasting_address(&self, p: &Place, cx: &Cx, adr: bool) -> Option<String> {
+        if p.path.iter().any(|s| matches!(s, Step::Bit(_))) {
+            return Some("a single bit has no address; reference the whole variable".into());
+        }
+        if matches!(self.types.get(p.ty), Type::Fb(_)) {
+            return Some(
+                "references to function block instances are not supported yet; reference a variable"
+                    .into(),
+            );
+        }
+        // Behind a dereference the place is inside a variable already referenced.
+        let behind_ref = p.path.iter().any(|s| matches!(s, Step::Deref));
+        let var = self.var_of(p, cx);
+        if behind_ref {
+            return None;
+        }
+        if var.constant {
+            return Some(format!(
+                "`{}` is a CONSTANT: a reference would let it be written",
+                var.name
+            ));
+        }
+        if let Root::Var(_) = p.root {
+            match var.class {
+                VarClass::Temp if adr => {}
+                VarClass::Temp => {
+                    return Some(format!(
+                        "`{}` is a VAR_TEMP, gone when the POU returns (CODESYS's ADR may take it, kept in the POU)",
+                        var.name
+                    ))
+                }
+                VarClass::InOut => {
+                    return Some(format!(
+                        "`{}` is a VAR_IN_OUT, which may be a caller's temporary; reference the caller's variable",
+                        var.name
+                    ))
+                }
+                _ => {}
+            }
+            if !adr
+                && cx.kind == Some(PouKind::Function)
+                && !matches!(var.class, VarClass::External(_))
+            {
+                return Some(format!(
+                    "`{}` is a variable of a FUNCTION, gone when it returns (CODESYS's ADR may take it, kept in the POU)",
+                    var.name
+                ));
+            }
+        }
+        None
+    }
+
+    /// Whether a type holds a reference anywhere (a RETAIN variable must not: E202).
+    pub fn contains_reference(&self, ty: TypeId) -> bool {
+        self.types.holds_reference(ty)
+    }
+
+    /// Two operands of which one is a reference: the type they compare as (`Err`: they do
+    /// not compare), `None` when neither is a reference.
+    pub(super) fn unify_refs(&self, x: &Expr, y: &Expr) -> Option<Result<TypeId, ()>> {
+        let (a, b) = (self.types.get(x.ty), self.types.get(y.ty));
+        match (a, b) {
+            (Type::Null, Type::Ref { .. }) => Some(Ok(y.ty)),
+            (Type::Ref { .. }, Type::Null) => Some(Ok(x.ty)),
+            (Type::Ref { target: s, kind: k }, Type::Ref { target: t, kind: l }) => Some(
+                if s == t || (*k == RefKind::PointerTo && *l == RefKind::PointerTo) {
+                    Ok(x.ty)
+                } else {
+                    Err(())
+                },
+            ),
+            (Type::Ref { .. } | Type::Null, _) | (_, Type::Ref { .. } | Type::Null) => {
+                Some(Err(()))
+            }
+            _ => None,
+        }
+    }
+
+    /// Whether `x op y` moves a CODESYS POINTER TO (`p + n`, `n + p`, `p - n`).
+    pub(super) fn is_pointer_arith(&self, op: BinaryOp, x: &Expr, y: &Expr) -> bool {
+        let is_ptr = |t: &Type| {
+            matches!(
+                t,
+                Type::Ref {
+                    kind: RefKind::PointerTo,
+                    ..
+                }
+            )
+        };
+        let (px, py) = (is_ptr(self.types.get(x.ty)), is_ptr(self.types.get(y.ty)));
+        match op {
+            BinaryOp::Add => px != py,
+            BinaryOp::Sub => px && !py,
+            _ => false,
+        }
+    }
+
+    /// `p + n`, `n + p`, `p - n` (see `is_pointer_arith`): the pointer moved by `n` bytes,
+    /// checked where it is dereferenced.
+    pub(super) fn pointer_arith(&mut self, op: BinaryOp, x: Expr, y: Expr, span: Span) -> Expr {
+        let (p, n) = if matches!(
+            self.types.get(x.ty),
+            Type::Ref {
+                kind: RefKind::PointerTo,
+                ..
+            }
+        ) {
+            (x, y)
+        } else {
+            (y, x)
+        };
+        let Some(n) = self.byte_count(n, span) else {
+            return err(span);
+        };
+        if n.ty == ids::ERROR {
+            return err(span);
+        }
+        let ty = p.ty;
+        Expr {
+            kind: ExprKind::Binary(op, Box::new(p), Box::new(n)),
+            ty,
+            span,
+        }
+    }
+
+    /// `SIZEOF(x)` (CODESYS): the bytes of a variable's or a type's image, a constant.
+    pub(super) fn size_of(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
+        let span = call.span;
+        let arg = match call.args.as_slice() {
+            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
+            _ => None,
+        };
+        let Some(arg) = arg else {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                span,
+                "SIZEOF takes one variable or type: SIZEOF(x)",
+            );
+            return err(span);
+        };
+        let ty = match &arg.kind {
+            A::Name(id) if self.var_place(id, cx).is_none() && !id.is("NULL") => {
+                let (t, _) = self.type_by_name(id);
+                t
+            }
+            _ => match self.place(arg, cx, false) {
+                Some(p) => p.ty,
+                None => return err(span),
+            },
+        };
+        if ty == ids::ERROR {
+            return err(span);
+        }
+        match crate::memory::size_align(&self.types, ty) {
+            Some((n, _)) => konst(Value::Int(i128::from(n)), ids::INT_LIT, span),
+            None => {
+                let t = self.types.name(ty);
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    arg.span,
+                    format!("SIZEOF: {t} has no byte image (a function block instance)"),
+                );
+                err(span)
+            }
+        }
+    }
+
+    /// `MEMCPY(dest, src, n)`, `MEMSET(dest, fill, n)`, `MEMCMP(a, b, n)` (TwinCAT
+    /// Tc2_System, CODESYS MemoryUtils): bytes through pointers, checked when they run.
+    pub(super) fn mem_call(&mut self, name: &ast::Ident, call: &ast::Call, cx: &mut Cx) -> Expr {
+        let span = call.span;
+        let f = name.name.to_ascii_uppercase();
+        let (b, second, rt) = match f.as_str() {
+            "MEMCPY" => (Builtin::MemCpy, "a source pointer", ids::UDINT),
+            "MEMSET" => (Builtin::MemSet, "the fill BYTE", ids::UDINT),
+            _ => (Builtin::MemCmp, "a second pointer", ids::DINT),
+        };
+        let args: Vec<&ast::Expr> = call
+            .args
+            .iter()
+            .filter(|a| !a.output)
+            .filter_map(|a| a.value.as_ref())
+            .collect();
+        if args.len() != 3 || call.args.iter().any(|a| a.output) {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                span,
+                format!(
+                    "{f} takes a pointer, {second} and a byte count: {f}(ADR(x), …, SIZEOF(x))"
+                ),
+            );
+            return err(span);
+        }
+        let mut out = Vec::new();
+        for (k, a) in args.iter().enumerate() {
+            let x = self.expr(a, cx, None);
+            if x.ty == ids::ERROR {
+                return err(span);
+            }
+            let x = if k == 1 && b == Builtin::MemSet {
+                self.coerce(x, ids::BYTE, "the fill value")
+            } else if k == 2 {
+                match self.byte_count(x, span) {
+                    Some(x) => x,
+                    None => return err(span),
+                }
+            } else if matches!(self.types.get(x.ty), Type::Ref { .. }) {
+                x
+            } else {
+                let t = self.types.name(x.ty);
+                self.error(
+                    diag::BAD_ARGUMENTS,
+                    a.span,
+                    format!("{f}: argument {} is a pointer (ADR(x)), not {t}", k + 1),
+                );
+                return err(span);
+            };
+            if x.ty == ids::ERROR {
+                return err(span);
+            }
+            out.push(x);
+        }
+        Expr {
+            kind: ExprKind::Builtin(b, out),
+            ty: rt,
+            span,
+        }
+    }
+
+    /// An integer count of bytes as LINT (`None` once reported).
+    fn byte_count(&mut self, n: Expr, span: Span) -> Option<Expr> {
+        if n.ty == ids::INT_LIT {
+            let x = self.coerce(n, ids::LINT, "the byte count");
+            return (x.ty != ids::ERROR).then_some(x);
+        }
+        if self
+            .types
+            .elem(n.ty)
+            .is_some_and(|e| e.is_int() || e.is_bitstring())
+        {
+            if n.ty == ids::LINT {
+                return Some(n);
+            }
+            let s = n.span;
+            return Some(Expr {
+                kind: ExprKind::Convert(Box::new(n)),
+                ty: ids::LINT,
+                span: s,
+            });
+        }
+        if n.ty != ids::ERROR {
+            let t = self.types.name(n.ty);
+            self.error(
+                diag::OPERAND_TYPE,
+                span,
+                format!("a pointer moves by a whole number of bytes, not {t}"),
+            );
+        }
+        None
+    }
+}

@@ -1,0 +1,91 @@
+//! The byte image CODESYS and TwinCAT programs see through pointers: `SIZEOF`, and which
+//! bytes of a variable a pointer's byte offset designates (the VM's views, iec-vm's
+//! `pointer.rs`). Little-endian; each elementary value aligned to its size (at most 8), a
+//! structure to its largest member and padded to it, as CODESYS and TwinCAT lay out data
+//! on 64-bit targets (docs/iec.md, "References and pointers").
+
+use crate::types::{Elem, Type, TypeId, TypeTable};
+
+/// Bytes of an elementary value. Durations, dates and times are petriplc's 64-bit
+/// nanosecond counts: 8 bytes (CODESYS's 32-bit TIME, DATE, TOD and DT take 4).
+pub fn elem_bytes(e: Elem) -> u64 {
+    match e {
+        Elem::Bool | Elem::Sint | Elem::Usint | Elem::Byte => 1,
+        Elem::Int | Elem::Uint | Elem::Word => 2,
+        Elem::Dint | Elem::Udint | Elem::Dword | Elem::Real => 4,
+        _ => 8,
+    }
+}
+
+/// Bytes and alignment of a value of `ty` (`None`: it has no byte image, e.g. a function
+/// block instance).
+pub fn size_align(types: &TypeTable, ty: TypeId) -> Option<(u64, u64)> {
+    Some(match types.get(ty) {
+        Type::Elem(e) | Type::Subrange { base: e, .. } => (elem_bytes(*e), elem_bytes(*e)),
+        // Enumerations are 16-bit in CODESYS; petriplc's hold DINT values.
+        Type::Enum { .. } => (4, 4),
+        Type::Ref { .. } | Type::Null => (8, 8),
+        Type::Str { len } => (u64::from(*len) + 1, 1),
+        Type::Array { elem, .. } => {
+            let (s, a) = size_align(types, *elem)?;
+            (s.checked_mul(types.element_count(ty))?, a)
+        }
+        Type::Struct { fields, .. } => {
+            let mut off = 0u64;
+            let mut align = 1u64;
+            for f in fields {
+                let (s, a) = size_align(types, f.ty)?;
+                off = off.div_ceil(a) * a + s;
+                align = align.max(a);
+            }
+            (off.div_ceil(align) * align, align)
+        }
+        Type::Fb(_) | Type::IntLit | Type::RealLit | Type::Void | Type::Error => return None,
+    })
+}
+
+/// Byte offset of each field of a structure.
+pub fn field_offsets(types: &TypeTable, ty: TypeId) -> Vec<u64> {
+    let mut out = Vec::new();
+    if let Type::Struct { fields, .. } = types.get(ty) {
+        let mut off = 0u64;
+        for f in fields {
+            let (s, a) = size_align(types, f.ty).unwrap_or((0, 1));
+            off = off.div_ceil(a) * a;
+            out.push(off);
+            off += s;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::types::{ids, Field};
+
+    #[test]
+    fn sizes_as_codesys_lays_them_out() {
+        let mut t = TypeTable::new();
+        assert_eq!(size_align(&t, ids::INT), Some((2, 2)));
+        assert_eq!(size_align(&t, ids::REAL), Some((4, 4)));
+        assert_eq!(size_align(&t, ids::STRING), Some((255, 1)));
+        let a = t.array(vec![(1, 10)], ids::DINT);
+        assert_eq!(size_align(&t, a), Some((40, 4)));
+        // BYTE, then DINT aligned to 4, then BOOL; padded to 12.
+        let s = t.add(Type::Struct {
+            name: "S".into(),
+            fields: [ids::BYTE, ids::DINT, ids::BOOL]
+                .iter()
+                .enumerate()
+                .map(|(i, &ty)| Field {
+                    name: format!("f{i}"),
+                    ty,
+                    init: None,
+                })
+                .collect(),
+        });
+        assert_eq!(size_align(&t, s), Some((12, 4)));
+        assert_eq!(field_offsets(&t, s), vec![0, 4, 8]);
+    }
+}
