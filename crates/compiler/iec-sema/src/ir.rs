@@ -30,7 +30,7 @@ pub struct Project {
     pub globals: Vec<Var>,
     pub configuration: Option<Configuration>,
     /// What integer overflow does when the project runs ([`crate::Options::overflow`]).
-    pub overflow: crate::ops::Overflow,
+    pub overflow: Overflow,
 }
 
 impl Project {
@@ -470,4 +470,34 @@ pub struct ProgramInstance {
     pub outputs: Vec<(VarId, Place)>,
     pub retain: bool,
     pub span: Span,
+}
+
+/// What an integer result outside its type does: the project's choice (`Sources::overflow`,
+/// `petriplc sim --overflow`, the `iec` module's `overflow` setting).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Overflow {
+    /// Two's complement in the result's type, as CODESYS, TwinCAT, matiec and OpenPLC; shift
+    /// counts read as unsigned; REAL to integer out of range keeps the low bits.
+    #[default]
+    Wrap,
+    /// A run-time fault, handled by the module's `on_failure`.
+    Fault,
+}
+
+impl Overflow {
+    /// `wrap` or `fault`, as the flag and the setting spell it.
+    pub fn parse(text: &str) -> Option<Overflow> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "wrap" => Some(Overflow::Wrap),
+            "fault" => Some(Overflow::Fault),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Overflow::Wrap => "wrap",
+            Overflow::Fault => "fault",
+        }
+    }
 }

@@ -48,35 +48,7 @@ impl fmt::Display for OpError {
 
 pub type OpResult<T> = Result<T, OpError>;
 
-/// What an integer result outside its type does: the project's choice (`Sources::overflow`,
-/// `petriplc sim --overflow`, the `iec` module's `overflow` setting).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Overflow {
-    /// Two's complement in the result's type, as CODESYS, TwinCAT, matiec and OpenPLC; shift
-    /// counts read as unsigned; REAL to integer out of range keeps the low bits.
-    #[default]
-    Wrap,
-    /// A run-time fault, handled by the module's `on_failure`.
-    Fault,
-}
-
-impl Overflow {
-    /// `wrap` or `fault`, as the flag and the setting spell it.
-    pub fn parse(text: &str) -> Option<Overflow> {
-        match text.trim().to_ascii_lowercase().as_str() {
-            "wrap" => Some(Overflow::Wrap),
-            "fault" => Some(Overflow::Fault),
-            _ => None,
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Overflow::Wrap => "wrap",
-            Overflow::Fault => "fault",
-        }
-    }
-}
+pub use crate::ir::Overflow;
 
 /// An integer operator on values of an integral type (integers, bit strings, BOOL,
 /// durations, dates). Comparisons give 0/1.
