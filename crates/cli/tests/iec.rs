@@ -264,7 +264,7 @@ fn overflow_wraps_unless_sim_is_told_to_fault() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains(
-            "--overflow apply to IEC 61131-3 programs",
+            "--overflow and --lib apply to IEC 61131-3 programs",
         ));
 }
 
