@@ -5,7 +5,7 @@ use petriplc_iec_sema::ops::OpError;
 use crate::compile::Code;
 use crate::ext::{self, read_str, OpFault};
 use crate::native::{NativeCtx, NativeFb};
-use crate::op::{wrap_to, Arith, Cmp, Op, RANGES};
+use crate::op::{arith_wrapping_i64, arith_wrapping_u64, wrap_to, Arith, Cmp, Op, RANGES};
 
 /// A run-time fault at an instruction.
 #[derive(Clone, Debug, PartialEq)]
@@ -545,71 +545,25 @@ fn data(
             ),
         },
         Op::ArNW { op, d, a, b, r } => {
-            // Narrow operands are far inside i64: only a 32-bit product can leave it, and
-            // wrapping it keeps the low 32 bits exact.
             let (x, y) = (m!(a) as i64, m!(b) as i64);
-            let v = match op {
-                Arith::Add => x.wrapping_add(y),
-                Arith::Sub => x.wrapping_sub(y),
-                Arith::Mul => x.wrapping_mul(y),
-                Arith::Div => {
-                    if y == 0 {
-                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
-                    }
-                    x / y
-                }
-                Arith::Mod => {
-                    if y == 0 {
-                        0
-                    } else {
-                        x % y
-                    }
-                }
+            let Some(v) = arith_wrapping_i64(op, x, y) else {
+                fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
             };
             m!(d) = wrap_to(v, r) as u64;
         }
         Op::ArLW { op, d, a, b } => {
             let (x, y) = (m!(a) as i64, m!(b) as i64);
-            let v = match op {
-                Arith::Add => x.wrapping_add(y),
-                Arith::Sub => x.wrapping_sub(y),
-                Arith::Mul => x.wrapping_mul(y),
-                Arith::Div => {
-                    if y == 0 {
-                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
-                    }
-                    x.wrapping_div(y)
-                }
-                Arith::Mod => {
-                    if y == 0 {
-                        0
-                    } else {
-                        x.wrapping_rem(y)
-                    }
-                }
+            let Some(v) = arith_wrapping_i64(op, x, y) else {
+                fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
             };
             m!(d) = v as u64;
         }
         Op::ArUW { op, d, a, b } => {
             let (x, y) = (m!(a), m!(b));
-            m!(d) = match op {
-                Arith::Add => x.wrapping_add(y),
-                Arith::Sub => x.wrapping_sub(y),
-                Arith::Mul => x.wrapping_mul(y),
-                Arith::Div => {
-                    if y == 0 {
-                        fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
-                    }
-                    x / y
-                }
-                Arith::Mod => {
-                    if y == 0 {
-                        0
-                    } else {
-                        x % y
-                    }
-                }
+            let Some(v) = arith_wrapping_u64(op, x, y) else {
+                fail!(FaultKind::Op(OpError::DivisionByZero), format!("{x} / 0"));
             };
+            m!(d) = v;
         }
         Op::NegNW { d, s, r } => m!(d) = wrap_to((m!(s) as i64).wrapping_neg(), r) as u64,
         Op::NegLW { d, s } => m!(d) = (m!(s) as i64).wrapping_neg() as u64,

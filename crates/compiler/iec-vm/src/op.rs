@@ -64,6 +64,36 @@ pub fn wrap_to(v: i64, r: u8) -> i64 {
     }
 }
 
+/// `x op y` in 64-bit two's complement, or `None` for a division by zero; MOD by zero is 0,
+/// as the standard defines it. The wrapping mode's signed arithmetic, narrow types included:
+/// their operands are far inside i64, so only the caller's [`wrap_to`] cuts the result.
+#[inline(always)]
+pub fn arith_wrapping_i64(op: Arith, x: i64, y: i64) -> Option<i64> {
+    Some(match op {
+        Arith::Add => x.wrapping_add(y),
+        Arith::Sub => x.wrapping_sub(y),
+        Arith::Mul => x.wrapping_mul(y),
+        Arith::Div if y == 0 => return None,
+        Arith::Div => x.wrapping_div(y),
+        Arith::Mod if y == 0 => 0,
+        Arith::Mod => x.wrapping_rem(y),
+    })
+}
+
+/// [`arith_wrapping_i64`] for 64-bit unsigned values.
+#[inline(always)]
+pub fn arith_wrapping_u64(op: Arith, x: u64, y: u64) -> Option<u64> {
+    Some(match op {
+        Arith::Add => x.wrapping_add(y),
+        Arith::Sub => x.wrapping_sub(y),
+        Arith::Mul => x.wrapping_mul(y),
+        Arith::Div if y == 0 => return None,
+        Arith::Div => x / y,
+        Arith::Mod if y == 0 => 0,
+        Arith::Mod => x % y,
+    })
+}
+
 /// How integers of a type compute: narrow types in i64 with a range check, 64-bit signed
 /// checked, 64-bit unsigned checked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
