@@ -15,32 +15,25 @@ use std::path::{Path, PathBuf};
 
 use petriplc_iec::{check, Natives, Sources};
 
+mod oscat;
+
+/// A TwinCAT manifest entry with its original file, relative to the repository.
 struct Entry {
     file: String,
     deps: Vec<String>,
-    /// The original file, relative to the repository.
     original: String,
 }
 
 fn manifest(root: &Path) -> Vec<Entry> {
-    let text = std::fs::read_to_string(root.join("manifest.json")).unwrap();
-    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
-    json.as_array()
-        .unwrap()
-        .iter()
-        .filter(|e| e["set"] == "tcoscat")
+    oscat::manifest(root)
+        .into_iter()
+        .filter(|e| e.set == "tcoscat")
         .map(|e| {
-            let source = e["source"].as_str().unwrap();
-            let path = source.split_once(':').unwrap().1;
+            let path = e.source.split_once(':').unwrap().1;
             let original = path.split("  (").next().unwrap().trim().to_string();
             Entry {
-                file: e["file"].as_str().unwrap().to_string(),
-                deps: e["deps"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|d| d.as_str().unwrap().to_string())
-                    .collect(),
+                file: e.file,
+                deps: e.deps,
                 original,
             }
         })
