@@ -199,6 +199,101 @@ pub struct Pou {
     pub var_blocks: Vec<VarBlock>,
     pub body: Body,
     pub span: Span,
+    /// Object orientation (docs/iec.md, "Object orientation"): what a FUNCTION_BLOCK
+    /// extends and implements, its methods and properties, a PROGRAM's or FB's actions.
+    pub oop: PouOop,
+}
+
+/// The object-oriented parts of a POU (all empty for a POU of the standard's second edition).
+#[derive(Clone, Debug, Default)]
+pub struct PouOop {
+    /// `ABSTRACT`, `FINAL` and the access specifier written before the name.
+    pub modifiers: Modifiers,
+    /// `EXTENDS base`.
+    pub extends: Option<Ident>,
+    /// `IMPLEMENTS I1, I2`.
+    pub implements: Vec<Ident>,
+    pub methods: Vec<Method>,
+    pub properties: Vec<Property>,
+    pub actions: Vec<Action>,
+}
+
+impl PouOop {
+    pub fn is_empty(&self) -> bool {
+        self.extends.is_none()
+            && self.implements.is_empty()
+            && self.methods.is_empty()
+            && self.properties.is_empty()
+            && self.actions.is_empty()
+    }
+}
+
+/// `PUBLIC`, `PRIVATE`, `PROTECTED`, `INTERNAL` (PUBLIC when none is written).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Access {
+    #[default]
+    Public,
+    Private,
+    Protected,
+    Internal,
+}
+
+impl Access {
+    pub fn from_word(w: &str) -> Option<Access> {
+        Some(match w.to_ascii_uppercase().as_str() {
+            "PUBLIC" => Access::Public,
+            "PRIVATE" => Access::Private,
+            "PROTECTED" => Access::Protected,
+            "INTERNAL" => Access::Internal,
+            _ => return None,
+        })
+    }
+
+    pub fn keyword(self) -> &'static str {
+        match self {
+            Access::Public => "PUBLIC",
+            Access::Private => "PRIVATE",
+            Access::Protected => "PROTECTED",
+            Access::Internal => "INTERNAL",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Modifiers {
+    pub access: Access,
+    pub is_abstract: bool,
+    pub is_final: bool,
+}
+
+/// `METHOD [access] name [: type] … END_METHOD`: `pou` is its interface and body, a
+/// FUNCTION-like POU (`return_type` optional) whose `VAR_INST` blocks live in the instance.
+#[derive(Clone, Debug)]
+pub struct Method {
+    pub modifiers: Modifiers,
+    pub pou: Pou,
+}
+
+/// `PROPERTY [access] name : type`, with a `GET` and/or a `SET` accessor (each a method-like
+/// POU: the getter returns the property's type, the setter reads it as an input of that
+/// property's name).
+#[derive(Clone, Debug)]
+pub struct Property {
+    pub modifiers: Modifiers,
+    pub name: Ident,
+    pub ty: TypeSpec,
+    pub get: Option<Pou>,
+    pub set: Option<Pou>,
+    pub span: Span,
+}
+
+/// `ACTION name: … END_ACTION` of a PROGRAM or FUNCTION_BLOCK: a body that works on the
+/// POU's own variables (TwinCAT's `<Action>`, CODESYS's actions).
+#[derive(Clone, Debug)]
+pub struct Action {
+    pub name: Ident,
+    pub body: Body,
+    pub span: Span,
 }
 
 /// A POU body in the language it was written in.
@@ -369,6 +464,8 @@ pub enum VarKind {
     Temp,
     External,
     Global,
+    /// `VAR_INST` of a METHOD: kept in the function block instance between calls.
+    Inst,
     /// `VAR_ACCESS`, `VAR_CONFIG` (reported as not supported).
     Other,
 }
@@ -383,6 +480,7 @@ impl VarKind {
             VarKind::Temp => "VAR_TEMP",
             VarKind::External => "VAR_EXTERNAL",
             VarKind::Global => "VAR_GLOBAL",
+            VarKind::Inst => "VAR_INST",
             VarKind::Other => "VAR_ACCESS",
         }
     }

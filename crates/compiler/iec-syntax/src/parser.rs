@@ -140,6 +140,49 @@ pub fn parse_declaration(file: FileId, text: &str, diags: &mut Diagnostics) -> O
 }
 
 /// Parses one expression alone (a PLCopen initial value, a task interval).
+/// The `<Declaration>` of a TwinCAT method, property or action (`METHOD M : INT` and its
+/// variable blocks, `PROPERTY P : INT`): the member, without a body.
+pub fn parse_member_declaration(
+    file: FileId,
+    text: &str,
+    diags: &mut Diagnostics,
+) -> Option<PouOop> {
+    let tokens = lexer::lex(file, text, diags);
+    let mut p = Parser::new(file, text, tokens, diags);
+    let mut oop = PouOop::default();
+    if !p.at_member_start() {
+        let t = p.peek().clone();
+        if !p.quiet_at(&t) {
+            p.error_at(
+                diag::SYNTAX,
+                t.span,
+                "a member's declaration starts with METHOD, PROPERTY or ACTION and its name",
+            );
+        }
+        return None;
+    }
+    p.member(&mut oop, true).ok()?;
+    if !p.at(&Tok::Eof) {
+        let t = p.peek().clone();
+        let msg = format!("{} after the member's declaration", p.describe(&t));
+        p.error_at(diag::SYNTAX, t.span, msg);
+    }
+    Some(oop)
+}
+
+/// Variable blocks alone (the `<Declaration>` of a TwinCAT property's GET or SET).
+pub fn parse_var_blocks(file: FileId, text: &str, diags: &mut Diagnostics) -> Vec<VarBlock> {
+    let tokens = lexer::lex(file, text, diags);
+    let mut p = Parser::new(file, text, tokens, diags);
+    let blocks = p.member_var_blocks();
+    if !p.at(&Tok::Eof) {
+        let t = p.peek().clone();
+        let msg = format!("{} where variable blocks were expected", p.describe(&t));
+        p.error_at(diag::SYNTAX, t.span, msg);
+    }
+    blocks
+}
+
 pub fn parse_expression(file: FileId, text: &str, diags: &mut Diagnostics) -> Option<Expr> {
     let tokens = lexer::lex(file, text, diags);
     let mut p = Parser::new(file, text, tokens, diags);
@@ -458,7 +501,10 @@ mod config;
 mod decl;
 mod expr;
 pub mod il;
+mod oop;
 mod pou;
+
+pub use oop::accessor;
 mod stmt;
 
 #[cfg(test)]
@@ -466,3 +512,6 @@ mod tests;
 
 #[cfg(test)]
 mod vendor_tests;
+
+#[cfg(test)]
+mod oop_tests;

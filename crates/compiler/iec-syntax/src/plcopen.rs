@@ -492,6 +492,7 @@ impl Reader<'_> {
             return_type,
             var_blocks,
             body,
+            oop: PouOop::default(),
         })
     }
 

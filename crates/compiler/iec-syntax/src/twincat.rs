@@ -6,8 +6,8 @@
 //! Each declaration and body is a source of its own placed where its CDATA starts in the XML
 //! file (as the PLCopen reader places ST bodies), so a diagnostic points at the line of the
 //! `.TcPOU` a person opens. Every such source is marked as coming from a TwinCAT file, for the
-//! choice of dialect. A POU's methods, properties, actions and transitions are reported as not
-//! supported yet, each at its own element; the rest of the file is still read.
+//! choice of dialect. A POU's methods, properties (`<Get>`, `<Set>`) and actions are read into
+//! its [`PouOop`]; transitions are reported as not supported yet, the rest of the file read.
 
 use crate::ast::*;
 use crate::diag::{self, Diagnostics};
@@ -199,30 +199,74 @@ impl Reader<'_> {
     }
 
     fn pou(&mut self, el: &X) -> Option<Pou> {
-        for c in &el.children {
-            let what = match c.name.as_str() {
-                "Method" => "METHOD",
-                "Property" => "PROPERTY",
-                "Action" => "ACTION",
-                "Transition" => "TRANSITION",
-                _ => continue,
-            };
-            let owner = Self::object_name(el);
-            let span = self.span(c);
-            self.diags.error(
-                diag::UNSUPPORTED,
-                span,
-                format!(
-                    "{what} {} of {owner} is not supported yet; the rest of the file is checked",
-                    Self::object_name(c)
-                ),
-            );
-        }
         let (text, at) = self.declaration(el)?;
         let f = self.embed(&text, at);
         let mut pou = parser::parse_declaration(f, &text, self.diags)?;
         pou.body = self.implementation(el, &pou.name);
+        for c in &el.children {
+            match c.name.as_str() {
+                "Method" | "Property" => {
+                    if let Some(oop) = self.member(c) {
+                        pou.oop.methods.extend(oop.methods);
+                        pou.oop.properties.extend(oop.properties);
+                    }
+                }
+                "Action" => {
+                    let name = Ident::new(Self::object_name(c), self.span(c));
+                    let body = self.implementation(c, &name);
+                    let span = name.span;
+                    pou.oop.actions.push(Action { name, body, span });
+                }
+                "Transition" => {
+                    let owner = Self::object_name(el);
+                    let span = self.span(c);
+                    self.diags.error(
+                        diag::UNSUPPORTED,
+                        span,
+                        format!(
+                            "TRANSITION {} of {owner} is not supported yet; the rest of the file is checked",
+                            Self::object_name(c)
+                        ),
+                    );
+                }
+                _ => {}
+            }
+        }
         Some(pou)
+    }
+
+    /// A `<Method>` (its declaration and body) or a `<Property>` (its declaration, `<Get>`
+    /// and `<Set>`, each with variable blocks and a body).
+    fn member(&mut self, c: &X) -> Option<PouOop> {
+        let (text, at) = self.declaration(c)?;
+        let f = self.embed(&text, at);
+        let mut oop = parser::parse_member_declaration(f, &text, self.diags)?;
+        if let Some(m) = oop.methods.first_mut() {
+            let name = m.pou.name.clone();
+            m.pou.body = self.implementation(c, &name);
+        }
+        if let Some(p) = oop.properties.first_mut() {
+            for (tag, get) in [("Get", true), ("Set", false)] {
+                let Some(acc) = c.child(tag) else {
+                    continue;
+                };
+                let blocks = match acc.child("Declaration") {
+                    Some(d) => {
+                        let f = self.embed(&d.text, d.text_start.unwrap_or(d.start));
+                        parser::parse_var_blocks(f, &d.text, self.diags)
+                    }
+                    None => Vec::new(),
+                };
+                let body = self.implementation(acc, &p.name);
+                let pou = parser::accessor(p, get, blocks, body, self.span(acc));
+                if get {
+                    p.get = Some(pou);
+                } else {
+                    p.set = Some(pou);
+                }
+            }
+        }
+        Some(oop)
     }
 
     fn implementation(&mut self, el: &X, name: &Ident) -> Body {

@@ -23,6 +23,10 @@ impl<'a, 'd> Parser<'a, 'd> {
                     self.bump();
                     continue;
                 }
+                Tok::Ident if self.at_member_start() => {
+                    self.member_after(&mut lib);
+                    continue;
+                }
                 _ => Err(self.expected(
                     "PROGRAM, FUNCTION, FUNCTION_BLOCK, TYPE, CONFIGURATION or VAR_GLOBAL",
                 )),

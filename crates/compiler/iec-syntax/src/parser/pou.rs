@@ -10,6 +10,10 @@ use super::{PResult, Parser, Reported};
 impl<'a, 'd> Parser<'a, 'd> {
     pub(super) fn pou(&mut self, kind: PouKind) -> PResult<Pou> {
         let start = self.bump().span;
+        let mut oop = PouOop {
+            modifiers: self.modifiers(),
+            ..PouOop::default()
+        };
         let name = self.ident("the POU's name")?;
         let return_type = if kind == PouKind::Function {
             if self.eat(&Tok::Colon).is_some() {
@@ -29,6 +33,8 @@ impl<'a, 'd> Parser<'a, 'd> {
         } else {
             None
         };
+        self.extends_implements(&mut oop)?;
+        self.eat(&Tok::Semi);
         let end_kw = match kind {
             PouKind::Program => Kw::EndProgram,
             PouKind::FunctionBlock => Kw::EndFunctionBlock,
@@ -52,6 +58,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                 }
             }
         }
+        self.members(&mut oop);
         if self.il {
             let body_start = self.peek().span;
             let code = self.il_instructions(end_kw);
@@ -59,7 +66,9 @@ impl<'a, 'd> Parser<'a, 'd> {
                 code,
                 span: body_start.at_start(),
             };
-            return self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw);
+            let mut pou = self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw)?;
+            pou.oop = oop;
+            return Ok(pou);
         }
         let mut body = self.statements(&[end_kw]);
         // A stray END_WHILE, ELSE, UNTIL…: report it (unless a missing END_ was reported
@@ -86,8 +95,10 @@ impl<'a, 'd> Parser<'a, 'd> {
             self.bump();
             self.eat(&Tok::Semi);
             body.extend(self.statements(&[end_kw]));
+            self.members(&mut oop);
         }
-        self.pou_end(
+        self.members(&mut oop);
+        let mut pou = self.pou_end(
             kind,
             name,
             return_type,
@@ -95,7 +106,9 @@ impl<'a, 'd> Parser<'a, 'd> {
             Body::St(body),
             start,
             end_kw,
-        )
+        )?;
+        pou.oop = oop;
+        Ok(pou)
     }
 
     /// The `END_…` of a POU, and the POU.
@@ -136,24 +149,26 @@ impl<'a, 'd> Parser<'a, 'd> {
             var_blocks,
             body,
             span: start.to(end),
+            oop: PouOop::default(),
         })
     }
 
-    fn is_var_block_start(&self) -> bool {
-        matches!(
-            self.peek().tok,
-            Tok::Kw(
-                Kw::Var
-                    | Kw::VarInput
-                    | Kw::VarOutput
-                    | Kw::VarInOut
-                    | Kw::VarTemp
-                    | Kw::VarExternal
-                    | Kw::VarGlobal
-                    | Kw::VarAccess
-                    | Kw::VarConfig
+    pub(super) fn is_var_block_start(&self) -> bool {
+        self.at_var_inst()
+            || matches!(
+                self.peek().tok,
+                Tok::Kw(
+                    Kw::Var
+                        | Kw::VarInput
+                        | Kw::VarOutput
+                        | Kw::VarInOut
+                        | Kw::VarTemp
+                        | Kw::VarExternal
+                        | Kw::VarGlobal
+                        | Kw::VarAccess
+                        | Kw::VarConfig
+                )
             )
-        )
     }
 
     pub(super) fn var_block(&mut self) -> PResult<VarBlock> {
@@ -166,6 +181,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             Tok::Kw(Kw::VarTemp) => VarKind::Temp,
             Tok::Kw(Kw::VarExternal) => VarKind::External,
             Tok::Kw(Kw::VarGlobal) => VarKind::Global,
+            Tok::Ident => VarKind::Inst,
             _ => VarKind::Other,
         };
         let mut constant = false;

@@ -11,6 +11,7 @@ impl<'a, 'd> Parser<'a, 'd> {
     pub(super) fn is_stmt_list_end(&self, extra: &[Kw]) -> bool {
         match self.peek().tok {
             Tok::Eof => true,
+            Tok::Ident => self.at_member_boundary(),
             Tok::Kw(k) => {
                 extra.contains(&k)
                     || matches!(

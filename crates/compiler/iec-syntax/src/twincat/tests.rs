@@ -66,27 +66,68 @@ fn a_pou_is_its_declaration_and_its_body() {
     // The statement is on line 14 of the file, column 1.
     assert_eq!(map.position(body[0].span).to_string(), "Counter.TcPOU:14:1");
     assert!(map.files().all(|(_, f)| f.from_twincat));
-    // The methods and the rest are each reported at their own element.
-    // (Its `{attribute 'hide'}` pragma is a warning, W010, said once after them.)
+    // The method, property and action are read; the transition is reported at its element.
     let lines: Vec<&str> = msgs
         .iter()
         .filter(|m| m.contains(": error"))
         .map(|m| m.split(": error").next().unwrap())
         .collect();
-    assert_eq!(
-        lines,
-        [
-            "Counter.TcPOU:16:5",
-            "Counter.TcPOU:22:5",
-            "Counter.TcPOU:25:5",
-            "Counter.TcPOU:30:5"
-        ],
-        "{msgs:?}"
-    );
-    assert!(msgs[0].contains("error[E190]: METHOD Reset of Counter is not supported yet"));
-    assert!(msgs[1].contains("PROPERTY Value of Counter"));
-    assert!(msgs[2].contains("ACTION Twice of Counter"));
-    assert!(msgs[3].contains("TRANSITION Done of Counter"));
+    assert_eq!(lines, ["Counter.TcPOU:30:5"], "{msgs:?}");
+    assert!(msgs[1].contains("error[E190]: TRANSITION Done of Counter is not supported yet"));
+    let [m] = p.oop.methods.as_slice() else {
+        panic!("{:?}", p.oop.methods)
+    };
+    assert!(m.pou.name.is("Reset") && m.pou.return_type.is_none());
+    let Body::St(mb) = &m.pou.body else {
+        panic!("{:?}", m.pou.body)
+    };
+    // `count := 0;` is on line 19, column 22 (after `<ST><![CDATA[`).
+    assert_eq!(map.position(mb[0].span).to_string(), "Counter.TcPOU:19:22");
+    let [pr] = p.oop.properties.as_slice() else {
+        panic!("{:?}", p.oop.properties)
+    };
+    assert!(pr.name.is("Value") && pr.get.is_none() && pr.set.is_none());
+    let [a] = p.oop.actions.as_slice() else {
+        panic!("{:?}", p.oop.actions)
+    };
+    assert!(a.name.is("Twice") && matches!(&a.body, Body::St(b) if b.len() == 1));
+}
+
+/// A property's `<Get>` and `<Set>`: each its variable blocks and body; the setter reads the
+/// new value as an input named as the property.
+#[test]
+fn a_property_has_its_get_and_set() {
+    let text = "<TcPlcObject>
+  <POU Name=\"F\">
+    <Declaration><![CDATA[FUNCTION_BLOCK F
+VAR x : INT; END_VAR]]></Declaration>
+    <Implementation><ST><![CDATA[]]></ST></Implementation>
+    <Property Name=\"P\">
+      <Declaration><![CDATA[PROPERTY PUBLIC P : INT]]></Declaration>
+      <Get Name=\"Get\">
+        <Declaration><![CDATA[VAR tmp : INT; END_VAR]]></Declaration>
+        <Implementation><ST><![CDATA[tmp := x; P := tmp;]]></ST></Implementation>
+      </Get>
+      <Set Name=\"Set\">
+        <Declaration><![CDATA[]]></Declaration>
+        <Implementation><ST><![CDATA[x := P;]]></ST></Implementation>
+      </Set>
+    </Property>
+  </POU>
+</TcPlcObject>";
+    let (lib, msgs, _) = read_text("F.TcPOU", text);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let [Element::Pou(p)] = lib.elements.as_slice() else {
+        panic!("{:?}", lib.elements);
+    };
+    let pr = &p.oop.properties[0];
+    let get = pr.get.as_ref().unwrap();
+    assert!(get.return_type.is_some() && get.var_blocks.len() == 1);
+    assert!(matches!(&get.body, Body::St(b) if b.len() == 2));
+    let set = pr.set.as_ref().unwrap();
+    assert!(set.return_type.is_none());
+    assert_eq!(set.var_blocks[0].kind, VarKind::Input);
+    assert!(set.var_blocks[0].vars[0].names[0].is("P"));
 }
 
 #[test]

@@ -1,0 +1,370 @@
+//! Object orientation in text (IEC 61131-3 third edition as CODESYS and TwinCAT write it):
+//! a FUNCTION_BLOCK's modifiers, `EXTENDS`/`IMPLEMENTS`, and its members `METHOD`,
+//! `PROPERTY` (with `GET`/`SET`) and `ACTION`.
+//!
+//! The words are not reserved (CODESYS code uses `Method`, `Action` as names): each is read
+//! as a keyword only where a name follows it, which no statement or declaration allows. A
+//! member is accepted where the standard puts it (after the variable blocks), after the body
+//! before `END_FUNCTION_BLOCK`, and after `END_FUNCTION_BLOCK` (the layout of TwinCAT text
+//! exports and blark's grammar), where it belongs to the POU before it.
+
+use crate::ast::*;
+use crate::diag;
+use crate::lexer::{Kw, Tok};
+use crate::source::Span;
+
+use super::{PResult, Parser, Reported};
+
+/// The words that end a member's body, besides the POU keywords.
+const MEMBER_ENDS: &[&str] = &[
+    "END_METHOD",
+    "END_PROPERTY",
+    "END_ACTION",
+    "END_GET",
+    "END_SET",
+];
+
+impl<'a, 'd> Parser<'a, 'd> {
+    /// The current token is the identifier `w` (any case).
+    pub(super) fn at_word(&self, w: &str) -> bool {
+        self.word_at(0).is_some_and(|t| t.eq_ignore_ascii_case(w))
+    }
+
+    fn word_at(&self, k: usize) -> Option<&'a str> {
+        let t = self.peek_at(k);
+        (t.tok == Tok::Ident).then(|| self.text_of(t.span))
+    }
+
+    /// `METHOD name`, `PROPERTY name`, `ACTION name`.
+    pub(super) fn at_member_start(&self) -> bool {
+        ["METHOD", "PROPERTY", "ACTION"]
+            .iter()
+            .any(|w| self.at_word(w))
+            && Self::is_name(&self.peek_at(1).tok)
+    }
+
+    /// A word that ends a statement list: a member's end or the next member.
+    pub(super) fn at_member_boundary(&self) -> bool {
+        MEMBER_ENDS.iter().any(|w| self.at_word(w))
+            || self.at_member_start()
+            || ((self.at_word("GET") || self.at_word("SET"))
+                && !matches!(
+                    self.peek_at(1).tok,
+                    Tok::Assign | Tok::Dot | Tok::LParen | Tok::LBracket | Tok::Caret
+                ))
+    }
+
+    /// `VAR_INST` (a METHOD's variables kept in the instance).
+    pub(super) fn at_var_inst(&self) -> bool {
+        self.at_word("VAR_INST")
+    }
+
+    /// Modifiers written before a name: `ABSTRACT`, `FINAL`, an access specifier. A word
+    /// is a modifier only when another name follows it.
+    pub(super) fn modifiers(&mut self) -> Modifiers {
+        let mut m = Modifiers::default();
+        while let Some(w) = self.word_at(0) {
+            if !Self::is_name(&self.peek_at(1).tok) {
+                break;
+            }
+            if let Some(a) = Access::from_word(w) {
+                m.access = a;
+            } else if w.eq_ignore_ascii_case("ABSTRACT") {
+                m.is_abstract = true;
+            } else if w.eq_ignore_ascii_case("FINAL") {
+                m.is_final = true;
+            } else {
+                break;
+            }
+            self.bump();
+        }
+        m
+    }
+
+    /// `EXTENDS base` and `IMPLEMENTS I1, I2` after a FUNCTION_BLOCK's name.
+    pub(super) fn extends_implements(&mut self, oop: &mut PouOop) -> PResult<()> {
+        loop {
+            if self.at_word("EXTENDS") {
+                self.bump();
+                oop.extends = Some(self.dotted_name("the name of the function block extended")?);
+            } else if self.at_word("IMPLEMENTS") {
+                self.bump();
+                loop {
+                    let i = self.dotted_name("an interface's name")?;
+                    oop.implements.push(i);
+                    if self.eat(&Tok::Comma).is_none() {
+                        break;
+                    }
+                }
+            } else {
+                return Ok(());
+            }
+        }
+    }
+
+    /// A name, possibly qualified by a namespace (`Lib.FB_Base`): the last part is kept.
+    fn dotted_name(&mut self, what: &str) -> PResult<Ident> {
+        let mut id = self.ident(what)?;
+        while self.at(&Tok::Dot) && Self::is_name(&self.peek_at(1).tok) {
+            self.bump();
+            id = self.ident(what)?;
+        }
+        Ok(id)
+    }
+
+    /// Members in a row (where `at_member_start`), added to `oop`.
+    pub(super) fn members(&mut self, oop: &mut PouOop) {
+        while self.at_member_start() {
+            let start = self.pos;
+            if self.member(oop, false).is_err() {
+                if self.pos == start {
+                    self.bump();
+                }
+                while !self.is_top_start()
+                    && !self.at_member_start()
+                    && !matches!(
+                        self.peek().tok,
+                        Tok::Kw(Kw::EndFunctionBlock | Kw::EndProgram | Kw::EndFunction)
+                    )
+                {
+                    if MEMBER_ENDS.iter().any(|w| self.at_word(w)) {
+                        self.bump();
+                        self.eat(&Tok::Semi);
+                        break;
+                    }
+                    self.bump();
+                }
+            }
+        }
+    }
+
+    /// A member after `END_FUNCTION_BLOCK`/`END_PROGRAM`: it belongs to the POU before it.
+    pub(super) fn member_after(&mut self, lib: &mut Library) {
+        let at = self.peek().span;
+        let mut oop = PouOop::default();
+        self.members(&mut oop);
+        match lib.elements.last_mut() {
+            Some(Element::Pou(p)) if p.kind != PouKind::Function => {
+                p.oop.methods.append(&mut oop.methods);
+                p.oop.properties.append(&mut oop.properties);
+                p.oop.actions.append(&mut oop.actions);
+            }
+            _ => self.error_at(
+                diag::SYNTAX,
+                at,
+                "a METHOD, PROPERTY or ACTION belongs to a FUNCTION_BLOCK (an ACTION also to a PROGRAM): write it inside the POU, or right after its END_FUNCTION_BLOCK",
+            ),
+        }
+    }
+
+    /// One METHOD, PROPERTY or ACTION. With `decl_only` (a TwinCAT `<Declaration>`), only the
+    /// header and variable blocks are there: no body, no END_….
+    pub(super) fn member(&mut self, oop: &mut PouOop, decl_only: bool) -> PResult<()> {
+        if self.at_word("METHOD") {
+            let m = self.method(decl_only)?;
+            oop.methods.push(m);
+        } else if self.at_word("PROPERTY") {
+            let p = self.property(decl_only)?;
+            oop.properties.push(p);
+        } else {
+            let a = self.action(decl_only)?;
+            oop.actions.push(a);
+        }
+        Ok(())
+    }
+
+    fn method(&mut self, decl_only: bool) -> PResult<Method> {
+        let start = self.bump().span;
+        let modifiers = self.modifiers();
+        let name = self.member_name("the method's name")?;
+        let return_type = if self.eat(&Tok::Colon).is_some() {
+            Some(self.type_spec(false)?)
+        } else {
+            None
+        };
+        self.eat(&Tok::Semi);
+        let var_blocks = self.member_var_blocks();
+        let (body, end) = self.member_body(decl_only, "END_METHOD", &name)?;
+        Ok(Method {
+            modifiers,
+            pou: Pou {
+                kind: PouKind::Function,
+                name,
+                return_type,
+                var_blocks,
+                body,
+                span: start.to(end),
+                oop: PouOop::default(),
+            },
+        })
+    }
+
+    /// A member's name: `M`, or blark's qualified `FB.M` (the last part).
+    fn member_name(&mut self, what: &str) -> PResult<Ident> {
+        self.dotted_name(what)
+    }
+
+    /// Variable blocks of a member (VAR_INST included).
+    pub(super) fn member_var_blocks(&mut self) -> Vec<VarBlock> {
+        let mut blocks = Vec::new();
+        while self.is_var_block_start() {
+            let s = self.pos;
+            match self.var_block() {
+                Ok(b) => blocks.push(b),
+                Err(Reported) => {
+                    if self.pos == s {
+                        self.bump();
+                    }
+                    while !self.at_kw(Kw::EndVar)
+                        && !self.is_top_start()
+                        && !self.at_member_boundary()
+                    {
+                        self.bump();
+                    }
+                    self.eat_kw(Kw::EndVar);
+                    self.eat(&Tok::Semi);
+                }
+            }
+        }
+        blocks
+    }
+
+    /// The statements up to `end` (a word) and the span of `end`.
+    fn member_body(&mut self, decl_only: bool, end: &str, name: &Ident) -> PResult<(Body, Span)> {
+        if decl_only {
+            return Ok((Body::St(Vec::new()), self.prev_span()));
+        }
+        let body = self.statements(&[]);
+        self.end_word(end, name)?;
+        Ok((Body::St(body), self.prev_span()))
+    }
+
+    fn end_word(&mut self, end: &str, name: &Ident) -> PResult<()> {
+        if self.at_word(end) {
+            self.bump();
+            self.eat(&Tok::Semi);
+            return Ok(());
+        }
+        let t = self.peek().clone();
+        if self.quiet_at(&t) {
+            return Err(Reported);
+        }
+        let msg = format!("{} has no {end}; found {}", name.name, self.describe(&t));
+        self.error_at(diag::MISSING_END, t.span, msg);
+        Err(Reported)
+    }
+
+    /// `PROPERTY name : type` then `GET … END_GET` and/or `SET … END_SET`, `END_PROPERTY`.
+    fn property(&mut self, decl_only: bool) -> PResult<Property> {
+        let start = self.bump().span;
+        let modifiers = self.modifiers();
+        let name = self.member_name("the property's name")?;
+        self.expect(&Tok::Colon, "`:` and the property's type")?;
+        let ty = self.type_spec(false)?;
+        self.eat(&Tok::Semi);
+        let mut prop = Property {
+            modifiers,
+            name: name.clone(),
+            ty,
+            get: None,
+            set: None,
+            span: start,
+        };
+        if decl_only {
+            return Ok(prop);
+        }
+        loop {
+            let get = self.at_word("GET");
+            if !get && !self.at_word("SET") {
+                break;
+            }
+            let at = self.bump().span;
+            self.eat(&Tok::Semi);
+            let var_blocks = self.member_var_blocks();
+            let body = self.statements(&[]);
+            self.end_word(if get { "END_GET" } else { "END_SET" }, &name)?;
+            let acc = accessor(
+                &prop,
+                get,
+                var_blocks,
+                Body::St(body),
+                at.to(self.prev_span()),
+            );
+            if get {
+                prop.get = Some(acc);
+            } else {
+                prop.set = Some(acc);
+            }
+        }
+        if prop.get.is_none() && prop.set.is_none() {
+            let t = self.peek().clone();
+            if !self.quiet_at(&t) {
+                self.error_at(
+                    diag::SYNTAX,
+                    t.span,
+                    format!(
+                        "property {} needs a GET … END_GET or SET … END_SET section; found {}",
+                        name.name,
+                        self.describe(&t)
+                    ),
+                );
+            }
+            return Err(Reported);
+        }
+        self.end_word("END_PROPERTY", &name)?;
+        prop.span = start.to(self.prev_span());
+        Ok(prop)
+    }
+
+    /// `ACTION name: … END_ACTION` (the colon optional, as CODESYS writes it too).
+    fn action(&mut self, decl_only: bool) -> PResult<Action> {
+        let start = self.bump().span;
+        let name = self.member_name("the action's name")?;
+        self.eat(&Tok::Colon);
+        let (body, end) = self.member_body(decl_only, "END_ACTION", &name)?;
+        Ok(Action {
+            name,
+            body,
+            span: start.to(end),
+        })
+    }
+}
+
+/// A property's GET (a function returning the property's type, its result named as the
+/// property) or SET (the new value an input named as the property).
+pub fn accessor(
+    prop: &Property,
+    get: bool,
+    mut var_blocks: Vec<VarBlock>,
+    body: Body,
+    span: Span,
+) -> Pou {
+    if !get {
+        var_blocks.insert(
+            0,
+            VarBlock {
+                kind: VarKind::Input,
+                constant: false,
+                retain: Retain::Unspecified,
+                vars: vec![VarDecl {
+                    names: vec![prop.name.clone()],
+                    location: None,
+                    ty: prop.ty.clone(),
+                    init: None,
+                    edge: None,
+                    span: prop.name.span,
+                }],
+                span: prop.name.span,
+            },
+        );
+    }
+    Pou {
+        kind: PouKind::Function,
+        name: prop.name.clone(),
+        return_type: get.then(|| prop.ty.clone()),
+        var_blocks,
+        body,
+        span,
+        oop: PouOop::default(),
+    }
+}
