@@ -49,6 +49,8 @@ pub(crate) struct Cx {
     pub const_only: bool,
     /// VAR CONSTANTs of the POU being read ahead of their declaration (`later_constant`).
     pub ahead: Vec<String>,
+    /// The instance the code works on, in a block's, program's or member's body (`oop.rs`).
+    pub this: Option<crate::oop::This>,
 }
 
 impl Cx {
@@ -62,12 +64,13 @@ impl Cx {
             for_vars: Vec::new(),
             const_only: false,
             ahead: Vec::new(),
+            this: None,
         }
     }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum State {
+pub(crate) enum State {
     Todo,
     Busy,
     Done,
@@ -83,7 +86,7 @@ pub(crate) struct Checker<'a> {
     pub pou_asts: Vec<&'a ast::Pou>,
     pub pou_names: HashMap<String, PouId>,
     pub pous: Vec<ir::Pou>,
-    pou_state: Vec<State>,
+    pub(crate) pou_state: Vec<State>,
     pub natives: Vec<NativeSig>,
     pub native_names: HashMap<String, u32>,
     pub globals: Vec<Var>,
@@ -112,6 +115,8 @@ pub(crate) struct Checker<'a> {
     pub overflow: Overflow,
     /// The vendor libraries loaded (`Options::libs`).
     pub libs: Vec<String>,
+    /// Methods, properties, actions and EXTENDS chains (`oop.rs`).
+    pub(crate) oop: crate::oop::Oop<'a>,
 }
 
 impl<'a> Checker<'a> {
@@ -150,6 +155,7 @@ impl<'a> Checker<'a> {
             library: options.library,
             overflow: options.overflow,
             libs: options.libs.clone(),
+            oop: crate::oop::Oop::new(),
         }
     }
 
@@ -159,6 +165,7 @@ impl<'a> Checker<'a> {
 
     pub fn run(mut self) -> (Option<ir::Project>, Diagnostics) {
         self.collect();
+        self.collect_members();
         // Named types, in declaration order (each resolves what it needs first).
         let names: Vec<(String, &'a ast::TypeDecl)> = self
             .lib
@@ -187,6 +194,7 @@ impl<'a> Checker<'a> {
         for i in 0..self.pou_asts.len() {
             self.body(i as PouId);
         }
+        self.oop_rules();
         let configuration = self.configurations();
         let diags = std::mem::take(&mut self.diags).sorted();
         if diags.has_errors() {

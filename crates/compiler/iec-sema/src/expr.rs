@@ -50,6 +50,11 @@ impl<'a> Checker<'a> {
     /// resolves bare enumeration values and generic results, and types literals).
     pub fn expr(&mut self, e: &ast::Expr, cx: &mut Cx, expected: Option<TypeId>) -> Expr {
         let span = e.span;
+        if matches!(e.kind, A::Name(_) | A::Field(..)) {
+            if let Some(x) = self.property_read(e, cx) {
+                return x;
+            }
+        }
         match &e.kind {
             A::Error => err(span),
             A::Literal(l) => self.literal(l, span),

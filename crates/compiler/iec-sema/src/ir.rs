@@ -194,6 +194,9 @@ pub enum Root {
     /// A variable of the POU the code belongs to.
     Var(VarId),
     Global(GlobalId),
+    /// The whole instance of the function block (or program) whose own body this is:
+    /// `THIS^`, and the instance a method or action called inside the body works on.
+    This,
 }
 
 #[derive(Clone, Debug)]

@@ -15,6 +15,7 @@ mod il;
 pub mod ir;
 mod limits;
 pub mod memory;
+mod oop;
 pub mod ops;
 mod stdlib;
 mod stmt;

@@ -29,6 +29,12 @@ impl Checker<'_> {
         let kind = match &s.kind {
             S::Empty => return None,
             S::Assign { target, value } => {
+                if let Some(set) = self.property_write(target, value, cx) {
+                    return set.map(|x| Stmt {
+                        kind: StmtKind::Eval(x),
+                        span,
+                    });
+                }
                 let p = self.place(target, cx, true);
                 let p = p?;
                 let x = self.expr(value, cx, Some(p.ty));
@@ -383,7 +389,7 @@ impl Checker<'_> {
         }
         let root = match p.root {
             Root::Var(v) => Some(v),
-            Root::Global(_) => None,
+            Root::Global(_) | Root::This => None,
         };
         if let Some(v) = root {
             cx.for_vars.push(v);
@@ -409,6 +415,14 @@ impl Checker<'_> {
     /// `inst(IN := …, Q => …);` or a function called as a statement.
     pub(crate) fn call_stmt(&mut self, call: &ast::Call, cx: &mut Cx) -> Option<Stmt> {
         let span = call.span;
+        if !matches!(call.callee.kind, ast::ExprKind::Name(_)) {
+            if let Some(x) = self.member_call(call, cx) {
+                return (x.ty != ids::ERROR).then_some(Stmt {
+                    kind: StmtKind::Eval(x),
+                    span,
+                });
+            }
+        }
         // A function (user or standard) called for its effects.
         if let ast::ExprKind::Name(n) = &call.callee.kind {
             let key = n.key();

@@ -383,6 +383,14 @@ impl TypeTable {
         self.intern(Key::Fb(r), Type::Fb(r))
     }
 
+    /// The type of a function block's (or program's) instances, if any variable has it yet.
+    pub fn fb_id(&self, r: FbRef) -> Option<TypeId> {
+        self.types
+            .iter()
+            .position(|t| matches!(t, Type::Fb(x) if *x == r))
+            .map(|i| i as TypeId)
+    }
+
     pub fn reference(&mut self, kind: RefKind, target: TypeId) -> TypeId {
         self.intern(Key::Ref(kind, target), Type::Ref { kind, target })
     }

@@ -12,11 +12,15 @@ use super::{Checker, Cx};
 impl<'a> Checker<'a> {
     pub(super) fn body(&mut self, p: PouId) {
         let ast = self.pou_asts[p as usize];
-        match &ast.body {
+        let this = self.this_of(p);
+        // A member is FUNCTION-like whatever its syntax tree (an action's is its block's).
+        let kind = self.pous[p as usize].kind;
+        match self.body_of(p) {
             ast::Body::St(stmts) => {
                 let mut cx = Cx::global();
                 cx.pou = Some(p);
-                cx.kind = Some(ast.kind);
+                cx.kind = Some(kind);
+                cx.this = this;
                 cx.vars = self.pous[p as usize].vars.clone();
                 cx.names = cx
                     .vars
@@ -27,13 +31,14 @@ impl<'a> Checker<'a> {
                     .collect();
                 let mut body = self.edge_prologue(p, ast.name.span);
                 body.extend(self.stmts(stmts, &mut cx));
-                self.frame_escapes(p, ast.kind, &body);
+                self.frame_escapes(p, kind, &body);
                 self.pous[p as usize].body = body;
             }
             ast::Body::Il { code, .. } => {
                 let mut cx = Cx::global();
                 cx.pou = Some(p);
-                cx.kind = Some(ast.kind);
+                cx.kind = Some(kind);
+                cx.this = this;
                 cx.vars = self.pous[p as usize].vars.clone();
                 cx.names = cx
                     .vars
@@ -46,7 +51,7 @@ impl<'a> Checker<'a> {
                 body.extend(self.il_body(code, &mut cx));
                 // The accumulator's temporaries are variables of the POU.
                 self.pous[p as usize].vars = cx.vars;
-                self.frame_escapes(p, ast.kind, &body);
+                self.frame_escapes(p, kind, &body);
                 self.pous[p as usize].body = body;
             }
             ast::Body::Graphical { language, span, .. } => {

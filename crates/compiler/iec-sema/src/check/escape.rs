@@ -137,6 +137,7 @@ impl Flow<'_> {
                         }
                         (Root::Var(v), _) => self.escape(value, Into::Var(v)),
                         (Root::Global(g), _) => self.escape(value, Into::Global(g)),
+                        (Root::This, _) => self.escape(value, Into::Elsewhere),
                     }
                     self.inner(value);
                 } else {

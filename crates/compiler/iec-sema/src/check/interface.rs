@@ -132,8 +132,9 @@ impl<'a> Checker<'a> {
             VarKind::External,
             VarKind::Global,
             VarKind::Other,
+            VarKind::Inst,
         ];
-        if ast.kind == PouKind::Function {
+        if ast.kind == PouKind::Function && self.has_result(p) {
             let ty = match &ast.return_type {
                 Some(t) => self.resolve_spec(t, &mut cx).0,
                 None => ids::ERROR,
@@ -161,14 +162,16 @@ impl<'a> Checker<'a> {
         let mut edges: Vec<(VarId, ast::Edge)> = Vec::new();
         // Parameters in declaration order (positional arguments follow it), then the rest.
         let param = |k: VarKind| matches!(k, VarKind::Input | VarKind::InOut | VarKind::Output);
-        for b in ast.var_blocks.iter().filter(|b| param(b.kind)) {
+        let blocks = self.blocks_of(p);
+        for b in blocks.iter().filter(|b| param(b.kind)) {
             self.var_block(ast, b, &mut cx, &mut edges);
         }
         for kind in order.into_iter().filter(|k| !param(*k)) {
-            for b in ast.var_blocks.iter().filter(|b| b.kind == kind) {
+            for b in blocks.iter().filter(|b| b.kind == kind) {
                 self.var_block(ast, b, &mut cx, &mut edges);
             }
         }
+        self.member_vars(p, &mut cx, &mut edges);
         let mut vars = std::mem::take(&mut cx.vars);
         // R_EDGE / F_EDGE inputs keep their previous raw value (and a copy of the raw one).
         for (v, _) in &edges {
@@ -198,7 +201,7 @@ impl<'a> Checker<'a> {
         self.leave_type();
     }
 
-    fn var_block(
+    pub(crate) fn var_block(
         &mut self,
         pou: &ast::Pou,
         b: &ast::VarBlock,
@@ -206,8 +209,9 @@ impl<'a> Checker<'a> {
         edges: &mut Vec<(VarId, ast::Edge)>,
     ) {
         let allowed = match pou.kind {
-            PouKind::Program => !matches!(b.kind, VarKind::Global | VarKind::Other),
-            PouKind::FunctionBlock => !matches!(b.kind, VarKind::Global | VarKind::Other),
+            PouKind::Program | PouKind::FunctionBlock => {
+                !matches!(b.kind, VarKind::Global | VarKind::Other | VarKind::Inst)
+            }
             PouKind::Function => matches!(
                 b.kind,
                 VarKind::Input
@@ -226,7 +230,9 @@ impl<'a> Checker<'a> {
                     "{} is not allowed in a {}; {}",
                     b.kind.keyword(),
                     pou.kind.keyword(),
-                    if b.kind == VarKind::Global {
+                    if b.kind == VarKind::Inst {
+                        "VAR_INST belongs in a METHOD of a FUNCTION_BLOCK (its variables kept in the instance); use VAR here"
+                    } else if b.kind == VarKind::Global {
                         "declare global variables in the CONFIGURATION (or a top-level VAR_GLOBAL list) and use VAR_EXTERNAL here"
                     } else {
                         "use VAR, VAR_INPUT, VAR_OUTPUT, VAR_IN_OUT or VAR_TEMP"

@@ -17,6 +17,9 @@ impl<'a> Checker<'a> {
         expected: Option<TypeId>,
     ) -> Expr {
         let span = call.span;
+        if let Some(x) = self.member_call(call, cx) {
+            return x;
+        }
         let A::Name(name) = &call.callee.kind else {
             self.error(
                 diag::NOT_CALLABLE,
@@ -85,6 +88,18 @@ impl<'a> Checker<'a> {
 
     /// A call of a user FUNCTION.
     fn fn_call(&mut self, p: crate::ir::PouId, call: &ast::Call, cx: &mut Cx) -> Expr {
+        self.fn_call_with(p, call, cx, None)
+    }
+
+    /// A call of a FUNCTION, or of a method, property accessor or action with the instance
+    /// it works on (`this`, passed to its last variable, THIS: `oop.rs`).
+    pub(crate) fn fn_call_with(
+        &mut self,
+        p: crate::ir::PouId,
+        call: &ast::Call,
+        cx: &mut Cx,
+        this: Option<crate::ir::Place>,
+    ) -> Expr {
         let span = call.span;
         self.interface(p);
         if Some(p) == cx.pou {
@@ -108,11 +123,16 @@ impl<'a> Checker<'a> {
             return err(span);
         }
         let pou = self.pous[p as usize].clone();
-        let Some(bound) = self.bind_args(&pou.name, &pou.vars, call, cx, false) else {
+        let params = pou.vars.len() - usize::from(this.is_some());
+        let Some(mut bound) = self.bind_args(&pou.name, &pou.vars[..params], call, cx, false)
+        else {
             return err(span);
         };
+        if let Some(t) = this {
+            bound.in_outs.push((params as VarId, t));
+        }
         let mut inputs = Vec::new();
-        for (i, v) in pou.vars.iter().enumerate() {
+        for (i, v) in pou.vars[..params].iter().enumerate() {
             if v.class == VarClass::Input {
                 let given = bound.inputs.iter().find(|(k, _)| *k == i as VarId);
                 let e = match given {

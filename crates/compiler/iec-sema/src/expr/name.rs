@@ -278,6 +278,9 @@ impl<'a> Checker<'a> {
                 span: id.span,
             });
         }
+        if let Some(p) = self.this_member_place(id, cx) {
+            return Some(p);
+        }
         if let Some(&g) = self.global_names.get(&key) {
             // Inside a POU only globals of a top-level VAR_GLOBAL list are visible without
             // VAR_EXTERNAL; configurations see every global.
@@ -298,6 +301,7 @@ impl<'a> Checker<'a> {
     pub fn var_of<'c>(&'c self, p: &Place, cx: &'c Cx) -> &'c crate::ir::Var {
         match p.root {
             Root::Var(v) => &cx.vars[v as usize],
+            Root::This => &self.oop.this_var,
             Root::Global(g) => {
                 if let Some(v) = cx.vars.iter().find(|v| v.class == VarClass::External(g)) {
                     return v;

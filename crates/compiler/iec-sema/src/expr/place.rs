@@ -19,7 +19,10 @@ impl<'a> Checker<'a> {
             A::Field(base, f) => self.field_place(e, base, f, cx, write),
             A::Index(base, idx) => self.index_place(e, base, idx, cx, write),
             A::Bit(base, n) => self.bit_place(e, base, n, cx, write),
-            A::Deref(base) => self.deref_place(e, base, cx),
+            A::Deref(base) => match self.this_deref(base, cx, e.span) {
+                Some(this) => Some(this),
+                None => self.deref_place(e, base, cx),
+            },
             _ => {
                 self.error(
                     diag::NOT_ASSIGNABLE,
@@ -91,7 +94,9 @@ impl<'a> Checker<'a> {
             }
             Type::Fb(fb) => {
                 let (i, ty, class, fb_name) = self.fb_member(fb, f)?;
+                let own = self.is_this(&p, cx);
                 match class {
+                    _ if own => {}
                     VarClass::Input | VarClass::Output | VarClass::InOut => {}
                     _ => {
                         self.error(
@@ -102,7 +107,7 @@ impl<'a> Checker<'a> {
                         return None;
                     }
                 }
-                if write && class == VarClass::Output {
+                if write && class == VarClass::Output && !own {
                     self.error(
                         diag::NOT_ASSIGNABLE,
                         span,
@@ -113,7 +118,7 @@ impl<'a> Checker<'a> {
                     );
                     return None;
                 }
-                if write && class == VarClass::InOut {
+                if write && class == VarClass::InOut && !own {
                     self.error(
                         diag::NOT_ASSIGNABLE,
                         span,

@@ -39,6 +39,8 @@ impl<'c, 'p> Fx<'c, 'p> {
                 }
             }
             Root::Global(g) => self.region_loc(Region::Global(g), 0),
+            // The instance's variables start at the frame's base.
+            Root::This => Loc::Slot(FRAME),
         };
         let mut ty = match p.root {
             Root::Var(v) => {
@@ -50,6 +52,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                 }
             }
             Root::Global(g) => self.c.p.globals[g as usize].ty,
+            Root::This => self.this_ty(),
         };
         let mut bit = None;
         for step in &p.path {
@@ -233,7 +236,18 @@ impl<'c, 'p> Fx<'c, 'p> {
                 }
             }
             Root::Global(g) => self.c.p.globals[g as usize].ty,
+            Root::This => self.this_ty(),
         }
+    }
+
+    /// The type of the instance whose body is compiled (the checker made it the type of the
+    /// THIS of the methods that take it).
+    fn this_ty(&self) -> TypeId {
+        self.c
+            .p
+            .types
+            .fb_id(FbRef::User(self.pou))
+            .unwrap_or(petriplc_iec_sema::types::ids::ERROR)
     }
 
     /// The type a step of a path leads to from `ty`.
