@@ -174,7 +174,10 @@ impl<'a, 'd> Parser<'a, 'd> {
                 Tok::LParen => {
                     if !matches!(
                         e.kind,
-                        ExprKind::Name(_) | ExprKind::Field(..) | ExprKind::Index(..)
+                        ExprKind::Name(_)
+                            | ExprKind::Field(..)
+                            | ExprKind::Index(..)
+                            | ExprKind::Deref(_)
                     ) {
                         break;
                     }
