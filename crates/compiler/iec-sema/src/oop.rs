@@ -153,13 +153,22 @@ impl<'a> Checker<'a> {
         let mut at = p;
         while let Some(base) = &self.pou_asts[at as usize].oop.extends {
             let here = self.pou_asts[at as usize];
-            let Some(&b) = self.pou_names.get(&base.key()) else {
+            // `Library.Block`: the project is one namespace, the block is looked up by name.
+            let (lib, name) = match base.name.rsplit_once('.') {
+                Some((l, n)) => (Some(l), n),
+                None => (None, base.name.as_str()),
+            };
+            let Some(&b) = self.pou_names.get(&name.to_ascii_uppercase()) else {
+                let hint = match lib {
+                    Some(l) => format!("it comes from the library {l}: check the library's sources together with this one"),
+                    None => format!("declare FUNCTION_BLOCK {name} or correct the name"),
+                };
                 self.error(
                     diag::OOP_DECLARATION,
                     base.span,
                     format!(
-                        "{} extends `{}`, which is not declared; declare FUNCTION_BLOCK {} or correct the name",
-                        here.name.name, base.name, base.name
+                        "{} extends `{}`, which is not declared among these sources; {hint}",
+                        here.name.name, base.name
                     ),
                 );
                 return None;

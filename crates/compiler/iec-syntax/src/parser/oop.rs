@@ -102,12 +102,14 @@ impl<'a, 'd> Parser<'a, 'd> {
         }
     }
 
-    /// A name, possibly qualified by a namespace (`Lib.FB_Base`): the last part is kept.
+    /// A name, possibly qualified by a library's namespace (`TcUnit.FB_TestSuite`), kept
+    /// whole: the checker looks the last part up and names the library when it is missing.
     fn dotted_name(&mut self, what: &str) -> PResult<Ident> {
         let mut id = self.ident(what)?;
         while self.at(&Tok::Dot) && Self::is_name(&self.peek_at(1).tok) {
             self.bump();
-            id = self.ident(what)?;
+            let next = self.ident(what)?;
+            id = Ident::new(format!("{}.{}", id.name, next.name), id.span.to(next.span));
         }
         Ok(id)
     }
@@ -201,7 +203,11 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     /// A member's name: `M`, or blark's qualified `FB.M` (the last part).
     fn member_name(&mut self, what: &str) -> PResult<Ident> {
-        self.dotted_name(what)
+        let id = self.dotted_name(what)?;
+        Ok(match id.name.rsplit_once('.') {
+            Some((_, last)) => Ident::new(last, id.span),
+            None => id,
+        })
     }
 
     /// Variable blocks of a member (VAR_INST included).
