@@ -57,6 +57,8 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
 #[cfg(test)]
 mod il_tests;
 #[cfg(test)]
+mod oop_tests;
+#[cfg(test)]
 mod reference_tests;
 #[cfg(test)]
 mod tests;

@@ -92,10 +92,16 @@ impl<'a> Checker<'a> {
                 }
                 let owner = cx.this.as_ref()?.owner;
                 let m = *self.oop.methods.get(&(owner, key))?;
-                (m, self.this_place(cx, span)?)
+                let this = self.this_place(cx, span)?;
+                if !self.may_use(m, cx, n) {
+                    return Some(err(span));
+                }
+                (m, this)
             }
             A::Deref(b) if is_word(b, "SUPER") => {
-                let (level, this) = self.super_level(cx, call.callee.span)?;
+                let Some((level, this)) = self.super_level(cx, call.callee.span) else {
+                    return Some(err(span));
+                };
                 let owner = cx.this.as_ref()?.owner;
                 let Some(&m) = self.oop.bodies.get(&(owner, level)) else {
                     return Some(err(span));
@@ -104,11 +110,10 @@ impl<'a> Checker<'a> {
             }
             A::Field(base, f) => {
                 let key = f.key();
-                if !self.oop.names.contains(&key) {
-                    return None;
-                }
                 if is_deref_of(base, "SUPER") {
-                    let (level, this) = self.super_level(cx, base.span)?;
+                    let Some((level, this)) = self.super_level(cx, base.span) else {
+                        return Some(err(span));
+                    };
                     let owner = cx.this.as_ref()?.owner;
                     let Some(m) = self.version_at(owner, level, &key) else {
                         let bn = self.pou_asts[level as usize].name.name.clone();
@@ -132,6 +137,9 @@ impl<'a> Checker<'a> {
                     }
                     (m, this)
                 } else {
+                    if !self.oop.names.contains(&key) {
+                        return None;
+                    }
                     let Some(inst) = self.instance_of(base, cx) else {
                         return Some(err(span));
                     };
@@ -139,7 +147,7 @@ impl<'a> Checker<'a> {
                         return None;
                     };
                     let m = *self.oop.methods.get(&(q, key))?;
-                    if !self.may_use(m, &inst, cx, f) {
+                    if !self.may_use(m, cx, f) {
                         return Some(err(span));
                     }
                     (m, inst)
@@ -196,10 +204,10 @@ impl<'a> Checker<'a> {
 
     /// PRIVATE members are used inside their block, PROTECTED ones inside it and the blocks
     /// extending it; PUBLIC and INTERNAL (one project) anywhere.
-    fn may_use(&mut self, m: PouId, inst: &Place, cx: &Cx, name: &ast::Ident) -> bool {
+    fn may_use(&mut self, m: PouId, cx: &Cx, name: &ast::Ident) -> bool {
         let member = &self.oop.members[&m];
         let access = member.modifiers.access;
-        if matches!(access, Access::Public | Access::Internal) || self.is_this(inst, cx) {
+        if matches!(access, Access::Public | Access::Internal) {
             return true;
         }
         let origin = member.origin;
@@ -242,7 +250,7 @@ impl<'a> Checker<'a> {
             );
             return Some(err(e.span));
         };
-        if !self.may_use(get, &this, cx, &name) {
+        if !self.may_use(get, cx, &name) {
             return Some(err(e.span));
         }
         let call = ast::Call {
@@ -273,7 +281,7 @@ impl<'a> Checker<'a> {
             );
             return Some(None);
         };
-        if !self.may_use(set, &this, cx, &name) {
+        if !self.may_use(set, cx, &name) {
             return Some(None);
         }
         let call = ast::Call {
