@@ -440,6 +440,42 @@ impl Reader<'_> {
                 return None;
             }
         };
+        let (mut var_blocks, return_type) = self.interface_of(el);
+        if kind == PouKind::Function && return_type.is_none() {
+            let span = self.span(el);
+            self.diags.error(
+                diag::PLCOPEN_STRUCTURE,
+                span,
+                format!(
+                    "FUNCTION {} has no <returnType> in its <interface>",
+                    name.name
+                ),
+            );
+        }
+        let body = self.body(el, &name);
+        let oop = self.pou_add_data(el, &name);
+        if !self.hidden.is_empty() {
+            var_blocks.push(VarBlock {
+                kind: VarKind::Local,
+                constant: false,
+                retain: Retain::Unspecified,
+                vars: std::mem::take(&mut self.hidden),
+                span: name.span,
+            });
+        }
+        Some(Pou {
+            kind,
+            span: name.span,
+            name,
+            return_type,
+            var_blocks,
+            body,
+            oop,
+        })
+    }
+
+    /// The variable blocks and result type of an `<interface>` (a POU's, a method's).
+    fn interface_of(&mut self, el: &X) -> (Vec<VarBlock>, Option<TypeSpec>) {
         let mut var_blocks = Vec::new();
         let mut return_type = None;
         if let Some(iface) = el.child("interface") {
@@ -463,37 +499,7 @@ impl Reader<'_> {
                 var_blocks.push(block);
             }
         }
-        if kind == PouKind::Function && return_type.is_none() {
-            let span = self.span(el);
-            self.diags.error(
-                diag::PLCOPEN_STRUCTURE,
-                span,
-                format!(
-                    "FUNCTION {} has no <returnType> in its <interface>",
-                    name.name
-                ),
-            );
-        }
-        let body = self.body(el, &name);
-        self.pou_add_data(el, &name);
-        if !self.hidden.is_empty() {
-            var_blocks.push(VarBlock {
-                kind: VarKind::Local,
-                constant: false,
-                retain: Retain::Unspecified,
-                vars: std::mem::take(&mut self.hidden),
-                span: name.span,
-            });
-        }
-        Some(Pou {
-            kind,
-            span: name.span,
-            name,
-            return_type,
-            var_blocks,
-            body,
-            oop: PouOop::default(),
-        })
+        (var_blocks, return_type)
     }
 
     fn body(&mut self, pou: &X, name: &Ident) -> Body {

@@ -1,9 +1,9 @@
 //! What CODESYS keeps in PLCopen XML's `<addData>` (its `http://www.3s-software.com/plcopenxml/…`
 //! data): global variable lists of the project, programs of a resource (a device's application),
-//! the blocks of a global list whose variables differ in attributes; and what is reported as not
-//! supported yet, each at its element, rather than dropped unseen: methods, properties,
-//! inheritance (EXTENDS, IMPLEMENTS), interfaces, and the actions of a POU whose body is not
-//! SFC. A task's interval may be an XML duration (`PT0.05S`), as CODESYS writes it. Other data (object ids, attributes, folders, task settings) changes nothing here.
+//! the blocks of a global list whose variables differ in attributes; a POU's methods,
+//! properties, EXTENDS and IMPLEMENTS, and the actions of a POU whose body is not SFC; and
+//! what is reported as not supported yet, at its element, rather than dropped unseen:
+//! interfaces. A task's interval may be an XML duration (`PT0.05S`), as CODESYS writes it. Other data (object ids, attributes, folders, task settings) changes nothing here.
 
 use super::{Reader, X};
 use crate::ast::*;
@@ -76,26 +76,72 @@ impl Reader<'_> {
         }
     }
 
-    /// A POU's data: what object orientation adds to it, and actions outside SFC.
-    pub(super) fn pou_add_data(&mut self, pou: &X, name: &Ident) {
+    /// A POU's data: its methods, properties (`<GetAccessor>`, `<SetAccessor>`), EXTENDS and
+    /// IMPLEMENTS, and its actions when its body is not SFC (whose actions are its steps').
+    pub(super) fn pou_add_data(&mut self, pou: &X, name: &Ident) -> PouOop {
+        let mut oop = PouOop::default();
         for d in data(pou, "method") {
             for m in d.children_named("Method") {
-                let m_name = m.attr("name").unwrap_or("?").to_string();
-                self.not_yet(m, format!("METHOD {m_name} of {}", name.name));
+                if let Some(method) = self.member_pou(m) {
+                    oop.methods.push(Method {
+                        modifiers: Modifiers::default(),
+                        pou: method,
+                    });
+                }
             }
         }
         for d in data(pou, "property") {
             for p in d.children_named("Property") {
-                let p_name = p.attr("name").unwrap_or("?").to_string();
-                self.not_yet(p, format!("PROPERTY {p_name} of {}", name.name));
+                let Some(pname) = self.name_attr(p) else {
+                    continue;
+                };
+                let (_, ty) = self.interface_of(p);
+                let Some(ty) = ty else {
+                    let span = self.span(p);
+                    self.diags.error(
+                        diag::PLCOPEN_STRUCTURE,
+                        span,
+                        format!(
+                            "PROPERTY {} of {} has no <returnType> in its <interface>",
+                            pname.name, name.name
+                        ),
+                    );
+                    continue;
+                };
+                let mut prop = Property {
+                    modifiers: Modifiers::default(),
+                    name: pname.clone(),
+                    ty,
+                    get: None,
+                    set: None,
+                    span: pname.span,
+                };
+                for (tag, get) in [("GetAccessor", true), ("SetAccessor", false)] {
+                    if let Some(acc) = p.child(tag) {
+                        let (blocks, _) = self.interface_of(acc);
+                        let body = self.body(acc, &pname);
+                        let span = self.span(acc);
+                        let pou = crate::parser::accessor(&prop, get, blocks, body, span);
+                        if get {
+                            prop.get = Some(pou);
+                        } else {
+                            prop.set = Some(pou);
+                        }
+                    }
+                }
+                oop.properties.push(prop);
             }
         }
         for d in data(pou, "pouinheritance") {
             for i in d.children_named("Inheritance") {
-                for (tag, word) in [("Extends", "EXTENDS"), ("Implements", "IMPLEMENTS")] {
-                    for e in i.children_named(tag) {
-                        let base = e.text.trim().to_string();
-                        self.not_yet(e, format!("{} {word} {base}", name.name));
+                for e in i.children_named("Extends") {
+                    let span = self.span(e);
+                    oop.extends = Some(Ident::new(e.text.trim(), span));
+                }
+                for e in i.children_named("Implements") {
+                    let span = self.span(e);
+                    for n in e.text.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+                        oop.implements.push(Ident::new(n, span));
                     }
                 }
             }
@@ -109,10 +155,35 @@ impl Reader<'_> {
                 .into_iter()
                 .flat_map(|a| a.children_named("action"))
             {
-                let a_name = a.attr("name").unwrap_or("?").to_string();
-                self.not_yet(a, format!("ACTION {a_name} of {}", name.name));
+                let Some(aname) = self.name_attr(a) else {
+                    continue;
+                };
+                let body = self.body(a, &aname);
+                let span = aname.span;
+                oop.actions.push(Action {
+                    name: aname,
+                    body,
+                    span,
+                });
             }
         }
+        oop
+    }
+
+    /// A `<Method>`: a FUNCTION-like POU of its interface and body.
+    fn member_pou(&mut self, m: &X) -> Option<Pou> {
+        let name = self.name_attr(m)?;
+        let (var_blocks, return_type) = self.interface_of(m);
+        let body = self.body(m, &name);
+        Some(Pou {
+            kind: PouKind::Function,
+            span: name.span,
+            name,
+            return_type,
+            var_blocks,
+            body,
+            oop: PouOop::default(),
+        })
     }
 }
 
