@@ -49,7 +49,8 @@ fn parse_encoded(
     let tokens = lexer::lex_encoded(file, text, latin1, diags);
     let mut p = Parser::new(file, text, tokens, diags);
     p.il = il;
-    let lib = p.library();
+    let mut lib = p.library();
+    crate::sfc::add_types(&mut lib);
     if lib.elements.is_empty() && !p.diags.has_errors() {
         p.diags.error(
             diag::EMPTY_SOURCE,
@@ -459,6 +460,7 @@ mod decl;
 mod expr;
 pub mod il;
 mod pou;
+mod sfc;
 mod stmt;
 
 #[cfg(test)]

@@ -52,6 +52,20 @@ impl<'a, 'd> Parser<'a, 'd> {
                 }
             }
         }
+        if self.body_is_chart(end_kw) {
+            let (stmts, hidden) = self.chart_body(kind, end_kw);
+            if !hidden.is_empty() {
+                var_blocks.push(VarBlock {
+                    kind: VarKind::Local,
+                    constant: false,
+                    retain: Retain::Unspecified,
+                    vars: hidden,
+                    span: name.span,
+                });
+            }
+            let body = Body::St(stmts);
+            return self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw);
+        }
         if self.il {
             let body_start = self.peek().span;
             let code = self.il_instructions(end_kw);
