@@ -467,4 +467,7 @@ mod stmt;
 mod tests;
 
 #[cfg(test)]
+mod sfc_tests;
+
+#[cfg(test)]
 mod vendor_tests;

@@ -156,9 +156,28 @@ impl<'a, 'd> Parser<'a, 'd> {
                     self.describe(&t)
                 );
                 self.error_at(diag::MISSING_END, t.span, msg);
-                return Err(Reported);
+                // Kept, so that the transitions naming it are not reported too.
+                return Ok(StepText {
+                    name,
+                    initial,
+                    assocs,
+                });
             }
-            assocs.push(self.association()?);
+            match self.association() {
+                Ok(a) => assocs.push(a),
+                Err(Reported) => {
+                    // Go on at the next association.
+                    while !self.at(&Tok::Semi)
+                        && !self.at_word("END_STEP")
+                        && !self.at_element()
+                        && !self.at(&Tok::Eof)
+                        && !self.is_top_start()
+                    {
+                        self.bump();
+                    }
+                    self.eat(&Tok::Semi);
+                }
+            }
         }
         self.bump();
         self.eat(&Tok::Semi);
@@ -349,6 +368,10 @@ impl<'a, 'd> Parser<'a, 'd> {
             self.error_at(diag::SYNTAX, t.span, msg);
         }
         self.toks[at].tok = Tok::Ident;
+        if self.too_deep {
+            // The rest of the source is skipped (see `Parser::too_deep`).
+            return Err(Reported);
+        }
         self.pos = at;
         Ok(body)
     }
