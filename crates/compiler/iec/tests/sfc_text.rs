@@ -170,3 +170,26 @@ fn a_chart_in_text_runs_as_the_same_chart_in_plcopen_xml() {
     // The inputs drive the chart through its branches, not only its first step.
     assert!(moved > 3, "step S3 was active in {moved} scans only");
 }
+
+/// Each source with a chart declares the chart types; a project of several is one program.
+#[test]
+fn charts_in_two_sources_of_one_project_build_together() {
+    let mut s = petriplc_iec::Sources::new();
+    s.add_text(
+        "a.st",
+        "FUNCTION_BLOCK blink\nVAR_OUTPUT q : BOOL; END_VAR\nINITIAL_STEP on : q(N); END_STEP\nTRANSITION FROM on TO off := on.T >= T#20ms; END_TRANSITION\nSTEP off : END_STEP\nTRANSITION FROM off TO on := off.T >= T#20ms; END_TRANSITION\nEND_FUNCTION_BLOCK",
+    );
+    s.add_text(
+        "b.st",
+        "PROGRAM main\nVAR b : blink; n : INT; END_VAR\nINITIAL_STEP s0 : count(N); END_STEP\nTRANSITION FROM s0 TO s0 := FALSE; END_TRANSITION\nACTION count : b(); IF b.q THEN n := n + 1; END_IF; END_ACTION\nEND_PROGRAM",
+    );
+    let b = petriplc_iec::build(&s, &Select::default(), petriplc_iec::Natives::default())
+        .expect("two sources with charts build as one project");
+    let mut m = Machine::new(b.engine.clone());
+    for k in 0..10 {
+        m.scan(k * 10_000_000, &mut || true).expect("scans");
+    }
+    let n = b.engine.lookup("main.n").expect("main.n");
+    // blink is on for scans 1-3 of every 6 (on.T reaches 20 ms at its third scan).
+    assert_eq!(m.get(n), Some(Value::Int(6)));
+}

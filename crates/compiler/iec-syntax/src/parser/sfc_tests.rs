@@ -44,14 +44,25 @@ ACTION count : n := n + 1; END_ACTION
 END_PROGRAM";
     let (diags, vars) = run(src);
     assert_eq!(diags, Vec::<String>::new());
-    for v in ["s0", "s1", "s2", "__s0_t0", "__tt1", "done", "__tdone", "count", "__sfc_clock"] {
+    for v in [
+        "s0",
+        "s1",
+        "s2",
+        "__s0_t0",
+        "__tt1",
+        "done",
+        "__tdone",
+        "count",
+        "__sfc_clock",
+    ] {
         assert!(vars.iter().any(|x| x == v), "{v} not in {vars:?}");
     }
 }
 
 #[test]
 fn chart_words_are_not_reserved_elsewhere() {
-    let (diags, _) = run("PROGRAM p\nVAR step, action : INT; END_VAR\nstep := action + 1;\nEND_PROGRAM");
+    let (diags, _) =
+        run("PROGRAM p\nVAR step, action : INT; END_VAR\nstep := action + 1;\nEND_PROGRAM");
     assert_eq!(diags, Vec::<String>::new());
 }
 
