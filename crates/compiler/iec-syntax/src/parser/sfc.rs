@@ -2,7 +2,7 @@
 //! PROGRAM or FUNCTION_BLOCK body: `INITIAL_STEP`/`STEP … END_STEP` with action associations,
 //! `TRANSITION [name] [(PRIORITY := n)] FROM … TO …` with `:= condition;` or a body
 //! assigning the transition's name, and `ACTION name : … END_ACTION`. Read into the chart
-//! model of [`crate::sfc`] (the one PLCopen XML's `<SFC>` bodies are read into) and lowered
+//! model of `crate::sfc` (the one PLCopen XML's `<SFC>` bodies are read into) and lowered
 //! by the same lowering.
 //!
 //! The words of charts are not reserved (a variable may be named `step`): a body is a chart

@@ -1,4 +1,4 @@
-//! Ladder Diagram and Sequential Function Chart bodies of PLCopen XML lowered to Structured
+//! Ladder Diagram, FBD and Sequential Function Chart bodies of PLCopen XML lowered to Structured
 //! Text statements, so that they are checked and compiled by the same checker and VM as ST
 //! (one lowered form for every language).
 //!
@@ -12,12 +12,9 @@
 //! before the first element that reads one of its outputs; a function without instance is
 //! inlined where its result is used.
 //!
-//! SFC: every step is a variable of the hidden structure `__SFC_STEP` (`S.X`, `S.T`). A scan
-//! updates step times, clears every transition whose preceding steps are all active and whose
-//! condition is TRUE, judged on the steps active at the start of the scan (in a selection
-//! divergence the first by `priority`, then left to right, then document order, wins), deactivates the steps
-//! before the cleared transitions and activates those after them, and then runs the actions
-//! of the active steps by their qualifiers (N, S, R, P, P1, P0, L, D).
+//! SFC: the chart is read into the model of `crate::sfc` (steps, the steps before and after
+//! each transition, conditions, actions and associations) and lowered by its one lowering,
+//! the one textual SFC uses too.
 //!
 //! Every generated node carries the span of its element, a source whose messages name the
 //! element (`LD contact localId 3 (start)`) instead of a line and column.

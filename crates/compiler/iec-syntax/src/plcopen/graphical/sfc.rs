@@ -1,6 +1,6 @@
-//! SFC bodies of PLCopen XML read into the chart model ([`crate::sfc::Chart`]): steps,
+//! SFC bodies of PLCopen XML read into the chart model (`crate::sfc::Chart`): steps,
 //! the steps before and after each transition (through divergences, convergences and
-//! jumps), conditions, actions and their associations; [`crate::sfc::lower`] does the rest.
+//! jumps), conditions, actions and their associations; `crate::sfc::lower` does the rest.
 
 use std::collections::{HashMap, HashSet};
 
