@@ -69,6 +69,14 @@ pub const CODES: &[Entry] = &[
       "write one instruction per line: an operator, its modifiers and one operand (docs/iec.md, \"Instruction List\")."),
     e("E021", "an IL `)` without its deferred operation, or an `OP(` never closed", "", "",
       "close each `OP(` with `)` and remove any other `)`."),
+    e("E030", "a textual SFC chart whose structure is wrong",
+      "A step used by a transition but not declared, a step or action declared twice, two INITIAL_STEPs in one network of steps, a chart without INITIAL_STEP, an unknown action qualifier or a timed one without its duration, a transition with a body but no name, a chart in a FUNCTION.",
+      "PROGRAM p\nVAR go : BOOL; END_VAR\nINITIAL_STEP s0 : END_STEP\nTRANSITION FROM s0 TO s1 := go; END_TRANSITION\nEND_PROGRAM",
+      "declare every step the transitions name, one INITIAL_STEP per network; the message says which."),
+    e("E031", "a body mixing SFC elements and statements",
+      "A body holding INITIAL_STEP, STEP or TRANSITION is a chart: everything in it is a step, a transition or an action.",
+      "PROGRAM p\nVAR x : INT; END_VAR\nINITIAL_STEP s0 : END_STEP\nx := 1;\nEND_PROGRAM",
+      "put the statements in an `ACTION A : … END_ACTION` and associate it with a step (`A(N);`)."),
     e("E100", "a name that is not declared", "",
       "PROGRAM p\nVAR x : INT; END_VAR\nx := y;\nEND_PROGRAM",
       "declare it in VAR … END_VAR (or VAR_GLOBAL), or correct the spelling."),
@@ -251,6 +259,10 @@ pub const CODES: &[Entry] = &[
       "Warning: TwinCAT maps such a variable of each instance to I/O in its project's I/O configuration, which petriplc does not read; the variable is an ordinary one.",
       "FUNCTION_BLOCK fb\nVAR raw AT %I* : INT; END_VAR\nEND_FUNCTION_BLOCK\nPROGRAM p\nVAR i : fb; END_VAR\ni();\nEND_PROGRAM",
       "on the soft PLC, bind `instance.variable` to a point with a `map` row of the `iec` module."),
+    e("W030", "a chart element that never takes effect",
+      "Warning: a step no transition from a reachable step leads to, or an ACTION associated with no step.",
+      "PROGRAM p\nVAR go : BOOL; END_VAR\nINITIAL_STEP s0 : END_STEP\nSTEP s1 : END_STEP\nTRANSITION FROM s1 TO s0 := go; END_TRANSITION\nEND_PROGRAM",
+      "add the transition that leads to the step, associate the action with a step, or remove it."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

@@ -33,6 +33,8 @@ codes! {
     PRAGMA_ERROR = "E015",
     IL_SYNTAX = "E020",
     IL_PARENS = "E021",
+    SFC_STRUCTURE = "E030",
+    SFC_MIXED = "E031",
     XML = "E050",
     NOT_PLCOPEN = "E051",
     PLCOPEN_STRUCTURE = "E052",
@@ -95,6 +97,7 @@ codes! {
     EXTERNAL_WITHOUT_GLOBAL = "W021",
     IMPLICIT_BITS_TO_NUMBER = "W022",
     LOCATION_IGNORED = "W013",
+    SFC_NEVER = "W030",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -6,6 +6,7 @@
 //! types the tree, the VM (`petriplc-iec-vm`) runs what the checker lowers.
 
 pub mod ast;
+mod build;
 pub mod codes;
 pub mod depth;
 pub mod diag;
@@ -13,6 +14,7 @@ pub mod dialect;
 pub mod lexer;
 pub mod parser;
 pub mod plcopen;
+mod sfc;
 pub mod source;
 pub mod twincat;
 pub mod xml;

@@ -49,7 +49,8 @@ fn parse_encoded(
     let tokens = lexer::lex_encoded(file, text, latin1, diags);
     let mut p = Parser::new(file, text, tokens, diags);
     p.il = il;
-    let lib = p.library();
+    let mut lib = p.library();
+    crate::sfc::add_types(&mut lib);
     if lib.elements.is_empty() && !p.diags.has_errors() {
         p.diags.error(
             diag::EMPTY_SOURCE,
@@ -503,12 +504,16 @@ mod expr;
 pub mod il;
 mod oop;
 mod pou;
+mod sfc;
 
 pub use oop::accessor;
 mod stmt;
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod sfc_tests;
 
 #[cfg(test)]
 mod vendor_tests;

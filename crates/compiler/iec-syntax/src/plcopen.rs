@@ -82,8 +82,7 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
     }
     if r.steps {
         let span = Span::new(file, root.start, root.start);
-        lib.elements
-            .push(Element::Types(vec![graphical::step_type(span)]));
+        lib.elements.push(Element::Types(crate::sfc::types(span)));
     }
     if let Some(configs) = root
         .child("instances")

@@ -90,11 +90,11 @@ fn sfc_structure_errors_name_the_element() {
         r#"<step localId="1" name="S0"><position x="0" y="0"/></step>
 <transition localId="2"><position x="0" y="0"/><connectionPointIn><connection refLocalId="1"/></connectionPointIn><condition><inline name=""><ST><xhtml:p xmlns:xhtml="http://www.w3.org/1999/xhtml">a</xhtml:p></ST></inline></condition></transition>
 <jumpStep localId="3" targetName="S9"><position x="0" y="0"/><connectionPointIn><connection refLocalId="2"/></connectionPointIn></jumpStep>
-<actionBlock localId="4"><position x="0" y="0"/><connectionPointIn><connection refLocalId="1"/></connectionPointIn><action localId="5" qualifier="SD" duration="T#1s"><reference name="q"/></action></actionBlock>"#,
+<actionBlock localId="4"><position x="0" y="0"/><connectionPointIn><connection refLocalId="1"/></connectionPointIn><action localId="5" qualifier="X"><reference name="q"/></action></actionBlock>"#,
         &[
             "g.xml: POU main, SFC step localId 1 (S0): error[E054]: the chart has no initial step",
             "SFC jumpStep localId 3 (to S9): error[E054]: the jump goes to step S9, which the chart does not have",
-            "SFC actionBlock localId 4: error[E190]: action qualifier SD is not supported yet",
+            "SFC actionBlock localId 4: error[E054]: action qualifier X is not one of N, R, S, L, D, P, P0, P1, SD, DS or SL",
         ],
     );
 }

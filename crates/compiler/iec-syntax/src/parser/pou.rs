@@ -59,6 +59,23 @@ impl<'a, 'd> Parser<'a, 'd> {
             }
         }
         self.members(&mut oop);
+        if self.body_is_chart(end_kw) {
+            let (stmts, hidden) = self.chart_body(kind, end_kw);
+            if !hidden.is_empty() {
+                var_blocks.push(VarBlock {
+                    kind: VarKind::Local,
+                    constant: false,
+                    retain: Retain::Unspecified,
+                    vars: hidden,
+                    span: name.span,
+                });
+            }
+            self.members(&mut oop);
+            let body = Body::St(stmts);
+            let mut pou = self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw)?;
+            pou.oop = oop;
+            return Ok(pou);
+        }
         if self.il {
             let body_start = self.peek().span;
             let code = self.il_instructions(end_kw);

@@ -1,4 +1,4 @@
-//! Ladder Diagram and Sequential Function Chart bodies of PLCopen XML lowered to Structured
+//! Ladder Diagram, FBD and Sequential Function Chart bodies of PLCopen XML lowered to Structured
 //! Text statements, so that they are checked and compiled by the same checker and VM as ST
 //! (one lowered form for every language).
 //!
@@ -12,12 +12,9 @@
 //! before the first element that reads one of its outputs; a function without instance is
 //! inlined where its result is used.
 //!
-//! SFC: every step is a variable of the hidden structure `__SFC_STEP` (`S.X`, `S.T`). A scan
-//! updates step times, clears every transition whose preceding steps are all active and whose
-//! condition is TRUE, judged on the steps active at the start of the scan (in a selection
-//! divergence the first by `priority`, then left to right, then document order, wins), deactivates the steps
-//! before the cleared transitions and activates those after them, and then runs the actions
-//! of the active steps by their qualifiers (N, S, R, P, P1, P0, L, D).
+//! SFC: the chart is read into the model of `crate::sfc` (steps, the steps before and after
+//! each transition, conditions, actions and associations) and lowered by its one lowering,
+//! the one textual SFC uses too.
 //!
 //! Every generated node carries the span of its element, a source whose messages name the
 //! element (`LD contact localId 3 (start)`) instead of a line and column.
@@ -26,8 +23,8 @@ use std::collections::{HashMap, HashSet};
 
 use super::Reader;
 use crate::ast::*;
+use crate::build::{and, any, arg, assign, boolean, call, decl, field, is_true, name, not, when};
 use crate::diag;
-use crate::lexer::TimeKind;
 use crate::parser;
 use crate::source::{FileId, Span};
 use crate::xml::Element as X;
@@ -45,158 +42,11 @@ const MAX_CHAIN: usize = 256;
 /// refused rather than expanded for ever.
 const MAX_WORK: usize = 200_000;
 
-/// The hidden structure type of SFC steps.
-pub(super) const STEP_TYPE: &str = "__SFC_STEP";
-
 /// What a graphical body becomes: statements and the hidden variables they use.
 pub(super) struct Lowered {
     pub stmts: Vec<Stmt>,
     pub vars: Vec<VarDecl>,
     pub steps: bool,
-}
-
-/// The declaration of [`STEP_TYPE`] (`X : BOOL; T : TIME;`).
-pub(super) fn step_type(span: Span) -> TypeDecl {
-    let field = |n: &str, t: &str| VarDecl {
-        names: vec![Ident::new(n, span)],
-        location: None,
-        ty: TypeSpec::Named(Ident::new(t, span)),
-        init: None,
-        edge: None,
-        span,
-    };
-    TypeDecl {
-        name: Ident::new(STEP_TYPE, span),
-        spec: TypeSpec::Struct {
-            fields: vec![field("X", "BOOL"), field("T", "TIME")],
-            span,
-        },
-        init: None,
-        span,
-    }
-}
-
-// Small builders of the tree.
-fn name(n: &str, span: Span) -> Expr {
-    Expr {
-        kind: ExprKind::Name(Ident::new(n, span)),
-        span,
-    }
-}
-fn field(e: Expr, f: &str) -> Expr {
-    let span = e.span;
-    Expr {
-        kind: ExprKind::Field(Box::new(e), Ident::new(f, span)),
-        span,
-    }
-}
-fn boolean(v: bool, span: Span) -> Expr {
-    Expr {
-        kind: ExprKind::Literal(Literal::Bool { value: v, ty: None }),
-        span,
-    }
-}
-fn time(nanos: i128, span: Span) -> Expr {
-    Expr {
-        kind: ExprKind::Literal(Literal::Time {
-            kind: TimeKind::Time,
-            nanos,
-        }),
-        span,
-    }
-}
-fn not(e: Expr) -> Expr {
-    let span = e.span;
-    Expr {
-        kind: ExprKind::Unary(UnaryOp::Not, Box::new(e)),
-        span,
-    }
-}
-fn bin(op: BinaryOp, a: Expr, b: Expr) -> Expr {
-    let span = b.span;
-    Expr {
-        kind: ExprKind::Binary(op, Box::new(a), Box::new(b)),
-        span,
-    }
-}
-fn is_true(e: &Expr) -> bool {
-    matches!(e.kind, ExprKind::Literal(Literal::Bool { value: true, .. }))
-}
-/// `a AND b`, dropping a TRUE operand (a contact right after the rail).
-fn and(a: Expr, b: Expr) -> Expr {
-    if is_true(&a) {
-        b
-    } else if is_true(&b) {
-        a
-    } else {
-        bin(BinaryOp::And, a, b)
-    }
-}
-/// `op` over terms: from left to right as written for a few, as a balanced tree for many, so
-/// that an input wired to thousands of branches (or a step with thousands of transitions)
-/// gives a tree a dozen levels deep rather than thousands.
-fn fold_terms(op: BinaryOp, mut es: Vec<Expr>) -> Option<Expr> {
-    const IN_A_ROW: usize = 8;
-    if es.len() <= IN_A_ROW {
-        let mut es = es.into_iter();
-        let first = es.next()?;
-        return Some(es.fold(first, |a, b| bin(op, a, b)));
-    }
-    let right = es.split_off(es.len() / 2);
-    Some(bin(op, fold_terms(op, es)?, fold_terms(op, right)?))
-}
-fn any(es: Vec<Expr>, span: Span) -> Expr {
-    fold_terms(BinaryOp::Or, es).unwrap_or_else(|| boolean(false, span))
-}
-/// The AND of the terms, TRUE ones dropped.
-fn all(es: Vec<Expr>, span: Span) -> Expr {
-    let es = es.into_iter().filter(|e| !is_true(e)).collect();
-    fold_terms(BinaryOp::And, es).unwrap_or_else(|| boolean(true, span))
-}
-fn assign(target: Expr, value: Expr) -> Stmt {
-    let span = target.span;
-    Stmt {
-        kind: StmtKind::Assign { target, value },
-        span,
-    }
-}
-fn when(cond: Expr, body: Vec<Stmt>) -> Stmt {
-    let span = cond.span;
-    Stmt {
-        kind: StmtKind::If {
-            branches: vec![(cond, body)],
-            else_body: None,
-        },
-        span,
-    }
-}
-fn arg(n: &str, value: Expr) -> Arg {
-    let span = value.span;
-    Arg {
-        name: Some(Ident::new(n, span)),
-        output: false,
-        negated: false,
-        value: Some(value),
-        span,
-    }
-}
-fn call(callee: Expr, args: Vec<Arg>) -> Call {
-    let span = callee.span;
-    Call {
-        callee: Box::new(callee),
-        args,
-        span,
-    }
-}
-fn decl(n: &str, ty: &str, init: Option<Init>, span: Span) -> VarDecl {
-    VarDecl {
-        names: vec![Ident::new(n, span)],
-        location: None,
-        ty: TypeSpec::Named(Ident::new(ty, span)),
-        init,
-        edge: None,
-        span,
-    }
 }
 
 fn local_id(el: &X) -> Option<u64> {

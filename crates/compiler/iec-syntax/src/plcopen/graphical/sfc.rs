@@ -1,5 +1,6 @@
-//! SFC bodies: steps and their times, transitions cleared on the steps active at the start of
-//! the scan, the evolution, and actions by qualifier.
+//! SFC bodies of PLCopen XML read into the chart model (`crate::sfc::Chart`): steps,
+//! the steps before and after each transition (through divergences, convergences and
+//! jumps), conditions, actions and their associations; `crate::sfc::lower` does the rest.
 
 use std::collections::{HashMap, HashSet};
 
@@ -7,29 +8,12 @@ use crate::ast::*;
 use crate::diag::{self, Diagnostics};
 use crate::parser;
 use crate::plcopen::{text_of, Reader};
+use crate::sfc::{self, Action, Assoc, Chart, Hidden, Qualifier, Step, Target, Transition};
 use crate::source::Span;
 use crate::xml::Element as X;
 
 use super::ld::nested;
-use super::{
-    all, all_inputs, and, any, arg, assign, bin, boolean, call, connections, field, flag, local_id,
-    not, time, when, Lower, Lowered, STEP_TYPE,
-};
-
-/// One action association of an action block.
-struct Assoc {
-    step: usize,
-    qualifier: String,
-    duration: Option<Expr>,
-    target: usize,
-}
-
-enum Target {
-    /// A BOOL variable set while the action is active.
-    Variable(Expr),
-    /// Statements run while the action is active.
-    Body(Vec<Stmt>),
-}
+use super::{all_inputs, assign, boolean, connections, flag, local_id, Lower, Lowered};
 
 /// Lowers an `<SFC>` body of POU element `pou_el`.
 pub(in crate::plcopen) fn sfc(r: &mut Reader, pou: &str, pou_el: &X, body: &X) -> Lowered {
@@ -39,64 +23,54 @@ pub(in crate::plcopen) fn sfc(r: &mut Reader, pou: &str, pou_el: &X, body: &X) -
     let transitions: Vec<usize> = (0..l.els.len())
         .filter(|&i| l.els[i].name == "transition")
         .collect();
-    // Steps before and after each transition.
+    // Steps before and after each transition, as indices of `steps`.
+    let index: HashMap<usize, usize> = steps.iter().enumerate().map(|(k, &s)| (s, k)).collect();
     let mut pre: HashMap<usize, Vec<usize>> = HashMap::new();
     let mut post: HashMap<usize, Vec<usize>> = HashMap::new();
     for &t in &transitions {
         let before = steps_before(&mut l, t);
         let after = steps_after(&mut l, t, &succ, &step_of);
-        pre.insert(t, before);
-        post.insert(t, after);
+        pre.insert(t, before.iter().map(|s| index[s]).collect());
+        post.insert(t, after.iter().map(|s| index[s]).collect());
     }
-    let any_span = if let Some(&s) = steps.first() {
-        l.span(s)
-    } else {
+    if steps.is_empty() {
         return l.finish();
+    }
+    let mut chart = Chart {
+        steps: steps
+            .iter()
+            .map(|&s| {
+                let span = l.span(s);
+                let sn = l.els[s].attr("name").unwrap_or("").trim().to_string();
+                Step {
+                    name: Ident::new(&sn, span),
+                    initial: flag(l.els[s], "initialStep"),
+                }
+            })
+            .collect(),
+        ..Chart::default()
     };
-    // Step variables and step times.
-    let clock = l.hidden("__sfc_clock", "TON", None, any_span);
-    let now = l.hidden("__sfc_now", "TIME", None, any_span);
-    let started = l.hidden("__sfc_started", "BOOL", None, any_span);
-    let svar = step_vars(&mut l, &steps);
-    step_times(&mut l, clock, &now, &steps, &svar, any_span);
-    let cleared = clear(&mut l, pou_el, &transitions, &pre, &svar);
+    chart.transitions = clear(&mut l, pou_el, &transitions, &pre, &post);
     // Networks drawn in the chart (blocks, coils, output variables) not yet run for a
-    // condition run once per scan, here.
+    // condition run once per scan, after the conditions.
     l.network(&HashSet::new());
-    let chart = Chart {
-        steps,
-        pre,
-        post,
-        svar,
-    };
-    evolve(&mut l, &chart, &cleared, started, &now, any_span);
-    let (targets, assocs) = associations(&mut l, pou_el, &chart.svar);
-    actions(&mut l, targets, &assocs, &chart.svar);
+    chart.networks = std::mem::take(&mut l.stmts);
+    associations(&mut l, pou_el, &index, &mut chart);
+    let mut stmts = std::mem::take(&mut l.stmts);
+    sfc::lower(
+        chart,
+        &mut Hidden {
+            vars: &mut l.vars,
+            declared: &mut l.declared,
+        },
+        &mut stmts,
+    );
+    l.stmts = stmts;
     // Elements of the chart that are not its own (a contact network feeding a condition)
     // were lowered where they were read.
     let mut out = l.finish();
     out.steps = true;
     out
-}
-
-/// A step's variables: the step (`X`, `T`), when it was last activated, and whether this
-/// scan activated or deactivated it.
-type StepVars = HashMap<usize, (Expr, Expr, Expr, Expr)>;
-
-/// The structure of a chart with a step: its steps and the steps before and after each
-/// transition, with their variables.
-struct Chart {
-    steps: Vec<usize>,
-    pre: HashMap<usize, Vec<usize>>,
-    post: HashMap<usize, Vec<usize>>,
-    svar: StepVars,
-}
-
-/// The transitions that may clear, in the order they are judged, each with the hidden
-/// variable holding whether it cleared this scan.
-struct Cleared {
-    order: Vec<usize>,
-    fire: HashMap<usize, Expr>,
 }
 
 /// The steps of the chart and each by its upper-case name; a step without a name, a name
@@ -261,64 +235,17 @@ fn steps_after(
     after
 }
 
-/// The hidden variables of every step (`StepVars`); an initial step starts active.
-fn step_vars(l: &mut Lower, steps: &[usize]) -> StepVars {
-    let mut svar = HashMap::new();
-    for &s in steps {
-        let span = l.span(s);
-        let sn = l.els[s].attr("name").unwrap_or("").trim().to_string();
-        let init = flag(l.els[s], "initialStep").then(|| Init::Struct {
-            fields: vec![(Ident::new("X", span), Init::Expr(boolean(true, span)))],
-            span,
-        });
-        let v = l.hidden(&sn, STEP_TYPE, init, span);
-        let t0 = l.hidden(&format!("__{sn}_t0"), "TIME", None, span);
-        let act = l.hidden(&format!("__{sn}_act"), "BOOL", None, span);
-        let deact = l.hidden(&format!("__{sn}_deact"), "BOOL", None, span);
-        svar.insert(s, (v, t0, act, deact));
-    }
-    svar
-}
-
-/// The chart's clock run and every active step's time `T` updated from it.
-fn step_times(
-    l: &mut Lower,
-    clock: Expr,
-    now: &Expr,
-    steps: &[usize],
-    svar: &StepVars,
-    any_span: Span,
-) {
-    // T#100000d: the clock never saturates.
-    l.stmts.push(Stmt {
-        kind: StmtKind::Call(call(
-            clock.clone(),
-            vec![
-                arg("IN", boolean(true, any_span)),
-                arg("PT", time(100_000 * 86_400 * 1_000_000_000, any_span)),
-            ],
-        )),
-        span: any_span,
-    });
-    l.stmts.push(assign(now.clone(), field(clock, "ET")));
-    for &s in steps {
-        let (v, t0, _, _) = svar[&s].clone();
-        l.stmts.push(when(
-            field(v.clone(), "X"),
-            vec![assign(field(v, "T"), bin(BinaryOp::Sub, now.clone(), t0))],
-        ));
-    }
-}
-
-/// Transition conditions, judged on the steps active now: a transition clears if its steps
-/// are active, its condition holds and no transition judged before it took one of its steps.
+/// The transitions in the order they are judged, each with its condition and the
+/// statements computing it (read in that order, so that a value two conditions share is
+/// computed before the first reads it). A transition whose condition cannot be read is
+/// left out, once told why.
 fn clear(
     l: &mut Lower,
     pou_el: &X,
     transitions: &[usize],
     pre: &HashMap<usize, Vec<usize>>,
-    svar: &StepVars,
-) -> Cleared {
+    post: &HashMap<usize, Vec<usize>>,
+) -> Vec<Transition> {
     let mut ordered = transitions.to_vec();
     // In a selection divergence: by `priority`, else left to right (the standard's rule;
     // Beremiz writes no priority), then document order.
@@ -335,93 +262,29 @@ fn clear(
             .unwrap_or(0.0);
         (priority, (x * 1000.0) as i64)
     });
-    let mut fire: HashMap<usize, Expr> = HashMap::new();
-    let mut done: Vec<usize> = Vec::new();
+    let mut out = Vec::new();
     for &t in &ordered {
         let span = l.span(t);
         let id = local_id(l.els[t]).unwrap_or(t as u64);
-        let cond = condition(l, pou_el, t);
-        let Some(cond) = cond else { continue };
-        let mut terms: Vec<Expr> = pre[&t]
-            .iter()
-            .map(|s| field(svar[s].0.clone(), "X"))
-            .collect();
-        terms.push(cond);
-        for &u in &done {
-            if pre[&u].iter().any(|s| pre[&t].contains(s)) {
-                terms.push(not(fire[&u].clone()));
-            }
-        }
-        let e = all(terms, span);
-        let f = l.hidden(&format!("__t{id}"), "BOOL", None, span);
-        l.stmts.push(assign(f.clone(), e));
-        fire.insert(t, f);
-        done.push(t);
+        let Some(cond) = condition(l, pou_el, t) else {
+            continue;
+        };
+        out.push(Transition {
+            key: id.to_string(),
+            from: pre[&t].clone(),
+            to: post[&t].clone(),
+            prelude: std::mem::take(&mut l.stmts),
+            cond,
+            span,
+        });
     }
-    Cleared { order: done, fire }
-}
-
-/// Evolution: every cleared transition at once, its steps before deactivated and its steps
-/// after activated; the initial steps are activated in the first scan.
-fn evolve(
-    l: &mut Lower,
-    chart: &Chart,
-    cleared: &Cleared,
-    started: Expr,
-    now: &Expr,
-    any_span: Span,
-) {
-    let svar = &chart.svar;
-    for &s in &chart.steps {
-        let (_, _, act, deact) = svar[&s].clone();
-        let span = act.span;
-        l.stmts.push(assign(act, boolean(false, span)));
-        l.stmts.push(assign(deact, boolean(false, span)));
-    }
-    let initial: Vec<Stmt> = chart
-        .steps
-        .iter()
-        .filter(|&&s| flag(l.els[s], "initialStep"))
-        .map(|s| assign(svar[s].2.clone(), boolean(true, any_span)))
-        .chain([assign(started.clone(), boolean(true, any_span))])
-        .collect();
-    l.stmts.push(when(not(started), initial));
-    for &t in &cleared.order {
-        let body = chart.pre[&t]
-            .iter()
-            .flat_map(|s| {
-                let (v, _, _, deact) = svar[s].clone();
-                let span = v.span;
-                [
-                    assign(field(v, "X"), boolean(false, span)),
-                    assign(deact, boolean(true, span)),
-                ]
-            })
-            .collect();
-        l.stmts.push(when(cleared.fire[&t].clone(), body));
-    }
-    for &t in &cleared.order {
-        let body = chart.post[&t]
-            .iter()
-            .flat_map(|s| {
-                let (v, t0, act, _) = svar[s].clone();
-                let span = v.span;
-                [
-                    assign(field(v.clone(), "X"), boolean(true, span)),
-                    assign(field(v, "T"), time(0, span)),
-                    assign(t0, now.clone()),
-                    assign(act, boolean(true, span)),
-                ]
-            })
-            .collect();
-        l.stmts.push(when(cleared.fire[&t].clone(), body));
-    }
+    out
 }
 
 /// The qualifier of action `a` of action block `i` and its duration; `None` once told
 /// why the association is refused.
-fn action_qualifier(l: &mut Lower, i: usize, a: &X) -> Option<(String, Option<Expr>)> {
-    let q = a
+fn action_qualifier(l: &mut Lower, i: usize, a: &X) -> Option<(Qualifier, Option<Expr>)> {
+    let written = a
         .attr("qualifier")
         .unwrap_or("N")
         .trim()
@@ -442,55 +305,63 @@ fn action_qualifier(l: &mut Lower, i: usize, a: &X) -> Option<(String, Option<Ex
         }
         None => None,
     };
-    if !matches!(q.as_str(), "N" | "S" | "R" | "P" | "P0" | "P1" | "L" | "D") {
-        l.error(
-            i,
-            diag::UNSUPPORTED,
-            format!("action qualifier {q} is not supported yet (N, S, R, P, P0, P1, L and D are)"),
-        );
-        return None;
-    }
-    if matches!(q.as_str(), "L" | "D") && duration.is_none() {
+    let Some(q) = Qualifier::parse(&written) else {
         l.error(
             i,
             diag::GRAPHICAL,
-            format!("qualifier {q} needs a duration attribute (duration=\"T#5s\")"),
+            format!(
+                "action qualifier {written} is not one of {}",
+                sfc::QUALIFIERS
+            ),
+        );
+        return None;
+    };
+    if q.timed() && duration.is_none() {
+        l.error(
+            i,
+            diag::GRAPHICAL,
+            format!("qualifier {written} needs a duration attribute (duration=\"T#5s\")"),
         );
         return None;
     }
     Some((q, duration))
 }
 
-/// The target of action `a` of action block `i`, found among `targets` or added to them: a
-/// named action, a BOOL variable or an inline ST body; `None` once told why there is none.
+/// The action of association `a` of action block `i`, found among the chart's actions or
+/// added to them: a named action, a BOOL variable or an inline ST body; `None` once told
+/// why there is none.
 fn action_target(
     l: &mut Lower,
     pou_el: &X,
     i: usize,
     a: &X,
     span: Span,
-    targets: &mut Vec<(String, Target, Span)>,
+    keys: &mut Vec<String>,
+    actions: &mut Vec<Action>,
 ) -> Option<usize> {
-    Some(if let Some(rf) = a.child("reference") {
+    let (key, action) = if let Some(rf) = a.child("reference") {
         let an = rf.attr("name").unwrap_or("").trim().to_string();
         let key = an.to_ascii_uppercase();
-        match targets.iter().position(|(k, _, _)| *k == key) {
-            Some(p) => p,
-            None => {
-                let t = match named_action(l, pou_el, &an) {
-                    Some(t) => t,
-                    None => {
-                        let f = l.file(i);
-                        match parser::parse_expression(f, &an, l.r.diags) {
-                            Some(e) => Target::Variable(e),
-                            None => return None,
-                        }
-                    }
-                };
-                targets.push((key, t, span));
-                targets.len() - 1
-            }
+        if let Some(p) = keys.iter().position(|k| *k == key) {
+            return Some(p);
         }
+        let action = match named_action(l, pou_el, &an) {
+            Some(t) => Action {
+                name: Some(Ident::new(&an, span)),
+                target: t,
+                span,
+            },
+            None => {
+                let f = l.file(i);
+                let e = parser::parse_expression(f, &an, l.r.diags)?;
+                Action {
+                    name: None,
+                    target: Target::Variable(e),
+                    span,
+                }
+            }
+        };
+        (key, action)
     } else if let Some(inline) = a.child("inline") {
         let Some(st) = inline.child("ST") else {
             l.error(
@@ -503,8 +374,12 @@ fn action_target(
         let (text, at) = text_of(st);
         let f = l.r.embed(&text, at.unwrap_or(st.start));
         let body = parser::parse_body(f, &text, l.r.diags);
-        targets.push((format!("#{}", targets.len()), Target::Body(body), span));
-        targets.len() - 1
+        let action = Action {
+            name: None,
+            target: Target::Body(body),
+            span,
+        };
+        (format!("#{}", keys.len()), action)
     } else {
         l.error(
             i,
@@ -512,17 +387,15 @@ fn action_target(
             "an <action> has neither <reference> nor <inline>".into(),
         );
         return None;
-    })
+    };
+    keys.push(key);
+    actions.push(action);
+    Some(actions.len() - 1)
 }
 
-/// The action associations of every action block, and their targets in first-use order.
-fn associations(
-    l: &mut Lower,
-    pou_el: &X,
-    svar: &StepVars,
-) -> (Vec<(String, Target, Span)>, Vec<Assoc>) {
-    let mut targets: Vec<(String, Target, Span)> = Vec::new();
-    let mut assocs: Vec<Assoc> = Vec::new();
+/// The action associations of every action block, and their actions in first-use order.
+fn associations(l: &mut Lower, pou_el: &X, index: &HashMap<usize, usize>, chart: &mut Chart) {
+    let mut keys: Vec<String> = Vec::new();
     for i in 0..l.els.len() {
         if l.els[i].name != "actionBlock" {
             continue;
@@ -535,93 +408,24 @@ fn associations(
             .unwrap_or_default()
             .into_iter()
             .find_map(|(rf, _, _)| rf.and_then(|rf| l.by_id.get(&rf).copied()));
-        let Some(step) = step.filter(|s| svar.contains_key(s)) else {
+        let Some(&step) = step.and_then(|s| index.get(&s)) else {
             l.error(i, diag::GRAPHICAL, "the action block is connected to no step; connect it to the step whose actions it lists".into());
             continue;
         };
         for a in el.children_named("action") {
-            let Some((q, duration)) = action_qualifier(l, i, a) else {
+            let Some((qualifier, duration)) = action_qualifier(l, i, a) else {
                 continue;
             };
-            let Some(target) = action_target(l, pou_el, i, a, span, &mut targets) else {
+            let Some(action) = action_target(l, pou_el, i, a, span, &mut keys, &mut chart.actions)
+            else {
                 continue;
             };
-            assocs.push(Assoc {
+            chart.assocs.push(Assoc {
                 step,
-                qualifier: q,
+                qualifier,
                 duration,
-                target,
+                action,
             });
-        }
-    }
-    (targets, assocs)
-}
-
-/// Every action run by its qualifiers: N, P, P0, P1, L and D while their step is, S and R
-/// through a stored flag.
-fn actions(l: &mut Lower, targets: Vec<(String, Target, Span)>, assocs: &[Assoc], svar: &StepVars) {
-    for (k, (_, target, span)) in targets.into_iter().enumerate() {
-        let mut on = Vec::new();
-        let mut set = Vec::new();
-        let mut reset = Vec::new();
-        for a in assocs.iter().filter(|a| a.target == k) {
-            let (v, _, act, deact) = svar[&a.step].clone();
-            let x = field(v.clone(), "X");
-            match a.qualifier.as_str() {
-                "N" => on.push(x),
-                "S" => set.push(x),
-                "R" => reset.push(x),
-                "P" | "P1" => on.push(act),
-                "P0" => on.push(and(deact, not(x))),
-                "L" => on.push(and(
-                    x,
-                    bin(
-                        BinaryOp::Lt,
-                        field(v, "T"),
-                        a.duration.clone().expect("checked"),
-                    ),
-                )),
-                "D" => on.push(and(
-                    x,
-                    bin(
-                        BinaryOp::Ge,
-                        field(v, "T"),
-                        a.duration.clone().expect("checked"),
-                    ),
-                )),
-                _ => {}
-            }
-        }
-        if !set.is_empty() || !reset.is_empty() {
-            let stored = l.hidden(&format!("__a{k}_s"), "BOOL", None, span);
-            if !set.is_empty() {
-                l.stmts.push(when(
-                    any(set, span),
-                    vec![assign(stored.clone(), boolean(true, span))],
-                ));
-            }
-            if !reset.is_empty() {
-                l.stmts.push(when(
-                    any(reset, span),
-                    vec![assign(stored.clone(), boolean(false, span))],
-                ));
-            }
-            on.push(stored);
-        }
-        let q = any(on, span);
-        match target {
-            Target::Variable(v) => l.stmts.push(assign(v, q)),
-            Target::Body(body) => {
-                let q = match q.kind {
-                    ExprKind::Name(_) | ExprKind::Field(..) => q,
-                    _ => {
-                        let qv = l.hidden(&format!("__a{k}_q"), "BOOL", None, span);
-                        l.stmts.push(assign(qv.clone(), q));
-                        qv
-                    }
-                };
-                l.stmts.push(when(q, body));
-            }
         }
     }
 }
