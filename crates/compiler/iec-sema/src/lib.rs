@@ -17,6 +17,7 @@ mod limits;
 pub mod memory;
 pub mod ops;
 mod stdlib;
+mod en_eno;
 mod stmt;
 pub mod types;
 pub mod value;
@@ -53,6 +54,8 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
     check::Checker::new(lib, options).run()
 }
 
+#[cfg(test)]
+mod en_eno_tests;
 #[cfg(test)]
 mod il_tests;
 #[cfg(test)]

@@ -29,6 +29,11 @@ impl Checker<'_> {
         let kind = match &s.kind {
             S::Empty => return None,
             S::Assign { target, value } => {
+                if let Some(call) = crate::en_eno::called(value) {
+                    if let Some(r) = self.en_stmt(Some(target), call, span, cx) {
+                        return r;
+                    }
+                }
                 let p = self.place(target, cx, true);
                 let p = p?;
                 let x = self.expr(value, cx, Some(p.ty));
@@ -409,6 +414,9 @@ impl Checker<'_> {
     /// `inst(IN := …, Q => …);` or a function called as a statement.
     pub(crate) fn call_stmt(&mut self, call: &ast::Call, cx: &mut Cx) -> Option<Stmt> {
         let span = call.span;
+        if let Some(r) = self.en_stmt(None, call, span, cx) {
+            return r;
+        }
         // A function (user or standard) called for its effects.
         if let ast::ExprKind::Name(n) = &call.callee.kind {
             let key = n.key();

@@ -33,6 +33,7 @@ use crate::source::{FileId, Span};
 use crate::xml::Element as X;
 
 mod fbd;
+mod pins;
 pub(super) mod ld;
 pub(super) mod sfc;
 
