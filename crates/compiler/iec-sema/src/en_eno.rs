@@ -159,7 +159,9 @@ pub(crate) fn mentions_en_eno(body: &ast::Body) -> bool {
         ast::Body::St(s) => stmts(s),
         ast::Body::Il { code, .. } => code.iter().any(|i| match &i.kind {
             ast::IlKind::Op { operand, .. } => operand.as_ref().is_some_and(expr),
-            ast::IlKind::Call { instance, args: a, .. } => expr(instance) || args(a),
+            ast::IlKind::Call {
+                instance, args: a, ..
+            } => expr(instance) || args(a),
             ast::IlKind::FbInput { instance, .. } => expr(instance),
             ast::IlKind::Function { args: a, .. } => args(a),
             _ => false,
@@ -477,7 +479,9 @@ impl Checker<'_> {
                 };
                 let ty_of = |ck: &Self, id: VarId| match fb.fb {
                     FbRef::User(p) => ck.pous[p as usize].vars[id as usize].ty,
-                    FbRef::Native(k) => TypeTable::elem_id(ck.natives[k as usize].vars[id as usize].ty),
+                    FbRef::Native(k) => {
+                        TypeTable::elem_id(ck.natives[k as usize].vars[id as usize].ty)
+                    }
                 };
                 let mut out = Vec::new();
                 for (id, x) in &fb.inputs {

@@ -10,6 +10,7 @@
 
 mod check;
 mod consts;
+mod en_eno;
 mod expr;
 mod il;
 pub mod ir;
@@ -17,7 +18,6 @@ mod limits;
 pub mod memory;
 pub mod ops;
 mod stdlib;
-mod en_eno;
 mod stmt;
 pub mod types;
 pub mod value;

@@ -33,8 +33,8 @@ use crate::source::{FileId, Span};
 use crate::xml::Element as X;
 
 mod fbd;
-mod pins;
 pub(super) mod ld;
+mod pins;
 pub(super) mod sfc;
 
 /// The longest chain of elements one value is built from (each link is a few stack frames
