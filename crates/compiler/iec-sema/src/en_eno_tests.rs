@@ -112,3 +112,11 @@ fn en_inside_an_expression_of_a_pou_without_its_own() {
         &["error[E190]|twice has no EN/ENO of its own"],
     );
 }
+
+#[test]
+fn en_of_a_standard_function_inside_an_expression() {
+    check(
+        &prog(VARS, "r := 2.0 * ADD(EN := c, IN1 := 1.5, IN2 := r);"),
+        &["error[E190]|ADD has no EN/ENO of its own"],
+    );
+}

@@ -54,6 +54,20 @@ impl<'a> Checker<'a> {
             );
             return err(span);
         }
+        if call
+            .args
+            .iter()
+            .any(|a| a.name.as_ref().is_some_and(|n| n.is("EN") || n.is("ENO")))
+        {
+            // A statement's call is guarded by `en_eno`; this one is part of a larger
+            // expression, which a standard or vendor function has no EN of its own for.
+            self.error(
+                diag::UNSUPPORTED,
+                name.span,
+                format!("{} has no EN/ENO of its own, and a call given EN or ENO inside a larger expression is not supported yet; make it a statement of its own (y := {}(EN := …, ENO => ok);), or in LD/FBD connect the result to a variable", name.name, name.name),
+            );
+            return err(span);
+        }
         if name.is("REF") || name.is("ADR") {
             return self.ref_of(name, call, cx);
         }
@@ -267,7 +281,7 @@ impl<'a> Checker<'a> {
                         self.error(
                             diag::UNSUPPORTED,
                             n.span,
-                            format!("{callee} has no EN/ENO of its own, and a call given EN or ENO inside a larger expression is not supported yet; make it a statement of its own (y := {callee}(EN := …, ENO => ok);)"),
+                            format!("{callee} has no EN/ENO of its own, and a call given EN or ENO inside a larger expression is not supported yet; make it a statement of its own (y := {callee}(EN := …, ENO => ok);), or in LD/FBD connect the result to a variable"),
                         );
                         return None;
                     }
