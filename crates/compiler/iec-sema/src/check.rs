@@ -49,6 +49,9 @@ pub(crate) struct Cx {
     pub const_only: bool,
     /// VAR CONSTANTs of the POU being read ahead of their declaration (`later_constant`).
     pub ahead: Vec<String>,
+    /// Statements to run before the one being checked (a call given EN inside its value,
+    /// `en_eno`); `None` where nothing may run first (conditions, loop bounds).
+    pub pre: Option<Vec<crate::ir::Stmt>>,
 }
 
 impl Cx {
@@ -62,6 +65,7 @@ impl Cx {
             for_vars: Vec::new(),
             const_only: false,
             ahead: Vec::new(),
+            pre: None,
         }
     }
 }

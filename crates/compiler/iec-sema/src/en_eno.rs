@@ -203,6 +203,111 @@ pub(crate) fn implicit_vars(pou: &ast::Pou) -> Vec<ir::Var> {
 }
 
 impl Checker<'_> {
+    /// `f`, a statement checked with room for statements that run before it (the calls
+    /// given EN inside its value); they and it are held together in an `IF TRUE`.
+    pub(crate) fn with_pre(
+        &mut self,
+        cx: &mut Cx,
+        f: impl FnOnce(&mut Self, &mut Cx) -> Option<Stmt>,
+    ) -> Option<Stmt> {
+        let outer = cx.pre.replace(Vec::new());
+        let s = f(self, cx);
+        let pre = std::mem::replace(&mut cx.pre, outer).unwrap_or_default();
+        if pre.is_empty() {
+            return s;
+        }
+        let s = s?;
+        let span = s.span;
+        let mut body = pre;
+        body.push(s);
+        Some(Stmt {
+            kind: StmtKind::If {
+                branches: vec![(boolean(true, span), body)],
+                else_body: Vec::new(),
+            },
+            span,
+        })
+    }
+
+    /// A call given EN or ENO inside an expression, to a callee without EN/ENO of its own:
+    /// run before the statement, into a hidden variable whose load is returned (`None`:
+    /// not such a call).
+    pub(crate) fn en_nested(
+        &mut self,
+        call: &ast::Call,
+        cx: &mut Cx,
+        expected: Option<crate::types::TypeId>,
+    ) -> Option<Expr> {
+        let A::Name(n) = &call.callee.kind else {
+            return None;
+        };
+        let parts = split(call)?;
+        if let Some(&p) = self.pou_names.get(&n.key()) {
+            self.interface(p);
+            if self.own_en_eno(p).is_some() {
+                return None;
+            }
+        }
+        let span = call.span;
+        if cx.pre.is_none() || cx.pou.is_none() {
+            self.error(
+                diag::UNSUPPORTED,
+                n.span,
+                format!("{} has no EN/ENO of its own, and a call given EN or ENO is supported as an assignment's or a call's value, not in a condition, a loop's bounds or a declaration; assign it to a variable first (y := {}(EN := …, ENO => ok);)", n.name, n.name),
+            );
+            return Some(crate::expr::err(span));
+        }
+        // The guarded call, built as a statement `$tmp := F(EN := …)` once the type is known.
+        let stripped = ast::Call {
+            callee: call.callee.clone(),
+            args: parts.rest.clone(),
+            span,
+        };
+        let whole = ast::Expr {
+            kind: A::Call(stripped),
+            span,
+        };
+        let x = self.expr(&whole, cx, expected);
+        if x.ty == crate::types::ids::ERROR {
+            return Some(x);
+        }
+        if matches!(self.types.get(x.ty), crate::types::Type::Void) {
+            self.error(
+                diag::TYPE_MISMATCH,
+                span,
+                format!("{} gives no value to use here", n.name),
+            );
+            return Some(crate::expr::err(span));
+        }
+        let ty = self.settle_type(x.ty, expected);
+        let id = cx.vars.len() as VarId;
+        cx.vars.push(ir::Var {
+            name: format!("$en{id}"),
+            ty,
+            class: VarClass::Hidden,
+            init: None,
+            constant: false,
+            retain: false,
+            location: None,
+            span,
+        });
+        let tmp = Place {
+            root: ir::Root::Var(id),
+            path: Vec::new(),
+            ty,
+            span,
+        };
+        let x = self.coerce(x, ty, "the result");
+        let run = assign(tmp.clone(), x, span);
+        // The arguments were checked once above; EN and ENO are checked by the guard, which
+        // is given the checked call rather than the call's text.
+        let Some(guarded) = self.en_guard(span, call, parts, move |_, _| Some(run), cx) else {
+            return Some(crate::expr::err(span));
+        };
+        cx.pre.get_or_insert_with(Vec::new).push(guarded);
+        Some(load(tmp))
+    }
+
     /// The POU's EN and ENO when it controls its own execution (EN a BOOL input, ENO a
     /// BOOL output, declared or implicit).
     fn own_en_eno(&self, p: PouId) -> Option<(VarId, VarId)> {
@@ -261,15 +366,37 @@ impl Checker<'_> {
                 }
             }
         }
-        Some(self.en_guarded(span, target, call, parts, cx))
+        let stripped = ast::Call {
+            callee: call.callee.clone(),
+            args: parts.rest.clone(),
+            span: call.span,
+        };
+        let run = move |ck: &mut Self, cx: &mut Cx| match target {
+            Some(t) => {
+                let inner = ast::Stmt {
+                    kind: S::Assign {
+                        target: t.clone(),
+                        value: ast::Expr {
+                            kind: A::Call(stripped),
+                            span: call.span,
+                        },
+                    },
+                    span,
+                };
+                ck.stmts(std::slice::from_ref(&inner), cx).pop()
+            }
+            None => ck.call_stmt(&stripped, cx),
+        };
+        Some(self.en_guard(span, call, parts, run, cx))
     }
 
-    fn en_guarded(
+    /// The call `run` makes, guarded by the EN and told through the ENO of `parts`.
+    fn en_guard(
         &mut self,
         span: Span,
-        target: Option<&ast::Expr>,
         call: &ast::Call,
         parts: EnArgs<'_>,
+        run: impl FnOnce(&mut Self, &mut Cx) -> Option<Stmt>,
         cx: &mut Cx,
     ) -> Option<Stmt> {
         let mut ok = true;
@@ -360,27 +487,7 @@ impl Checker<'_> {
             },
             None => None,
         };
-        let stripped = ast::Call {
-            callee: call.callee.clone(),
-            args: parts.rest,
-            span: call.span,
-        };
-        let run = match target {
-            Some(t) => {
-                let inner = ast::Stmt {
-                    kind: S::Assign {
-                        target: t.clone(),
-                        value: ast::Expr {
-                            kind: A::Call(stripped),
-                            span: call.span,
-                        },
-                    },
-                    span,
-                };
-                self.stmts(std::slice::from_ref(&inner), cx).pop()
-            }
-            None => self.call_stmt(&stripped, cx),
-        };
+        let run = run(self, cx);
         let run = run?;
         if !ok {
             return None;

@@ -106,17 +106,33 @@ fn eno_misused() {
 }
 
 #[test]
-fn en_inside_an_expression_of_a_pou_without_its_own() {
+fn en_inside_an_expression_runs_before_the_statement() {
     check(
-        &prog(VARS, "i := 1 + twice(EN := c, x := 3);"),
-        &["error[E190]|twice has no EN/ENO of its own"],
+        &prog(
+            VARS,
+            "i := 1 + twice(EN := c, x := 3, ENO => ok);
+             r := 2.0 * ADD(EN := c, IN1 := 1.5, IN2 := r);
+             k(up := twice(EN := c, x := 1) > 0);",
+        ),
+        &[],
     );
 }
 
 #[test]
-fn en_of_a_standard_function_inside_an_expression() {
+fn en_inside_a_condition_is_refused() {
     check(
-        &prog(VARS, "r := 2.0 * ADD(EN := c, IN1 := 1.5, IN2 := r);"),
+        &prog(VARS, "IF twice(EN := c, x := 3) > 0 THEN i := 1; END_IF;"),
+        &["error[E190]|twice has no EN/ENO of its own|not in a condition"],
+    );
+    check(
+        &prog(
+            VARS,
+            "WHILE ADD(EN := c, IN1 := i, IN2 := 1) < 3 DO i := i + 1; END_WHILE;",
+        ),
         &["error[E190]|ADD has no EN/ENO of its own"],
+    );
+    check(
+        &prog(VARS, "i := 1 + twice(EN := i, x := 3);"),
+        &["error[E112]|condition must be BOOL"],
     );
 }

@@ -25,6 +25,13 @@ impl Checker<'_> {
     }
 
     fn stmt(&mut self, s: &ast::Stmt, cx: &mut Cx) -> Option<Stmt> {
+        if matches!(s.kind, S::Assign { .. } | S::Call(_)) {
+            return self.with_pre(cx, |ck, cx| ck.stmt_here(s, cx));
+        }
+        self.stmt_here(s, cx)
+    }
+
+    fn stmt_here(&mut self, s: &ast::Stmt, cx: &mut Cx) -> Option<Stmt> {
         let span = s.span;
         let kind = match &s.kind {
             S::Empty => return None,

@@ -133,9 +133,10 @@ fn a_long_rung_within_the_limit_checks() {
 }
 
 #[test]
-fn a_function_with_en_feeding_another_block_is_refused_at_the_block() {
-    // ADD's result guarded by EN goes into another function's input, not to a variable.
-    check_diag(
+fn a_function_with_en_feeding_another_block_checks() {
+    // ADD's result guarded by EN goes into another function's input (Beremiz's wxGlade
+    // test project has STRING_TO_INT so): computed before the statement that uses it.
+    let got = diagnostics(
         BOOLS,
         "LD",
         r#"<leftPowerRail localId="1"><position x="0" y="0"/></leftPowerRail>
@@ -151,11 +152,8 @@ fn a_function_with_en_feeding_another_block_is_refused_at_the_block() {
 <variable formalParameter="IN2"><connectionPointIn><connection refLocalId="3"/></connectionPointIn></variable>
 </inputVariables><inOutVariables/><outputVariables><variable formalParameter="OUT"><connectionPointOut/></variable></outputVariables></block>
 <outVariable localId="6"><position x="0" y="0"/><connectionPointIn><connection refLocalId="5" formalParameter="OUT"/></connectionPointIn><expression>n</expression></outVariable>"#,
-        &[
-            "LD block localId 4 (ADD): error[E190]: ADD has no EN/ENO of its own",
-            "in LD/FBD connect the result to a variable",
-        ],
     );
+    assert!(!got.contains("error"), "{got}");
 }
 
 #[test]

@@ -28,6 +28,8 @@ impl<'a> Checker<'a> {
                 let mut body = self.en_prologue(p, ast.name.span);
                 body.extend(self.edge_prologue(p, ast.name.span));
                 body.extend(self.stmts(stmts, &mut cx));
+                // Results of calls given EN inside an expression are variables of the POU.
+                self.pous[p as usize].vars = cx.vars;
                 self.frame_escapes(p, ast.kind, &body);
                 self.pous[p as usize].body = body;
             }

@@ -28,6 +28,10 @@ impl<'a> Checker<'a> {
         if cx.const_only {
             // Conversions and a few functions of constants fold; anything else is not constant.
         }
+        // A call given EN inside an expression runs before the statement (`en_eno`).
+        if let Some(x) = self.en_nested(call, cx, expected) {
+            return x;
+        }
         let key = name.key();
         if let Some(&p) = self.pou_names.get(&key) {
             let kind = self.pou_asts[p as usize].kind;
@@ -51,20 +55,6 @@ impl<'a> Checker<'a> {
                 diag::NOT_CALLABLE,
                 name.span,
                 format!("`{}`: {what}", name.name),
-            );
-            return err(span);
-        }
-        if call
-            .args
-            .iter()
-            .any(|a| a.name.as_ref().is_some_and(|n| n.is("EN") || n.is("ENO")))
-        {
-            // A statement's call is guarded by `en_eno`; this one is part of a larger
-            // expression, which a standard or vendor function has no EN of its own for.
-            self.error(
-                diag::UNSUPPORTED,
-                name.span,
-                format!("{} has no EN/ENO of its own, and a call given EN or ENO inside a larger expression is not supported yet; make it a statement of its own (y := {}(EN := …, ENO => ok);), or in LD/FBD connect the result to a variable", name.name, name.name),
             );
             return err(span);
         }
