@@ -383,7 +383,9 @@ impl Checker<'_> {
                     },
                     span,
                 };
-                ck.stmts(std::slice::from_ref(&inner), cx).pop()
+                // In the statement's own scope: a call given EN among the arguments runs
+                // before this guard, as matiec evaluates every argument before the call.
+                ck.stmt_here(&inner, cx)
             }
             None => ck.call_stmt(&stripped, cx),
         };

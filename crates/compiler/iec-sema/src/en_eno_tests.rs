@@ -112,7 +112,8 @@ fn en_inside_an_expression_runs_before_the_statement() {
             VARS,
             "i := 1 + twice(EN := c, x := 3, ENO => ok);
              r := 2.0 * ADD(EN := c, IN1 := 1.5, IN2 := r);
-             k(up := twice(EN := c, x := 1) > 0);",
+             k(up := twice(EN := c, x := 1) > 0);
+             i := twice(EN := c, x := twice(EN := ok, x := 2));",
         ),
         &[],
     );

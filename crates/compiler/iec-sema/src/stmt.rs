@@ -31,7 +31,7 @@ impl Checker<'_> {
         self.stmt_here(s, cx)
     }
 
-    fn stmt_here(&mut self, s: &ast::Stmt, cx: &mut Cx) -> Option<Stmt> {
+    pub(crate) fn stmt_here(&mut self, s: &ast::Stmt, cx: &mut Cx) -> Option<Stmt> {
         let span = s.span;
         let kind = match &s.kind {
             S::Empty => return None,
