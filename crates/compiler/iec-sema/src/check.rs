@@ -51,6 +51,9 @@ pub(crate) struct Cx {
     pub ahead: Vec<String>,
     /// The instance the code works on, in a block's, program's or member's body (`oop.rs`).
     pub this: Option<crate::oop::This>,
+    /// Statements to run before the one being checked (a call given EN inside its value,
+    /// `en_eno`); `None` where nothing may run first (conditions, loop bounds).
+    pub pre: Option<Vec<crate::ir::Stmt>>,
 }
 
 impl Cx {
@@ -65,6 +68,7 @@ impl Cx {
             const_only: false,
             ahead: Vec::new(),
             this: None,
+            pre: None,
         }
     }
 }

@@ -10,6 +10,7 @@
 
 mod check;
 mod consts;
+mod en_eno;
 mod expr;
 mod il;
 pub mod ir;
@@ -54,6 +55,8 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
     check::Checker::new(lib, options).run()
 }
 
+#[cfg(test)]
+mod en_eno_tests;
 #[cfg(test)]
 mod il_tests;
 #[cfg(test)]

@@ -25,6 +25,13 @@ impl Checker<'_> {
     }
 
     fn stmt(&mut self, s: &ast::Stmt, cx: &mut Cx) -> Option<Stmt> {
+        if matches!(s.kind, S::Assign { .. } | S::Call(_)) {
+            return self.with_pre(cx, |ck, cx| ck.stmt_here(s, cx));
+        }
+        self.stmt_here(s, cx)
+    }
+
+    pub(crate) fn stmt_here(&mut self, s: &ast::Stmt, cx: &mut Cx) -> Option<Stmt> {
         let span = s.span;
         let kind = match &s.kind {
             S::Empty => return None,
@@ -34,6 +41,11 @@ impl Checker<'_> {
                         kind: StmtKind::Eval(x),
                         span,
                     });
+                }
+                if let Some(call) = crate::en_eno::called(value) {
+                    if let Some(r) = self.en_stmt(Some(target), call, span, cx) {
+                        return r;
+                    }
                 }
                 let p = self.place(target, cx, true);
                 let p = p?;
@@ -422,6 +434,9 @@ impl Checker<'_> {
                     span,
                 });
             }
+        }
+        if let Some(r) = self.en_stmt(None, call, span, cx) {
+            return r;
         }
         // A function (user or standard) called for its effects.
         if let ast::ExprKind::Name(n) = &call.callee.kind {

@@ -185,7 +185,7 @@ pub const CODES: &[Entry] = &[
       "",
       "pass a STRING (a literal such as '%04d' or a STRING variable) as the format."),
     e("E190", "something the engine does not support yet",
-      "WSTRING and CHAR, REFERENCE TO, EN/ENO and others: docs/iec.md, \"What is supported\".",
+      "WSTRING and CHAR, REFERENCE TO and others: docs/iec.md, \"What is supported\".",
       "PROGRAM p\nVAR w : WSTRING; END_VAR\nEND_PROGRAM",
       "use what the message suggests (STRING for WSTRING)."),
     e("E200", "`^` applied to something that is not a reference or pointer",

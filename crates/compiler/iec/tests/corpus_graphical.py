@@ -78,8 +78,10 @@ class G:
     def block(self, ty, inst, ins, outs, order=None):
         i = self.id()
         a = (f' instanceName="{inst}"' if inst else "") + (f' executionOrderId="{order}"' if order else "")
-        iv = "".join(f'<variable formalParameter="{fp}">{self.cin(refs)}</variable>' for fp, refs in ins)
-        ov = "".join(f'<variable formalParameter="{fp}"><connectionPointOut/></variable>' for fp in outs)
+        # An input is (name, refs) or (name, refs, pin attributes); an output a name or (name, attributes).
+        pin = lambda a: "".join(f' {k}="{v}"' for k, v in a.items())
+        iv = "".join(f'<variable formalParameter="{v[0]}"{pin(v[2] if len(v) > 2 else {})}>{self.cin(v[1])}</variable>' for v in ins)
+        ov = "".join(f'<variable formalParameter="{fp}"{pin(a)}><connectionPointOut/></variable>' for fp, a in ((o, {}) if isinstance(o, str) else o for o in outs))
         self.els.append(f'<block localId="{i}" width="70" height="70" typeName="{ty}"{a}>{self.pos(200)}<inputVariables>{iv}</inputVariables><inOutVariables/><outputVariables>{ov}</outputVariables></block>'); return i
     def connector(self, refs, name):
         i = self.id(); self.els.append(f'<connector localId="{i}" name="{name}" height="20" width="40">{self.pos(300)}{self.cin(refs)}</connector>'); return i
@@ -191,6 +193,23 @@ add("ld17_execution_order", "executionOrderId decides the order: b := a runs bef
 
 g = G(); l = g.left(); a = g.contact([l], "a"); b = g.contact([a], "a", negated=True); q = g.coil([a], "a_copy"); q2 = g.coil([b], "never"); g.right([q, q2])
 add("ld18_shared_power", "Power read by two elements is computed once; a contact and its negation in series never conduct.\n   set 1: a = TRUE\n   after 1: a_copy = TRUE, never = FALSE\n   set 2: a = FALSE\n   after 2: a_copy = FALSE, never = FALSE", [("a",B)], [("a_copy",B),("never",B)], [], "LD", g)
+
+g = G(); l = g.left(); a = g.contact([l], "a"); t = g.invar("TRUE"); f = g.invar("FALSE")
+p = g.block("AND", None, [("IN1",[a],{"edge":"rising"}),("IN2",[t])], ["OUT"]); g.outvar([(p,"OUT")], "pulse")
+o = g.block("OR", None, [("IN1",[a],{"negated":"true"}),("IN2",[f])], [("OUT",{"negated":"true"})]); g.outvar([(o,"OUT")], "same")
+pv = g.invar("2"); c = g.block("CTU", "c1", [("CU",[a],{"edge":"falling"}),("PV",[pv])], [("Q",{"negated":"true"}),"CV"]); g.outvar([(c,"Q")], "below"); g.outvar([(c,"CV")], "n")
+pt = g.invar("T#10ms"); tm = g.block("TON", "t1", [("IN",[a]),("PT",[pt])], [("Q",{"edge":"rising"}),"ET"]); g.outvar([(tm,"Q")], "done_pulse"); g.right([l])
+add("ld19_block_pins", "Edges and negations on block pins: a rising input gives a one-scan pulse, a negated input and output cancel, a falling input makes CTU count falls, a negated output, a rising output.\n   set 1: a = TRUE\n   after 1: pulse = TRUE, same = TRUE, n = 0, below = TRUE, done_pulse = FALSE\n   after 2: pulse = FALSE, same = TRUE, done_pulse = TRUE\n   set 3: a = FALSE\n   after 3: pulse = FALSE, same = FALSE, n = 1, below = TRUE, done_pulse = FALSE\n   set 4: a = TRUE\n   set 5: a = FALSE\n   after 5: n = 2, below = FALSE", [("a",B)], [("pulse",B),("same",B),("below",B),("n","INT"),("done_pulse",B)], [("c1","CTU"),("t1","TON")], "LD", g)
+
+g = G(); l = g.left(); run = g.contact([l], "run"); x = g.invar("x"); five = g.invar("5")
+s = g.block("ADD", None, [("EN",[run]),("IN1",[x]),("IN2",[five])], ["ENO","OUT"]); q = g.coil([(s,"ENO")], "added"); g.right([q]); g.outvar([(s,"OUT")], "y")
+add("ld20_function_en_eno", "EN of a function: with EN FALSE the function does not run, its result is 0 (as matiec) and ENO is FALSE.\n   set 1: x = 2\n   after 1: y = 0, added = FALSE\n   set 2: run = TRUE\n   after 2: y = 7, added = TRUE\n   set 3: run = FALSE\n   after 3: y = 0, added = FALSE", [("run",B),("x","INT")], [("added",B),("y","INT")], [], "LD", g)
+
+# --- FBD ---
+g = G(); en = g.invar("go"); tick = g.invar("tick"); pv = g.invar("3")
+c = g.block("CTU", "c1", [("EN",[en]),("CU",[tick],{"negated":"true"}),("PV",[pv])], ["ENO",("Q",{"negated":"true"}),"CV"])
+g.outvar([(c,"ENO")], "ran"); g.outvar([(c,"Q")], "more"); g.outvar([(c,"CV")], "n")
+add("fbd01_en_eno_pins", "FBD: a block instance with EN, a negated input and a negated output; ENO tells whether it ran.\n   set 1: tick = TRUE\n   after 1: ran = FALSE, n = 0, more = TRUE\n   set 2: go = TRUE\n   after 2: ran = TRUE, n = 0\n   set 3: tick = FALSE\n   after 3: n = 1, more = TRUE\n   set 4: tick = TRUE\n   set 5: tick = FALSE\n   after 5: n = 2\n   set 6: tick = TRUE\n   set 7: tick = FALSE\n   after 7: n = 3, more = FALSE\n   set 8: go = FALSE\n   after 8: ran = FALSE, more = FALSE", [("go",B),("tick",B)], [("ran",B),("more",B),("n","INT")], [("c1","CTU")], "FBD", g)
 
 # --- SFC ---
 def sfc_linear():

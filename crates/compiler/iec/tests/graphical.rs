@@ -131,3 +131,46 @@ fn a_long_rung_within_the_limit_checks() {
     body.push_str(r#"<coil localId="250"><position x="0" y="0"/><connectionPointIn><connection refLocalId="249"/></connectionPointIn><variable>q</variable></coil>"#);
     assert_eq!(diagnostics(BOOLS, "LD", &body), "");
 }
+
+#[test]
+fn a_function_with_en_feeding_another_block_checks() {
+    // ADD's result guarded by EN goes into another function's input (Beremiz's wxGlade
+    // test project has STRING_TO_INT so): computed before the statement that uses it.
+    let got = diagnostics(
+        BOOLS,
+        "LD",
+        r#"<leftPowerRail localId="1"><position x="0" y="0"/></leftPowerRail>
+<contact localId="2"><position x="0" y="0"/><connectionPointIn><connection refLocalId="1"/></connectionPointIn><variable>a</variable></contact>
+<inVariable localId="3"><position x="0" y="0"/><connectionPointOut/><expression>n</expression></inVariable>
+<block localId="4" typeName="ADD"><position x="0" y="0"/><inputVariables>
+<variable formalParameter="EN"><connectionPointIn><connection refLocalId="2"/></connectionPointIn></variable>
+<variable formalParameter="IN1"><connectionPointIn><connection refLocalId="3"/></connectionPointIn></variable>
+<variable formalParameter="IN2"><connectionPointIn><connection refLocalId="3"/></connectionPointIn></variable>
+</inputVariables><inOutVariables/><outputVariables><variable formalParameter="OUT"><connectionPointOut/></variable></outputVariables></block>
+<block localId="5" typeName="MUL"><position x="0" y="0"/><inputVariables>
+<variable formalParameter="IN1"><connectionPointIn><connection refLocalId="4" formalParameter="OUT"/></connectionPointIn></variable>
+<variable formalParameter="IN2"><connectionPointIn><connection refLocalId="3"/></connectionPointIn></variable>
+</inputVariables><inOutVariables/><outputVariables><variable formalParameter="OUT"><connectionPointOut/></variable></outputVariables></block>
+<outVariable localId="6"><position x="0" y="0"/><connectionPointIn><connection refLocalId="5" formalParameter="OUT"/></connectionPointIn><expression>n</expression></outVariable>"#,
+    );
+    assert!(!got.contains("error"), "{got}");
+}
+
+#[test]
+fn edges_and_negations_on_block_pins_check() {
+    // A rising input and a negated output of a function block instance are accepted.
+    let iface = BOOLS.to_string()
+        + r#"<localVars><variable name="p1"><type><derived name="TP"/></type></variable></localVars>"#;
+    let got = diagnostics(
+        &iface,
+        "FBD",
+        r#"<inVariable localId="1"><position x="0" y="0"/><connectionPointOut/><expression>a</expression></inVariable>
+<block localId="2" typeName="TP" instanceName="p1"><position x="0" y="0"/><inputVariables>
+<variable formalParameter="IN" edge="rising"><connectionPointIn><connection refLocalId="1"/></connectionPointIn></variable>
+<variable formalParameter="PT"><connectionPointIn><connection refLocalId="3"/></connectionPointIn></variable>
+</inputVariables><inOutVariables/><outputVariables><variable formalParameter="Q" negated="true"><connectionPointOut/></variable></outputVariables></block>
+<inVariable localId="3"><position x="0" y="0"/><connectionPointOut/><expression>T#1s</expression></inVariable>
+<outVariable localId="4"><position x="0" y="0"/><connectionPointIn><connection refLocalId="2" formalParameter="Q"/></connectionPointIn><expression>q</expression></outVariable>"#,
+    );
+    assert!(!got.contains("error"), "{got}");
+}

@@ -29,8 +29,11 @@ impl<'a> Checker<'a> {
                     .filter(|(_, v)| v.class != VarClass::Hidden)
                     .map(|(i, v)| (v.name.to_ascii_uppercase(), i as VarId))
                     .collect();
-                let mut body = self.edge_prologue(p, ast.name.span);
+                let mut body = self.en_prologue(p, ast.name.span);
+                body.extend(self.edge_prologue(p, ast.name.span));
                 body.extend(self.stmts(stmts, &mut cx));
+                // Results of calls given EN inside an expression are variables of the POU.
+                self.pous[p as usize].vars = cx.vars;
                 self.frame_escapes(p, kind, &body);
                 self.pous[p as usize].body = body;
             }
@@ -47,7 +50,8 @@ impl<'a> Checker<'a> {
                     .filter(|(_, v)| v.class != VarClass::Hidden)
                     .map(|(i, v)| (v.name.to_ascii_uppercase(), i as VarId))
                     .collect();
-                let mut body = self.edge_prologue(p, ast.name.span);
+                let mut body = self.en_prologue(p, ast.name.span);
+                body.extend(self.edge_prologue(p, ast.name.span));
                 body.extend(self.il_body(code, &mut cx));
                 // The accumulator's temporaries are variables of the POU.
                 self.pous[p as usize].vars = cx.vars;

@@ -166,6 +166,10 @@ impl<'a> Checker<'a> {
         for b in blocks.iter().filter(|b| param(b.kind)) {
             self.var_block(ast, b, &mut cx, &mut edges);
         }
+        for v in crate::en_eno::implicit_vars(ast) {
+            cx.names.insert(v.name.clone(), cx.vars.len() as VarId);
+            cx.vars.push(v);
+        }
         for kind in order.into_iter().filter(|k| !param(*k)) {
             for b in blocks.iter().filter(|b| b.kind == kind) {
                 self.var_block(ast, b, &mut cx, &mut edges);

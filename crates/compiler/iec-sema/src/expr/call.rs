@@ -31,6 +31,10 @@ impl<'a> Checker<'a> {
         if cx.const_only {
             // Conversions and a few functions of constants fold; anything else is not constant.
         }
+        // A call given EN inside an expression runs before the statement (`en_eno`).
+        if let Some(x) = self.en_nested(call, cx, expected) {
+            return x;
+        }
         let key = name.key();
         if let Some(&p) = self.pou_names.get(&key) {
             let kind = self.pou_asts[p as usize].kind;
@@ -276,19 +280,21 @@ impl<'a> Checker<'a> {
     ) -> Option<(VarId, &'v crate::ir::Var)> {
         Some(match &a.name {
             Some(n) => {
-                if n.is("EN") || n.is("ENO") {
-                    self.error(
-                        diag::UNSUPPORTED,
-                        n.span,
-                        "EN/ENO are not supported; call the function under an IF instead",
-                    );
-                    return None;
-                }
                 match params
                     .iter()
                     .find(|(_, v)| v.name.eq_ignore_ascii_case(&n.name))
                 {
                     Some(p) => *p,
+                    None if n.is("EN") || n.is("ENO") => {
+                        // A statement's call is guarded by `en_eno`; here the call is
+                        // part of a larger expression.
+                        self.error(
+                            diag::UNSUPPORTED,
+                            n.span,
+                            format!("{callee} has no EN/ENO of its own, and a call given EN or ENO inside a larger expression is not supported yet; make it a statement of its own (y := {callee}(EN := …, ENO => ok);), or in LD/FBD connect the result to a variable"),
+                        );
+                        return None;
+                    }
                     None => {
                         self.error(
                             diag::BAD_ARGUMENTS,

@@ -58,8 +58,13 @@ impl<'a, 'd> Parser<'a, 'd> {
                 }
             }
         }
-        self.members(&mut oop);
-        if self.body_is_chart(end_kw) {
+        // A chart's ACTION blocks are its own (SFC), so a chart's POU reads no member
+        // before its body.
+        let chart = self.body_is_chart(end_kw);
+        if !chart {
+            self.members(&mut oop);
+        }
+        if chart {
             let (stmts, hidden) = self.chart_body(kind, end_kw);
             if !hidden.is_empty() {
                 var_blocks.push(VarBlock {
@@ -70,7 +75,6 @@ impl<'a, 'd> Parser<'a, 'd> {
                     span: name.span,
                 });
             }
-            self.members(&mut oop);
             let body = Body::St(stmts);
             let mut pou = self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw)?;
             pou.oop = oop;

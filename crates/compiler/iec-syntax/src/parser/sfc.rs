@@ -53,10 +53,6 @@ struct ChartText {
 const ELEMENTS: &[&str] = &["INITIAL_STEP", "STEP", "TRANSITION", "ACTION"];
 
 impl<'a, 'd> Parser<'a, 'd> {
-    fn at_word(&self, w: &str) -> bool {
-        self.at(&Tok::Ident) && self.text_of(self.peek().span).eq_ignore_ascii_case(w)
-    }
-
     fn at_element(&self) -> bool {
         ELEMENTS.iter().any(|w| self.at_word(w))
     }

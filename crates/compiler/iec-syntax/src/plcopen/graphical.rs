@@ -31,6 +31,7 @@ use crate::xml::Element as X;
 
 mod fbd;
 pub(super) mod ld;
+mod pins;
 pub(super) mod sfc;
 
 /// The longest chain of elements one value is built from (each link is a few stack frames

@@ -7,7 +7,7 @@ use crate::xml::Element as X;
 
 use super::{
     and, any, arg, assign, boolean, call, connections, field, flag, is_true, local_id, name, not,
-    when, Lower, MAX_CHAIN, MAX_WORK,
+    Lower, MAX_CHAIN, MAX_WORK,
 };
 
 impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
@@ -192,21 +192,11 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
                 if connections(cpi).is_empty() {
                     continue;
                 }
-                let Some(mut e) = self.input(i, Some(cpi)) else {
+                let Some(e) = self.input(i, Some(cpi)) else {
                     ok = false;
                     continue;
                 };
-                if flag(v, "negated") {
-                    e = not(e);
-                }
-                if matches!(v.attr("edge"), Some("rising" | "falling")) {
-                    self.error(
-                        i,
-                        diag::UNSUPPORTED,
-                        format!("input {fpn} of this block detects an edge, which the engine does not support on block inputs; put a contact with the edge before it"),
-                    );
-                    ok = false;
-                }
+                let e = self.pin_in(i, fpn, v, e);
                 if fpn.eq_ignore_ascii_case("EN") {
                     en = Some(e);
                 } else {
@@ -242,26 +232,28 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
         }
         let r = self.block_args(i);
         self.visiting.remove(&i);
-        let (args, en) = r?;
+        let (mut args, en) = r?;
         self.called.insert(i);
-        let stmt = Stmt {
-            kind: StmtKind::Call(call(name(&inst, span), args)),
-            span,
-        };
         match en {
             Some(en) if !is_true(&en) => {
-                let en = match en.kind {
-                    ExprKind::Name(_) => en,
-                    _ => self.materialize(i, en),
-                };
-                self.memo.insert((i, "ENO".into()), en.clone());
-                self.stmts.push(when(en, vec![stmt]));
+                // EN and ENO go to the call (the checker guards the body and tells ENO).
+                let id = local_id(self.els[i]).unwrap_or(i as u64);
+                let eno = self.hidden(&format!("{}{id}_ENO", self.prefix), "BOOL", None, span);
+                args.insert(0, arg("EN", en));
+                args.push(Arg {
+                    output: true,
+                    ..arg("ENO", eno.clone())
+                });
+                self.memo.insert((i, "ENO".into()), eno);
             }
             _ => {
                 self.memo.insert((i, "ENO".into()), boolean(true, span));
-                self.stmts.push(stmt);
             }
         }
+        self.stmts.push(Stmt {
+            kind: StmtKind::Call(call(name(&inst, span), args)),
+            span,
+        });
         Some(())
     }
 
@@ -282,7 +274,8 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
             }
             self.call_block(i)?;
             if fp.eq_ignore_ascii_case("ENO") {
-                return self.memo.get(&(i, "ENO".into())).cloned();
+                let eno = self.memo.get(&(i, "ENO".into())).cloned()?;
+                return Some(self.pin_out(i, fp, eno));
             }
             if fp.is_empty() {
                 self.error(
@@ -292,7 +285,8 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
                 );
                 return None;
             }
-            return Some(field(name(&inst, span), fp));
+            let out = field(name(&inst, span), fp);
+            return Some(self.pin_out(i, fp, out));
         }
         // A function: its result, inlined where it is used.
         if !(fp.is_empty()
@@ -312,23 +306,38 @@ impl<'r, 'a, 'x> Lower<'r, 'a, 'x> {
         }
         let r = self.block_args(i);
         self.visiting.remove(&(usize::MAX - i));
-        let (args, en) = r?;
-        if let Some(en) = en {
-            if !is_true(&en) {
-                self.error(
-                    i,
-                    diag::UNSUPPORTED,
-                    format!("EN of function {ty} is connected to a condition; the engine runs functions without EN/ENO: connect EN to the left rail, or use a block instance"),
-                );
-                return None;
+        let (mut args, en) = r?;
+        // With EN connected, ENO is EN (a function the caller guards runs exactly when EN
+        // is TRUE), and the result is the guarded call, which the checker takes where it is
+        // a statement's whole value: a variable or a coil the result is stored in.
+        let en = match en {
+            Some(en) if !is_true(&en) => {
+                let key = (i, "ENO".to_string());
+                let en = match self.memo.get(&key) {
+                    Some(x) => x.clone(),
+                    None => {
+                        let x = match en.kind {
+                            ExprKind::Name(_) => en,
+                            _ => self.materialize(i, en),
+                        };
+                        self.memo.insert(key, x.clone());
+                        x
+                    }
+                };
+                args.insert(0, arg("EN", en.clone()));
+                Some(en)
             }
-        }
+            _ => None,
+        };
         if fp.eq_ignore_ascii_case("ENO") {
-            return Some(boolean(true, span));
+            let eno = en.unwrap_or_else(|| boolean(true, span));
+            return Some(self.pin_out(i, fp, eno));
         }
-        Some(Expr {
+        let out = Expr {
             kind: ExprKind::Call(call(name(&ty, span), args)),
             span,
-        })
+        };
+        let out_fp = if fp.is_empty() { "OUT" } else { fp };
+        Some(self.pin_out(i, out_fp, out))
     }
 }
