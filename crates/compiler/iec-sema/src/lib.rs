@@ -56,6 +56,8 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
 #[cfg(test)]
 mod il_tests;
 #[cfg(test)]
+mod others_tests;
+#[cfg(test)]
 mod reference_tests;
 #[cfg(test)]
 mod tests;
