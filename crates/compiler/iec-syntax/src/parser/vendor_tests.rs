@@ -168,3 +168,22 @@ fn an_enumeration_takes_its_base_type_after_the_values_as_codesys_writes_it() {
     let (_, d) = diags_of("TYPE e : (a, b) REAL; END_TYPE");
     assert!(d.contains("error[E012]"), "{d}");
 }
+
+#[test]
+fn a_syntax_error_in_until_is_the_only_error() {
+    for until in ["x >= ", "(x > 1", "x = = 1", "x > 1)", "x > 1 y", "x >"] {
+        let (_, d) = diags_of(&format!(
+            "PROGRAM p\nVAR x : INT; END_VAR\nREPEAT\n  x := x + 1;\nUNTIL {until}\nEND_REPEAT;\nx := 2;\nEND_PROGRAM\n"
+        ));
+        assert_eq!(
+            d.lines().filter(|l| l.contains("error[")).count(),
+            1,
+            "{until}: {d}"
+        );
+    }
+    // A REPEAT left unclosed is still that one error.
+    let (_, d) = diags_of(
+        "PROGRAM p\nVAR x : INT; END_VAR\nREPEAT\n  x := x + 1;\nUNTIL x > 1\nx := 2;\nEND_PROGRAM\n",
+    );
+    assert_eq!(d.lines().filter(|l| l.contains("error[")).count(), 1, "{d}");
+}
