@@ -62,6 +62,8 @@ mod il_tests;
 #[cfg(test)]
 mod oop_tests;
 #[cfg(test)]
+mod others_tests;
+#[cfg(test)]
 mod reference_tests;
 #[cfg(test)]
 mod tests;

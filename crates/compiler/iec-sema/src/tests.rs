@@ -82,7 +82,7 @@ END_PROGRAM",
         &[
             "t.st:5:1: error[E121]: `k` is a CONSTANT",
             "t.st:6:1: warning[W020]: `go` is an input of this POU: assigning it changes this POU's copy",
-            "t.st:7:20: error[E123]: `i` controls the FOR loop",
+            "t.st:7:20: warning[W031]: `i` controls the FOR loop",
         ],
     );
 }

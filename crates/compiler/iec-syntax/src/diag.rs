@@ -25,6 +25,7 @@ codes! {
     BAD_NUMBER = "E004",
     BAD_TIME = "E005",
     BAD_ESCAPE = "E006",
+    NOT_LATIN1 = "E009",
     SYNTAX = "E010",
     MISSING_END = "E011",
     MISSING_SEMI = "E012",
@@ -64,7 +65,8 @@ codes! {
     ASSIGN_CONSTANT = "E121",
     // E122 (an assignment to an input of the POU) became the warning W020: the number
     // stays unused.
-    ASSIGN_LOOP_VAR = "E123",
+    // E123 (an assignment to a FOR loop's control variable) became the warning W031: the
+    // number stays unused.
     BAD_ARGUMENTS = "E130",
     NOT_CALLABLE = "E131",
     UNREACHABLE_CASE = "E140",
@@ -96,8 +98,11 @@ codes! {
     ASSIGN_INPUT = "W020",
     EXTERNAL_WITHOUT_GLOBAL = "W021",
     IMPLICIT_BITS_TO_NUMBER = "W022",
+    INSTANCE_INTERNAL = "W030",
+    ASSIGN_LOOP_VAR = "W031",
+    IN_OUT_INITIAL = "W032",
     LOCATION_IGNORED = "W013",
-    SFC_NEVER = "W030",
+    SFC_NEVER = "W033",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -244,18 +244,13 @@ pub struct Token {
     pub span: Span,
 }
 
-/// Splits a source text into tokens; problems go to `diags`.
+/// Splits a source text into tokens; problems go to `diags`. A STRING literal holds one
+/// Latin-1 byte per character, whether the text came from a UTF-8 file or from a single-byte
+/// one decoded byte for byte (CODESYS and TwinCAT save .st sources in the Windows code page);
+/// a WSTRING literal holds its characters in UTF-8.
 pub fn lex(file: FileId, text: &str, diags: &mut Diagnostics) -> Vec<Token> {
-    lex_encoded(file, text, false, diags)
-}
-
-/// [`lex`] for a text decoded from a single-byte file (`latin1`: every character is one byte
-/// of the file, as CODESYS and TwinCAT save sources in the Windows code page): a string
-/// literal holds those bytes, one per character, as the vendor's STRING does.
-pub fn lex_encoded(file: FileId, text: &str, latin1: bool, diags: &mut Diagnostics) -> Vec<Token> {
     let mut lx = Lexer {
         file,
-        latin1,
         src: text.as_bytes(),
         text,
         pos: 0,
@@ -270,8 +265,6 @@ pub fn lex_encoded(file: FileId, text: &str, latin1: bool, diags: &mut Diagnosti
 
 struct Lexer<'a, 'd> {
     file: FileId,
-    /// The text was decoded from Latin-1: a character of a string is one byte.
-    latin1: bool,
     src: &'a [u8],
     text: &'a str,
     pos: usize,
@@ -279,6 +272,44 @@ struct Lexer<'a, 'd> {
     /// Where each `{…}` pragma is: they are skipped, then reported together.
     pragmas: Vec<(usize, usize)>,
     diags: &'d mut Diagnostics,
+}
+
+/// The byte of `c` in STRING's code page, Windows-1252 (what CODESYS and TwinCAT store): the
+/// Latin-1 characters U+0000–U+00FF are their own byte, and 27 others (`€` is 16#80) take
+/// the places 16#80–16#9F, whose control characters a file read byte for byte also gives.
+fn single_byte(c: char) -> Option<u8> {
+    const HIGH: [(char, u8); 27] = [
+        ('\u{20ac}', 0x80),
+        ('\u{201a}', 0x82),
+        ('\u{0192}', 0x83),
+        ('\u{201e}', 0x84),
+        ('\u{2026}', 0x85),
+        ('\u{2020}', 0x86),
+        ('\u{2021}', 0x87),
+        ('\u{02c6}', 0x88),
+        ('\u{2030}', 0x89),
+        ('\u{0160}', 0x8a),
+        ('\u{2039}', 0x8b),
+        ('\u{0152}', 0x8c),
+        ('\u{017d}', 0x8e),
+        ('\u{2018}', 0x91),
+        ('\u{2019}', 0x92),
+        ('\u{201c}', 0x93),
+        ('\u{201d}', 0x94),
+        ('\u{2022}', 0x95),
+        ('\u{2013}', 0x96),
+        ('\u{2014}', 0x97),
+        ('\u{02dc}', 0x98),
+        ('\u{2122}', 0x99),
+        ('\u{0161}', 0x9a),
+        ('\u{203a}', 0x9b),
+        ('\u{0153}', 0x9c),
+        ('\u{017e}', 0x9e),
+        ('\u{0178}', 0x9f),
+    ];
+    u8::try_from(u32::from(c))
+        .ok()
+        .or_else(|| HIGH.iter().find(|(h, _)| *h == c).map(|&(_, b)| b))
 }
 
 fn is_ident_start(b: u8) -> bool {
@@ -475,10 +506,25 @@ impl Lexer<'_, '_> {
                 self.pos += 1;
                 continue;
             }
-            if self.latin1 && !wide && (b == 0xC2 || b == 0xC3) {
-                // U+0080..U+00FF, two bytes in the text: the file's one byte.
-                bytes.push(((b & 0x03) << 6) | (self.peek(1) & 0x3F));
-                self.pos += 2;
+            if !wide && b >= 0x80 {
+                // STRING is single-byte (Windows-1252, as CODESYS's and TwinCAT's): a
+                // character is one byte whatever the file's encoding (a TwinCAT XML file is
+                // UTF-8, a .st file may be in the code page), so a length counts characters.
+                let c = self.text[self.pos..].chars().next().unwrap_or('\u{fffd}');
+                let n = c.len_utf8();
+                match single_byte(c) {
+                    Some(v) => bytes.push(v),
+                    None => {
+                        self.error(
+                            diag::NOT_LATIN1,
+                            self.pos,
+                            self.pos + n,
+                            format!("`{c}` (U+{:04X}) is not a character of STRING, which holds one byte per character (Windows-1252: Latin-1 and `€` `‚` `„` `…` `™` …); write the literal in double quotes, as a WSTRING (\"…\"), or write its bytes as $XX escapes", u32::from(c)),
+                        );
+                        bytes.push(b'?');
+                    }
+                }
+                self.pos += n;
                 continue;
             }
             bytes.push(b);

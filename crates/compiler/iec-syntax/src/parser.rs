@@ -29,24 +29,8 @@ pub fn parse_il(file: FileId, text: &str, diags: &mut Diagnostics) -> Library {
     parse_source(file, text, true, diags)
 }
 
-/// Parses a text decoded from a single-byte (Latin-1) file, Structured Text or (`il`)
-/// Instruction List: its string literals hold the file's bytes ([`lexer::lex_encoded`]).
-pub fn parse_latin1(file: FileId, text: &str, il: bool, diags: &mut Diagnostics) -> Library {
-    parse_encoded(file, text, il, true, diags)
-}
-
 fn parse_source(file: FileId, text: &str, il: bool, diags: &mut Diagnostics) -> Library {
-    parse_encoded(file, text, il, false, diags)
-}
-
-fn parse_encoded(
-    file: FileId,
-    text: &str,
-    il: bool,
-    latin1: bool,
-    diags: &mut Diagnostics,
-) -> Library {
-    let tokens = lexer::lex_encoded(file, text, latin1, diags);
+    let tokens = lexer::lex(file, text, diags);
     let mut p = Parser::new(file, text, tokens, diags);
     p.il = il;
     let mut lib = p.library();

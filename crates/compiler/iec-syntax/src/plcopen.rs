@@ -613,7 +613,12 @@ impl Reader<'_> {
     fn pou_instance(&mut self, pi: &X, task: Option<Ident>) -> Option<ProgramConfig> {
         let name = self.name_attr(pi)?;
         // CODESYS writes `typeName=""` for a program called by its own name.
-        let ty = match pi.attr("typeName").map(str::trim) {
+        // TC6 1.0 (Beremiz's and matiec's older projects) names the type `type`.
+        let ty = match pi
+            .attr("typeName")
+            .or_else(|| pi.attr("type"))
+            .map(str::trim)
+        {
             Some("") => name.name.clone(),
             Some(t) => t.to_string(),
             None => {

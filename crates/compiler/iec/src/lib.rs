@@ -87,22 +87,11 @@ impl Sources {
             Ok(text) => self.add_text(&name, &text),
             // Not UTF-8: a file saved in a single-byte code page, as CODESYS, TwinCAT and
             // PCWorx write them (OSCAT's `ä`, `°`): read as Latin-1, each byte one character,
-            // and a string literal holds the file's bytes.
+            // so a STRING literal holds the file's bytes (the lexer makes every character up
+            // to U+00FF one byte, whatever the encoding).
             Err(e) => {
                 let text: String = e.into_bytes().iter().map(|&b| b as char).collect();
-                let xml = name.to_ascii_lowercase().ends_with(".xml")
-                    && text.trim_start().starts_with('<');
-                if syntax::plcopen::is_plcopen(&text) || xml {
-                    self.add_text(&name, &text);
-                } else {
-                    if self.detected.is_none() {
-                        self.detected = Dialect::detect(&name, &text);
-                    }
-                    let f = self.map.add(&name, &text);
-                    let il = name.to_ascii_lowercase().ends_with(".il");
-                    let lib = syntax::parser::parse_latin1(f, &text, il, &mut self.diags);
-                    self.lib.elements.extend(lib.elements);
-                }
+                self.add_text(&name, &text);
             }
         }
         Ok(())

@@ -16,9 +16,9 @@ use oscat::{manifest, Entry};
 
 /// Files accepted per flavour, at least: raise these when more is accepted, never lower them.
 const ACCEPTED_AT_LEAST: &[(&str, usize)] = &[
-    ("oscat_basic", 580),
-    ("oscat_building", 53),
-    ("tcoscat", 561),
+    ("oscat_basic", 584),
+    ("oscat_building", 56),
+    ("tcoscat", 568),
 ];
 
 /// `None` when the file and its dependencies check, else the first error line.

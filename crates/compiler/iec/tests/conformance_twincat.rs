@@ -13,7 +13,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use petriplc_iec::{check, Natives, Sources};
+use petriplc_iec::{check, Dialect, Natives, Sources};
 
 mod oscat;
 
@@ -44,6 +44,9 @@ fn manifest(root: &Path) -> Vec<Entry> {
 /// `own` (the file the entry is about), or of any file.
 fn verdict(files: &[PathBuf], own: &Path) -> Option<String> {
     let mut sources = Sources::new();
+    // The extracted `.st` copies in TwinCAT's dialect, as conformance_oscat checks them (the
+    // originals are detected as TwinCAT's files): both load its vendor library.
+    sources.dialect = Some(Dialect::Twincat);
     for f in files {
         if let Err(e) = sources.add_path(f) {
             return Some(format!("io: {e}"));

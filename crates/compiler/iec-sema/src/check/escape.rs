@@ -1,5 +1,5 @@
 //! CODESYS's `ADR` of a variable that lives only during one call (a FUNCTION's variables, a
-//! VAR_TEMP) is allowed only where the pointer cannot outlive the call: it is kept in the
+//! VAR_TEMP, and what a VAR_IN_OUT designates, which may be the caller's temporary) is allowed only where the pointer cannot outlive the call: it is kept in the
 //! POU's own VAR/VAR_TEMP pointer variables, dereferenced, compared and moved by pointer
 //! arithmetic, never stored elsewhere nor passed on (E201). No run-time check is needed then:
 //! a pointer to a frame exists only while the frame does.
@@ -22,7 +22,9 @@ impl<'a> Checker<'a> {
         let frame: Vec<bool> = vars
             .iter()
             .map(|v| {
-                v.class == VarClass::Temp
+                // An in-out designates a caller's variable, which may be the caller's own
+                // temporary: a pointer to it lasts only as long as the call, as a frame's.
+                matches!(v.class, VarClass::Temp | VarClass::InOut)
                     || (kind == PouKind::Function
                         && !matches!(v.class, VarClass::External(_) | VarClass::Global))
             })

@@ -293,7 +293,16 @@ impl<'a> Checker<'a> {
             };
             let init = match &d.init {
                 Some(i) => {
-                    if matches!(b.kind, VarKind::External | VarKind::InOut) {
+                    if b.kind == VarKind::InOut {
+                        // PCWorx accepts it (OSCAT BUILDING's DIMM_2): the in-out is the
+                        // caller's variable, which has its own value.
+                        self.diags.warning(
+                            diag::IN_OUT_INITIAL,
+                            i.span(),
+                            "a VAR_IN_OUT takes no initial value: it is the caller's variable, with the caller's value; this one is ignored (PCWorx accepts it so)",
+                        );
+                        None
+                    } else if b.kind == VarKind::External {
                         self.error(
                             diag::BAD_DECLARATION,
                             i.span(),

@@ -43,6 +43,19 @@ impl<'a> Checker<'a> {
                     }
                     _ => {}
                 }
+                // CODESYS and TwinCAT negate an unsigned integer or a bit string too (OSCAT's
+                // `INC(cnt, -step, mx)` with a BYTE step): in the next wider signed type,
+                // so the value is the negative number meant.
+                let wider = match self.types.elem(x.ty) {
+                    Some(Elem::Usint | Elem::Byte) => Some(ids::INT),
+                    Some(Elem::Uint | Elem::Word) => Some(ids::DINT),
+                    Some(Elem::Udint | Elem::Dword | Elem::Ulint | Elem::Lword) => Some(ids::LINT),
+                    _ => None,
+                };
+                let x = match wider {
+                    Some(t) => self.convert(x, t),
+                    None => x,
+                };
                 let ok = match self.types.elem(x.ty) {
                     Some(e) => e.is_signed() || e.is_real() || e.is_duration(),
                     None => false,
@@ -52,7 +65,7 @@ impl<'a> Checker<'a> {
                     self.error(
                         diag::OPERAND_TYPE,
                         span,
-                        format!("`-` negates signed integers, reals and durations, not {t}"),
+                        format!("`-` negates integers, bit strings, reals and durations, not {t}"),
                     );
                     return err(span);
                 }
@@ -191,6 +204,11 @@ impl<'a> Checker<'a> {
                 span,
             });
         }
+        if matches!(op, Mul | Div)
+            && matches!((xe, ye), (Some(a), Some(b)) if a.is_duration() && a == b)
+        {
+            return self.duration_by_duration(op, x, y, span);
+        }
         if matches!(op, Mul | Div) && xe.is_some_and(|e| e.is_duration()) {
             // TIME * ANY_NUM, TIME / ANY_NUM.
             let y = match self.types.get(y.ty) {
@@ -243,7 +261,61 @@ impl<'a> Checker<'a> {
         if self.is_pointer_arith(op, &x, &y) {
             return self.pointer_arith(op, x, y, span);
         }
+        let (x, y) = self.widen_for_literal(x, y);
         self.binary_plain(op, x, y, span)
+    }
+
+    /// CODESYS's and PCWorx's `TIME * TIME` and `TIME / TIME` (OSCAT's `T / INT_TO_TIME(n)`):
+    /// their TIME is a number of milliseconds, so the operands are taken as the numbers
+    /// TIME_TO_LINT gives (LTIME's: nanoseconds) and the result, that number, is a TIME again.
+    fn duration_by_duration(&mut self, op: BinaryOp, x: Expr, y: Expr, span: Span) -> Expr {
+        let ty = x.ty;
+        let (a, b) = (self.convert(x, ids::LINT), self.convert(y, ids::LINT));
+        let n = self.fold(Expr {
+            kind: ExprKind::Binary(op, Box::new(a), Box::new(b)),
+            ty: ids::LINT,
+            span,
+        });
+        let r = self.convert(n, ty);
+        self.fold(r)
+    }
+
+    /// An integer literal that its partner's type cannot hold (OSCAT's `offset * 60000`
+    /// with an INT offset): CODESYS and TwinCAT type the literal by its value and compute
+    /// in the wider type, so the partner is widened to DINT (LINT if the literal needs it).
+    fn widen_for_literal(&self, x: Expr, y: Expr) -> (Expr, Expr) {
+        let lit = |e: &Expr| match (&e.kind, self.types.get(e.ty)) {
+            (ExprKind::Const(Value::Int(v)), Type::IntLit) => Some(*v),
+            _ => None,
+        };
+        let narrow = |e: &Expr, v: i128| {
+            self.types
+                .elem(e.ty)
+                .filter(|el| el.is_int() && !crate::types::fits(v, *el))
+                .map(|_| {
+                    if crate::types::fits(v, Elem::Dint) {
+                        ids::DINT
+                    } else {
+                        ids::LINT
+                    }
+                })
+                .filter(|t| {
+                    let w = self.types.elem(*t).unwrap_or(Elem::Lint);
+                    crate::types::fits(v, w)
+                })
+        };
+        if let (Some(v), None) = (lit(&y), lit(&x)) {
+            if let Some(t) = narrow(&x, v) {
+                return (self.convert(x, t), y);
+            }
+        }
+        if let (Some(v), None) = (lit(&x), lit(&y)) {
+            if let Some(t) = narrow(&y, v) {
+                let y = self.convert(y, t);
+                return (x, y);
+            }
+        }
+        (x, y)
     }
 
     fn binary_plain(&mut self, op: BinaryOp, x: Expr, y: Expr, span: Span) -> Expr {

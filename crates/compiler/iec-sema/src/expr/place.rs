@@ -98,6 +98,30 @@ impl<'a> Checker<'a> {
                 match class {
                     _ if own => {}
                     VarClass::Input | VarClass::Output | VarClass::InOut => {}
+                    VarClass::Local => {
+                        let constant = match fb {
+                            FbRef::User(u) => self.pous[u as usize].vars[i as usize].constant,
+                            FbRef::Native(_) => false,
+                        };
+                        if write && constant {
+                            self.error(
+                                diag::ASSIGN_CONSTANT,
+                                span,
+                                format!(
+                                    "`{}` is a CONSTANT of {fb_name} and cannot be assigned",
+                                    f.name
+                                ),
+                            );
+                            return None;
+                        }
+                        // matiec (so OpenPLC and Beremiz), CODESYS and TwinCAT let a
+                        // program read and set an instance's VAR; the standard does not.
+                        self.diags.warning(
+                            diag::INSTANCE_INTERNAL,
+                            f.span,
+                            format!("`{}` is internal to {fb_name} (its VAR): the standard lets only inputs and outputs be used from outside; matiec, CODESYS and TwinCAT allow it, and so does petriplc", f.name),
+                        );
+                    }
                     _ => {
                         self.error(
                             diag::NO_FIELD,
@@ -364,12 +388,13 @@ impl<'a> Checker<'a> {
                 }
             }
             if p.path.is_empty() && cx.for_vars.contains(&v) {
-                self.error(
+                // CODESYS, TwinCAT and matiec accept it: the loop goes on from the value
+                // assigned (the end test reads the variable), as petriplc's FOR does.
+                self.diags.warning(
                     diag::ASSIGN_LOOP_VAR,
                     span,
-                    format!("`{}` controls the FOR loop around this statement and must not be assigned in its body; use another variable", var.name),
+                    format!("`{}` controls the FOR loop around this statement: assigning it in the body changes where the loop goes on from; another variable says that better", var.name),
                 );
-                return false;
             }
         }
         true

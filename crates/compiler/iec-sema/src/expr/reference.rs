@@ -132,6 +132,9 @@ impl<'a> Checker<'a> {
                         var.name
                     ))
                 }
+                // The caller's variable outlives the call: CODESYS's ADR may take it, and
+                // the pointer is kept in the POU as a frame's is (check/escape.rs).
+                VarClass::InOut if adr => {}
                 VarClass::InOut => {
                     return Some(format!(
                         "`{}` is a VAR_IN_OUT, which may be a caller's temporary; reference the caller's variable",

@@ -201,40 +201,62 @@ fn a_date_beyond_the_calendar_is_an_error_not_an_overflow() {
 }
 
 #[test]
-fn a_latin1_source_keeps_one_byte_per_character_in_strings() {
-    // The text as decoded from a Latin-1 file: each byte one character.
-    let text: String = b"'\xe4\xf6\xfc' \"\xe4\""
-        .iter()
-        .map(|&b| b as char)
-        .collect();
+fn a_string_literal_holds_one_latin1_byte_per_character_whatever_the_encoding() {
+    let strs = |text: &str, d: &mut Diagnostics| -> Vec<Tok> {
+        lex(FileId(0), text, d)
+            .into_iter()
+            .map(|t| t.tok)
+            .filter(|t| *t != Tok::Eof)
+            .collect()
+    };
+    let string = |bytes: &[u8]| Tok::Str {
+        bytes: bytes.to_vec(),
+        wide: false,
+    };
+    // The text as decoded from a Latin-1 file (each byte one character) and the same text
+    // from a UTF-8 file (TwinCAT's XML) give the same STRING bytes.
+    let latin1: String = b"'\xe4\xf6\xfc\xff'".iter().map(|&b| b as char).collect();
     let mut d = Diagnostics::new();
-    let toks: Vec<Tok> = lex_encoded(FileId(0), &text, true, &mut d)
-        .into_iter()
-        .map(|t| t.tok)
-        .collect();
-    assert!(d.is_empty(), "{d:?}");
     assert_eq!(
-        toks[0],
-        Tok::Str {
-            bytes: vec![0xe4, 0xf6, 0xfc],
-            wide: false
-        }
+        strs(&latin1, &mut d),
+        vec![string(&[0xe4, 0xf6, 0xfc, 0xff])]
     );
+    assert_eq!(
+        strs("'\u{e4}\u{f6}\u{fc}\u{ff}'", &mut d),
+        vec![string(&[0xe4, 0xf6, 0xfc, 0xff])]
+    );
+    assert_eq!(
+        strs("'a\u{b0}C$E4'", &mut d),
+        vec![string(&[b'a', 0xb0, b'C', 0xe4])]
+    );
+    assert!(d.is_empty(), "{d:?}");
     // A WSTRING holds characters (UTF-8), whatever the file's encoding.
     assert_eq!(
-        toks[1],
-        Tok::Str {
-            bytes: "\u{e4}".as_bytes().to_vec(),
+        strs("\"\u{e4}\u{20ac}\"", &mut d),
+        vec![Tok::Str {
+            bytes: "\u{e4}\u{20ac}".as_bytes().to_vec(),
             wide: true
-        }
+        }]
     );
-    // A UTF-8 source keeps its UTF-8 bytes.
-    let toks = lex(FileId(0), &text, &mut d);
+    assert!(d.is_empty(), "{d:?}");
+    // Windows-1252's own characters are their byte of the code page (TwinCAT's XML holds
+    // OSCAT's `€` so), as a byte-for-byte read of a file in the code page gives.
     assert_eq!(
-        toks[0].tok,
-        Tok::Str {
-            bytes: "\u{e4}\u{f6}\u{fc}".as_bytes().to_vec(),
-            wide: false
-        }
+        strs("'\u{20ac}\u{2122}\u{178}'", &mut d),
+        vec![string(&[0x80, 0x99, 0x9f])]
+    );
+    assert!(d.is_empty(), "{d:?}");
+    // Any other character has no STRING byte: E009 at that character, and the rest of the
+    // literal and of the line is still read.
+    let toks = strs("'a\u{3a9}b' x", &mut d);
+    assert_eq!(toks[0], string(b"a?b"));
+    assert_eq!(toks[1], Tok::Ident);
+    assert_eq!(d.items.len(), 1, "{d:?}");
+    assert_eq!(d.items[0].code.0, "E009");
+    assert_eq!((d.items[0].span.start, d.items[0].span.end), (2, 4));
+    assert!(
+        d.items[0].message.contains("WSTRING"),
+        "{}",
+        d.items[0].message
     );
 }

@@ -193,10 +193,17 @@ impl<'a, 'd> Parser<'a, 'd> {
             }
             Tok::LParen => {
                 let (values, span) = self.enum_values()?;
+                // CODESYS and TwinCAT write the base type after the values: `(A, B) BYTE`.
+                let base = self.enum_base_after();
+                let end = if base.is_some() {
+                    self.prev_span()
+                } else {
+                    span
+                };
                 Ok(TypeSpec::Enum {
-                    base: None,
+                    base,
                     values,
-                    span: start.to(span),
+                    span: start.to(end),
                 })
             }
             Tok::Ident => {
@@ -271,6 +278,23 @@ impl<'a, 'd> Parser<'a, 'd> {
             }
             _ => Err(self.expected("a type (e.g. INT, ARRAY[1..10] OF REAL, STRING[20])")),
         }
+    }
+
+    /// CODESYS's `(A, B) DINT`: an integer type's name right after an enumeration's `)`
+    /// (where nothing else may stand) is its base type.
+    fn enum_base_after(&mut self) -> Option<Ident> {
+        const INTEGERS: [&str; 12] = [
+            "SINT", "INT", "DINT", "LINT", "USINT", "UINT", "UDINT", "ULINT", "BYTE", "WORD",
+            "DWORD", "LWORD",
+        ];
+        if !self.at(&Tok::Ident) {
+            return None;
+        }
+        let text = self.text_of(self.peek().span);
+        if !INTEGERS.iter().any(|t| t.eq_ignore_ascii_case(text)) {
+            return None;
+        }
+        self.ident("a type").ok()
     }
 
     fn enum_values(&mut self) -> PResult<(EnumValues, Span)> {

@@ -103,8 +103,8 @@ fn an_unreachable_step_and_an_unused_action_are_warned() {
     check(
         "INITIAL_STEP a : END_STEP\nSTEP b : END_STEP\nTRANSITION FROM b TO a := go; END_TRANSITION\nACTION x : go := TRUE; END_ACTION",
         &[
-            "t.st:6:8: warning[W030]: action x is associated with no step, so it never runs; associate it with a step (`x(N);`) or remove it",
-            "t.st:4:6: warning[W030]: step b can never become active: no transition from a step reachable from an INITIAL_STEP leads to it; add a TRANSITION … TO b or remove it",
+            "t.st:6:8: warning[W033]: action x is associated with no step, so it never runs; associate it with a step (`x(N);`) or remove it",
+            "t.st:4:6: warning[W033]: step b can never become active: no transition from a step reachable from an INITIAL_STEP leads to it; add a TRANSITION … TO b or remove it",
         ],
     );
 }

@@ -172,6 +172,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                     return Err(Reported);
                 }
                 let until = self.header_expr(Kw::EndRepeat)?;
+                self.until_rest();
                 self.expect_end(Kw::EndRepeat, start, "REPEAT")?;
                 StmtKind::Repeat { body, until }
             }
@@ -258,6 +259,37 @@ impl<'a, 'd> Parser<'a, 'd> {
                     span: start.to(self.prev_span()),
                 })
             }
+        }
+    }
+
+    /// After UNTIL's condition, a stray token before END_REPEAT (`UNTIL x > 1) END_REPEAT`):
+    /// it is the one error, skipped to END_REPEAT on the same statement, so the REPEAT is
+    /// not reported unclosed and its END_REPEAT orphaned.
+    fn until_rest(&mut self) {
+        if self.at_kw(Kw::EndRepeat) || matches!(self.peek().tok, Tok::Semi | Tok::Eof) {
+            return;
+        }
+        if self.is_stmt_list_end(&[]) {
+            return;
+        }
+        // On a later line it is the next statement: the REPEAT is unclosed (expect_end).
+        let (prev, next) = (self.prev_span(), self.peek().span);
+        if next.start >= prev.end
+            && self
+                .text_of(Span::new(prev.file, prev.end as usize, next.start as usize))
+                .contains('\n')
+        {
+            return;
+        }
+        let _ = self.expected("END_REPEAT after the UNTIL condition");
+        while !self.at_kw(Kw::EndRepeat)
+            && !matches!(self.peek().tok, Tok::Semi | Tok::Eof)
+            && !self.is_stmt_list_end(&[])
+        {
+            self.bump();
+        }
+        if !self.at_kw(Kw::EndRepeat) {
+            self.reported_at = self.pos;
         }
     }
 

@@ -146,3 +146,44 @@ fn an_error_in_a_header_does_not_leave_its_block_unclosed() {
         "t.st:3:8: error[E010]: expected an expression, found `THEN`\n"
     );
 }
+
+#[test]
+fn an_enumeration_takes_its_base_type_after_the_values_as_codesys_writes_it() {
+    let lib = check_ok(
+        "TYPE e : (a := 1, b) BYTE; END_TYPE\nTYPE f : (x, y); END_TYPE\n\
+         PROGRAM p\nVAR v : (r, s) DINT := s; END_VAR\nEND_PROGRAM",
+    );
+    let mut bases = Vec::new();
+    for e in &lib.elements {
+        if let Element::Types(ts) = e {
+            for t in ts {
+                if let TypeSpec::Enum { base, .. } = &t.spec {
+                    bases.push(base.as_ref().map(|b| b.name.clone()));
+                }
+            }
+        }
+    }
+    assert_eq!(bases, vec![Some("BYTE".to_string()), None]);
+    // Only an integer type's name: anything else after `)` is still an error.
+    let (_, d) = diags_of("TYPE e : (a, b) REAL; END_TYPE");
+    assert!(d.contains("error[E012]"), "{d}");
+}
+
+#[test]
+fn a_syntax_error_in_until_is_the_only_error() {
+    for until in ["x >= ", "(x > 1", "x = = 1", "x > 1)", "x > 1 y", "x >"] {
+        let (_, d) = diags_of(&format!(
+            "PROGRAM p\nVAR x : INT; END_VAR\nREPEAT\n  x := x + 1;\nUNTIL {until}\nEND_REPEAT;\nx := 2;\nEND_PROGRAM\n"
+        ));
+        assert_eq!(
+            d.lines().filter(|l| l.contains("error[")).count(),
+            1,
+            "{until}: {d}"
+        );
+    }
+    // A REPEAT left unclosed is still that one error.
+    let (_, d) = diags_of(
+        "PROGRAM p\nVAR x : INT; END_VAR\nREPEAT\n  x := x + 1;\nUNTIL x > 1\nx := 2;\nEND_PROGRAM\n",
+    );
+    assert_eq!(d.lines().filter(|l| l.contains("error[")).count(), 1, "{d}");
+}

@@ -206,3 +206,37 @@ fn a_pointer_type_is_a_pointer_to_its_base_type() {
     let (_, msgs) = read_text(&text.replace("<baseType><INT/></baseType>", ""));
     assert!(msgs[0].contains("error[E052]"), "{msgs:?}");
 }
+
+#[test]
+fn a_tc6_1_0_pou_instance_names_its_type_with_type() {
+    let text = r#"<?xml version="1.0" encoding="utf-8"?>
+<project xmlns="http://www.plcopen.org/xml/tc6.xsd">
+  <types><dataTypes/><pous>
+    <pou name="main" pouType="program">
+      <interface><localVars><variable name="x"><type><INT/></type></variable></localVars></interface>
+      <body><ST><xhtml:p xmlns:xhtml="http://www.w3.org/1999/xhtml"><![CDATA[x := x + 1;]]></xhtml:p></ST></body>
+    </pou>
+  </pous></types>
+  <instances><configurations><configuration name="c"><resource name="r">
+    <task name="t" interval="T#10ms" priority="1"><pouInstance type="main" name="inst"/></task>
+  </resource></configuration></configurations></instances>
+</project>"#;
+    let (lib, msgs) = read_text(text);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let conf = lib
+        .elements
+        .iter()
+        .find_map(|e| match e {
+            Element::Configuration(c) => Some(c),
+            _ => None,
+        })
+        .expect("a configuration");
+    let p = &conf.resources[0].programs[0];
+    assert_eq!(
+        (p.name.name.as_str(), p.type_name.name.as_str()),
+        ("inst", "main")
+    );
+    // Neither attribute: still the positioned E052.
+    let (_, msgs) = read_text(&text.replace(r#"type="main" "#, ""));
+    assert!(msgs[0].contains("error[E052]"), "{msgs:?}");
+}
