@@ -13,6 +13,8 @@ pub struct Entry {
     pub deps: Vec<String>,
     /// `repository@commit:path` of the original.
     pub source: String,
+    /// The POUs the file defines: kind (`FUNCTION`, `FUNCTION_BLOCK`…) and name.
+    pub pous: Vec<(String, String)>,
 }
 
 /// Every entry of the manifest in the corpus folder `root`. A block's EXTENDS base is added
@@ -39,6 +41,10 @@ pub fn manifest(root: &Path) -> Vec<Entry> {
             file: text(&e["file"]),
             deps: e["deps"].as_array().unwrap().iter().map(text).collect(),
             source: text(&e["source"]),
+            pous: e["pous"]
+                .as_array()
+                .map(|ps| ps.iter().map(|p| (text(&p[0]), text(&p[1]))).collect())
+                .unwrap_or_default(),
         })
         .collect();
     for i in 0..entries.len() {
