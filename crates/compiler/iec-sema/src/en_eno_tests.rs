@@ -137,3 +137,29 @@ fn en_inside_a_condition_is_refused() {
         &["error[E112]|condition must be BOOL"],
     );
 }
+
+/// Instruction List: `CAL` with EN and ENO; a function given EN in IL's current result has
+/// nothing to run before it.
+#[test]
+fn il_cal_with_en_and_a_function_given_en() {
+    let run_il = |body: &str| {
+        let src = format!(
+            "PROGRAM p\nVAR\nc, ok : BOOL; i : INT; k : CTU;\nEND_VAR\n{body}\nEND_PROGRAM\n"
+        );
+        let mut map = SourceMap::new();
+        let f = map.add("t.il", &src);
+        let mut d = petriplc_iec_syntax::Diagnostics::new();
+        let lib = parser::parse_il(f, &src, &mut d);
+        let (p, diags) = crate::check(&lib, &Options::default());
+        d.extend(diags);
+        (p.filter(|_| !d.has_errors()), d.render(&map))
+    };
+    let (p, d) = run_il("  CAL k(EN := c, CU := TRUE, PV := 3, ENO => ok, CV => i)");
+    assert!(p.is_some() && d.is_empty(), "{d}");
+    let (p, d) = run_il("  LIMIT(EN := c, MN := 0, IN := i, MX := 9)\n  ST i");
+    assert!(p.is_none(), "{d}");
+    assert!(
+        d.contains("error[E190]") && d.contains("LIMIT has no EN/ENO of its own"),
+        "{d}"
+    );
+}
