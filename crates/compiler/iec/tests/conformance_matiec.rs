@@ -80,7 +80,6 @@ const ALLOW: &[(&str, &str)] = &[
         "matiec wrong: its LIMIT(MN, IN, MX) gives MN for IN = MN > MX; the standard's MIN(MAX(IN, MN), MX) gives MX, as petriplc",
     ),
     ("SECOND_TO_TIME", NEG_UNSIGNED),
-    ("SEL2_OF_3B", UNKNOWN),
     ("SEQUENCE_64", TIME_LITERAL),
     ("SET_TOD", UNKNOWN),
     ("SUN_MIDDAY", NEG_UNSIGNED),
