@@ -109,13 +109,16 @@ impl NativeFb for Standard {
                         v.set_bool(4, true);
                         v.set_int(5, now);
                     }
-                    let et = now.saturating_sub(v.int(5));
-                    if et >= pt {
-                        v.set_bool(2, true);
-                        v.set_int(3, pt);
-                    } else {
-                        v.set_bool(2, false);
-                        v.set_int(3, et);
+                    // Once elapsed, Q and ET hold until IN falls, whatever PT becomes,
+                    // as matiec's and CODESYS's TON (corpus 430_fb_ton_pt_change.st).
+                    if !v.bool(2) {
+                        let et = now.saturating_sub(v.int(5));
+                        if et >= pt {
+                            v.set_bool(2, true);
+                            v.set_int(3, pt);
+                        } else {
+                            v.set_int(3, et);
+                        }
                     }
                 } else {
                     v.set_bool(4, false);

@@ -67,6 +67,7 @@ const ALLOW: &[(&str, &str)] = &[
     ("HOUR_TO_TOD", NEG_UNSIGNED),
     ("INC", NARROW_INT),
     ("INC2", NARROW_INT),
+    ("MAX_TIME", TIME_LITERAL),
     ("MINUTE_TO_TIME", NEG_UNSIGNED),
     ("MULTIME", TIME_LITERAL),
     ("PT_TO_F", PRECISION),
@@ -79,9 +80,9 @@ const ALLOW: &[(&str, &str)] = &[
         "matiec wrong: its LIMIT(MN, IN, MX) gives MN for IN = MN > MX; the standard's MIN(MAX(IN, MN), MX) gives MX, as petriplc",
     ),
     ("SECOND_TO_TIME", NEG_UNSIGNED),
-    ("SEL2_OF_3B", UNKNOWN),
     ("SEQUENCE_64", TIME_LITERAL),
     ("SET_TOD", UNKNOWN),
+    ("SUN_MIDDAY", NEG_UNSIGNED),
     ("TEMP_NI", PRECISION),
     ("TIME_TO_DWORD", TIME_LITERAL),
     ("TIME_TO_INT", TIME_LITERAL),
@@ -392,8 +393,9 @@ fn record_one(root: &Path, matiec: &Path, e: &Entry, pou: &str, work: &Path) -> 
                     }
                     Err(why) => {
                         // An OSCAT function named as one of matiec's (adapt.rs).
-                        let again = why
-                            .split_once("redefinition of \u{2018}")
+                        let again = ["redefinition of \u{2018}", "conflicting types for \u{2018}"]
+                            .iter()
+                            .find_map(|m| why.split_once(m))
                             .and_then(|(_, r)| r.split_once('\u{2019}'))
                             .map(|(name, _)| name.to_string());
                         match again {
@@ -444,8 +446,21 @@ fn record(root: &Path, matiec: &Path) {
             });
         }
     });
-    let out: Vec<Recorded> = done.into_inner().unwrap().into_iter().flatten().collect();
+    let mut out: Vec<Recorded> = done.into_inner().unwrap().into_iter().flatten().collect();
     let path = petriplc_testnet::data::testdata(RECORDING);
+    // With MATIEC_ONLY, the POUs named replace theirs in the recording; the others stay.
+    if std::env::var_os("MATIEC_ONLY").is_some() {
+        if let Ok(old) = std::fs::read_to_string(&path) {
+            let (_, mut all) = recording::read(&old).unwrap();
+            for r in out.drain(..) {
+                match all.iter_mut().find(|o| o.file == r.file && o.pou == r.pou) {
+                    Some(o) => *o = r,
+                    None => all.push(r),
+                }
+            }
+            out = all;
+        }
+    }
     std::fs::create_dir_all(path.parent().unwrap()).unwrap();
     std::fs::write(&path, recording::write(&header(&commit), &out)).unwrap();
 }
