@@ -14,6 +14,7 @@ mod expr;
 mod il;
 pub mod ir;
 mod limits;
+mod members;
 pub mod memory;
 mod oop;
 pub mod ops;
