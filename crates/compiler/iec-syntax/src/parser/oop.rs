@@ -196,7 +196,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                 var_blocks,
                 body,
                 span: start.to(end),
-                oop: PouOop::default(),
+                oop: Box::default(),
             },
         })
     }
@@ -371,6 +371,6 @@ pub fn accessor(
         var_blocks,
         body,
         span,
-        oop: PouOop::default(),
+        oop: Box::default(),
     }
 }

@@ -67,7 +67,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                 span: body_start.at_start(),
             };
             let mut pou = self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw)?;
-            pou.oop = oop;
+            pou.oop = Box::new(oop);
             return Ok(pou);
         }
         let mut body = self.statements(&[end_kw]);
@@ -107,7 +107,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             start,
             end_kw,
         )?;
-        pou.oop = oop;
+        pou.oop = Box::new(oop);
         Ok(pou)
     }
 
@@ -149,7 +149,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             var_blocks,
             body,
             span: start.to(end),
-            oop: PouOop::default(),
+            oop: Box::default(),
         })
     }
 
