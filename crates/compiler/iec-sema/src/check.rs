@@ -50,7 +50,7 @@ pub(crate) struct Cx {
     /// VAR CONSTANTs of the POU being read ahead of their declaration (`later_constant`).
     pub ahead: Vec<String>,
     /// The instance the code works on, in a block's, program's or member's body (`oop.rs`).
-    pub this: Option<crate::oop::This>,
+    pub this: Option<crate::members::This>,
     /// Statements to run before the one being checked (a call given EN inside its value,
     /// `en_eno`); `None` where nothing may run first (conditions, loop bounds).
     pub pre: Option<Vec<crate::ir::Stmt>>,
@@ -120,7 +120,7 @@ pub(crate) struct Checker<'a> {
     /// The vendor libraries loaded (`Options::libs`).
     pub libs: Vec<String>,
     /// Methods, properties, actions and EXTENDS chains (`oop.rs`).
-    pub(crate) oop: crate::oop::Oop<'a>,
+    pub(crate) oop: crate::members::Oop<'a>,
 }
 
 impl<'a> Checker<'a> {
@@ -159,7 +159,7 @@ impl<'a> Checker<'a> {
             library: options.library,
             overflow: options.overflow,
             libs: options.libs.clone(),
-            oop: crate::oop::Oop::new(),
+            oop: crate::members::Oop::new(),
         }
     }
 

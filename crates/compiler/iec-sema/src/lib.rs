@@ -15,6 +15,7 @@ mod expr;
 mod il;
 pub mod ir;
 mod limits;
+mod members;
 pub mod memory;
 mod oop;
 pub mod ops;

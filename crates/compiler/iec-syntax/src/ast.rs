@@ -38,6 +38,9 @@ pub struct Library {
     pub elements: Vec<Element>,
 }
 
+// A library holds a few elements, most of them POUs: the size of the others matters less than
+// the readers' simple `Element::Pou(p)`.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Element {
     Types(Vec<TypeDecl>),
@@ -201,7 +204,7 @@ pub struct Pou {
     pub span: Span,
     /// Object orientation (docs/iec.md, "Object orientation"): what a FUNCTION_BLOCK
     /// extends and implements, its methods and properties, a PROGRAM's or FB's actions.
-    pub oop: PouOop,
+    pub oop: Box<PouOop>,
 }
 
 /// The object-oriented parts of a POU (all empty for a POU of the standard's second edition).

@@ -469,7 +469,7 @@ impl Reader<'_> {
             return_type,
             var_blocks,
             body,
-            oop,
+            oop: Box::new(oop),
         })
     }
 

@@ -127,7 +127,10 @@ impl<'a> Checker<'a> {
             return err(span);
         }
         let pou = self.pous[p as usize].clone();
-        let params = pou.vars.len() - usize::from(this.is_some());
+        // A member's interface ends with THIS (none after an error in it: reported).
+        let Some(params) = pou.vars.len().checked_sub(usize::from(this.is_some())) else {
+            return err(span);
+        };
         let Some(mut bound) = self.bind_args(&pou.name, &pou.vars[..params], call, cx, false)
         else {
             return err(span);

@@ -27,6 +27,10 @@ impl<'a, 'd> Parser<'a, 'd> {
                     self.member_after(&mut lib);
                     continue;
                 }
+                Tok::Ident if self.at_interface() => {
+                    self.interface_unsupported();
+                    continue;
+                }
                 _ => Err(self.expected(
                     "PROGRAM, FUNCTION, FUNCTION_BLOCK, TYPE, CONFIGURATION or VAR_GLOBAL",
                 )),

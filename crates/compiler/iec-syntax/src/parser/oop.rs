@@ -54,6 +54,34 @@ impl<'a, 'd> Parser<'a, 'd> {
                 ))
     }
 
+    /// `INTERFACE name`.
+    pub(super) fn at_interface(&self) -> bool {
+        self.at_word("INTERFACE") && Self::is_name(&self.peek_at(1).tok)
+    }
+
+    /// An INTERFACE declaration: reported as not supported yet and skipped to its
+    /// `END_INTERFACE`, so what follows is read.
+    pub(super) fn interface_unsupported(&mut self) {
+        let at = self.bump().span;
+        let name = self.text_of(self.peek().span).to_string();
+        self.error_at(
+            diag::UNSUPPORTED,
+            at,
+            format!("INTERFACE {name} is not supported yet; the rest of the source is checked"),
+        );
+        while !self.at(&Tok::Eof) && !self.at_word("END_INTERFACE") {
+            if matches!(
+                self.peek().tok,
+                Tok::Kw(Kw::Program | Kw::FunctionBlock | Kw::Function | Kw::Type)
+            ) {
+                return;
+            }
+            self.bump();
+        }
+        self.bump();
+        self.eat(&Tok::Semi);
+    }
+
     /// `VAR_INST` (a METHOD's variables kept in the instance).
     pub(super) fn at_var_inst(&self) -> bool {
         self.at_word("VAR_INST")
@@ -196,7 +224,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                 var_blocks,
                 body,
                 span: start.to(end),
-                oop: PouOop::default(),
+                oop: Box::default(),
             },
         })
     }
@@ -371,6 +399,6 @@ pub fn accessor(
         var_blocks,
         body,
         span,
-        oop: PouOop::default(),
+        oop: Box::default(),
     }
 }

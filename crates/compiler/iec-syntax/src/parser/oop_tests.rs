@@ -120,6 +120,21 @@ PROGRAM main; body 3",
 }
 
 #[test]
+fn an_interface_is_not_supported_yet_and_what_follows_is_read() {
+    check(
+        "INTERFACE I_Run EXTENDS I_Base
+METHOD Run : BOOL
+VAR_INPUT x : INT; END_VAR
+END_METHOD
+END_INTERFACE
+FUNCTION_BLOCK F
+END_FUNCTION_BLOCK",
+        "FUNCTION_BLOCK F; body 0
+t.st:1:1: error[E190]: INTERFACE I_Run is not supported yet; the rest of the source is checked",
+    );
+}
+
+#[test]
 fn a_member_outside_a_function_block_is_refused() {
     check(
         "METHOD M

@@ -77,7 +77,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             }
             let body = Body::St(stmts);
             let mut pou = self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw)?;
-            pou.oop = oop;
+            pou.oop = Box::new(oop);
             return Ok(pou);
         }
         if self.il {
@@ -88,7 +88,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                 span: body_start.at_start(),
             };
             let mut pou = self.pou_end(kind, name, return_type, var_blocks, body, start, end_kw)?;
-            pou.oop = oop;
+            pou.oop = Box::new(oop);
             return Ok(pou);
         }
         let mut body = self.statements(&[end_kw]);
@@ -128,7 +128,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             start,
             end_kw,
         )?;
-        pou.oop = oop;
+        pou.oop = Box::new(oop);
         Ok(pou)
     }
 
@@ -170,7 +170,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             var_blocks,
             body,
             span: start.to(end),
-            oop: PouOop::default(),
+            oop: Box::default(),
         })
     }
 

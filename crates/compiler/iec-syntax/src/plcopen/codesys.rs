@@ -182,7 +182,7 @@ impl Reader<'_> {
             return_type,
             var_blocks,
             body,
-            oop: PouOop::default(),
+            oop: Box::default(),
         })
     }
 }
