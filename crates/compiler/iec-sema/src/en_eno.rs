@@ -281,16 +281,7 @@ impl Checker<'_> {
         }
         let ty = self.settle_type(x.ty, expected);
         let id = cx.vars.len() as VarId;
-        cx.vars.push(ir::Var {
-            name: format!("$en{id}"),
-            ty,
-            class: VarClass::Hidden,
-            init: None,
-            constant: false,
-            retain: false,
-            location: None,
-            span,
-        });
+        cx.vars.push(ir::Var::hidden(format!("$en{id}"), ty, span));
         let tmp = Place {
             root: ir::Root::Var(id),
             path: Vec::new(),

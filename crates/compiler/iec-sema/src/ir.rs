@@ -118,6 +118,23 @@ pub struct Var {
     pub span: Span,
 }
 
+impl Var {
+    /// A variable the checker adds (`VarClass::Hidden`): no initial value but its type's, not
+    /// constant, retained or located.
+    pub fn hidden(name: String, ty: TypeId, span: Span) -> Var {
+        Var {
+            name,
+            ty,
+            class: VarClass::Hidden,
+            init: None,
+            constant: false,
+            retain: false,
+            location: None,
+            span,
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Stmt {
     pub kind: StmtKind,

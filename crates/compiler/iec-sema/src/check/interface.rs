@@ -182,16 +182,7 @@ impl<'a> Checker<'a> {
             for suffix in ["$prev", "$raw"] {
                 let name = format!("{}{suffix}", vars[*v as usize].name);
                 let span = vars[*v as usize].span;
-                vars.push(Var {
-                    name,
-                    ty: ids::BOOL,
-                    class: VarClass::Hidden,
-                    init: None,
-                    constant: false,
-                    retain: false,
-                    location: None,
-                    span,
-                });
+                vars.push(Var::hidden(name, ids::BOOL, span));
             }
         }
         let what = format!("{} {}", ast.kind.keyword(), ast.name.name);

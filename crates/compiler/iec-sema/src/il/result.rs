@@ -7,7 +7,7 @@ use petriplc_iec_syntax::source::Span;
 
 use crate::check::Checker;
 use crate::expr::err;
-use crate::ir::{Expr, ExprKind, Place, Root, Stmt, StmtKind, UnaryOp, Var, VarClass, VarId};
+use crate::ir::{Expr, ExprKind, Place, Root, Stmt, StmtKind, UnaryOp, Var, VarId};
 use crate::types::{ids, Type, TypeId};
 use crate::value::Value;
 
@@ -166,16 +166,7 @@ impl Checker<'_> {
     fn il_var(&mut self, il: &mut Il<'_>, ty: TypeId, span: Span) -> VarId {
         let id = il.cx.vars.len() as VarId;
         let name = format!("$il{id}");
-        il.cx.vars.push(Var {
-            name: name.clone(),
-            ty,
-            class: VarClass::Hidden,
-            init: None,
-            constant: false,
-            retain: false,
-            location: None,
-            span,
-        });
+        il.cx.vars.push(Var::hidden(name.clone(), ty, span));
         // Reachable by name from the syntax trees this front end builds (`$` starts no
         // identifier a source can spell).
         il.cx.names.insert(name.to_ascii_uppercase(), id);

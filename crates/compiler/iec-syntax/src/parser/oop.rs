@@ -240,27 +240,7 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     /// Variable blocks of a member (VAR_INST included).
     pub(super) fn member_var_blocks(&mut self) -> Vec<VarBlock> {
-        let mut blocks = Vec::new();
-        while self.is_var_block_start() {
-            let s = self.pos;
-            match self.var_block() {
-                Ok(b) => blocks.push(b),
-                Err(Reported) => {
-                    if self.pos == s {
-                        self.bump();
-                    }
-                    while !self.at_kw(Kw::EndVar)
-                        && !self.is_top_start()
-                        && !self.at_member_boundary()
-                    {
-                        self.bump();
-                    }
-                    self.eat_kw(Kw::EndVar);
-                    self.eat(&Tok::Semi);
-                }
-            }
-        }
-        blocks
+        self.var_blocks_until(Self::at_member_boundary)
     }
 
     /// The statements up to `end` (a word) and the span of `end`.

@@ -40,24 +40,8 @@ impl<'a, 'd> Parser<'a, 'd> {
             PouKind::FunctionBlock => Kw::EndFunctionBlock,
             PouKind::Function => Kw::EndFunction,
         };
-        let mut var_blocks = Vec::new();
-        while self.is_var_block_start() {
-            let s = self.pos;
-            match self.var_block() {
-                Ok(b) => var_blocks.push(b),
-                Err(Reported) => {
-                    // Skip to END_VAR (or the body).
-                    if self.pos == s {
-                        self.bump();
-                    }
-                    while !self.at_kw(Kw::EndVar) && !self.is_top_start() && !self.at_kw(end_kw) {
-                        self.bump();
-                    }
-                    self.eat_kw(Kw::EndVar);
-                    self.eat(&Tok::Semi);
-                }
-            }
-        }
+        let mut var_blocks =
+            self.var_blocks_until(|p: &Self| p.at_kw(end_kw) || p.at_member_start());
         // A chart's ACTION blocks are its own (SFC), so a chart's POU reads no member
         // before its body.
         let chart = self.body_is_chart(end_kw);
@@ -130,6 +114,30 @@ impl<'a, 'd> Parser<'a, 'd> {
         )?;
         pou.oop = Box::new(oop);
         Ok(pou)
+    }
+
+    /// The variable blocks from here; a block with an error is skipped to its END_VAR, or to
+    /// where `stop` says what follows has begun (the body, a member), so one bad declaration
+    /// does not swallow the code after it.
+    pub(super) fn var_blocks_until(&mut self, stop: impl Fn(&Self) -> bool) -> Vec<VarBlock> {
+        let mut blocks = Vec::new();
+        while self.is_var_block_start() {
+            let s = self.pos;
+            match self.var_block() {
+                Ok(b) => blocks.push(b),
+                Err(Reported) => {
+                    if self.pos == s {
+                        self.bump();
+                    }
+                    while !self.at_kw(Kw::EndVar) && !self.is_top_start() && !stop(self) {
+                        self.bump();
+                    }
+                    self.eat_kw(Kw::EndVar);
+                    self.eat(&Tok::Semi);
+                }
+            }
+        }
+        blocks
     }
 
     /// The `END_…` of a POU, and the POU.

@@ -218,28 +218,13 @@ fn real_literal(rng: &mut Rng) -> String {
     }
 }
 
+/// The type's name in the wrappers given to matiec: TOD and DT spelt out, as the recording
+/// was made with; the checker's own names otherwise.
 fn elem_name(e: Elem) -> &'static str {
     match e {
-        Elem::Bool => "BOOL",
-        Elem::Sint => "SINT",
-        Elem::Int => "INT",
-        Elem::Dint => "DINT",
-        Elem::Lint => "LINT",
-        Elem::Usint => "USINT",
-        Elem::Uint => "UINT",
-        Elem::Udint => "UDINT",
-        Elem::Ulint => "ULINT",
-        Elem::Byte => "BYTE",
-        Elem::Word => "WORD",
-        Elem::Dword => "DWORD",
-        Elem::Lword => "LWORD",
-        Elem::Real => "REAL",
-        Elem::Lreal => "LREAL",
-        Elem::Time => "TIME",
-        Elem::Ltime => "LTIME",
-        Elem::Date => "DATE",
         Elem::Tod => "TIME_OF_DAY",
         Elem::Dt => "DATE_AND_TIME",
+        e => e.name(),
     }
 }
 
