@@ -1,18 +1,7 @@
 //! EN/ENO on calls: what is accepted, and the diagnostics of misused EN and ENO.
 
-use petriplc_iec_syntax::{parser, SourceMap};
-
-use crate::{ir, Options};
-
-fn run(src: &str) -> (Option<ir::Project>, String) {
-    let mut map = SourceMap::new();
-    let f = map.add("t.st", src);
-    let mut d = petriplc_iec_syntax::Diagnostics::new();
-    let lib = parser::parse(f, src, &mut d);
-    assert!(!d.has_errors(), "syntax: {}", d.render(&map));
-    let (p, diags) = crate::check(&lib, &Options::default());
-    (p, diags.render(&map))
-}
+use crate::ir;
+use crate::tests::run;
 
 /// `expect` has one entry per diagnostic line, in order: fragments of the line separated by
 /// `|` (empty: no diagnostic, and a project).
@@ -146,13 +135,7 @@ fn il_cal_with_en_and_a_function_given_en() {
         let src = format!(
             "PROGRAM p\nVAR\nc, ok : BOOL; i : INT; k : CTU;\nEND_VAR\n{body}\nEND_PROGRAM\n"
         );
-        let mut map = SourceMap::new();
-        let f = map.add("t.il", &src);
-        let mut d = petriplc_iec_syntax::Diagnostics::new();
-        let lib = parser::parse_il(f, &src, &mut d);
-        let (p, diags) = crate::check(&lib, &Options::default());
-        d.extend(diags);
-        (p.filter(|_| !d.has_errors()), d.render(&map))
+        crate::il_tests::run(&src)
     };
     let (p, d) = run_il("  CAL k(EN := c, CU := TRUE, PV := 3, ENO => ok, CV => i)");
     assert!(p.is_some() && d.is_empty(), "{d}");

@@ -4,8 +4,9 @@ use petriplc_iec_syntax::{parser, SourceMap};
 
 use crate::{check, ir, Options};
 
-/// Parses `src` as a `.il` source and checks it; every diagnostic rendered.
-fn run(src: &str) -> (Option<ir::Project>, String) {
+/// Parses `src` as a `.il` source and checks it; every diagnostic rendered (the EN/ENO tests
+/// call it too).
+pub(crate) fn run(src: &str) -> (Option<ir::Project>, String) {
     let mut map = SourceMap::new();
     let f = map.add("t.il", src);
     let mut d = petriplc_iec_syntax::Diagnostics::new();

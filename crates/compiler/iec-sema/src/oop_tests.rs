@@ -1,22 +1,15 @@
 //! The checker's rules of object orientation (docs/iec.md, "Object orientation"): each misuse
 //! with its code and message, and what is accepted.
 
-use petriplc_iec_syntax::{parser, SourceMap};
-
-use crate::{check, Options};
+use crate::tests::run;
 
 /// The diagnostics of checking `src` (one a line), or `ok`.
 fn check_src(src: &str, expect: &str) {
-    let mut map = SourceMap::new();
-    let f = map.add("t.st", src);
-    let mut d = petriplc_iec_syntax::Diagnostics::new();
-    let lib = parser::parse(f, src, &mut d);
-    assert!(!d.has_errors(), "syntax: {}", d.render(&map));
-    let (p, diags) = check(&lib, &Options::default());
-    let got = if p.is_some() && diags.items.is_empty() {
+    let (p, rendered) = run(src);
+    let got = if p.is_some() && rendered.is_empty() {
         "ok".to_string()
     } else {
-        diags.render(&map)
+        rendered
     };
     assert_eq!(got.trim_end(), expect.trim_end(), "{src}");
 }

@@ -1,20 +1,12 @@
 //! What other compilers (matiec, CODESYS, TwinCAT, PCWorx) accept and the standard does not:
 //! accepted with a warning, and where it stays refused.
 
-use petriplc_iec_syntax::{parser, SourceMap};
-
-use crate::{check, Options};
+use crate::tests::run;
 
 /// Checks `src`; every rendered diagnostic line must contain the fragment at its place in
 /// `expect`, and there must be as many.
 fn check_diags(src: &str, expect: &[&str]) {
-    let mut map = SourceMap::new();
-    let f = map.add("t.st", src);
-    let mut d = petriplc_iec_syntax::Diagnostics::new();
-    let lib = parser::parse(f, src, &mut d);
-    assert!(!d.has_errors(), "syntax: {}", d.render(&map));
-    let (p, diags) = check(&lib, &Options::default());
-    let text = diags.render(&map);
+    let (p, text) = run(src);
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), expect.len(), "got:\n{text}");
     for (l, e) in lines.iter().zip(expect) {

@@ -4,8 +4,9 @@ use petriplc_iec_syntax::{parser, SourceMap};
 
 use crate::{check, ir, Options, Overflow};
 
-/// Checks `src`; returns the project and the rendered diagnostics.
-fn run(src: &str) -> (Option<ir::Project>, String) {
+/// Checks `src` as the file `t.st` (it must parse); returns the project and the rendered
+/// diagnostics. The other test modules of the checker call it too.
+pub(crate) fn run(src: &str) -> (Option<ir::Project>, String) {
     run_in(src, Overflow::default())
 }
 
