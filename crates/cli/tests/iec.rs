@@ -7,14 +7,11 @@ use predicates::prelude::*;
 
 const EXAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples");
 
+mod common;
+use common::file;
+
 fn petriplc() -> Command {
     Command::cargo_bin("petriplc").unwrap()
-}
-
-fn file(dir: &tempfile::TempDir, name: &str, text: &str) -> String {
-    let p = dir.path().join(name);
-    std::fs::write(&p, text).unwrap();
-    p.display().to_string()
 }
 
 #[test]

@@ -4,14 +4,11 @@
 use assert_cmd::Command;
 use predicates::prelude::*;
 
+mod common;
+use common::file;
+
 fn petriplc() -> Command {
     Command::cargo_bin("petriplc").unwrap()
-}
-
-fn file(dir: &tempfile::TempDir, name: &str, text: &str) -> String {
-    let p = dir.path().join(name);
-    std::fs::write(&p, text).unwrap();
-    p.display().to_string()
 }
 
 #[test]

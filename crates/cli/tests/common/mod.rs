@@ -1,5 +1,6 @@
 //! What the integration tests share: building a C module program against the
-//! `libpetriplc.so` built with the test, and reading a process's log line by line as it comes.
+//! `libpetriplc.so` built with the test, reading a process's log line by line as it comes,
+//! and writing a source for a command to read.
 
 // Each test file compiles this module on its own and uses a part of it.
 #![allow(dead_code)]
@@ -98,4 +99,11 @@ impl Lines {
         }
         self.seen
     }
+}
+
+/// Writes `text` as `dir/NAME` and returns its path, as a command's argument.
+pub fn file(dir: &tempfile::TempDir, name: &str, text: &str) -> String {
+    let p = dir.path().join(name);
+    fs::write(&p, text).unwrap();
+    p.display().to_string()
 }
