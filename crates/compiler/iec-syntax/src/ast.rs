@@ -662,6 +662,12 @@ pub enum BinaryOp {
     Or,
     Xor,
     And,
+    /// CODESYS's `AND_THEN`: AND on BOOL whose right operand is not evaluated when the left
+    /// is FALSE.
+    AndThen,
+    /// CODESYS's `OR_ELSE`: OR on BOOL whose right operand is not evaluated when the left is
+    /// TRUE.
+    OrElse,
     Eq,
     Ne,
     Lt,
@@ -682,6 +688,8 @@ impl BinaryOp {
             BinaryOp::Or => "OR",
             BinaryOp::Xor => "XOR",
             BinaryOp::And => "AND",
+            BinaryOp::AndThen => "AND_THEN",
+            BinaryOp::OrElse => "OR_ELSE",
             BinaryOp::Eq => "=",
             BinaryOp::Ne => "<>",
             BinaryOp::Lt => "<",
