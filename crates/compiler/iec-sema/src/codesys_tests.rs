@@ -47,3 +47,27 @@ fn a_constant_left_operand_decides_at_compile_time() {
         "{body}"
     );
 }
+
+#[test]
+fn a_structure_extends_a_structure_only() {
+    check_diags(
+        "TYPE B : STRUCT a : INT; END_STRUCT END_TYPE\nTYPE E : (X, Y); END_TYPE\n\
+         TYPE S EXTENDS E : STRUCT c : INT; END_STRUCT END_TYPE\n\
+         TYPE S2 EXTENDS Nope : STRUCT c : INT; END_STRUCT END_TYPE\n\
+         TYPE S3 EXTENDS B : STRUCT a : INT; END_STRUCT END_TYPE\n\
+         TYPE S4 EXTENDS S4 : STRUCT a : INT; END_STRUCT END_TYPE\n\
+         PROGRAM p\nVAR s : S; s2 : S2; s3 : S3; s4 : S4; END_VAR\nEND_PROGRAM\n",
+        &[
+            "t.st:3:16: error[E109]: a structure extends a structure; E is not one",
+            "t.st:4:17: error[E101]: unknown type `Nope`",
+            "t.st:5:28: error[E103]: field `a` is declared twice in S3",
+            "t.st:6:17: error[E107]: type S4 contains itself",
+        ],
+    );
+    // The base's fields first: a field of the base is reached by its name.
+    check_diags(
+        "TYPE S EXTENDS B : STRUCT c : INT; END_STRUCT END_TYPE\nTYPE B : STRUCT a : INT; END_STRUCT END_TYPE\n\
+         PROGRAM p\nVAR s : S; END_VAR\ns.a := s.c;\nEND_PROGRAM\n",
+        &[],
+    );
+}

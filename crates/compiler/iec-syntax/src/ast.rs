@@ -78,6 +78,9 @@ pub enum TypeSpec {
         span: Span,
     },
     Struct {
+        /// CODESYS's and TwinCAT's `TYPE name EXTENDS base : STRUCT`: the base structure's
+        /// fields come first.
+        base: Option<Ident>,
         fields: Vec<VarDecl>,
         span: Span,
     },
@@ -101,10 +104,7 @@ pub enum TypeSpec {
         span: Span,
     },
     /// Forms the engine does not support (reported).
-    Unsupported {
-        what: String,
-        span: Span,
-    },
+    Unsupported { what: String, span: Span },
 }
 
 impl TypeSpec {

@@ -106,8 +106,28 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     fn type_decl(&mut self) -> PResult<TypeDecl> {
         let name = self.ident("a type name")?;
+        // TwinCAT's `TYPE name EXTENDS base : STRUCT … END_STRUCT`.
+        let extends = if self.at_word("EXTENDS") {
+            self.bump();
+            Some(self.ident("the base structure's name")?)
+        } else {
+            None
+        };
         self.expect(&Tok::Colon, "`:` after the type name")?;
-        let spec = self.type_spec(true)?;
+        let mut spec = self.type_spec(true)?;
+        if let Some(b) = extends {
+            match &mut spec {
+                TypeSpec::Struct { base, .. } => *base = Some(b),
+                TypeSpec::Unsupported { .. } => {}
+                other => {
+                    self.error_at(
+                        diag::BAD_DECLARATION,
+                        other.span(),
+                        "only a STRUCT extends a base structure; write `TYPE name EXTENDS base : STRUCT … END_STRUCT`",
+                    );
+                }
+            }
+        }
         let init = if self.eat(&Tok::Assign).is_some() {
             Some(self.init()?)
         } else {
@@ -193,7 +213,11 @@ impl<'a, 'd> Parser<'a, 'd> {
                 }
                 self.expect_kw(Kw::EndStruct)?;
                 let span = start.to(self.prev_span());
-                Ok(TypeSpec::Struct { fields, span })
+                Ok(TypeSpec::Struct {
+                    base: None,
+                    fields,
+                    span,
+                })
             }
             Tok::LParen => {
                 let (values, span) = self.enum_values()?;
