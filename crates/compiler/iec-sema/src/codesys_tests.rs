@@ -71,3 +71,38 @@ fn a_structure_extends_a_structure_only() {
         &[],
     );
 }
+
+#[test]
+fn reference_to_binds_with_ref_assign_and_is_refused_where_it_cannot_work() {
+    check_diags(
+        "FUNCTION_BLOCK fb\nVAR_INPUT x : INT; END_VAR\nEND_FUNCTION_BLOCK\n\
+         FUNCTION f : REFERENCE TO INT\nVAR_INPUT i : INT; END_VAR\nEND_FUNCTION\n\
+         PROGRAM p\nVAR x, y : INT; z : REAL; r : REFERENCE TO INT; rf : REFERENCE TO fb; rr : REFERENCE TO REFERENCE TO INT; END_VAR\n\
+         VAR_TEMP t : INT; END_VAR\n\
+         r REF= x + 1;\nr REF= z;\nx REF= y;\nr REF= t;\ny := __ISVALIDREF(x);\nEND_PROGRAM\n",
+        &[
+            "t.st:4:14: error[E190]: a result of type REFERENCE TO is not supported yet",
+            "t.st:8:54: error[E190]: REFERENCE TO a function block instance is not supported yet",
+            "t.st:8:76: error[E190]: a REFERENCE TO cannot designate another REFERENCE TO",
+            "t.st:10:8: error[E220]: `REF=` binds a REFERENCE TO to a variable, not to an expression's value",
+            "t.st:11:8: error[E220]: `REF=` binds a REFERENCE TO INT to a variable of that type; this is REAL",
+            "t.st:12:1: error[E220]: `REF=` binds a REFERENCE TO; this is INT: assign it with `:=`",
+            "t.st:13:8: error[E201]: a pointer to this PROGRAM's own variables is stored in `r`",
+            "t.st:14:19: error[E200]: __ISVALIDREF tests a REFERENCE TO; this is INT",
+        ],
+    );
+    // An input binds to the variable given; an expression cannot be bound.
+    check_diags(
+        "FUNCTION_BLOCK fb\nVAR_INPUT r : REFERENCE TO INT; END_VAR\nr := r + 1;\nEND_FUNCTION_BLOCK\n\
+         PROGRAM p\nVAR x : INT; f : fb; END_VAR\nf(r := x);\nf(r := x + 1);\nEND_PROGRAM\n",
+        &["t.st:8:8: error[E220]: argument `r` binds a REFERENCE TO to a variable, not to an expression's value"],
+    );
+}
+
+#[test]
+fn a_caret_after_a_reference_is_redundant_and_warned() {
+    check_diags(
+        "PROGRAM p\nVAR x, y : INT; r : REFERENCE TO INT; END_VAR\nr REF= x;\ny := r^;\nr := y;\nEND_PROGRAM\n",
+        &["t.st:4:6: warning[W040]: this is a REFERENCE TO INT, dereferenced where it is used: the `^` is redundant"],
+    );
+}

@@ -543,6 +543,11 @@ pub enum StmtKind {
         target: Expr,
         value: Expr,
     },
+    /// CODESYS's `r REF= x`: binds the REFERENCE TO `r` to the variable `x`.
+    RefAssign {
+        target: Expr,
+        value: Expr,
+    },
     /// A function or function block call as a statement.
     Call(Call),
     If {

@@ -89,6 +89,7 @@ codes! {
     OOP_MODIFIER = "E212",
     OOP_ACCESS = "E213",
     OOP_SIGNATURE = "E214",
+    REF_ASSIGN = "E220",
     SHADOWS_STANDARD = "W001",
     NOT_CHECKED = "W002",
     UNUSED_RESULT = "W003",
@@ -103,6 +104,7 @@ codes! {
     IN_OUT_INITIAL = "W032",
     LOCATION_IGNORED = "W013",
     SFC_NEVER = "W033",
+    REFERENCE_CARET = "W040",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -301,17 +301,22 @@ impl<'a> Checker<'a> {
                 (id, None)
             }
             TypeSpec::Ref { kind, target, span } => {
-                if *kind == ast::RefKind::ReferenceTo {
-                    self.error(
-                        diag::UNSUPPORTED,
-                        *span,
-                        "REFERENCE TO is not supported yet; declare a POINTER TO and dereference it with `^`",
-                    );
-                    return (ids::ERROR, None);
-                }
                 let (t, _) = self.resolve_spec(target, cx);
                 if t == ids::ERROR {
                     return (ids::ERROR, None);
+                }
+                if *kind == ast::RefKind::ReferenceTo {
+                    // A reference is an alias of data; CODESYS has no reference to a
+                    // reference, and references to instances come with interfaces.
+                    let why = match self.types.get(t) {
+                        Type::Fb(_) => Some("REFERENCE TO a function block instance is not supported yet; reference its data (a structure) or pass the instance as VAR_IN_OUT"),
+                        Type::Ref { kind: ast::RefKind::ReferenceTo, .. } => Some("a REFERENCE TO cannot designate another REFERENCE TO; reference the data itself"),
+                        _ => None,
+                    };
+                    if let Some(why) = why {
+                        self.error(diag::UNSUPPORTED, *span, why);
+                        return (ids::ERROR, None);
+                    }
                 }
                 (self.types.reference(*kind, t), None)
             }
