@@ -106,3 +106,15 @@ fn a_caret_after_a_reference_is_redundant_and_warned() {
         &["t.st:4:6: warning[W040]: this is a REFERENCE TO INT, dereferenced where it is used: the `^` is redundant"],
     );
 }
+
+#[test]
+fn a_union_is_read_whole_and_told_unsupported() {
+    check_diags(
+        "TYPE U :\nUNION\n  d : DINT;\n  w : ARRAY[0..1] OF WORD;\nEND_UNION\nEND_TYPE\n\
+         PROGRAM p\nVAR x : INT; END_VAR\nx := y;\nEND_PROGRAM\n",
+        &[
+            "t.st:2:1: error[E190]: UNION (members sharing their bytes) is not supported yet",
+            "t.st:9:6: error[E100]: `y` is not declared",
+        ],
+    );
+}

@@ -103,7 +103,8 @@ pub enum TypeSpec {
         target: Box<TypeSpec>,
         span: Span,
     },
-    /// Forms the engine does not support (reported).
+    /// Forms the engine does not support (reported by the checker with `what`, the whole
+    /// message: `UNION`).
     Unsupported { what: String, span: Span },
 }
 

@@ -321,11 +321,7 @@ impl<'a> Checker<'a> {
                 (self.types.reference(*kind, t), None)
             }
             TypeSpec::Unsupported { what, span } => {
-                self.error(
-                    diag::UNSUPPORTED,
-                    *span,
-                    format!("{what} types are not supported"),
-                );
+                self.error(diag::UNSUPPORTED, *span, what.clone());
                 (ids::ERROR, None)
             }
         }

@@ -135,7 +135,8 @@ impl<'a, 'd> Parser<'a, 'd> {
         };
         // TwinCAT and CODESYS write `END_STRUCT` (and the last declaration) without `;`
         // before `END_TYPE`: the keyword ends the declaration.
-        let closed = matches!(spec, TypeSpec::Struct { .. }) && init.is_none();
+        let closed = matches!(spec, TypeSpec::Struct { .. } | TypeSpec::Unsupported { .. })
+            && init.is_none();
         if !(closed || self.at_kw(Kw::EndType)) {
             self.expect_semi()?;
         } else {
@@ -191,6 +192,26 @@ impl<'a, 'd> Parser<'a, 'd> {
                     ranges,
                     elem: Box::new(elem),
                     span,
+                })
+            }
+            // CODESYS's and TwinCAT's UNION … END_UNION: read whole, so the rest of the
+            // source is checked, and told as not supported.
+            Tok::Ident if in_type && self.at_word("UNION") => {
+                self.bump();
+                while !self.at_word("END_UNION") && !self.is_top_start() && !self.at_kw(Kw::EndType)
+                {
+                    let s = self.pos;
+                    if self.var_decl().is_err() {
+                        self.sync_decl(s);
+                    }
+                }
+                if !self.at_word("END_UNION") {
+                    return Err(self.expected("`END_UNION`"));
+                }
+                self.bump();
+                Ok(TypeSpec::Unsupported {
+                    what: "UNION (members sharing their bytes) is not supported yet; declare a STRUCT, or read a variable's bytes as another type through a POINTER TO".into(),
+                    span: start.to(self.prev_span()),
                 })
             }
             Tok::Kw(Kw::Struct) => {
