@@ -17,8 +17,8 @@ impl<'a, 'd> Parser<'a, 'd> {
     }
 
     /// Operators by binding power: OR 1, XOR 2, AND 3, = <> 4, < > <= >= 5, + - 6,
-    /// * / MOD 7, ** 8. CODESYS's short-circuit `OR_ELSE` and `AND_THEN` bind as OR and
-    /// AND; they are words, not reserved (a variable may still be called so elsewhere).
+    /// `* / MOD` 7, ** 8. CODESYS's short-circuit `OR_ELSE` and `AND_THEN` bind as OR
+    /// and AND; they are words, not reserved (a variable may still be called so elsewhere).
     fn binary_op(&self) -> Option<(BinaryOp, u8)> {
         if self.at_word("OR_ELSE") {
             return Some((BinaryOp::OrElse, 1));
