@@ -84,7 +84,7 @@ pub(crate) struct Checker<'a> {
     pub lib: &'a Library,
     pub types: TypeTable,
     pub diags: Diagnostics,
-    type_decls: HashMap<String, &'a ast::TypeDecl>,
+    pub(crate) type_decls: HashMap<String, &'a ast::TypeDecl>,
     type_done: HashMap<String, (TypeId, Option<Value>)>,
     type_busy: Vec<String>,
     pub pou_asts: Vec<&'a ast::Pou>,

@@ -64,6 +64,17 @@ impl<'a> Checker<'a> {
                 x
             }
             A::Name(id) => self.name(id, cx, expected),
+            A::Field(base, value) if self.is_enum_type_name(base, cx) => {
+                // CODESYS's and TwinCAT's `E.Value` (the standard writes `E#Value`).
+                let A::Name(ty) = &base.kind else {
+                    return err(span);
+                };
+                let lit = ast::Literal::Enum {
+                    ty: ty.clone(),
+                    value: value.clone(),
+                };
+                self.literal(&lit, span)
+            }
             A::Field(..) | A::Index(..) | A::Bit(..) | A::Deref(_) => {
                 match self.place(e, cx, false) {
                     Some(p) => Expr {
@@ -86,6 +97,21 @@ impl<'a> Checker<'a> {
             A::Binary(op, a, b) => self.binary(*op, a, b, cx, expected, span),
             A::Call(call) => self.call_expr(call, cx, expected),
         }
+    }
+
+    /// Whether `base` of `base.x` names an enumeration type (or an alias of one) and no
+    /// variable: then `base.x` is one of its values, as CODESYS and TwinCAT write them.
+    fn is_enum_type_name(&mut self, base: &ast::Expr, cx: &mut Cx) -> bool {
+        let A::Name(id) = &base.kind else {
+            return false;
+        };
+        if !self.type_decls.contains_key(&id.key()) || self.var_place(id, cx).is_some() {
+            return false;
+        }
+        let mark = self.diags.items.len();
+        let (t, _) = self.type_by_name(id);
+        self.diags.items.truncate(mark);
+        matches!(self.types.get(t), Type::Enum { .. })
     }
 
     /// A BOOL condition.
