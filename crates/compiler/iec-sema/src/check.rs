@@ -3,7 +3,7 @@
 //! types and values, `interface.rs` globals and interfaces, `body.rs` bodies); statements and
 //! expressions are checked in `stmt.rs` and `expr.rs`.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use petriplc_iec_syntax::ast::{self, Element, Ident, Library, PouKind};
 use petriplc_iec_syntax::depth::{Depth, MAX_TYPE_DEPTH};
@@ -95,6 +95,9 @@ pub(crate) struct Checker<'a> {
     pub native_names: HashMap<String, u32>,
     pub globals: Vec<Var>,
     pub global_names: HashMap<String, GlobalId>,
+    /// The variables of each named global variable list (a TwinCAT GVL), by the list's name,
+    /// for `LIST.x` (upper case).
+    pub global_lists: HashMap<String, HashSet<String>>,
     /// Globals of a top-level VAR_GLOBAL list: visible without VAR_EXTERNAL.
     pub global_direct: Vec<bool>,
     /// Enumeration value names → (type, value) of every enumeration declaring them.
@@ -147,6 +150,7 @@ impl<'a> Checker<'a> {
             native_names,
             globals: Vec::new(),
             global_names: HashMap::new(),
+            global_lists: HashMap::new(),
             global_direct: Vec::new(),
             enum_values: HashMap::new(),
             edges: HashMap::new(),

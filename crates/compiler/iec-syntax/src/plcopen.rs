@@ -415,6 +415,7 @@ impl Reader<'_> {
                 .children_named("variable")
                 .filter_map(|v| self.variable(v))
                 .collect(),
+            list: None,
             span: self.span(b),
         }
     }
@@ -459,6 +460,7 @@ impl Reader<'_> {
                 constant: false,
                 retain: Retain::Unspecified,
                 vars: std::mem::take(&mut self.hidden),
+                list: None,
                 span: name.span,
             });
         }

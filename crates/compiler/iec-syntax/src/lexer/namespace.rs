@@ -18,6 +18,7 @@ const NAMESPACES: &[&str] = &[
     "SysTypes",
     "SysMem",
     "CmpErrors",
+    "IBaseLibrary",
 ];
 
 /// Whether `name` is the namespace of a vendor library.
