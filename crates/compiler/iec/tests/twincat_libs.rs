@@ -102,3 +102,47 @@ fn a_name_the_gvl_does_not_hold_is_refused() {
         "{e}"
     );
 }
+
+/// The file blocks of Tc2_System report ADS's "service not supported" on a rising edge of
+/// bExecute and hold it; SysFile's functions report ERR_NOT_IMPLEMENTED.
+#[test]
+fn file_services_report_that_they_are_unavailable() {
+    let main = r#"<?xml version="1.0" encoding="utf-8"?>
+<TcPlcObject Version="1.1.0.1">
+  <POU Name="MAIN" Id="{00000000-0000-0000-0000-000000000004}" SpecialFunc="None">
+    <Declaration><![CDATA[PROGRAM MAIN
+VAR
+    fbOpen : Tc2_System.FB_FileOpen;
+    nScan : INT;
+    nRead : SysFile.SysTypes.RTS_IEC_SIZE;
+    nResult : SysFile.SysTypes.RTS_IEC_RESULT;
+    buf : ARRAY[0..9] OF BYTE;
+END_VAR]]></Declaration>
+    <Implementation>
+      <ST><![CDATA[nScan := nScan + 1;
+fbOpen(sPathName := 'C:\log.txt', nMode := FOPEN_MODEWRITE, bExecute := nScan = 2);
+nRead := SysFile.SysFileRead(0, ADR(buf), 10, ADR(nResult));]]></ST>
+    </Implementation>
+  </POU>
+</TcPlcObject>"#;
+    let mut s = Sources::new();
+    s.add_text("MAIN.TcPOU", main);
+    let b = build(&s, &Select::Auto, Natives::default()).unwrap_or_else(|e| panic!("{e}"));
+    let mut m = Machine::new(b.engine.clone());
+    let mut seen = Vec::new();
+    for k in 0..3 {
+        m.scan(k * 10_000_000, &mut || true).unwrap();
+        let get = |v: &str| {
+            let r = b.engine.lookup(v).unwrap_or_else(|| panic!("no {v}"));
+            display(&b.engine.project, r.ty, &m.get(r).unwrap())
+        };
+        let names = [
+            "MAIN.fbOpen.bError",
+            "MAIN.fbOpen.nErrId",
+            "MAIN.nRead",
+            "MAIN.nResult",
+        ];
+        seen.push(names.map(get).join(" "));
+    }
+    assert_eq!(seen, ["0 0 0 10", "1 1793 0 10", "1 1793 0 10"]);
+}
