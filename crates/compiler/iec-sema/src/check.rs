@@ -120,6 +120,8 @@ pub(crate) struct Checker<'a> {
     pub(crate) library: bool,
     /// What integer overflow does (folding follows it; the project carries it to the VM).
     pub overflow: Overflow,
+    /// The dialect (CODESYS and TwinCAT convert an enumeration's value to an integer).
+    pub dialect: petriplc_iec_syntax::Dialect,
     /// The vendor libraries loaded (`Options::libs`).
     pub libs: Vec<String>,
     /// Methods, properties, actions and EXTENDS chains (`oop.rs`).
@@ -162,6 +164,7 @@ impl<'a> Checker<'a> {
             fb_shapes: Vec::new(),
             library: options.library,
             overflow: options.overflow,
+            dialect: options.dialect,
             libs: options.libs.clone(),
             oop: crate::members::Oop::new(),
         }

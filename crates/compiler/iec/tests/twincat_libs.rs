@@ -36,7 +36,7 @@ const MAIN: &str = r#"<?xml version="1.0" encoding="utf-8"?>
     <Declaration><![CDATA[PROGRAM MAIN
 VAR
     aSlots : ARRAY[1..GVL_Param.nMax] OF INT;
-    nLen : DINT;
+    nLen : UDINT;
     eType : __SYSTEM.TYPE_CLASS;
     eBase : IBaseLibrary.TypeClass;
     bSame : BOOL;

@@ -654,6 +654,30 @@ impl<'a> Checker<'a> {
                 return Expr { ty: to, ..x };
             }
             (Type::Elem(a), Type::Elem(b)) if a.widens_to(*b) => return self.convert(x, to),
+            // CODESYS and TwinCAT store an enumeration's value in an integer or bit string
+            // implicitly (not for `{attribute 'strict'}` enumerations, which petriplc does not
+            // tell apart); the standard wants it written (`TO_DINT(e)`).
+            (Type::Enum { .. }, Type::Elem(b))
+                if (b.is_int() || b.is_bitstring()) && self.dialect.is_codesys_family() =>
+            {
+                if let Some(v) = x.const_int() {
+                    let (lo, hi) = b.range();
+                    if v < lo || v > hi {
+                        self.error(
+                            diag::OUT_OF_RANGE,
+                            span,
+                            format!("{v} does not fit {} ({lo}..{hi})", b.name()),
+                        );
+                        return err(span);
+                    }
+                    return konst(Value::Int(v), to, span);
+                }
+                return Expr {
+                    kind: ExprKind::Convert(Box::new(x)),
+                    ty: to,
+                    span,
+                };
+            }
             (Type::Subrange { base, .. }, Type::Elem(b)) if base.widens_to(*b) => {
                 return self.convert(x, to)
             }

@@ -268,7 +268,7 @@ fn twincat_declarations_in_structured_text() {
     // The library's types and functions are there with `twincat` only.
     assert!(run(
         &["twincat"],
-        "s : T_MaxString; n : DINT;",
+        "s : T_MaxString; n : UDINT;",
         "n := LEN2(ADR(s));"
     )
     .is_ok());
@@ -312,4 +312,31 @@ fn a_project_declaration_replaces_the_library_one() {
     let (p, d) = check(&lib, &options);
     assert!(!d.has_errors(), "{}", d.render(&map));
     assert!(p.is_some());
+}
+
+#[test]
+fn codesys_stores_an_enumeration_value_in_an_integer() {
+    let src = "TYPE E : (A := 1, B := 300) UDINT; END_TYPE\n\
+               PROGRAM p\nVAR d : DINT := E.B; x : E := E.A; w : WORD; s : SINT; END_VAR\n\
+               d := x;\nw := E.B;\nEND_PROGRAM\n";
+    let check_in = |dialect, src: &str| {
+        let mut map = SourceMap::new();
+        let f = map.add("t.st", src);
+        let mut d = petriplc_iec_syntax::Diagnostics::new();
+        let lib = parser::parse(f, src, &mut d);
+        let options = Options {
+            dialect,
+            ..Options::default()
+        };
+        let (_, d) = check(&lib, &options);
+        d.render(&map)
+    };
+    use petriplc_iec_syntax::Dialect;
+    let ok = check_in(Dialect::Twincat, src);
+    assert!(!ok.contains("error"), "{ok}");
+    let iec = check_in(Dialect::Iec, src);
+    assert!(iec.contains("is E but DINT is needed"), "{iec}");
+    // A constant that does not fit is still refused.
+    let narrow = check_in(Dialect::Codesys, &src.replace("w := E.B;", "s := E.B;"));
+    assert!(narrow.contains("300 does not fit SINT"), "{narrow}");
 }
