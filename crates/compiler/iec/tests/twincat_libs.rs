@@ -146,3 +146,30 @@ nRead := SysFile.SysFileRead(0, ADR(buf), 10, ADR(nResult));]]></ST>
     }
     assert_eq!(seen, ["0 0 0 10", "1 1793 0 10", "1 1793 0 10"]);
 }
+
+/// GETCPUCOUNTER gives the scan's clock in 100 ns, as two DWORD halves (TcUnit joins them
+/// into an LWORD to time its tests), on machine code and the VM alike.
+#[test]
+fn cpu_counter_follows_the_scan_clock() {
+    let src = "{attribute 'TcTypeSystem'}\n\
+               PROGRAM main\nVAR\n  counter : GETCPUCOUNTER;\n  ticks : LWORD;\nEND_VAR\n\
+               counter();\n\
+               ticks := SHL(DWORD_TO_LWORD(counter.cpuCntHiDW), 32) + DWORD_TO_LWORD(counter.cpuCntLoDW);\n\
+               END_PROGRAM\n";
+    let mut s = Sources::new();
+    s.add_text("main.st", src);
+    let b = build(&s, &Select::Auto, Natives::default()).unwrap_or_else(|e| panic!("{e}"));
+    let mut m = Machine::new(b.engine.clone());
+    let mut vm = Machine::new(b.engine.clone());
+    vm.set_backend(Backend::Vm);
+    let r = b.engine.lookup("main.ticks").expect("main.ticks");
+    let mut seen = Vec::new();
+    for now in [0, 10_000_000, 500_000_000_000] {
+        m.scan(now, &mut || true).unwrap();
+        vm.scan(now, &mut || true).unwrap();
+        let (a, v) = (m.get(r).unwrap(), vm.get(r).unwrap());
+        assert_eq!(a, v, "machine code and VM disagree");
+        seen.push(display(&b.engine.project, r.ty, &a));
+    }
+    assert_eq!(seen, ["0", "100000", "5000000000"]);
+}
