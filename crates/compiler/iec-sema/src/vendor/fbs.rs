@@ -22,18 +22,18 @@ fn var(name: &str, ty: Elem, kind: NativeVarKind) -> NativeVar {
     }
 }
 
+/// A block's pins of one direction: name, type, kind.
+type Pins = &'static [(&'static str, Elem, NativeVarKind)];
+
 /// The interface of vendor function block `name` (upper case).
 pub fn signature(name: &str) -> Option<NativeSig> {
     use NativeVarKind::{Input as I, Output as O};
-    let monitor: &[(&str, Elem, NativeVarKind)] = &[
+    let monitor: Pins = &[
         ("IN", Elem::Int, I),
         ("HIGH", Elem::Int, I),
         ("LOW", Elem::Int, I),
     ];
-    let (inputs, outputs): (
-        &[(&str, Elem, NativeVarKind)],
-        &[(&str, Elem, NativeVarKind)],
-    ) = match name {
+    let (inputs, outputs): (Pins, Pins) = match name {
         "HYSTERESIS" => (monitor, &[("OUT", Elem::Bool, O)]),
         "LIMITALARM" => (
             monitor,
