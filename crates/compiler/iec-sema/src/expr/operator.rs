@@ -568,6 +568,19 @@ impl<'a> Checker<'a> {
             }
             (Type::IntLit, _) => {
                 let v = x.const_int().unwrap_or(0);
+                // CODESYS and TwinCAT write NULL as the address 0 (`p := 0`, `p <> 0`); any
+                // other number is no pointer here (addresses are checked handles).
+                if v == 0
+                    && matches!(
+                        to_t,
+                        Type::Ref {
+                            kind: RefKind::PointerTo,
+                            ..
+                        }
+                    )
+                {
+                    return konst(Value::Int(0), to, span);
+                }
                 let target = match &to_t {
                     Type::Elem(e) => Some((*e, None)),
                     Type::Subrange { base, lo, hi } => Some((*base, Some((*lo, *hi)))),
