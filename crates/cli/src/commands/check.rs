@@ -17,8 +17,21 @@ pub fn run(args: CheckArgs) -> Result<(), Failure> {
     if !checked.warnings.is_empty() {
         crate::diagnostics::eprint(&checked.warnings.join("\n"));
     }
-    let pous = checked.project.pous.len();
-    let programs = checked.project.programs().count();
+    // The POUs of the project's sources, not those a vendor library declares in ST.
+    let ours = |span: &petriplc_iec::syntax::source::Span| {
+        span.file.0 < petriplc_iec::syntax::builtin::BASE
+    };
+    let pous = checked
+        .project
+        .pous
+        .iter()
+        .filter(|p| ours(&p.span))
+        .count();
+    let programs = checked
+        .project
+        .programs()
+        .filter(|(_, p)| ours(&p.span))
+        .count();
     if let Some(pou) = &args.pou {
         petriplc_iec::build(&sources, &Select::Pou(pou.clone()), Natives::default()).bad_input()?;
     }

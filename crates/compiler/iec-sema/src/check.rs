@@ -3,7 +3,7 @@
 //! types and values, `interface.rs` globals and interfaces, `body.rs` bodies); statements and
 //! expressions are checked in `stmt.rs` and `expr.rs`.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use petriplc_iec_syntax::ast::{self, Element, Ident, Library, PouKind};
 use petriplc_iec_syntax::depth::{Depth, MAX_TYPE_DEPTH};
@@ -84,7 +84,7 @@ pub(crate) struct Checker<'a> {
     pub lib: &'a Library,
     pub types: TypeTable,
     pub diags: Diagnostics,
-    type_decls: HashMap<String, &'a ast::TypeDecl>,
+    pub(crate) type_decls: HashMap<String, &'a ast::TypeDecl>,
     type_done: HashMap<String, (TypeId, Option<Value>)>,
     type_busy: Vec<String>,
     pub pou_asts: Vec<&'a ast::Pou>,
@@ -95,6 +95,9 @@ pub(crate) struct Checker<'a> {
     pub native_names: HashMap<String, u32>,
     pub globals: Vec<Var>,
     pub global_names: HashMap<String, GlobalId>,
+    /// The variables of each named global variable list (a TwinCAT GVL), by the list's name,
+    /// for `LIST.x` (upper case).
+    pub global_lists: HashMap<String, HashSet<String>>,
     /// Globals of a top-level VAR_GLOBAL list: visible without VAR_EXTERNAL.
     pub global_direct: Vec<bool>,
     /// Enumeration value names → (type, value) of every enumeration declaring them.
@@ -117,6 +120,8 @@ pub(crate) struct Checker<'a> {
     pub(crate) library: bool,
     /// What integer overflow does (folding follows it; the project carries it to the VM).
     pub overflow: Overflow,
+    /// The dialect (CODESYS and TwinCAT convert an enumeration's value to an integer).
+    pub dialect: petriplc_iec_syntax::Dialect,
     /// The vendor libraries loaded (`Options::libs`).
     pub libs: Vec<String>,
     /// Methods, properties, actions and EXTENDS chains (`oop.rs`).
@@ -147,6 +152,7 @@ impl<'a> Checker<'a> {
             native_names,
             globals: Vec::new(),
             global_names: HashMap::new(),
+            global_lists: HashMap::new(),
             global_direct: Vec::new(),
             enum_values: HashMap::new(),
             edges: HashMap::new(),
@@ -158,6 +164,7 @@ impl<'a> Checker<'a> {
             fb_shapes: Vec::new(),
             library: options.library,
             overflow: options.overflow,
+            dialect: options.dialect,
             libs: options.libs.clone(),
             oop: crate::members::Oop::new(),
         }

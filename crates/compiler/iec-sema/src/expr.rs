@@ -64,6 +64,23 @@ impl<'a> Checker<'a> {
                 x
             }
             A::Name(id) => self.name(id, cx, expected),
+            A::Field(base, var) if self.is_global_list(base, cx) => {
+                match self.list_member(base, var) {
+                    true => self.name(var, cx, expected),
+                    false => err(span),
+                }
+            }
+            A::Field(base, value) if self.is_enum_type_name(base, cx) => {
+                // CODESYS's and TwinCAT's `E.Value` (the standard writes `E#Value`).
+                let A::Name(ty) = &base.kind else {
+                    return err(span);
+                };
+                let lit = ast::Literal::Enum {
+                    ty: ty.clone(),
+                    value: value.clone(),
+                };
+                self.literal(&lit, span)
+            }
             A::Field(..) | A::Index(..) | A::Bit(..) | A::Deref(_) => {
                 match self.place(e, cx, false) {
                     Some(p) => Expr {
@@ -86,6 +103,49 @@ impl<'a> Checker<'a> {
             A::Binary(op, a, b) => self.binary(*op, a, b, cx, expected, span),
             A::Call(call) => self.call_expr(call, cx, expected),
         }
+    }
+
+    /// Whether `base` of `base.x` names an enumeration type (or an alias of one) and no
+    /// variable: then `base.x` is one of its values, as CODESYS and TwinCAT write them.
+    fn is_enum_type_name(&mut self, base: &ast::Expr, cx: &mut Cx) -> bool {
+        let A::Name(id) = &base.kind else {
+            return false;
+        };
+        if !self.type_decls.contains_key(&id.key()) || self.var_place(id, cx).is_some() {
+            return false;
+        }
+        let mark = self.diags.items.len();
+        let (t, _) = self.type_by_name(id);
+        self.diags.items.truncate(mark);
+        matches!(self.types.get(t), Type::Enum { .. })
+    }
+
+    /// Whether `base` of `base.x` names a global variable list (a TwinCAT GVL) and no
+    /// variable: then `base.x` is the list's global `x` ([`Checker::list_member`]).
+    pub(crate) fn is_global_list(&mut self, base: &ast::Expr, cx: &mut Cx) -> bool {
+        let A::Name(list) = &base.kind else {
+            return false;
+        };
+        self.global_lists.contains_key(&list.key()) && self.var_place(list, cx).is_none()
+    }
+
+    /// Whether the global variable list `base` holds `x`; reported when it does not.
+    pub(crate) fn list_member(&mut self, base: &ast::Expr, x: &ast::Ident) -> bool {
+        let A::Name(list) = &base.kind else {
+            return false;
+        };
+        let holds = self
+            .global_lists
+            .get(&list.key())
+            .is_some_and(|vars| vars.contains(&x.key()));
+        if !holds {
+            let msg = format!(
+                "the global variable list {} has no variable `{}`",
+                list.name, x.name
+            );
+            self.error(diag::UNDECLARED, x.span, msg);
+        }
+        holds
     }
 
     /// A BOOL condition.

@@ -53,7 +53,14 @@ pub struct Options {
 /// Checks a library. Returns the lowered project when there is no error, and every
 /// diagnostic (warnings too) in source order.
 pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnostics) {
-    check::Checker::new(lib, options).run()
+    // The loaded vendor libraries' declarations in Structured Text come first.
+    let mut diags = Diagnostics::default();
+    let (project, more) = match vendor::with_sources(lib, &options.libs, &mut diags) {
+        Some(whole) => check::Checker::new(&whole, options).run(),
+        None => check::Checker::new(lib, options).run(),
+    };
+    diags.extend(more);
+    (project, diags)
 }
 
 #[cfg(test)]

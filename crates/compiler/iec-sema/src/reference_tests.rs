@@ -171,3 +171,20 @@ fn memcpy_memset_memcmp_take_pointers_and_a_count() {
         ],
     );
 }
+
+#[test]
+fn zero_is_null_for_a_pointer_only() {
+    let ok = prog(
+        "a : INT; p : POINTER TO INT; b : BOOL;",
+        "p := 0; b := p = 0; b := 0 <> p; p := ADR(a);",
+    );
+    let (accepted, d) = run(&ok);
+    assert!(accepted, "{d}");
+    errors(
+        &prog("p : POINTER TO INT; r : REF_TO INT;", "p := 1;\nr := 0;"),
+        &[
+            "error[E110]: the value assigned to `p` is an integer literal but POINTER TO INT is needed",
+            "error[E110]: the value assigned to `r` is an integer literal but REF_TO INT is needed",
+        ],
+    );
+}

@@ -8,9 +8,11 @@
 
 mod fbs;
 mod format;
+mod sources;
 
 pub use fbs::{fb_provider, signature, signatures, FUNCTION_BLOCKS};
 pub use format::printf;
+pub use sources::with_sources;
 
 /// The libraries, by the name `--lib` and `libs =` take.
 pub const LIBRARIES: &[&str] = &["codesys", "twincat", "pcworx"];

@@ -504,6 +504,9 @@ pub struct VarBlock {
     pub constant: bool,
     pub retain: Retain,
     pub vars: Vec<VarDecl>,
+    /// The name of the global variable list holding a top-level VAR_GLOBAL block (a TwinCAT
+    /// GVL object's `Name`), by which `LIST.x` names its variables.
+    pub list: Option<Ident>,
     pub span: Span,
 }
 

@@ -8,11 +8,13 @@
 use crate::diag::{self, Diagnostics};
 use crate::source::{FileId, Span};
 
+mod namespace;
 mod pragma;
 #[cfg(test)]
 mod tests;
 mod time;
 
+pub use namespace::is_library_namespace;
 pub use time::{
     civil_from_days, days_from_civil, parse_date, parse_dt, parse_duration, parse_tod,
     NANOS_PER_DAY,
@@ -260,7 +262,7 @@ pub fn lex(file: FileId, text: &str, diags: &mut Diagnostics) -> Vec<Token> {
     };
     lx.run();
     pragma::report(file, text, &lx.pragmas, lx.diags);
-    lx.out
+    namespace::unqualify(text, lx.out)
 }
 
 struct Lexer<'a, 'd> {

@@ -7,6 +7,7 @@
 
 pub mod ast;
 mod build;
+pub mod builtin;
 pub mod codes;
 pub mod depth;
 pub mod diag;

@@ -419,6 +419,7 @@ impl Reader<'_> {
                 .children_named("variable")
                 .filter_map(|v| self.variable(v))
                 .collect(),
+            list: None,
             span: self.span(b),
         }
     }
@@ -463,6 +464,7 @@ impl Reader<'_> {
                 constant: false,
                 retain: Retain::Unspecified,
                 vars: std::mem::take(&mut self.hidden),
+                list: None,
                 span: name.span,
             });
         }

@@ -78,7 +78,7 @@ fn starts(bytes: &[u8]) -> usize {
 }
 
 impl SourceFile {
-    fn new(name: String, text: String, line_base: u32, col_base: u32) -> Self {
+    pub(crate) fn new(name: String, text: String, line_base: u32, col_base: u32) -> Self {
         let mut line_starts = vec![0];
         line_starts.extend(
             text.bytes()
@@ -207,11 +207,15 @@ impl SourceMap {
     }
 
     pub fn file(&self, id: FileId) -> &SourceFile {
-        &self.files[id.0 as usize]
+        match crate::builtin::file(id) {
+            Some(f) => f,
+            None => &self.files[id.0 as usize],
+        }
     }
 
+    /// A source of this map, or one of the built-in vendor libraries' ([`crate::builtin`]).
     pub fn get(&self, id: FileId) -> Option<&SourceFile> {
-        self.files.get(id.0 as usize)
+        crate::builtin::file(id).or_else(|| self.files.get(id.0 as usize))
     }
 
     pub fn files(&self) -> impl Iterator<Item = (FileId, &SourceFile)> {

@@ -75,7 +75,17 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
                 if let Some((text, at)) = r.declaration(obj) {
                     let f = r.embed(&text, at);
                     let got = parser::parse(f, &text, r.diags);
-                    lib.elements.extend(got.elements);
+                    // A GVL's name qualifies its variables (`GVL_Main.x`).
+                    let list = (obj.name == "GVL").then(|| {
+                        let span = r.span(obj);
+                        Ident::new(Reader::object_name(obj), span)
+                    });
+                    for mut e in got.elements {
+                        if let (Element::Globals(b), Some(l)) = (&mut e, &list) {
+                            b.list = Some(l.clone());
+                        }
+                        lib.elements.push(e);
+                    }
                 }
             }
             "Task" => {

@@ -8,6 +8,10 @@
 //! LIMITALARM  VAR_INPUT IN, HIGH, LOW : INT   VAR_OUTPUT O, U, IL : BOOL
 //!             CODESYS Util: O when IN is above HIGH, else U when below LOW, else IL
 //!             (exactly one of them is TRUE after a call).
+//! GETCPUCOUNTER  VAR_OUTPUT cpuCntLoDW, cpuCntHiDW : DWORD
+//!             Tc2_System: the CPU counter in 100 ns units, low and high 32 bits. Here the
+//!             scan's clock (the one TON uses) in 100 ns: deterministic in `petriplc sim`,
+//!             the same for every call in one scan.
 //! ```
 
 use petriplc_iec_sema::ir::NativeSig;
@@ -32,8 +36,14 @@ impl NativeFb for Vendor {
         self.sig.clone()
     }
 
-    fn call(&self, vars: &mut [u64], _ctx: &NativeCtx) -> Result<(), String> {
+    fn call(&self, vars: &mut [u64], ctx: &NativeCtx) -> Result<(), String> {
         let mut v = Vars(vars);
+        if self.sig.name == "GETCPUCOUNTER" {
+            let ticks = (ctx.now.max(0) / 100) as u64;
+            v.set_int(0, (ticks & 0xFFFF_FFFF) as i64);
+            v.set_int(1, (ticks >> 32) as i64);
+            return Ok(());
+        }
         let (x, high, low) = (v.int(0), v.int(1), v.int(2));
         match self.sig.name.as_str() {
             "HYSTERESIS" => {
@@ -82,5 +92,26 @@ mod tests {
         assert_eq!(step(alarm, &mut a, 100), [0, 0, 1]);
         assert_eq!(step(alarm, &mut a, 50), [0, 0, 1]);
         assert_eq!(step(alarm, &mut a, -5), [0, 1, 0]);
+    }
+
+    #[test]
+    fn cpu_counter_is_the_scan_clock_in_100_ns() {
+        let fbs = blocks(&["twincat".into()]);
+        let counter = fbs
+            .iter()
+            .find(|f| f.signature().name == "GETCPUCOUNTER")
+            .unwrap();
+        let mut v = [0u64; 2];
+        // 500 s: 5e9 ticks of 100 ns, past 32 bits.
+        counter
+            .call(
+                &mut v,
+                &NativeCtx {
+                    now: 500_000_000_000,
+                },
+            )
+            .unwrap();
+        assert_eq!((v[1] << 32) | v[0], 5_000_000_000);
+        assert_eq!(v[1], 1);
     }
 }

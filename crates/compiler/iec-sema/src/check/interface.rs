@@ -15,7 +15,13 @@ impl<'a> Checker<'a> {
         let mut blocks: Vec<(&ast::VarBlock, bool)> = Vec::new();
         for el in &lib.elements {
             match el {
-                Element::Globals(b) => blocks.push((b, true)),
+                Element::Globals(b) => {
+                    if let Some(l) = &b.list {
+                        let vars = b.vars.iter().flat_map(|d| d.names.iter().map(|n| n.key()));
+                        self.global_lists.entry(l.key()).or_default().extend(vars);
+                    }
+                    blocks.push((b, true))
+                }
                 Element::Configuration(c) => {
                     blocks.extend(c.globals.iter().map(|b| (b, false)));
                     for r in &c.resources {

@@ -619,6 +619,19 @@ impl<'a> Checker<'a> {
             }
             (Type::IntLit, _) => {
                 let v = x.const_int().unwrap_or(0);
+                // CODESYS and TwinCAT write NULL as the address 0 (`p := 0`, `p <> 0`); any
+                // other number is no pointer here (addresses are checked handles).
+                if v == 0
+                    && matches!(
+                        to_t,
+                        Type::Ref {
+                            kind: RefKind::PointerTo,
+                            ..
+                        }
+                    )
+                {
+                    return konst(Value::Int(0), to, span);
+                }
                 let target = match &to_t {
                     Type::Elem(e) => Some((*e, None)),
                     Type::Subrange { base, lo, hi } => Some((*base, Some((*lo, *hi)))),
@@ -705,6 +718,30 @@ impl<'a> Checker<'a> {
                 return Expr { ty: to, ..x };
             }
             (Type::Elem(a), Type::Elem(b)) if a.widens_to(*b) => return self.convert(x, to),
+            // CODESYS and TwinCAT store an enumeration's value in an integer or bit string
+            // implicitly (not for `{attribute 'strict'}` enumerations, which petriplc does not
+            // tell apart); the standard wants it written (`TO_DINT(e)`).
+            (Type::Enum { .. }, Type::Elem(b))
+                if (b.is_int() || b.is_bitstring()) && self.dialect.is_codesys_family() =>
+            {
+                if let Some(v) = x.const_int() {
+                    let (lo, hi) = b.range();
+                    if v < lo || v > hi {
+                        self.error(
+                            diag::OUT_OF_RANGE,
+                            span,
+                            format!("{v} does not fit {} ({lo}..{hi})", b.name()),
+                        );
+                        return err(span);
+                    }
+                    return konst(Value::Int(v), to, span);
+                }
+                return Expr {
+                    kind: ExprKind::Convert(Box::new(x)),
+                    ty: to,
+                    span,
+                };
+            }
             (Type::Subrange { base, .. }, Type::Elem(b)) if base.widens_to(*b) => {
                 return self.convert(x, to)
             }

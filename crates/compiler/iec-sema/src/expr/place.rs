@@ -43,6 +43,10 @@ impl<'a> Checker<'a> {
         match &e.kind {
             A::Paren(inner) if !write => self.place(inner, cx, write),
             A::Name(id) => self.name_place(id, cx),
+            A::Field(base, f) if self.is_global_list(base, cx) => match self.list_member(base, f) {
+                true => self.name_place(f, cx),
+                false => None,
+            },
             A::Field(base, f) => self.field_place(e, base, f, cx, write),
             A::Index(base, idx) => self.index_place(e, base, idx, cx, write),
             A::Bit(base, n) => self.bit_place(e, base, n, cx, write),

@@ -262,3 +262,81 @@ fn function_blocks_with_their_library() {
         "error[E110]",
     );
 }
+
+#[test]
+fn twincat_declarations_in_structured_text() {
+    // The library's types and functions are there with `twincat` only.
+    assert!(run(
+        &["twincat"],
+        "s : T_MaxString; n : UDINT;",
+        "n := LEN2(ADR(s));"
+    )
+    .is_ok());
+    refused(&[], "s : T_MaxString;", "", "`T_MaxString`");
+    // `E.Value` of a library's enumeration and of an alias of one.
+    let p = run(
+        &["twincat"],
+        "t : TYPE_CLASS;",
+        "t := TYPE_CLASS.TYPE_LREAL;",
+    )
+    .unwrap();
+    assert!(!p.pous.is_empty());
+    refused(
+        &["twincat"],
+        "t : TYPE_CLASS;",
+        "t := TYPE_CLASS.TYPE_NOTHING;",
+        "enumeration TYPE_CLASS has no value `TYPE_NOTHING`",
+    );
+    // A variable of the enumeration's name is the variable.
+    refused(
+        &["twincat"],
+        "TYPE_CLASS : INT; t : INT;",
+        "t := TYPE_CLASS.TYPE_LREAL;",
+        "",
+    );
+}
+
+#[test]
+fn a_project_declaration_replaces_the_library_one() {
+    let src = "TYPE T_MaxString : STRING(10); END_TYPE\n\
+               FUNCTION LEN2 : DINT\nVAR_INPUT x : INT; END_VAR\nLEN2 := x * 2;\nEND_FUNCTION\n\
+               PROGRAM p\nVAR s : T_MaxString; n : DINT; END_VAR\nn := LEN2(3) + SIZEOF(s);\nEND_PROGRAM\n";
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", src);
+    let mut d = petriplc_iec_syntax::Diagnostics::new();
+    let lib = parser::parse(f, src, &mut d);
+    let options = Options {
+        libs: vec!["twincat".into()],
+        ..Options::default()
+    };
+    let (p, d) = check(&lib, &options);
+    assert!(!d.has_errors(), "{}", d.render(&map));
+    assert!(p.is_some());
+}
+
+#[test]
+fn codesys_stores_an_enumeration_value_in_an_integer() {
+    let src = "TYPE E : (A := 1, B := 300) UDINT; END_TYPE\n\
+               PROGRAM p\nVAR d : DINT := E.B; x : E := E.A; w : WORD; s : SINT; END_VAR\n\
+               d := x;\nw := E.B;\nEND_PROGRAM\n";
+    let check_in = |dialect, src: &str| {
+        let mut map = SourceMap::new();
+        let f = map.add("t.st", src);
+        let mut d = petriplc_iec_syntax::Diagnostics::new();
+        let lib = parser::parse(f, src, &mut d);
+        let options = Options {
+            dialect,
+            ..Options::default()
+        };
+        let (_, d) = check(&lib, &options);
+        d.render(&map)
+    };
+    use petriplc_iec_syntax::Dialect;
+    let ok = check_in(Dialect::Twincat, src);
+    assert!(!ok.contains("error"), "{ok}");
+    let iec = check_in(Dialect::Iec, src);
+    assert!(iec.contains("is E but DINT is needed"), "{iec}");
+    // A constant that does not fit is still refused.
+    let narrow = check_in(Dialect::Codesys, &src.replace("w := E.B;", "s := E.B;"));
+    assert!(narrow.contains("300 does not fit SINT"), "{narrow}");
+}

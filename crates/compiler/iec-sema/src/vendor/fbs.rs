@@ -1,13 +1,17 @@
 //! The vendor libraries' function blocks, by their interfaces (the VM runs them natively:
-//! `petriplc_iec::vendor_fbs`): CODESYS Util's analog monitors HYSTERESIS and LIMITALARM.
+//! `petriplc_iec::vendor_fbs`): CODESYS Util's analog monitors HYSTERESIS and LIMITALARM,
+//! TwinCAT's GETCPUCOUNTER.
 
 use crate::ir::{NativeSig, NativeVar, NativeVarKind};
 use crate::types::Elem;
 use crate::value::Value;
 
 /// Every vendor function block by name (upper case) and the library that provides it.
-pub const FUNCTION_BLOCKS: &[(&str, &str)] =
-    &[("HYSTERESIS", "codesys"), ("LIMITALARM", "codesys")];
+pub const FUNCTION_BLOCKS: &[(&str, &str)] = &[
+    ("HYSTERESIS", "codesys"),
+    ("LIMITALARM", "codesys"),
+    ("GETCPUCOUNTER", "twincat"),
+];
 
 fn var(name: &str, ty: Elem, kind: NativeVarKind) -> NativeVar {
     NativeVar {
@@ -18,21 +22,35 @@ fn var(name: &str, ty: Elem, kind: NativeVarKind) -> NativeVar {
     }
 }
 
+/// A block's pins of one direction: name, type, kind.
+type Pins = &'static [(&'static str, Elem, NativeVarKind)];
+
 /// The interface of vendor function block `name` (upper case).
 pub fn signature(name: &str) -> Option<NativeSig> {
     use NativeVarKind::{Input as I, Output as O};
-    let inputs = [
+    let monitor: Pins = &[
         ("IN", Elem::Int, I),
         ("HIGH", Elem::Int, I),
         ("LOW", Elem::Int, I),
     ];
-    let outputs: &[(&str, Elem, NativeVarKind)] = match name {
-        "HYSTERESIS" => &[("OUT", Elem::Bool, O)],
-        "LIMITALARM" => &[
-            ("O", Elem::Bool, O),
-            ("U", Elem::Bool, O),
-            ("IL", Elem::Bool, O),
-        ],
+    let (inputs, outputs): (Pins, Pins) = match name {
+        "HYSTERESIS" => (monitor, &[("OUT", Elem::Bool, O)]),
+        "LIMITALARM" => (
+            monitor,
+            &[
+                ("O", Elem::Bool, O),
+                ("U", Elem::Bool, O),
+                ("IL", Elem::Bool, O),
+            ],
+        ),
+        // Tc2_System: the CPU's counter in 100 ns, as two halves.
+        "GETCPUCOUNTER" => (
+            &[],
+            &[
+                ("cpuCntLoDW", Elem::Dword, O),
+                ("cpuCntHiDW", Elem::Dword, O),
+            ],
+        ),
         _ => return None,
     };
     Some(NativeSig {
@@ -74,7 +92,12 @@ mod tests {
             .into_iter()
             .map(|s| s.name)
             .collect();
-        assert_eq!(names, ["HYSTERESIS", "LIMITALARM"]);
+        assert_eq!(names, ["HYSTERESIS", "LIMITALARM", "GETCPUCOUNTER"]);
+        let codesys: Vec<String> = signatures(&["codesys".into()])
+            .into_iter()
+            .map(|s| s.name)
+            .collect();
+        assert_eq!(codesys, ["HYSTERESIS", "LIMITALARM"]);
         assert_eq!(fb_provider("hysteresis"), Some("codesys"));
         assert_eq!(fb_provider("TON"), None);
     }

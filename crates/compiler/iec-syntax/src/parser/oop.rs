@@ -368,6 +368,7 @@ pub fn accessor(
                     edge: None,
                     span: prop.name.span,
                 }],
+                list: None,
                 span: prop.name.span,
             },
         );

@@ -56,6 +56,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                     constant: false,
                     retain: Retain::Unspecified,
                     vars: hidden,
+                    list: None,
                     span: name.span,
                 });
             }
@@ -274,6 +275,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                         constant,
                         retain,
                         vars,
+                        list: None,
                         span: t.span.to(self.prev_span()),
                     });
                 }
@@ -302,6 +304,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             constant,
             retain,
             vars,
+            list: None,
             span: t.span.to(self.prev_span()),
         })
     }
