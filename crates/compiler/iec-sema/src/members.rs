@@ -58,6 +58,9 @@ pub(crate) struct Oop<'a> {
     pub names: HashSet<String>,
     /// (overridden, override) pairs, compared once their interfaces are known.
     pub overrides: Vec<(PouId, PouId)>,
+    /// INTERFACE → the type of its variables (`oop/itf.rs`), and back.
+    pub itf_types: HashMap<PouId, crate::types::TypeId>,
+    pub itf_of: HashMap<crate::types::TypeId, PouId>,
     /// What `var_of` gives for `Root::This` (the instance: not constant, not an input).
     pub this_var: Var,
 }
@@ -73,6 +76,8 @@ impl Oop<'_> {
             chains: HashMap::new(),
             names: HashSet::new(),
             overrides: Vec::new(),
+            itf_types: HashMap::new(),
+            itf_of: HashMap::new(),
             this_var: Var {
                 name: "THIS".into(),
                 ty: ids::ERROR,

@@ -83,7 +83,11 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
                     lib.elements.push(Element::Configuration(c));
                 }
             }
-            "Itf" => r.unsupported(obj, "INTERFACE"),
+            "Itf" => {
+                if let Some(p) = r.itf(obj) {
+                    lib.elements.push(Element::Pou(p));
+                }
+            }
             other => {
                 let span = r.span(obj);
                 r.diags.error(
@@ -186,18 +190,6 @@ impl Reader<'_> {
         Some((d.text.clone(), d.text_start.unwrap_or(d.start)))
     }
 
-    fn unsupported(&mut self, el: &X, what: &str) {
-        let span = self.span(el);
-        self.diags.error(
-            diag::UNSUPPORTED,
-            span,
-            format!(
-                "{what} {} is not supported yet; the rest of the file is checked",
-                Self::object_name(el)
-            ),
-        );
-    }
-
     fn pou(&mut self, el: &X) -> Option<Pou> {
         let (text, at) = self.declaration(el)?;
         let f = self.embed(&text, at);
@@ -231,6 +223,59 @@ impl Reader<'_> {
                 }
                 _ => {}
             }
+        }
+        Some(pou)
+    }
+
+    /// An `<Itf>`: its declaration (`INTERFACE I_X EXTENDS I_A`), its `<Method>`s and
+    /// `<Property>`s (declarations only; a property's `<Get>`/`<Set>` say which accessors it
+    /// has).
+    fn itf(&mut self, el: &X) -> Option<Pou> {
+        let (text, at) = self.declaration(el)?;
+        let f = self.embed(&text, at);
+        let mut pou = parser::parse_interface_declaration(f, &text, self.diags)?;
+        for c in &el.children {
+            if !matches!(c.name.as_str(), "Method" | "Property") {
+                continue;
+            }
+            let Some((text, at)) = self.declaration(c) else {
+                continue;
+            };
+            let f = self.embed(&text, at);
+            let Some(mut oop) = parser::parse_member_declaration(f, &text, self.diags) else {
+                continue;
+            };
+            for m in &mut oop.methods {
+                m.modifiers.is_abstract = true;
+            }
+            for p in &mut oop.properties {
+                p.modifiers.is_abstract = true;
+                let span = self.span(c);
+                let (mut get, mut set) = (c.child("Get").is_some(), c.child("Set").is_some());
+                if !get && !set {
+                    (get, set) = (true, true);
+                }
+                if get {
+                    p.get = Some(parser::accessor(
+                        p,
+                        true,
+                        Vec::new(),
+                        Body::St(Vec::new()),
+                        span,
+                    ));
+                }
+                if set {
+                    p.set = Some(parser::accessor(
+                        p,
+                        false,
+                        Vec::new(),
+                        Body::St(Vec::new()),
+                        span,
+                    ));
+                }
+            }
+            pou.oop.methods.extend(oop.methods);
+            pou.oop.properties.extend(oop.properties);
         }
         Some(pou)
     }
