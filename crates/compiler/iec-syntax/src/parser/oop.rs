@@ -132,6 +132,26 @@ impl<'a, 'd> Parser<'a, 'd> {
                 if let Some(m) = oop.methods.last_mut() {
                     m.modifiers.is_abstract = true;
                 }
+                if !self.at_word("END_METHOD")
+                    && !self.at_member_start()
+                    && !self.at_word("END_INTERFACE")
+                    && !self.is_top_start()
+                {
+                    let t = self.peek().clone();
+                    let name = oop
+                        .methods
+                        .last()
+                        .map_or(String::new(), |m| m.pou.name.name.clone());
+                    self.error_at(
+                        diag::SYNTAX,
+                        t.span,
+                        format!("METHOD {name} of an INTERFACE is a declaration without a body; found {}: write the code in the FUNCTION_BLOCKs that implement it", self.describe(&t)),
+                    );
+                    while !self.at(&Tok::Eof) && !self.at_word("END_METHOD") && !self.is_top_start()
+                    {
+                        self.bump();
+                    }
+                }
                 if self.at_word("END_METHOD") {
                     self.bump();
                     self.eat(&Tok::Semi);
@@ -263,7 +283,16 @@ impl<'a, 'd> Parser<'a, 'd> {
     pub(super) fn member_after(&mut self, lib: &mut Library) {
         let at = self.peek().span;
         let mut oop = PouOop::default();
-        self.members(&mut oop);
+        let after_interface =
+            matches!(lib.elements.last(), Some(Element::Pou(p)) if p.oop.interface);
+        if after_interface {
+            // blark's layout: an interface's members after its END_INTERFACE.
+            if self.interface_members(&mut oop).is_err() {
+                self.bump();
+            }
+        } else {
+            self.members(&mut oop);
+        }
         match lib.elements.last_mut() {
             Some(Element::Pou(p)) if p.kind != PouKind::Function => {
                 p.oop.methods.append(&mut oop.methods);
