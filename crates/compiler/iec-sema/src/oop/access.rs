@@ -138,7 +138,14 @@ impl<'a> Checker<'a> {
                     (m, this)
                 } else {
                     if !self.oop.names.contains(&key) {
-                        return None;
+                        // No member has the name: through an interface variable, say so.
+                        let q = match &base.kind {
+                            A::Name(n) => self.plain_var_type(n, cx),
+                            _ => None,
+                        };
+                        return q
+                            .and_then(|t| self.owner_of_instance(t))
+                            .and_then(|q| self.no_itf_member(q, f, "method", span));
                     }
                     let Some(inst) = self.instance_of(base, cx) else {
                         return Some(err(span));
