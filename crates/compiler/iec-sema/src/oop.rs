@@ -23,6 +23,7 @@ pub(crate) use crate::members::{Member, MemberKind, Prop, This};
 
 mod access;
 mod itf;
+mod query;
 mod rules;
 
 impl<'a> Checker<'a> {
@@ -53,6 +54,7 @@ impl<'a> Checker<'a> {
             }
         }
         self.inherit_interface_members();
+        self.collect_queries();
     }
 
     /// A block's EXTENDS chain, root first; `None` after an error (reported).

@@ -11,7 +11,7 @@ use super::{Checker, Cx};
 
 impl<'a> Checker<'a> {
     pub(super) fn body(&mut self, p: PouId) {
-        if self.itf_dispatch(p) {
+        if self.itf_dispatch(p) || self.query_body(p) {
             return;
         }
         let ast = self.pou_asts[p as usize];

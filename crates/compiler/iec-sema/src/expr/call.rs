@@ -64,6 +64,12 @@ impl<'a> Checker<'a> {
         if name.is("REF") || name.is("ADR") {
             return self.ref_of(name, call, cx);
         }
+        if name.is("__QUERYINTERFACE") {
+            return self.query_interface(call, cx);
+        }
+        if name.is("__ISVALIDREF") {
+            return self.is_valid_ref(call, cx);
+        }
         // XSIZEOF: SIZEOF's name in CODESYS 3.5.16 and TwinCAT 3.1.4026.
         if name.is("SIZEOF") || name.is("XSIZEOF") {
             return self.size_of(call, cx);
