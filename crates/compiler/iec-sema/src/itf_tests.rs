@@ -155,3 +155,28 @@ t.st:17:9: error[E218]: the interface I_Run has no method `Stop`; use what I_Run
 t.st:21:1: error[E211]: property Level has no SET: it can only be read",
     );
 }
+
+#[test]
+fn recursion_through_an_interface_and_an_instance_as_initial_value_are_refused() {
+    // Function frames are static: a method reached again through an interface would share
+    // its frame. An initial value is a constant (assign the instance in the body).
+    check_src(
+        "INTERFACE I_Node
+METHOD Visit : INT
+END_METHOD
+END_INTERFACE
+FUNCTION_BLOCK Node IMPLEMENTS I_Node
+VAR next : I_Node; END_VAR
+METHOD Visit : INT
+IF next <> 0 THEN
+  Visit := next.Visit() + 1;
+END_IF;
+END_METHOD
+END_FUNCTION_BLOCK
+PROGRAM p
+VAR a : Node; i : I_Node := a; END_VAR
+END_PROGRAM",
+        "t.st:9:12: error[E107]: this call makes I_Node.Visit call itself again; IEC 61131-3 does not allow recursion
+t.st:14:29: error[E108]: `a` is a variable; only constants (VAR CONSTANT, literals) can be used here",
+    );
+}

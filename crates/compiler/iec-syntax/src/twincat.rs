@@ -297,8 +297,9 @@ impl Reader<'_> {
                 };
                 let blocks = match acc.child("Declaration") {
                     Some(d) => {
-                        let f = self.embed(&d.text, d.text_start.unwrap_or(d.start));
-                        parser::parse_var_blocks(f, &d.text, self.diags)
+                        let text = blank_access(&d.text);
+                        let f = self.embed(&text, d.text_start.unwrap_or(d.start));
+                        parser::parse_var_blocks(f, &text, self.diags)
                     }
                     None => Vec::new(),
                 };
@@ -425,3 +426,22 @@ impl Reader<'_> {
 
 #[cfg(test)]
 mod tests;
+
+/// A `<Get>`/`<Set>` declaration without the access specifier TwinCAT lets it start with
+/// (`PROTECTED`): blanked (columns kept), the property's own access applying to both.
+fn blank_access(text: &str) -> String {
+    let lead = text.len() - text.trim_start().len();
+    let word: String = text[lead..]
+        .chars()
+        .take_while(|c| c.is_ascii_alphabetic())
+        .collect();
+    if crate::ast::Access::from_word(&word).is_none() {
+        return text.to_string();
+    }
+    format!(
+        "{}{}{}",
+        &text[..lead],
+        " ".repeat(word.len()),
+        &text[lead + word.len()..]
+    )
+}

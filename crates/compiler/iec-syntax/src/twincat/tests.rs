@@ -403,3 +403,24 @@ fn no_cut_of_a_file_panics_and_every_problem_is_coded() {
         }
     }
 }
+
+#[test]
+fn an_accessor_may_start_with_an_access_specifier() {
+    // TwinCAT writes `PROTECTED` (or another access word) at the top of a <Set>'s declaration.
+    let text =
+        "<TcPlcObject><POU Name=\"F\"><Declaration><![CDATA[FUNCTION_BLOCK F]]></Declaration>
+<Property Name=\"P\"><Declaration><![CDATA[PROPERTY P : INT]]></Declaration>
+<Set Name=\"Set\"><Declaration><![CDATA[PROTECTED
+VAR
+  old : INT;
+END_VAR
+]]></Declaration><Implementation><ST><![CDATA[old := P;]]></ST></Implementation></Set>
+</Property></POU></TcPlcObject>";
+    let (lib, msgs, _) = read_text("F.TcPOU", text);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let Element::Pou(f) = &lib.elements[0] else {
+        panic!("{:?}", lib.elements)
+    };
+    let set = f.oop.properties[0].set.as_ref().unwrap();
+    assert!(set.var_blocks.iter().any(|b| b.vars[0].names[0].is("old")));
+}
