@@ -150,9 +150,7 @@ impl<'a> Checker<'a> {
                     let Some(inst) = self.instance_of(base, cx) else {
                         return Some(err(span));
                     };
-                    let Some(q) = self.owner_of_instance(inst.ty) else {
-                        return None;
-                    };
+                    let q = self.owner_of_instance(inst.ty)?;
                     let Some(&m) = self.oop.methods.get(&(q, key)) else {
                         return self.no_itf_member(q, f, "method", span);
                     };
