@@ -34,9 +34,12 @@ fn is_system_root(id: &Ident) -> bool {
 }
 
 impl<'a> Checker<'a> {
-    /// Whether POU `p` is an INTERFACE (not one of its members).
+    /// Whether POU `p` is an INTERFACE (not one of its members nor its query function).
     pub(crate) fn is_interface(&self, p: PouId) -> bool {
-        self.pou_asts[p as usize].oop.interface && !self.oop.members.contains_key(&p)
+        // A member's or a query function's syntax tree may be the interface's own.
+        self.pou_asts[p as usize].oop.interface
+            && !self.oop.members.contains_key(&p)
+            && !self.oop.query_of.contains_key(&p)
     }
 
     /// The type of variables of INTERFACE `p`.

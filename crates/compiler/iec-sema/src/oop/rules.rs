@@ -28,7 +28,7 @@ impl<'a> Checker<'a> {
         self.signatures();
         let n = self.pou_asts.len();
         for p in 0..n as PouId {
-            if self.oop.members.contains_key(&p) {
+            if self.oop.members.contains_key(&p) || self.oop.query_of.contains_key(&p) {
                 continue;
             }
             let ast = self.pou_asts[p as usize];
