@@ -92,8 +92,8 @@ END_FUNCTION_BLOCK
 FUNCTION_BLOCK Other IMPLEMENTS __SYSTEM.IQueryInterface
 END_FUNCTION_BLOCK",
         "t.st:3:23: error[E217]: `Base` is a FUNCTION_BLOCK, not an INTERFACE; an INTERFACE extends INTERFACEs only
-t.st:5:33: error[E217]: `Base` is a FUNCTION_BLOCK, not an INTERFACE; declare the INTERFACE or correct the name; a FUNCTION_BLOCK's base goes after EXTENDS
-t.st:5:39: error[E217]: `I_Nowhere` is not an INTERFACE declared among these sources; declare the INTERFACE or correct the name; a FUNCTION_BLOCK's base goes after EXTENDS",
+t.st:5:33: error[E217]: `Base` is a FUNCTION_BLOCK, not an INTERFACE; a FUNCTION_BLOCK's base goes after EXTENDS
+t.st:5:39: error[E217]: `I_Nowhere` is not an INTERFACE declared among these sources; declare it, check the source that declares it together with these, or correct the name",
     );
 }
 

@@ -405,23 +405,20 @@ impl<'a> Checker<'a> {
             if is_system_root(i) || self.lookup_itf(i).is_some() {
                 continue;
             }
-            let what = match self.pou_names.get(&i.key()) {
+            let msg = match self.pou_names.get(&i.key()) {
                 Some(&q) => format!(
-                    "`{}` is a {}, not an INTERFACE",
+                    "`{}` is a {}, not an INTERFACE; {}",
                     i.name,
-                    self.pou_asts[q as usize].kind.keyword()
+                    self.pou_asts[q as usize].kind.keyword(),
+                    if interface {
+                        "an INTERFACE extends INTERFACEs only"
+                    } else {
+                        "a FUNCTION_BLOCK's base goes after EXTENDS"
+                    }
                 ),
-                None => format!(
-                    "`{}` is not an INTERFACE declared among these sources",
-                    i.name
-                ),
+                None => format!("`{}` is not an INTERFACE declared among these sources; declare it, check the source that declares it together with these, or correct the name", i.name),
             };
-            let fix = if interface {
-                "an INTERFACE extends INTERFACEs only"
-            } else {
-                "declare the INTERFACE or correct the name; a FUNCTION_BLOCK's base goes after EXTENDS"
-            };
-            self.error(diag::ITF_NOT_INTERFACE, i.span, format!("{what}; {fix}"));
+            self.error(diag::ITF_NOT_INTERFACE, i.span, msg);
         }
         if interface || ast.kind != PouKind::FunctionBlock {
             if !interface && !ast.oop.implements.is_empty() {
