@@ -1,6 +1,6 @@
-//! PLCopen XML projects: a CODESYS-style export runs (one with an interface too), projects the engine cannot run say
-//! why, malformed files give positioned errors. (Beremiz's projects and libraries, which are
-//! not in the repository: conformance_beremiz.rs.)
+//! PLCopen XML projects: a CODESYS-style export runs (one with an interface too), projects
+//! the engine cannot run say why, malformed files give positioned errors. (Beremiz's projects
+//! and libraries, which are not in the repository: conformance_beremiz.rs.)
 
 use std::path::Path;
 
