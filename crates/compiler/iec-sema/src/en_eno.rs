@@ -129,7 +129,9 @@ pub(crate) fn mentions_en_eno(body: &ast::Body) -> bool {
     }
     fn stmt(s: &ast::Stmt) -> bool {
         match &s.kind {
-            S::Assign { target, value } => expr(target) || expr(value),
+            S::Assign { target, value } | S::RefAssign { target, value } => {
+                expr(target) || expr(value)
+            }
             S::Call(c) => call(c),
             S::If {
                 branches,

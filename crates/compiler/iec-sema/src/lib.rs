@@ -57,6 +57,8 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
 }
 
 #[cfg(test)]
+mod codesys_tests;
+#[cfg(test)]
 mod en_eno_tests;
 #[cfg(test)]
 mod il_tests;

@@ -71,8 +71,8 @@ pub fn int_binary(op: BinaryOp, a: i128, b: i128, e: Elem) -> OpResult<i128> {
                 a % b
             }
         }
-        And => return Ok(a & b),
-        Or => return Ok(a | b),
+        And | AndThen => return Ok(a & b),
+        Or | OrElse => return Ok(a | b),
         Xor => return Ok(a ^ b),
         Eq => return Ok((a == b) as i128),
         Ne => return Ok((a != b) as i128),
@@ -193,7 +193,9 @@ pub fn real_binary(op: BinaryOp, a: f64, b: f64, e: Elem) -> OpResult<f64> {
         Le => return Ok((a <= b) as i32 as f64),
         Gt => return Ok((a > b) as i32 as f64),
         Ge => return Ok((a >= b) as i32 as f64),
-        Mod | And | Or | Xor => return Err(OpError::Domain("not an operator of reals")),
+        Mod | And | Or | Xor | AndThen | OrElse => {
+            return Err(OpError::Domain("not an operator of reals"))
+        }
     };
     Ok(real_result(r, e))
 }

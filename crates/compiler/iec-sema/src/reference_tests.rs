@@ -93,13 +93,13 @@ fn only_variables_with_a_lasting_address_are_referenced() {
 }
 
 #[test]
-fn a_reference_is_not_retained_and_reference_to_is_told() {
+fn a_reference_is_not_retained() {
     errors(
-        "TYPE S : STRUCT r : REF_TO INT; END_STRUCT; END_TYPE\nPROGRAM p\nVAR RETAIN r : REF_TO INT; s : S; n : INT; END_VAR\nVAR c : REFERENCE TO INT; END_VAR\nVAR q AT %MD0 : POINTER TO INT; END_VAR\nEND_PROGRAM\n",
+        "TYPE S : STRUCT r : REF_TO INT; END_STRUCT; END_TYPE\nPROGRAM p\nVAR RETAIN r : REF_TO INT; s : S; n : INT; END_VAR\nVAR RETAIN c : REFERENCE TO INT; END_VAR\nVAR q AT %MD0 : POINTER TO INT; END_VAR\nEND_PROGRAM\n",
         &[
             "t.st:3:12: error[E202]: `r` holds a reference, which cannot be RETAIN",
             "t.st:3:28: error[E202]: `s` holds a reference",
-            "t.st:4:9: error[E190]: REFERENCE TO is not supported yet",
+            "t.st:4:12: error[E202]: `c` holds a reference, which cannot be RETAIN",
             "t.st:5:5: error[E202]: `q` holds a reference, which cannot be located (AT %…)",
         ],
     );

@@ -73,6 +73,10 @@ impl Checker<'_> {
                     value: x,
                 }
             }
+            S::RefAssign { target, value } => {
+                let (target, value) = self.ref_assign(target, value, cx)?;
+                StmtKind::Assign { target, value }
+            }
             S::Call(call) => return self.call_stmt(call, cx),
             S::If {
                 branches,

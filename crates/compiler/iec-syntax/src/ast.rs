@@ -78,6 +78,9 @@ pub enum TypeSpec {
         span: Span,
     },
     Struct {
+        /// CODESYS's and TwinCAT's `TYPE name EXTENDS base : STRUCT`: the base structure's
+        /// fields come first.
+        base: Option<Ident>,
         fields: Vec<VarDecl>,
         span: Span,
     },
@@ -100,11 +103,9 @@ pub enum TypeSpec {
         target: Box<TypeSpec>,
         span: Span,
     },
-    /// Forms the engine does not support (reported).
-    Unsupported {
-        what: String,
-        span: Span,
-    },
+    /// Forms the engine does not support (reported by the checker with `what`, the whole
+    /// message: `UNION`).
+    Unsupported { what: String, span: Span },
 }
 
 impl TypeSpec {
@@ -551,6 +552,11 @@ pub enum StmtKind {
         target: Expr,
         value: Expr,
     },
+    /// CODESYS's `r REF= x`: binds the REFERENCE TO `r` to the variable `x`.
+    RefAssign {
+        target: Expr,
+        value: Expr,
+    },
     /// A function or function block call as a statement.
     Call(Call),
     If {
@@ -670,6 +676,12 @@ pub enum BinaryOp {
     Or,
     Xor,
     And,
+    /// CODESYS's `AND_THEN`: AND on BOOL whose right operand is not evaluated when the left
+    /// is FALSE.
+    AndThen,
+    /// CODESYS's `OR_ELSE`: OR on BOOL whose right operand is not evaluated when the left is
+    /// TRUE.
+    OrElse,
     Eq,
     Ne,
     Lt,
@@ -690,6 +702,8 @@ impl BinaryOp {
             BinaryOp::Or => "OR",
             BinaryOp::Xor => "XOR",
             BinaryOp::And => "AND",
+            BinaryOp::AndThen => "AND_THEN",
+            BinaryOp::OrElse => "OR_ELSE",
             BinaryOp::Eq => "=",
             BinaryOp::Ne => "<>",
             BinaryOp::Lt => "<",

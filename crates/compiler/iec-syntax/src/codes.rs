@@ -186,7 +186,7 @@ pub const CODES: &[Entry] = &[
       "",
       "pass a STRING (a literal such as '%04d' or a STRING variable) as the format."),
     e("E190", "something the engine does not support yet",
-      "WSTRING and CHAR, REFERENCE TO and others: docs/iec.md, \"What is supported\".",
+      "WSTRING and CHAR, REFERENCE TO a function block, a result of type REFERENCE TO, UNION and others: docs/iec.md, \"What is supported\".",
       "PROGRAM p\nVAR w : WSTRING; END_VAR\nEND_PROGRAM",
       "use what the message suggests (STRING for WSTRING)."),
     e("E200", "`^` applied to something that is not a reference or pointer",
@@ -241,6 +241,10 @@ pub const CODES: &[Entry] = &[
       "An interface variable takes an instance of a block that implements the interface (itself, through a base, or through an interface extending it), another interface that extends it, or 0.",
       "INTERFACE I_Run\nMETHOD Run : BOOL\nEND_METHOD\nEND_INTERFACE\nFUNCTION_BLOCK Lamp\nEND_FUNCTION_BLOCK\nPROGRAM p\nVAR i : I_Run; l : Lamp; END_VAR\ni := l;\nEND_PROGRAM",
       "add IMPLEMENTS to the block, assign another instance, or cast with __QUERYINTERFACE(source, target)."),
+    e("E220", "a wrong `REF=` (or REFERENCE TO input) binding",
+      "CODESYS's `r REF= x` binds the REFERENCE TO `r` to the variable `x`, of exactly the type `r` designates; the left side is a REFERENCE TO, the right a variable (or NULL, 0 to unbind), not an expression's value. A VAR_INPUT of type REFERENCE TO is bound so by a call. The variable needs a lasting address under ADR's rules (E201).",
+      "PROGRAM p\nVAR x : INT; r : REFERENCE TO INT; END_VAR\nr REF= x + 1;\nEND_PROGRAM",
+      "bind the reference to a variable of its type (`r REF= x;`), or assign the value through it with `:=` (`r := x + 1;`)."),
     e("W001", "a declaration that replaces a standard function or function block",
       "Warning: yours is used wherever the name appears.",
       "FUNCTION ABS : INT\nVAR_INPUT x : INT; END_VAR\nABS := x;\nEND_FUNCTION\nPROGRAM p\nEND_PROGRAM",
@@ -296,6 +300,10 @@ pub const CODES: &[Entry] = &[
       "Warning: a step no transition from a reachable step leads to, or an ACTION associated with no step.",
       "PROGRAM p\nVAR go : BOOL; END_VAR\nINITIAL_STEP s0 : END_STEP\nSTEP s1 : END_STEP\nTRANSITION FROM s1 TO s0 := go; END_TRANSITION\nEND_PROGRAM",
       "add the transition that leads to the step, associate the action with a step, or remove it."),
+    e("W040", "`^` after a REFERENCE TO",
+      "Warning: a REFERENCE TO is dereferenced implicitly wherever it is used, so CODESYS and TwinCAT refuse `r^`; IronPLC's tests write it, and petriplc reads it as the same dereference.",
+      "PROGRAM p\nVAR x, y : INT; r : REFERENCE TO INT; END_VAR\nr REF= x;\ny := r^;\nEND_PROGRAM",
+      "drop the `^` (`y := r;`)."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

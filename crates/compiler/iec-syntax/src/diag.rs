@@ -94,6 +94,7 @@ codes! {
     ITF_NOT_INTERFACE = "E217",
     ITF_MISUSE = "E218",
     ITF_NOT_IMPLEMENTED = "E219",
+    REF_ASSIGN = "E220",
     SHADOWS_STANDARD = "W001",
     NOT_CHECKED = "W002",
     UNUSED_RESULT = "W003",
@@ -108,6 +109,7 @@ codes! {
     IN_OUT_INITIAL = "W032",
     LOCATION_IGNORED = "W013",
     SFC_NEVER = "W033",
+    REFERENCE_CARET = "W040",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -256,7 +256,11 @@ impl Reader<'_> {
                     .children_named("variable")
                     .filter_map(|v| self.variable(v))
                     .collect();
-                Some(TypeSpec::Struct { fields, span })
+                Some(TypeSpec::Struct {
+                    base: None,
+                    fields,
+                    span,
+                })
             }
             "subrangeSigned" | "subrangeUnsigned" => {
                 let Some(range) = t.child("range") else {

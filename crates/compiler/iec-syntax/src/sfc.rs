@@ -25,6 +25,7 @@ pub(crate) fn types(span: Span) -> Vec<TypeDecl> {
     let ty = |n: &str, fields: &[(&str, &str)]| TypeDecl {
         name: Ident::new(n, span),
         spec: TypeSpec::Struct {
+            base: None,
             fields: fields.iter().map(|(f, t)| decl(f, t, None, span)).collect(),
             span,
         },

@@ -107,7 +107,11 @@ fn live(mem: &[u64], base: usize, p: u32, what: &str) -> Result<(u64, u32, i64),
     if h == 0 {
         return Err(domain(
             "NULL dereferenced",
-            format!("this {what} is NULL; set it with REF(x)/ADR(x) or test `<> NULL` first"),
+            if what.starts_with("REFERENCE TO") {
+                format!("this {what} is not bound; bind it with `r REF= x` or test __ISVALIDREF(r) first")
+            } else {
+                format!("this {what} is NULL; set it with REF(x)/ADR(x) or test `<> NULL` first")
+            },
         ));
     }
     Ok(decode(h))

@@ -38,13 +38,20 @@ impl<'a> Checker<'a> {
         let mut cx = Cx::global();
         cx.const_only = true;
         let (id, mut default) = match &d.spec {
-            TypeSpec::Struct { fields, .. } => {
+            TypeSpec::Struct { base, fields, .. } => {
                 let name = d.name.name.clone();
                 let id = self.types.add(Type::Struct {
                     name: name.clone(),
                     fields: Vec::new(),
                 });
-                let mut out: Vec<Field> = Vec::new();
+                // EXTENDS: the base's fields first, flattened, with their initial values.
+                let (mut out, base_ok): (Vec<Field>, bool) = match base {
+                    Some(b) => match self.base_struct_fields(b, &mut cx) {
+                        Some(f) => (f, true),
+                        None => (Vec::new(), false),
+                    },
+                    None => (Vec::new(), true),
+                };
                 for f in fields {
                     let (fty, fdef) = self.resolve_spec(&f.ty, &mut cx);
                     for n in &f.names {
@@ -77,7 +84,7 @@ impl<'a> Checker<'a> {
                 let parts: Vec<TypeId> = out.iter().map(|f| f.ty).collect();
                 self.types.set(id, Type::Struct { name, fields: out });
                 let what = format!("type {}", d.name.name);
-                if self.record_shape(id, &parts, 1, &what, d.name.span) {
+                if base_ok && self.record_shape(id, &parts, 1, &what, d.name.span) {
                     (id, None)
                 } else {
                     (ids::ERROR, None)
@@ -158,6 +165,25 @@ impl<'a> Checker<'a> {
                 .push((id, v));
         }
         id
+    }
+
+    /// The fields of the structure `b` a structure EXTENDS (`None`, reported: it is no
+    /// structure).
+    fn base_struct_fields(&mut self, b: &Ident, cx: &mut Cx) -> Option<Vec<Field>> {
+        let (t, _) = self.resolve_spec(&TypeSpec::Named(b.clone()), cx);
+        match self.types.get(t) {
+            Type::Struct { fields, .. } => Some(fields.clone()),
+            _ if t == ids::ERROR => None,
+            _ => {
+                let tn = self.types.name(t);
+                self.error(
+                    diag::BAD_DECLARATION,
+                    b.span,
+                    format!("a structure extends a structure; {tn} is not one"),
+                );
+                None
+            }
+        }
     }
 
     /// Resolves a type as written; returns its id and the default value it brings (a
@@ -275,26 +301,27 @@ impl<'a> Checker<'a> {
                 (id, None)
             }
             TypeSpec::Ref { kind, target, span } => {
-                if *kind == ast::RefKind::ReferenceTo {
-                    self.error(
-                        diag::UNSUPPORTED,
-                        *span,
-                        "REFERENCE TO is not supported yet; declare a POINTER TO and dereference it with `^`",
-                    );
-                    return (ids::ERROR, None);
-                }
                 let (t, _) = self.resolve_spec(target, cx);
                 if t == ids::ERROR {
                     return (ids::ERROR, None);
                 }
+                if *kind == ast::RefKind::ReferenceTo {
+                    // A reference is an alias of data; CODESYS has no reference to a
+                    // reference, and references to instances come with interfaces.
+                    let why = match self.types.get(t) {
+                        Type::Fb(_) => Some("REFERENCE TO a function block instance is not supported yet; reference its data (a structure) or pass the instance as VAR_IN_OUT"),
+                        Type::Ref { kind: ast::RefKind::ReferenceTo, .. } => Some("a REFERENCE TO cannot designate another REFERENCE TO; reference the data itself"),
+                        _ => None,
+                    };
+                    if let Some(why) = why {
+                        self.error(diag::UNSUPPORTED, *span, why);
+                        return (ids::ERROR, None);
+                    }
+                }
                 (self.types.reference(*kind, t), None)
             }
             TypeSpec::Unsupported { what, span } => {
-                self.error(
-                    diag::UNSUPPORTED,
-                    *span,
-                    format!("{what} types are not supported"),
-                );
+                self.error(diag::UNSUPPORTED, *span, what.clone());
                 (ids::ERROR, None)
             }
         }

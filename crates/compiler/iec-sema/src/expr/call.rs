@@ -67,10 +67,10 @@ impl<'a> Checker<'a> {
         if name.is("__QUERYINTERFACE") {
             return self.query_interface(call, cx);
         }
+        // XSIZEOF: SIZEOF's name in CODESYS 3.5.16 and TwinCAT 3.1.4026.
         if name.is("__ISVALIDREF") {
             return self.is_valid_ref(call, cx);
         }
-        // XSIZEOF: SIZEOF's name in CODESYS 3.5.16 and TwinCAT 3.1.4026.
         if name.is("SIZEOF") || name.is("XSIZEOF") {
             return self.size_of(call, cx);
         }
@@ -363,6 +363,19 @@ impl<'a> Checker<'a> {
             return false;
         }
         let Some(v) = &a.value else { return true };
+        if let Type::Ref {
+            kind: RefKind::ReferenceTo,
+            ..
+        } = self.types.get(var.ty)
+        {
+            // CODESYS binds a REFERENCE TO input to the variable given, as `REF=` does.
+            let what = format!("argument `{}`", var.name);
+            let Some(x) = self.ref_binding(v, var.ty, &what, cx) else {
+                return false;
+            };
+            out.inputs.push((id, x));
+            return true;
+        }
         let x = self.expr(v, cx, Some(var.ty));
         let x = self.assign_coerce(x, var.ty, &format!("argument `{}`", var.name));
         if x.ty == ids::ERROR {
@@ -394,7 +407,20 @@ impl<'a> Checker<'a> {
             return false;
         }
         let Some(v) = &a.value else { return true };
-        let Some(pl) = self.place(v, cx, true) else {
+        // An in-out REFERENCE TO is the caller's reference itself (the callee may rebind it).
+        let is_ref = matches!(
+            self.types.get(var.ty),
+            Type::Ref {
+                kind: RefKind::ReferenceTo,
+                ..
+            }
+        );
+        let pl = if is_ref {
+            self.reference_place(v, cx, true)
+        } else {
+            self.place(v, cx, true)
+        };
+        let Some(pl) = pl else {
             return false;
         };
         if !self.writable(&pl, cx, v.span) {
@@ -435,7 +461,20 @@ impl<'a> Checker<'a> {
             return false;
         }
         let Some(v) = &a.value else { return true };
-        let Some(pl) = self.place(v, cx, true) else {
+        // An in-out REFERENCE TO is the caller's reference itself (the callee may rebind it).
+        let is_ref = matches!(
+            self.types.get(var.ty),
+            Type::Ref {
+                kind: RefKind::ReferenceTo,
+                ..
+            }
+        );
+        let pl = if is_ref {
+            self.reference_place(v, cx, true)
+        } else {
+            self.place(v, cx, true)
+        };
+        let Some(pl) = pl else {
             return false;
         };
         if !self.writable(&pl, cx, v.span) {

@@ -170,6 +170,7 @@ impl<'a> Checker<'a> {
             if matches!(self.types.get(place.ty), Type::Fb(_)) {
                 // Loading an instance is only meaningful as a place (member access).
             }
+            let place = self.through_reference(place);
             return Expr {
                 ty: place.ty,
                 kind: ExprKind::Load(place),

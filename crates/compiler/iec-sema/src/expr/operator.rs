@@ -150,6 +150,9 @@ impl<'a> Checker<'a> {
         expected: Option<TypeId>,
         span: Span,
     ) -> Expr {
+        if matches!(op, BinaryOp::AndThen | BinaryOp::OrElse) {
+            return self.short_circuit(op, a, b, cx, span);
+        }
         let hint = if op.is_comparison() { None } else { expected };
         let mut x = self.expr(a, cx, hint);
         let mut y = self.expr(
@@ -176,6 +179,52 @@ impl<'a> Checker<'a> {
             }
         }
         self.binary_checked(op, x, y, span)
+    }
+
+    /// CODESYS's `AND_THEN` and `OR_ELSE`: BOOL operands only (as CODESYS types them; bit
+    /// strings have no short-circuit meaning). A constant left operand decides at compile
+    /// time: `FALSE AND_THEN f()` is FALSE and `f` is never called, as at run time.
+    fn short_circuit(
+        &mut self,
+        op: BinaryOp,
+        a: &ast::Expr,
+        b: &ast::Expr,
+        cx: &mut Cx,
+        span: Span,
+    ) -> Expr {
+        let x = self.expr(a, cx, Some(ids::BOOL));
+        let y = self.expr(b, cx, Some(ids::BOOL));
+        if x.ty == ids::ERROR || y.ty == ids::ERROR {
+            return err(span);
+        }
+        for e in [&x, &y] {
+            if e.ty != ids::BOOL && self.base_type(e.ty) != ids::BOOL {
+                let tn = self.types.name(e.ty);
+                self.error(
+                    diag::OPERAND_TYPE,
+                    e.span,
+                    format!(
+                        "`{}` applies to BOOL only, not {tn}; for bit strings use `{}`",
+                        op.text(),
+                        if op == BinaryOp::AndThen { "AND" } else { "OR" }
+                    ),
+                );
+                return err(span);
+            }
+        }
+        let decides = i128::from(op == BinaryOp::OrElse);
+        match &x.kind {
+            ExprKind::Const(Value::Int(v)) if *v == decides => {
+                return konst(Value::Int(decides), ids::BOOL, span)
+            }
+            ExprKind::Const(Value::Int(_)) => return Expr { span, ..y },
+            _ => {}
+        }
+        Expr {
+            kind: ExprKind::Binary(op, Box::new(x), Box::new(y)),
+            ty: ids::BOOL,
+            span,
+        }
     }
 
     /// Types an operator over checked operands.
@@ -330,6 +379,8 @@ impl<'a> Checker<'a> {
         let bits = elem.is_some_and(|e| e.is_bitstring());
         let ok = match op {
             Or | Xor | And => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_bit()),
+            // Typed in `short_circuit`; an operator built elsewhere is BOOL only too.
+            AndThen | OrElse => elem == Some(Elem::Bool),
             Eq | Ne => true,
             Lt | Le | Gt | Ge => !matches!(
                 tt,

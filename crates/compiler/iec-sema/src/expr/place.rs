@@ -11,8 +11,35 @@ use crate::value::Value;
 
 impl<'a> Checker<'a> {
     /// Resolves something that can be read (or written, with `write`): a variable, a field,
-    /// an array element, a bit, an instance's input or output.
+    /// an array element, a bit, an instance's input or output. A CODESYS `REFERENCE TO` is
+    /// an alias: what it designates is the place (dereferenced implicitly, checked when the
+    /// program runs as `^` is).
     pub fn place(&mut self, e: &ast::Expr, cx: &mut Cx, write: bool) -> Option<Place> {
+        let p = self.reference_place(e, cx, write)?;
+        Some(self.through_reference(p))
+    }
+
+    /// A place that is a `REFERENCE TO`: the variable designated, one dereference further.
+    pub(crate) fn through_reference(&self, mut p: Place) -> Place {
+        if let Type::Ref {
+            kind: ast::RefKind::ReferenceTo,
+            target,
+        } = self.types.get(p.ty)
+        {
+            p.ty = *target;
+            p.path.push(Step::Deref);
+        }
+        p
+    }
+
+    /// Like [`Self::place`], but a `REFERENCE TO` there is the reference itself, not what it
+    /// designates (`REF=` binds it, `__ISVALIDREF` tests it).
+    pub(crate) fn reference_place(
+        &mut self,
+        e: &ast::Expr,
+        cx: &mut Cx,
+        write: bool,
+    ) -> Option<Place> {
         match &e.kind {
             A::Paren(inner) if !write => self.place(inner, cx, write),
             A::Name(id) => self.name_place(id, cx),

@@ -28,7 +28,7 @@ impl<'a> Checker<'a> {
         cx: &mut Cx,
     ) -> Option<Place> {
         // The reference itself is only read, whether its target is read or written.
-        let mut p = self.place(base, cx, false)?;
+        let mut p = self.reference_place(base, cx, false)?;
         if let Some(i) = self.itf_of_type(p.ty) {
             let n = self.pou_asts[i as usize].name.name.clone();
             self.error(
@@ -37,6 +37,22 @@ impl<'a> Checker<'a> {
                 format!("an interface ({n}) is not dereferenced with `^`; call its methods and use its properties directly (x.M())"),
             );
             return None;
+        }
+        if let Type::Ref {
+            kind: RefKind::ReferenceTo,
+            ..
+        } = self.types.get(p.ty)
+        {
+            // IronPLC's reading; CODESYS refuses `^` on a reference, which is dereferenced
+            // where it is used.
+            self.diags.warning(
+                diag::REFERENCE_CARET,
+                e.span,
+                format!(
+                    "this is a {}, dereferenced where it is used: the `^` is redundant (CODESYS refuses it); drop it",
+                    self.types.name(p.ty)
+                ),
+            );
         }
         let Some(target) = self.types.ref_target(p.ty) else {
             if p.ty != ids::ERROR {
@@ -53,6 +69,145 @@ impl<'a> Checker<'a> {
         p.ty = target;
         p.span = e.span;
         Some(p)
+    }
+
+    /// CODESYS's `r REF= x`: the REFERENCE TO `r` bound to the variable `x` (of the type it
+    /// designates), under ADR's rules: a FUNCTION's variables and a VAR_TEMP only while the
+    /// reference stays in the POU (check/escape.rs). `r REF= other` binds `r` to what the
+    /// reference `other` designates; `r REF= NULL`, `r REF= 0` unbind it.
+    pub(crate) fn ref_assign(
+        &mut self,
+        target: &ast::Expr,
+        value: &ast::Expr,
+        cx: &mut Cx,
+    ) -> Option<(Place, Expr)> {
+        let p = self.reference_place(target, cx, true)?;
+        let Type::Ref {
+            kind: RefKind::ReferenceTo,
+            ..
+        } = *self.types.get(p.ty)
+        else {
+            if p.ty != ids::ERROR {
+                let t = self.types.name(p.ty);
+                self.error(
+                    diag::REF_ASSIGN,
+                    target.span,
+                    format!("`REF=` binds a REFERENCE TO; this is {t}: assign it with `:=`"),
+                );
+            }
+            return None;
+        };
+        if !self.writable(&p, cx, target.span) {
+            return None;
+        }
+        let x = self.ref_binding(value, p.ty, "`REF=`", cx)?;
+        Some((p, x))
+    }
+
+    /// What binds a REFERENCE TO of type `rty` to `value` (`REF=`, an input of that type):
+    /// the reference to the variable `value` names (NULL or 0: unbound).
+    pub(crate) fn ref_binding(
+        &mut self,
+        value: &ast::Expr,
+        rty: TypeId,
+        what: &str,
+        cx: &mut Cx,
+    ) -> Option<Expr> {
+        let designated = self.types.ref_target(rty)?;
+        let unbind = matches!(&value.kind, A::Name(n) if n.is("NULL") && self.var_place(n, cx).is_none())
+            || matches!(
+                &value.kind,
+                A::Literal(ast::Literal::Int { value: 0, ty: None })
+            );
+        if unbind {
+            return Some(konst(Value::Int(0), rty, value.span));
+        }
+        if !matches!(
+            value.kind,
+            A::Name(_) | A::Field(..) | A::Index(..) | A::Deref(_) | A::Bit(..) | A::Paren(_)
+        ) {
+            self.error(
+                diag::REF_ASSIGN,
+                value.span,
+                format!("{what} binds a REFERENCE TO to a variable, not to an expression's value; name a variable (or NULL to unbind)"),
+            );
+            return None;
+        }
+        let x = self.place(value, cx, false)?;
+        if x.ty == ids::ERROR {
+            return None;
+        }
+        if x.ty != designated {
+            let (want, got) = (self.types.name(designated), self.types.name(x.ty));
+            self.error(
+                diag::REF_ASSIGN,
+                value.span,
+                format!(
+                    "{what} binds a REFERENCE TO {want} to a variable of that type; this is {got}"
+                ),
+            );
+            return None;
+        }
+        if let Some(why) = self.no_lasting_address(&x, cx, true) {
+            self.error(
+                diag::NO_ADDRESS,
+                value.span,
+                format!("{what}: {why}; docs/iec.md, \"References and pointers\""),
+            );
+            return None;
+        }
+        Some(Expr {
+            kind: ExprKind::Ref(x),
+            ty: rty,
+            span: value.span,
+        })
+    }
+
+    /// CODESYS's `__ISVALIDREF(r)`: whether the REFERENCE TO `r` is bound (a POINTER TO or
+    /// REF_TO is compared with NULL or 0 instead; they are taken too).
+    pub(super) fn is_valid_ref(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
+        let span = call.span;
+        let arg = match call.args.as_slice() {
+            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
+            _ => None,
+        };
+        let Some(arg) = arg else {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                span,
+                "__ISVALIDREF takes one reference: __ISVALIDREF(r)",
+            );
+            return err(span);
+        };
+        let Some(p) = self.reference_place(arg, cx, false) else {
+            return err(span);
+        };
+        if !matches!(self.types.get(p.ty), Type::Ref { .. }) {
+            if p.ty != ids::ERROR {
+                let t = self.types.name(p.ty);
+                self.error(
+                    diag::NOT_A_REFERENCE,
+                    arg.span,
+                    format!("__ISVALIDREF tests a REFERENCE TO; this is {t}"),
+                );
+            }
+            return err(span);
+        }
+        let ty = p.ty;
+        let r = Expr {
+            kind: ExprKind::Load(p),
+            ty,
+            span: arg.span,
+        };
+        Expr {
+            kind: ExprKind::Binary(
+                BinaryOp::Ne,
+                Box::new(r),
+                Box::new(konst(Value::Int(0), ty, span)),
+            ),
+            ty: ids::BOOL,
+            span,
+        }
     }
 
     /// `REF(x)` (IEC 61131-3) or `ADR(x)` (CODESYS): a reference to a variable, typed

@@ -1,11 +1,11 @@
-//! CODESYS's and TwinCAT's `__QUERYINTERFACE(source, dest)` and `__ISVALIDREF(x)`
-//! (docs/iec.md, "Interfaces"). The query is a FUNCTION the checker writes per destination
+//! CODESYS's and TwinCAT's `__QUERYINTERFACE(source, dest)` (docs/iec.md, "Interfaces";
+//! `__ISVALIDREF`, in expr/reference.rs, takes an interface too). The query is a FUNCTION the checker writes per destination
 //! interface (`__QUERYINTERFACE I_X`): its source an input (an interface's handle, or an
 //! instance's), its destination an in-out; a CASE over the source's block type sets the
 //! destination and returns TRUE for every block implementing I_X, else sets it to 0 and
 //! returns FALSE.
 
-use petriplc_iec_syntax::ast::{self, BinaryOp, PouKind};
+use petriplc_iec_syntax::ast::{self, PouKind};
 use petriplc_iec_syntax::diag;
 
 use crate::check::{Checker, Cx, Shape, State};
@@ -188,47 +188,6 @@ impl<'a> Checker<'a> {
                 in_outs: vec![(2, dplace)],
                 outputs: Vec::new(),
             }),
-            ty: ids::BOOL,
-            span,
-        }
-    }
-
-    /// `__ISVALIDREF(x)`: whether an interface (or reference, pointer) designates something.
-    pub(crate) fn is_valid_ref(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
-        let span = call.span;
-        let arg = match call.args.as_slice() {
-            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
-            _ => None,
-        };
-        let Some(arg) = arg else {
-            self.error(
-                diag::BAD_ARGUMENTS,
-                span,
-                "__ISVALIDREF takes one interface or reference: __ISVALIDREF(x)",
-            );
-            return err(span);
-        };
-        let x = self.expr(arg, cx, None);
-        if !matches!(self.types.get(x.ty), Type::Ref { .. }) {
-            if x.ty != ids::ERROR {
-                let t = self.types.name(x.ty);
-                self.error(
-                    diag::ITF_MISUSE,
-                    arg.span,
-                    format!(
-                        "__ISVALIDREF takes an interface, a reference or a pointer; this is {t}"
-                    ),
-                );
-            }
-            return err(span);
-        }
-        let zero = Expr {
-            kind: ExprKind::Const(Value::Int(0)),
-            ty: x.ty,
-            span,
-        };
-        Expr {
-            kind: ExprKind::Binary(BinaryOp::Ne, Box::new(x), Box::new(zero)),
             ty: ids::BOOL,
             span,
         }

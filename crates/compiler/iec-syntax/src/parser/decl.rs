@@ -103,8 +103,28 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     fn type_decl(&mut self) -> PResult<TypeDecl> {
         let name = self.ident("a type name")?;
+        // TwinCAT's `TYPE name EXTENDS base : STRUCT … END_STRUCT`.
+        let extends = if self.at_word("EXTENDS") {
+            self.bump();
+            Some(self.ident("the base structure's name")?)
+        } else {
+            None
+        };
         self.expect(&Tok::Colon, "`:` after the type name")?;
-        let spec = self.type_spec(true)?;
+        let mut spec = self.type_spec(true)?;
+        if let Some(b) = extends {
+            match &mut spec {
+                TypeSpec::Struct { base, .. } => *base = Some(b),
+                TypeSpec::Unsupported { .. } => {}
+                other => {
+                    self.error_at(
+                        diag::BAD_DECLARATION,
+                        other.span(),
+                        "only a STRUCT extends a base structure; write `TYPE name EXTENDS base : STRUCT … END_STRUCT`",
+                    );
+                }
+            }
+        }
         let init = if self.eat(&Tok::Assign).is_some() {
             Some(self.init()?)
         } else {
@@ -112,7 +132,8 @@ impl<'a, 'd> Parser<'a, 'd> {
         };
         // TwinCAT and CODESYS write `END_STRUCT` (and the last declaration) without `;`
         // before `END_TYPE`: the keyword ends the declaration.
-        let closed = matches!(spec, TypeSpec::Struct { .. }) && init.is_none();
+        let closed = matches!(spec, TypeSpec::Struct { .. } | TypeSpec::Unsupported { .. })
+            && init.is_none();
         if !(closed || self.at_kw(Kw::EndType)) {
             self.expect_semi()?;
         } else {
@@ -170,6 +191,26 @@ impl<'a, 'd> Parser<'a, 'd> {
                     span,
                 })
             }
+            // CODESYS's and TwinCAT's UNION … END_UNION: read whole, so the rest of the
+            // source is checked, and told as not supported.
+            Tok::Ident if in_type && self.at_word("UNION") => {
+                self.bump();
+                while !self.at_word("END_UNION") && !self.is_top_start() && !self.at_kw(Kw::EndType)
+                {
+                    let s = self.pos;
+                    if self.var_decl().is_err() {
+                        self.sync_decl(s);
+                    }
+                }
+                if !self.at_word("END_UNION") {
+                    return Err(self.expected("`END_UNION`"));
+                }
+                self.bump();
+                Ok(TypeSpec::Unsupported {
+                    what: "UNION (members sharing their bytes) is not supported yet; declare a STRUCT, or read a variable's bytes as another type through a POINTER TO".into(),
+                    span: start.to(self.prev_span()),
+                })
+            }
             Tok::Kw(Kw::Struct) => {
                 self.bump();
                 if !in_type {
@@ -190,7 +231,11 @@ impl<'a, 'd> Parser<'a, 'd> {
                 }
                 self.expect_kw(Kw::EndStruct)?;
                 let span = start.to(self.prev_span());
-                Ok(TypeSpec::Struct { fields, span })
+                Ok(TypeSpec::Struct {
+                    base: None,
+                    fields,
+                    span,
+                })
             }
             Tok::LParen => {
                 let (values, span) = self.enum_values()?;

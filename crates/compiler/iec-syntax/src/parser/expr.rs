@@ -17,8 +17,15 @@ impl<'a, 'd> Parser<'a, 'd> {
     }
 
     /// Operators by binding power: OR 1, XOR 2, AND 3, = <> 4, < > <= >= 5, + - 6,
-    /// * / MOD 7, ** 8.
+    /// `* / MOD` 7, ** 8. CODESYS's short-circuit `OR_ELSE` and `AND_THEN` bind as OR
+    /// and AND; they are words, not reserved (a variable may still be called so elsewhere).
     fn binary_op(&self) -> Option<(BinaryOp, u8)> {
+        if self.at_word("OR_ELSE") {
+            return Some((BinaryOp::OrElse, 1));
+        }
+        if self.at_word("AND_THEN") {
+            return Some((BinaryOp::AndThen, 3));
+        }
         Some(match self.peek().tok {
             Tok::Kw(Kw::Or) => (BinaryOp::Or, 1),
             Tok::Kw(Kw::Xor) => (BinaryOp::Xor, 2),

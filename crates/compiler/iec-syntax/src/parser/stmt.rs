@@ -201,7 +201,7 @@ impl<'a, 'd> Parser<'a, 'd> {
         })
     }
 
-    /// `target := value;` or `f(…);`.
+    /// `target := value;`, `target REF= value;` (CODESYS) or `f(…);`.
     fn assign_or_call(&mut self) -> PResult<StmtKind> {
         Ok({
             let target = self.postfix()?;
@@ -209,6 +209,15 @@ impl<'a, 'd> Parser<'a, 'd> {
                 let value = self.expr()?;
                 self.expect_semi()?;
                 StmtKind::Assign { target, value }
+            } else if self.at_word("REF")
+                && self.peek_at(1).tok == Tok::Eq
+                && self.peek().span.end == self.peek_at(1).span.start
+            {
+                self.bump();
+                self.bump();
+                let value = self.expr()?;
+                self.expect_semi()?;
+                StmtKind::RefAssign { target, value }
             } else if let ExprKind::Call(call) = target.kind {
                 self.expect_semi()?;
                 StmtKind::Call(call)

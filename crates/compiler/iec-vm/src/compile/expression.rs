@@ -193,6 +193,9 @@ impl<'c, 'p> Fx<'c, 'p> {
         want: Option<u32>,
         span: Span,
     ) -> R<u32> {
+        if matches!(op, BinaryOp::AndThen | BinaryOp::OrElse) {
+            return self.short_circuit(op == BinaryOp::AndThen, a, b, want, span);
+        }
         let p = self.p();
         let (ae, be) = (elem_or_dint(p, a.ty), elem_or_dint(p, b.ty));
         if matches!(op, BinaryOp::And | BinaryOp::Or) && ae == Elem::Bool {
@@ -243,6 +246,42 @@ impl<'c, 'p> Fx<'c, 'p> {
         let wrap = p.overflow == Overflow::Wrap;
         self.emit(Self::logic_or_arith(op, re, wrap, d, x, y), span);
         Ok(d)
+    }
+
+    /// `a AND_THEN b`, `a OR_ELSE b`: the left operand into a fresh temporary, a jump over
+    /// the right one when the left decides. The temporary, not `want`, holds the value while
+    /// `b` runs: `want` may be a variable `b` reads (`x := y AND_THEN x`).
+    fn short_circuit(
+        &mut self,
+        and: bool,
+        a: &Expr,
+        b: &Expr,
+        want: Option<u32>,
+        span: Span,
+    ) -> R<u32> {
+        let t = self.temp(1);
+        let x = self.expr(a, Some(t))?;
+        if x != t {
+            self.emit(Op::Mov { d: t, s: x }, span);
+        }
+        let skip = if and {
+            self.emit(Op::JmpF { c: t, t: 0 }, span)
+        } else {
+            self.emit(Op::JmpT { c: t, t: 0 }, span)
+        };
+        let y = self.expr(b, Some(t))?;
+        if y != t {
+            self.emit(Op::Mov { d: t, s: y }, span);
+        }
+        let here = self.pc();
+        self.patch(skip, here);
+        match want {
+            Some(d) if d != t => {
+                self.emit(Op::Mov { d, s: t }, span);
+                Ok(d)
+            }
+            _ => Ok(t),
+        }
     }
 
     /// Chains of three or more BOOL terms: one instruction over their literals.

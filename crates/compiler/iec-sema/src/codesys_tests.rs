@@ -1,0 +1,120 @@
+//! CODESYS and TwinCAT forms beyond the standard: the short-circuit `AND_THEN` and `OR_ELSE`,
+//! `REFERENCE TO`, `UNION` and `STRUCT EXTENDS`; what is accepted and the errors around them.
+
+use crate::tests::run;
+
+/// Checks `src`; every rendered diagnostic line must contain the fragment at its place in
+/// `expect`, and there must be as many.
+fn check_diags(src: &str, expect: &[&str]) {
+    let (p, text) = run(src);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), expect.len(), "got:\n{text}");
+    for (l, e) in lines.iter().zip(expect) {
+        assert!(l.contains(e), "expected `{e}` in\n{l}\n(all:\n{text})");
+    }
+    assert_eq!(p.is_some(), !text.contains("error["), "{text}");
+}
+
+#[test]
+fn and_then_and_or_else_take_bool_only() {
+    check_diags(
+        "PROGRAM p\nVAR a, b : BOOL; w : WORD; END_VAR\na := a AND_THEN b OR_ELSE NOT a;\nEND_PROGRAM\n",
+        &[],
+    );
+    check_diags(
+        "PROGRAM p\nVAR a : BOOL; w : WORD; END_VAR\na := a AND_THEN w;\nw := w OR_ELSE w;\nEND_PROGRAM\n",
+        &[
+            "t.st:3:17: error[E111]: `AND_THEN` applies to BOOL only, not WORD; for bit strings use `AND`",
+            "t.st:4:6: error[E111]: `OR_ELSE` applies to BOOL only, not WORD; for bit strings use `OR`",
+        ],
+    );
+    // Not reserved: a variable may still be called so.
+    check_diags(
+        "PROGRAM p\nVAR and_then : BOOL; END_VAR\nand_then := TRUE;\nEND_PROGRAM\n",
+        &[],
+    );
+}
+
+#[test]
+fn a_constant_left_operand_decides_at_compile_time() {
+    let (p, text) = run(
+        "PROGRAM p\nVAR a : BOOL; END_VAR\na := FALSE AND_THEN a;\na := TRUE OR_ELSE a;\nEND_PROGRAM\n",
+    );
+    let p = p.unwrap_or_else(|| panic!("{text}"));
+    let body = format!("{:?}", p.pous.last().map(|u| &u.body));
+    assert!(
+        !body.contains("AndThen") && !body.contains("OrElse"),
+        "{body}"
+    );
+}
+
+#[test]
+fn a_structure_extends_a_structure_only() {
+    check_diags(
+        "TYPE B : STRUCT a : INT; END_STRUCT END_TYPE\nTYPE E : (X, Y); END_TYPE\n\
+         TYPE S EXTENDS E : STRUCT c : INT; END_STRUCT END_TYPE\n\
+         TYPE S2 EXTENDS Nope : STRUCT c : INT; END_STRUCT END_TYPE\n\
+         TYPE S3 EXTENDS B : STRUCT a : INT; END_STRUCT END_TYPE\n\
+         TYPE S4 EXTENDS S4 : STRUCT a : INT; END_STRUCT END_TYPE\n\
+         PROGRAM p\nVAR s : S; s2 : S2; s3 : S3; s4 : S4; END_VAR\nEND_PROGRAM\n",
+        &[
+            "t.st:3:16: error[E109]: a structure extends a structure; E is not one",
+            "t.st:4:17: error[E101]: unknown type `Nope`",
+            "t.st:5:28: error[E103]: field `a` is declared twice in S3",
+            "t.st:6:17: error[E107]: type S4 contains itself",
+        ],
+    );
+    // The base's fields first: a field of the base is reached by its name.
+    check_diags(
+        "TYPE S EXTENDS B : STRUCT c : INT; END_STRUCT END_TYPE\nTYPE B : STRUCT a : INT; END_STRUCT END_TYPE\n\
+         PROGRAM p\nVAR s : S; END_VAR\ns.a := s.c;\nEND_PROGRAM\n",
+        &[],
+    );
+}
+
+#[test]
+fn reference_to_binds_with_ref_assign_and_is_refused_where_it_cannot_work() {
+    check_diags(
+        "FUNCTION_BLOCK fb\nVAR_INPUT x : INT; END_VAR\nEND_FUNCTION_BLOCK\n\
+         FUNCTION f : REFERENCE TO INT\nVAR_INPUT i : INT; END_VAR\nEND_FUNCTION\n\
+         PROGRAM p\nVAR x, y : INT; z : REAL; r : REFERENCE TO INT; rf : REFERENCE TO fb; rr : REFERENCE TO REFERENCE TO INT; END_VAR\n\
+         VAR_TEMP t : INT; END_VAR\n\
+         r REF= x + 1;\nr REF= z;\nx REF= y;\nr REF= t;\ny := __ISVALIDREF(x);\nEND_PROGRAM\n",
+        &[
+            "t.st:4:14: error[E190]: a result of type REFERENCE TO is not supported yet",
+            "t.st:8:54: error[E190]: REFERENCE TO a function block instance is not supported yet",
+            "t.st:8:76: error[E190]: a REFERENCE TO cannot designate another REFERENCE TO",
+            "t.st:10:8: error[E220]: `REF=` binds a REFERENCE TO to a variable, not to an expression's value",
+            "t.st:11:8: error[E220]: `REF=` binds a REFERENCE TO INT to a variable of that type; this is REAL",
+            "t.st:12:1: error[E220]: `REF=` binds a REFERENCE TO; this is INT: assign it with `:=`",
+            "t.st:13:8: error[E201]: a pointer to this PROGRAM's own variables is stored in `r`",
+            "t.st:14:19: error[E200]: __ISVALIDREF tests a REFERENCE TO; this is INT",
+        ],
+    );
+    // An input binds to the variable given; an expression cannot be bound.
+    check_diags(
+        "FUNCTION_BLOCK fb\nVAR_INPUT r : REFERENCE TO INT; END_VAR\nr := r + 1;\nEND_FUNCTION_BLOCK\n\
+         PROGRAM p\nVAR x : INT; f : fb; END_VAR\nf(r := x);\nf(r := x + 1);\nEND_PROGRAM\n",
+        &["t.st:8:8: error[E220]: argument `r` binds a REFERENCE TO to a variable, not to an expression's value"],
+    );
+}
+
+#[test]
+fn a_caret_after_a_reference_is_redundant_and_warned() {
+    check_diags(
+        "PROGRAM p\nVAR x, y : INT; r : REFERENCE TO INT; END_VAR\nr REF= x;\ny := r^;\nr := y;\nEND_PROGRAM\n",
+        &["t.st:4:6: warning[W040]: this is a REFERENCE TO INT, dereferenced where it is used: the `^` is redundant"],
+    );
+}
+
+#[test]
+fn a_union_is_read_whole_and_told_unsupported() {
+    check_diags(
+        "TYPE U :\nUNION\n  d : DINT;\n  w : ARRAY[0..1] OF WORD;\nEND_UNION\nEND_TYPE\n\
+         PROGRAM p\nVAR x : INT; END_VAR\nx := y;\nEND_PROGRAM\n",
+        &[
+            "t.st:2:1: error[E190]: UNION (members sharing their bytes) is not supported yet",
+            "t.st:9:6: error[E100]: `y` is not declared",
+        ],
+    );
+}
