@@ -374,6 +374,11 @@ pub enum Builtin {
     MemSet,
     /// MEMCMP(a, b, n): -1, 0 or 1.
     MemCmp,
+    /// The interface handle given, a fault when it is NULL (a call through an interface).
+    ItfCheck,
+    /// The type id of the instance an interface handle designates (DINT; -1 for NULL): the
+    /// selector of an interface member's dispatch.
+    ItfType,
 }
 
 impl Builtin {
@@ -422,6 +427,8 @@ impl Builtin {
             Builtin::MemCpy => "MEMCPY",
             Builtin::MemSet => "MEMSET",
             Builtin::MemCmp => "MEMCMP",
+            Builtin::ItfCheck => "interface call",
+            Builtin::ItfType => "interface dispatch",
         }
     }
 }

@@ -70,6 +70,8 @@ mod en_eno_tests;
 #[cfg(test)]
 mod il_tests;
 #[cfg(test)]
+mod itf_tests;
+#[cfg(test)]
 mod oop_tests;
 #[cfg(test)]
 mod others_tests;

@@ -58,6 +58,12 @@ pub(crate) struct Oop<'a> {
     pub names: HashSet<String>,
     /// (overridden, override) pairs, compared once their interfaces are known.
     pub overrides: Vec<(PouId, PouId)>,
+    /// INTERFACE → the type of its variables (`oop/itf.rs`), and back.
+    pub itf_types: HashMap<PouId, crate::types::TypeId>,
+    pub itf_of: HashMap<crate::types::TypeId, PouId>,
+    /// INTERFACE → its `__QUERYINTERFACE` function (`oop/query.rs`), and back.
+    pub queries: HashMap<PouId, PouId>,
+    pub query_of: HashMap<PouId, PouId>,
     /// What `var_of` gives for `Root::This` (the instance: not constant, not an input).
     pub this_var: Var,
 }
@@ -73,6 +79,10 @@ impl Oop<'_> {
             chains: HashMap::new(),
             names: HashSet::new(),
             overrides: Vec::new(),
+            itf_types: HashMap::new(),
+            itf_of: HashMap::new(),
+            queries: HashMap::new(),
+            query_of: HashMap::new(),
             this_var: Var {
                 name: "THIS".into(),
                 ty: ids::ERROR,

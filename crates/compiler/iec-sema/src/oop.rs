@@ -9,7 +9,8 @@
 //! copy of every member it inherits, and of each base's body (for `SUPER^()`), all checked
 //! with THIS of the derived type. Calls through THIS, which CODESYS and TwinCAT dispatch to
 //! the most derived override, are then resolved when the project is checked: the whole
-//! project is known, so no call needs a run-time choice.
+//! project is known, so no call needs a run-time choice. A call through an INTERFACE does
+//! need one: `itf.rs`.
 
 use petriplc_iec_syntax::ast::{self, Modifiers, PouKind};
 use petriplc_iec_syntax::diag;
@@ -21,6 +22,8 @@ use crate::types::FbRef;
 pub(crate) use crate::members::{Member, MemberKind, Prop, This};
 
 mod access;
+mod itf;
+mod query;
 mod rules;
 
 impl<'a> Checker<'a> {
@@ -50,6 +53,8 @@ impl<'a> Checker<'a> {
                 self.level_members(p, level, last);
             }
         }
+        self.inherit_interface_members();
+        self.collect_queries();
     }
 
     /// A block's EXTENDS chain, root first; `None` after an error (reported).
@@ -286,6 +291,10 @@ impl<'a> Checker<'a> {
         edges: &mut Vec<(VarId, ast::Edge)>,
     ) {
         if let Some(m) = self.oop.members.get(&p).cloned() {
+            if self.is_interface(m.owner) {
+                self.itf_member_vars(&m, cx);
+                return;
+            }
             let ty = self.types.fb(FbRef::User(m.owner));
             cx.vars.push(Var {
                 name: "THIS".into(),

@@ -473,6 +473,11 @@ impl TypeTable {
             Type::Struct { name, .. } | Type::Enum { name, .. } => name.clone(),
             Type::Subrange { base, lo, hi } => format!("{} ({lo}..{hi})", base.name()),
             Type::Fb(_) => "function block".into(),
+            // An interface's type is named as the interface (its target a marker of that name).
+            Type::Ref {
+                kind: RefKind::Interface,
+                target,
+            } => self.name(*target),
             Type::Ref { kind, target } => format!("{} {}", kind.text(), self.name(*target)),
             Type::Null => "NULL".into(),
             Type::IntLit => "an integer literal".into(),

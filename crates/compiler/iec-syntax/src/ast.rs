@@ -133,6 +133,9 @@ pub enum RefKind {
     PointerTo,
     /// `REFERENCE TO T` (CODESYS, TwinCAT: dereferenced implicitly; refused for now).
     ReferenceTo,
+    /// A variable of an INTERFACE type: a handle to the instance of a block implementing
+    /// it, never written as a reference (docs/iec.md, "Interfaces").
+    Interface,
 }
 
 impl RefKind {
@@ -141,6 +144,7 @@ impl RefKind {
             RefKind::RefTo => "REF_TO",
             RefKind::PointerTo => "POINTER TO",
             RefKind::ReferenceTo => "REFERENCE TO",
+            RefKind::Interface => "INTERFACE",
         }
     }
 }
@@ -215,8 +219,11 @@ pub struct PouOop {
     pub modifiers: Modifiers,
     /// `EXTENDS base`.
     pub extends: Option<Ident>,
-    /// `IMPLEMENTS I1, I2`.
+    /// `IMPLEMENTS I1, I2`; for an INTERFACE, the interfaces it EXTENDS.
     pub implements: Vec<Ident>,
+    /// The POU is an `INTERFACE … END_INTERFACE` (read as a FUNCTION_BLOCK without variables
+    /// or body whose methods and properties have no body): docs/iec.md, "Interfaces".
+    pub interface: bool,
     pub methods: Vec<Method>,
     pub properties: Vec<Property>,
     pub actions: Vec<Action>,
@@ -229,6 +236,7 @@ impl PouOop {
             && self.methods.is_empty()
             && self.properties.is_empty()
             && self.actions.is_empty()
+            && !self.interface
     }
 }
 

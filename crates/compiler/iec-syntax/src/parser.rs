@@ -124,6 +124,39 @@ pub fn parse_declaration(file: FileId, text: &str, diags: &mut Diagnostics) -> O
     Some(pou)
 }
 
+/// The `<Declaration>` of a TwinCAT `<Itf>` (`INTERFACE I_X EXTENDS I_A`, END_INTERFACE left
+/// out), or a whole interface in text: the interface, its members added by the caller.
+pub fn parse_interface_declaration(
+    file: FileId,
+    text: &str,
+    diags: &mut Diagnostics,
+) -> Option<Pou> {
+    let tokens = lexer::lex(file, text, diags);
+    let mut p = Parser::new(file, text, tokens, diags);
+    if !p.at_interface() {
+        let t = p.peek().clone();
+        if !p.quiet_at(&t) {
+            p.error_at(
+                diag::SYNTAX,
+                t.span,
+                "an interface's declaration starts with INTERFACE and its name",
+            );
+        }
+        return None;
+    }
+    let pou = p.interface(true).ok()?;
+    if !p.at(&Tok::Eof) {
+        let t = p.peek().clone();
+        let msg = format!(
+            "{} after the declaration of {}",
+            p.describe(&t),
+            pou.name.name
+        );
+        p.error_at(diag::SYNTAX, t.span, msg);
+    }
+    Some(pou)
+}
+
 /// Parses one expression alone (a PLCopen initial value, a task interval).
 /// The `<Declaration>` of a TwinCAT method, property or action (`METHOD M : INT` and its
 /// variable blocks, `PROPERTY P : INT`): the member, without a body.
@@ -478,7 +511,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                     | Kw::Configuration
                     | Kw::VarGlobal
             ) | Tok::Eof
-        )
+        ) || self.at_interface()
     }
 }
 

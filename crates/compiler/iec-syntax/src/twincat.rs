@@ -93,7 +93,11 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
                     lib.elements.push(Element::Configuration(c));
                 }
             }
-            "Itf" => r.unsupported(obj, "INTERFACE"),
+            "Itf" => {
+                if let Some(p) = r.itf(obj) {
+                    lib.elements.push(Element::Pou(p));
+                }
+            }
             other => {
                 let span = r.span(obj);
                 r.diags.error(
@@ -196,18 +200,6 @@ impl Reader<'_> {
         Some((d.text.clone(), d.text_start.unwrap_or(d.start)))
     }
 
-    fn unsupported(&mut self, el: &X, what: &str) {
-        let span = self.span(el);
-        self.diags.error(
-            diag::UNSUPPORTED,
-            span,
-            format!(
-                "{what} {} is not supported yet; the rest of the file is checked",
-                Self::object_name(el)
-            ),
-        );
-    }
-
     fn pou(&mut self, el: &X) -> Option<Pou> {
         let (text, at) = self.declaration(el)?;
         let f = self.embed(&text, at);
@@ -245,6 +237,59 @@ impl Reader<'_> {
         Some(pou)
     }
 
+    /// An `<Itf>`: its declaration (`INTERFACE I_X EXTENDS I_A`), its `<Method>`s and
+    /// `<Property>`s (declarations only; a property's `<Get>`/`<Set>` say which accessors it
+    /// has).
+    fn itf(&mut self, el: &X) -> Option<Pou> {
+        let (text, at) = self.declaration(el)?;
+        let f = self.embed(&text, at);
+        let mut pou = parser::parse_interface_declaration(f, &text, self.diags)?;
+        for c in &el.children {
+            if !matches!(c.name.as_str(), "Method" | "Property") {
+                continue;
+            }
+            let Some((text, at)) = self.declaration(c) else {
+                continue;
+            };
+            let f = self.embed(&text, at);
+            let Some(mut oop) = parser::parse_member_declaration(f, &text, self.diags) else {
+                continue;
+            };
+            for m in &mut oop.methods {
+                m.modifiers.is_abstract = true;
+            }
+            for p in &mut oop.properties {
+                p.modifiers.is_abstract = true;
+                let span = self.span(c);
+                let (mut get, mut set) = (c.child("Get").is_some(), c.child("Set").is_some());
+                if !get && !set {
+                    (get, set) = (true, true);
+                }
+                if get {
+                    p.get = Some(parser::accessor(
+                        p,
+                        true,
+                        Vec::new(),
+                        Body::St(Vec::new()),
+                        span,
+                    ));
+                }
+                if set {
+                    p.set = Some(parser::accessor(
+                        p,
+                        false,
+                        Vec::new(),
+                        Body::St(Vec::new()),
+                        span,
+                    ));
+                }
+            }
+            pou.oop.methods.extend(oop.methods);
+            pou.oop.properties.extend(oop.properties);
+        }
+        Some(pou)
+    }
+
     /// A `<Method>` (its declaration and body) or a `<Property>` (its declaration, `<Get>`
     /// and `<Set>`, each with variable blocks and a body).
     fn member(&mut self, c: &X) -> Option<PouOop> {
@@ -262,8 +307,9 @@ impl Reader<'_> {
                 };
                 let blocks = match acc.child("Declaration") {
                     Some(d) => {
-                        let f = self.embed(&d.text, d.text_start.unwrap_or(d.start));
-                        parser::parse_var_blocks(f, &d.text, self.diags)
+                        let text = blank_access(&d.text);
+                        let f = self.embed(&text, d.text_start.unwrap_or(d.start));
+                        parser::parse_var_blocks(f, &text, self.diags)
                     }
                     None => Vec::new(),
                 };
@@ -390,3 +436,22 @@ impl Reader<'_> {
 
 #[cfg(test)]
 mod tests;
+
+/// A `<Get>`/`<Set>` declaration without the access specifier TwinCAT lets it start with
+/// (`PROTECTED`): blanked (columns kept), the property's own access applying to both.
+fn blank_access(text: &str) -> String {
+    let lead = text.len() - text.trim_start().len();
+    let word: String = text[lead..]
+        .chars()
+        .take_while(|c| c.is_ascii_alphabetic())
+        .collect();
+    if crate::ast::Access::from_word(&word).is_none() {
+        return text.to_string();
+    }
+    format!(
+        "{}{}{}",
+        &text[..lead],
+        " ".repeat(word.len()),
+        &text[lead + word.len()..]
+    )
+}

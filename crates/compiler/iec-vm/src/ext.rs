@@ -105,6 +105,18 @@ pub enum ExtOp {
         e: Elem,
         what: String,
     },
+    /// `d` = the interface handle in `s`, a fault when it is NULL (a method or property
+    /// used through an interface: the fault's line is the call's).
+    ItfCheck {
+        d: u32,
+        s: u32,
+    },
+    /// `d` = the type id of the instance the interface handle in `s` designates, -1 for NULL
+    /// ([`crate::pointer::type_of`]).
+    ItfType {
+        d: u32,
+        s: u32,
+    },
     /// A value stored into a subrange: `lo <= s <= hi`.
     Check {
         d: u32,
@@ -642,6 +654,20 @@ pub fn exec(
                     "the step (BY) is 0".to_string(),
                 ));
             }
+        }
+        ExtOp::ItfCheck { d, s } => {
+            let h = mem[base + *s as usize];
+            if h == 0 {
+                return Err(fault(
+                    OpError::Domain("call through a NULL interface"),
+                    "a method or property is used through an interface that designates no instance (0); assign an instance to it first, or test `<> 0`".to_string(),
+                ));
+            }
+            mem[base + *d as usize] = h;
+        }
+        ExtOp::ItfType { d, s } => {
+            let h = mem[base + *s as usize];
+            mem[base + *d as usize] = crate::pointer::type_of(h) as u64;
         }
         ExtOp::Now { d } => {
             mem[base + *d as usize] = (now - now.rem_euclid(1_000_000)) as u64;

@@ -37,6 +37,14 @@ fn decode(h: u64) -> (u64, u32, i64) {
     (base, tag.wrapping_sub(1), off)
 }
 
+/// The type id a handle carries (an interface's instance's own block type), -1 for NULL.
+pub fn type_of(h: u64) -> i64 {
+    if h == 0 {
+        return -1;
+    }
+    i64::from(decode(h).1)
+}
+
 fn encode(base: u64, ty: u32, off: i64) -> u64 {
     base | u64::from(ty + 1) << BASE_BITS
         | ((off as u64) & ((1 << OFF_BITS) - 1)) << (BASE_BITS + TAG_BITS)

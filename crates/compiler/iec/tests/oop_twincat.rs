@@ -131,3 +131,79 @@ fn twincat_methods_properties_actions_and_extends_run() {
         ]
     );
 }
+
+/// An interface as TwinCAT 3 saves it (`.TcIO`): a method and a read-only property, on the
+/// implied `__SYSTEM.IQueryInterface`.
+const I_COUNTER: &str = r#"<?xml version="1.0" encoding="utf-8"?>
+<TcPlcObject Version="1.1.0.1">
+  <Itf Name="I_Counter" Id="{6f1d3c1e-0000-0000-0000-000000000001}">
+    <Declaration><![CDATA[INTERFACE I_Counter EXTENDS __SYSTEM.IQueryInterface
+]]></Declaration>
+    <Method Name="Add" Id="{6f1d3c1e-0000-0000-0000-000000000002}">
+      <Declaration><![CDATA[METHOD Add : INT
+VAR_INPUT
+	nBy : INT;
+END_VAR
+]]></Declaration>
+    </Method>
+    <Property Name="Count" Id="{6f1d3c1e-0000-0000-0000-000000000003}">
+      <Declaration><![CDATA[PROPERTY Count : INT]]></Declaration>
+      <Get Name="Get" Id="{6f1d3c1e-0000-0000-0000-000000000004}">
+        <Declaration><![CDATA[]]></Declaration>
+      </Get>
+    </Property>
+  </Itf>
+</TcPlcObject>"#;
+
+const ITF_MAIN: &str = "PROGRAM MAIN
+VAR
+  c : FB_Counter;
+  f : FB_Fast;
+  all : ARRAY[0..1] OF I_Counter;
+  i : INT;
+  sum : INT;
+  n : INT;
+END_VAR
+all[0] := c;
+all[1] := f;
+sum := 0;
+FOR i := 0 TO 1 DO
+  sum := sum + all[i].Add(nBy := 1);
+END_FOR;
+n := all[1].Count;
+END_PROGRAM
+";
+
+#[test]
+fn a_twincat_interface_dispatches_to_its_implementations() {
+    let mut s = Sources::new();
+    // The blocks of COUNTER and FAST, FB_Counter now implementing I_Counter (FB_Fast
+    // through its base).
+    s.add_text(
+        "FB_Counter.TcPOU",
+        &COUNTER.replace(
+            "FUNCTION_BLOCK FB_Counter\n",
+            "FUNCTION_BLOCK FB_Counter IMPLEMENTS I_Counter\n",
+        ),
+    );
+    s.add_text("FB_Fast.TcPOU", FAST);
+    s.add_text("I_Counter.TcIO", I_COUNTER);
+    s.add_text("MAIN.st", ITF_MAIN);
+    let b = match build(&s, &Select::Auto, Natives::default()) {
+        Ok(b) => b,
+        Err(e) => panic!("{e}"),
+    };
+    let mut m = Machine::new(b.engine.clone());
+    let mut seen = Vec::new();
+    for k in 0..2 {
+        m.scan(k * 10_000_000, &mut || true).unwrap();
+        let get = |v: &str| {
+            let r = b.engine.lookup(v).unwrap_or_else(|| panic!("no {v}"));
+            petriplc_iec_vm::display(&b.engine.project, r.ty, &m.get(r).unwrap())
+        };
+        seen.push(format!("sum={} n={}", get("MAIN.sum"), get("MAIN.n")));
+    }
+    // c.Add adds 1, f's Add (dispatched to FB_Fast's override) 10: the blocks' bodies are not
+    // called here.
+    assert_eq!(seen, ["sum=11 n=10", "sum=22 n=20"]);
+}

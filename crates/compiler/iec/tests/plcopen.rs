@@ -1,6 +1,6 @@
-//! PLCopen XML projects: a CODESYS-style export runs, projects the engine cannot run say
-//! why, malformed files give positioned errors. (Beremiz's projects and libraries, which are
-//! not in the repository: conformance_beremiz.rs.)
+//! PLCopen XML projects: a CODESYS-style export runs (one with an interface too), projects
+//! the engine cannot run say why, malformed files give positioned errors. (Beremiz's projects
+//! and libraries, which are not in the repository: conformance_beremiz.rs.)
 
 use std::path::Path;
 
@@ -87,5 +87,78 @@ fn malformed_files_get_positioned_errors() {
     assert!(
         e.contains("d.xml:3:3: error[E100]: `x` is not declared"),
         "{e}"
+    );
+}
+
+/// A CODESYS export with an interface (`<Interface>` in the project's `<addData>`, with
+/// `<Methods>`), two blocks implementing it (`<Implements>` in their inheritance data) and a
+/// program calling through an interface variable.
+const CODESYS_ITF: &str = r#"<?xml version="1.0" encoding="utf-8"?>
+<project xmlns="http://www.plcopen.org/xml/tc6_0200">
+  <types><dataTypes/><pous>
+    <pou name="FB_Two" pouType="functionBlock">
+      <interface/>
+      <body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">;</xhtml></ST></body>
+      <addData>
+        <data name="http://www.3s-software.com/plcopenxml/method" handleUnknown="implementation">
+          <Method name="Scale" ObjectId="1"><interface><returnType><INT/></returnType><inputVars><variable name="x"><type><INT/></type></variable></inputVars></interface><body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">Scale := 2 * x;</xhtml></ST></body></Method>
+        </data>
+        <data name="http://www.3s-software.com/plcopenxml/pouinheritance" handleUnknown="implementation">
+          <Inheritance><Implements>I_Scale</Implements></Inheritance>
+        </data>
+      </addData>
+    </pou>
+    <pou name="FB_Ten" pouType="functionBlock">
+      <interface/>
+      <body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">;</xhtml></ST></body>
+      <addData>
+        <data name="http://www.3s-software.com/plcopenxml/method" handleUnknown="implementation">
+          <Method name="Scale" ObjectId="2"><interface><returnType><INT/></returnType><inputVars><variable name="x"><type><INT/></type></variable></inputVars></interface><body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">Scale := 10 * x;</xhtml></ST></body></Method>
+        </data>
+        <data name="http://www.3s-software.com/plcopenxml/pouinheritance" handleUnknown="implementation">
+          <Inheritance><Implements>I_Scale</Implements></Inheritance>
+        </data>
+      </addData>
+    </pou>
+    <pou name="PLC_PRG" pouType="program">
+      <interface><localVars>
+        <variable name="two"><type><derived name="FB_Two"/></type></variable>
+        <variable name="ten"><type><derived name="FB_Ten"/></type></variable>
+        <variable name="s"><type><derived name="I_Scale"/></type></variable>
+        <variable name="a"><type><INT/></type></variable>
+        <variable name="b"><type><INT/></type></variable>
+      </localVars></interface>
+      <body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">s := two;
+a := s.Scale(x := 3);
+s := ten;
+b := s.Scale(x := 3);</xhtml></ST></body>
+    </pou>
+  </pous></types>
+  <instances><configurations/></instances>
+  <addData>
+    <data name="http://www.3s-software.com/plcopenxml/interface" handleUnknown="implementation">
+      <Interface name="I_Scale" ObjectId="3">
+        <Methods>
+          <Method name="Scale" ObjectId="4"><interface><returnType><INT/></returnType><inputVars><variable name="x"><type><INT/></type></variable></inputVars></interface><addData/></Method>
+        </Methods>
+      </Interface>
+    </data>
+  </addData>
+</project>"#;
+
+#[test]
+fn a_codesys_interface_dispatches_to_its_implementations() {
+    let mut s = Sources::new();
+    s.add_text("itf.xml", CODESYS_ITF);
+    let b = petriplc_iec::build(&s, &Select::Auto, Natives::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let e = b.engine.clone();
+    let mut m = Machine::new(e.clone());
+    m.scan(0, &mut || true).unwrap();
+    let a = e.lookup("PLC_PRG.a").unwrap();
+    let bb = e.lookup("PLC_PRG.b").unwrap();
+    assert_eq!(
+        (m.get(a), m.get(bb)),
+        (Some(Value::Int(6)), Some(Value::Int(30)))
     );
 }

@@ -11,6 +11,9 @@ use super::{Checker, Cx};
 
 impl<'a> Checker<'a> {
     pub(super) fn body(&mut self, p: PouId) {
+        if self.itf_dispatch(p) || self.query_body(p) {
+            return;
+        }
         let ast = self.pou_asts[p as usize];
         let this = self.this_of(p);
         // A member is FUNCTION-like whatever its syntax tree (an action's is its block's).

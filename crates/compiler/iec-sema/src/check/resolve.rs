@@ -340,6 +340,9 @@ impl<'a> Checker<'a> {
             return self.named_type(&key, id.span).unwrap_or((ids::ERROR, None));
         }
         if let Some(&p) = self.pou_names.get(&key) {
+            if self.is_interface(p) {
+                return (self.itf_type(p), None);
+            }
             if self.pou_asts[p as usize].kind == PouKind::FunctionBlock {
                 return (self.types.fb(FbRef::User(p)), None);
             }

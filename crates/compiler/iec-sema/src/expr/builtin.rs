@@ -48,6 +48,8 @@ impl<'a> Checker<'a> {
             }
             // Checked by mem_call (expr/reference.rs), never by name here.
             MemCpy | MemSet | MemCmp => (&["DEST", "SRC", "N"], 3, false),
+            // Made by interface calls (oop/itf.rs), never by name.
+            ItfCheck | ItfType => (&["IN"], 1, false),
         };
         let Some(args) = self.std_args(f, call, params, min, ext) else {
             return err(span);
@@ -77,7 +79,7 @@ impl<'a> Checker<'a> {
                 self.fold(mk(vec![d, t], ids::DT))
             }
             DtToTod | DtToDate | Expt | BcdToInt | IntToBcd | Time | GetChar | Format | Chr
-            | MemCpy | MemSet | MemCmp => err(span),
+            | MemCpy | MemSet | MemCmp | ItfCheck | ItfType => err(span),
         }
     }
 

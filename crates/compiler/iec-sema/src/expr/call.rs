@@ -64,6 +64,9 @@ impl<'a> Checker<'a> {
         if name.is("REF") || name.is("ADR") {
             return self.ref_of(name, call, cx);
         }
+        if name.is("__QUERYINTERFACE") {
+            return self.query_interface(call, cx);
+        }
         // XSIZEOF: SIZEOF's name in CODESYS 3.5.16 and TwinCAT 3.1.4026.
         if name.is("__ISVALIDREF") {
             return self.is_valid_ref(call, cx);
@@ -138,8 +141,14 @@ impl<'a> Checker<'a> {
         else {
             return err(span);
         };
+        // THIS of an interface's member is an input: the handle, checked where the call is.
+        let mut itf_this = None;
         if let Some(t) = this {
-            bound.in_outs.push((params as VarId, t));
+            if pou.vars[params].class == VarClass::Input {
+                itf_this = Some(self.itf_this(t, span));
+            } else {
+                bound.in_outs.push((params as VarId, t));
+            }
         }
         let mut inputs = Vec::new();
         for (i, v) in pou.vars[..params].iter().enumerate() {
@@ -156,6 +165,7 @@ impl<'a> Checker<'a> {
                 inputs.push((i as VarId, e));
             }
         }
+        inputs.extend(itf_this.map(|x| (params as VarId, x)));
         let ty = pou.result.map_or(ids::VOID, |r| pou.vars[r as usize].ty);
         self.calls.push((cx.pou, p, span));
         Expr {

@@ -264,6 +264,11 @@ impl<'a> Checker<'a> {
     }
 
     /// The place a plain name denotes, if it is a variable.
+    /// The type of the variable `id` names, if it names one (nothing reported).
+    pub(crate) fn plain_var_type(&mut self, id: &ast::Ident, cx: &Cx) -> Option<TypeId> {
+        self.var_place(id, cx).map(|p| p.ty)
+    }
+
     pub(super) fn var_place(&mut self, id: &ast::Ident, cx: &Cx) -> Option<Place> {
         let key = id.key();
         if let Some(&v) = cx.names.get(&key) {

@@ -609,6 +609,9 @@ impl<'a> Checker<'a> {
         if x.ty == to {
             return x;
         }
+        if let Some(x) = self.itf_coerce(&x, to, what) {
+            return x;
+        }
         let from_t = self.types.get(x.ty).clone();
         let to_t = self.types.get(to).clone();
         match (&from_t, &to_t) {

@@ -29,6 +29,15 @@ impl<'a> Checker<'a> {
     ) -> Option<Place> {
         // The reference itself is only read, whether its target is read or written.
         let mut p = self.reference_place(base, cx, false)?;
+        if let Some(i) = self.itf_of_type(p.ty) {
+            let n = self.pou_asts[i as usize].name.name.clone();
+            self.error(
+                diag::ITF_MISUSE,
+                e.span,
+                format!("an interface ({n}) is not dereferenced with `^`; call its methods and use its properties directly (x.M())"),
+            );
+            return None;
+        }
         if let Type::Ref {
             kind: RefKind::ReferenceTo,
             ..
@@ -260,12 +269,6 @@ impl<'a> Checker<'a> {
         if p.path.iter().any(|s| matches!(s, Step::Bit(_))) {
             return Some("a single bit has no address; reference the whole variable".into());
         }
-        if matches!(self.types.get(p.ty), Type::Fb(_)) {
-            return Some(
-                "references to function block instances are not supported yet; reference a variable"
-                    .into(),
-            );
-        }
         // Behind a dereference the place is inside a variable already referenced.
         let behind_ref = p.path.iter().any(|s| matches!(s, Step::Deref));
         let var = self.var_of(p, cx);
@@ -320,6 +323,17 @@ impl<'a> Checker<'a> {
     /// not compare), `None` when neither is a reference.
     pub(super) fn unify_refs(&self, x: &Expr, y: &Expr) -> Option<Result<TypeId, ()>> {
         let (a, b) = (self.types.get(x.ty), self.types.get(y.ty));
+        if let (Some(i), Some(j)) = (self.itf_of_type(x.ty), self.itf_of_type(y.ty)) {
+            // Two interfaces compare when one extends the other (the same instance is the
+            // same handle whichever interface holds it).
+            return Some(if self.interfaces_of(j).contains(&i) {
+                Ok(x.ty)
+            } else if self.interfaces_of(i).contains(&j) {
+                Ok(y.ty)
+            } else {
+                Err(())
+            });
+        }
         match (a, b) {
             (Type::Null, Type::Ref { .. }) => Some(Ok(y.ty)),
             (Type::Ref { .. }, Type::Null) => Some(Ok(x.ty)),

@@ -138,15 +138,22 @@ impl<'a> Checker<'a> {
                     (m, this)
                 } else {
                     if !self.oop.names.contains(&key) {
-                        return None;
+                        // No member has the name: through an interface variable, say so.
+                        let q = match &base.kind {
+                            A::Name(n) => self.plain_var_type(n, cx),
+                            _ => None,
+                        };
+                        return q
+                            .and_then(|t| self.owner_of_instance(t))
+                            .and_then(|q| self.no_itf_member(q, f, "method", span));
                     }
                     let Some(inst) = self.instance_of(base, cx) else {
                         return Some(err(span));
                     };
-                    let Type::Fb(FbRef::User(q)) = *self.types.get(inst.ty) else {
-                        return None;
+                    let q = self.owner_of_instance(inst.ty)?;
+                    let Some(&m) = self.oop.methods.get(&(q, key)) else {
+                        return self.no_itf_member(q, f, "method", span);
                     };
-                    let m = *self.oop.methods.get(&(q, key))?;
                     if !self.may_use(m, cx, f) {
                         return Some(err(span));
                     }
@@ -156,6 +163,29 @@ impl<'a> Checker<'a> {
             _ => return None,
         };
         Some(self.fn_call_with(m, call, cx, Some(this)))
+    }
+
+    /// The block (or interface) whose members an instance of type `ty` has.
+    fn owner_of_instance(&self, ty: crate::types::TypeId) -> Option<PouId> {
+        match *self.types.get(ty) {
+            Type::Fb(FbRef::User(q)) => Some(q),
+            _ => self.itf_of_type(ty),
+        }
+    }
+
+    /// A member name `f` that interface `q` lacks (E218); `None` when `q` is a block (the
+    /// name is then read otherwise: a variable of the instance).
+    fn no_itf_member(&mut self, q: PouId, f: &ast::Ident, what: &str, span: Span) -> Option<Expr> {
+        if !self.is_interface(q) {
+            return None;
+        }
+        let n = self.pou_asts[q as usize].name.name.clone();
+        self.error(
+            diag::ITF_MISUSE,
+            f.span,
+            format!("the interface {n} has no {what} `{}`; use what {n} declares, or __QUERYINTERFACE to reach another interface of the instance", f.name),
+        );
+        Some(err(span))
     }
 
     /// The instance a member is used on: `THIS^`, or a place.
@@ -325,10 +355,11 @@ impl<'a> Checker<'a> {
                 let Some(inst) = self.instance_of(base, cx) else {
                     return Some((None, f.clone()));
                 };
-                let Type::Fb(FbRef::User(q)) = *self.types.get(inst.ty) else {
-                    return None;
+                let q = self.owner_of_instance(inst.ty)?;
+                let Some(prop) = self.oop.props.get(&(q, key)).cloned() else {
+                    self.no_itf_member(q, f, "property", e.span)?;
+                    return Some((None, f.clone()));
                 };
-                let prop = self.oop.props.get(&(q, key))?.clone();
                 Some((Some((prop, inst)), f.clone()))
             }
             _ => None,

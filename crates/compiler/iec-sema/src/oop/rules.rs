@@ -1,7 +1,6 @@
 //! The rules of object orientation checked once every interface is known: an ABSTRACT block
 //! is not instantiated, a FINAL method is not overridden, an override keeps its method's
-//! signature, a concrete block has no ABSTRACT method left, IMPLEMENTS (interfaces are not
-//! supported yet: E190).
+//! signature, a concrete block has no ABSTRACT method left, IMPLEMENTS (`itf.rs`).
 
 use petriplc_iec_syntax::diag;
 
@@ -29,19 +28,14 @@ impl<'a> Checker<'a> {
         self.signatures();
         let n = self.pou_asts.len();
         for p in 0..n as PouId {
-            if self.oop.members.contains_key(&p) {
+            if self.oop.members.contains_key(&p) || self.oop.query_of.contains_key(&p) {
                 continue;
             }
             let ast = self.pou_asts[p as usize];
-            for i in &ast.oop.implements {
-                self.error(
-                    diag::UNSUPPORTED,
-                    i.span,
-                    format!("INTERFACE {} (IMPLEMENTS) is not supported yet; call the block's methods on the block itself", i.name),
-                );
-            }
+            self.implements_rules(p);
             if ast.kind == petriplc_iec_syntax::ast::PouKind::FunctionBlock
                 && !ast.oop.modifiers.is_abstract
+                && !ast.oop.interface
             {
                 let mut left: Vec<(PouId, String)> = self
                     .oop
@@ -78,30 +72,43 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// A member's parameters (upper-case names, kinds, type names) and result type, THIS
+    /// left out: what an override and an interface's implementation keep.
+    pub(crate) fn member_sig(&self, m: PouId) -> Vec<(String, VarClass, String)> {
+        self.pous[m as usize]
+            .vars
+            .iter()
+            .filter(|v| {
+                matches!(
+                    v.class,
+                    VarClass::Input | VarClass::Output | VarClass::InOut | VarClass::Result
+                ) && !v.name.eq_ignore_ascii_case("THIS")
+            })
+            .map(|v| {
+                let name = if v.class == VarClass::Result {
+                    String::new()
+                } else {
+                    v.name.to_ascii_uppercase()
+                };
+                (name, v.class, self.types.name(v.ty))
+            })
+            .collect()
+    }
+
+    pub(crate) fn show_sig(s: &[(String, VarClass, String)]) -> String {
+        s.iter()
+            .map(|(n, c, t)| match c {
+                VarClass::Result => format!("result {t}"),
+                _ => format!("{n} : {t}"),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     /// An override has its method's parameters (names, kinds, types) and result type.
     fn signatures(&mut self) {
         for (prev, new) in std::mem::take(&mut self.oop.overrides) {
-            let sig = |c: &Checker, m: PouId| -> Vec<(String, VarClass, String)> {
-                let pou = &c.pous[m as usize];
-                pou.vars
-                    .iter()
-                    .filter(|v| {
-                        matches!(
-                            v.class,
-                            VarClass::Input | VarClass::Output | VarClass::InOut | VarClass::Result
-                        ) && !v.name.eq_ignore_ascii_case("THIS")
-                    })
-                    .map(|v| {
-                        let name = if v.class == VarClass::Result {
-                            String::new()
-                        } else {
-                            v.name.to_ascii_uppercase()
-                        };
-                        (name, v.class, c.types.name(v.ty))
-                    })
-                    .collect()
-            };
-            let (a, b) = (sig(self, prev), sig(self, new));
+            let (a, b) = (self.member_sig(prev), self.member_sig(new));
             if a != b {
                 let m = &self.oop.members[&new];
                 let (name, span) = (m.name.clone(), m.span);
@@ -109,22 +116,13 @@ impl<'a> Checker<'a> {
                     .name
                     .name
                     .clone();
-                let show = |s: &[(String, VarClass, String)]| {
-                    s.iter()
-                        .map(|(n, c, t)| match c {
-                            VarClass::Result => format!("result {t}"),
-                            _ => format!("{n} : {t}"),
-                        })
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                };
                 self.error(
                     diag::OOP_SIGNATURE,
                     span,
                     format!(
                         "{name} overrides {base}'s {name} with other parameters: ({}) instead of ({}); give it the same inputs, outputs, in-outs and result type",
-                        show(&b),
-                        show(&a)
+                        Self::show_sig(&b),
+                        Self::show_sig(&a)
                     ),
                 );
             }

@@ -27,10 +27,7 @@ impl<'a, 'd> Parser<'a, 'd> {
                     self.member_after(&mut lib);
                     continue;
                 }
-                Tok::Ident if self.at_interface() => {
-                    self.interface_unsupported();
-                    continue;
-                }
+                Tok::Ident if self.at_interface() => self.interface(false).map(Element::Pou),
                 _ => Err(self.expected(
                     "PROGRAM, FUNCTION, FUNCTION_BLOCK, TYPE, CONFIGURATION or VAR_GLOBAL",
                 )),

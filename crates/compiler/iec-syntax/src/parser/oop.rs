@@ -59,27 +59,138 @@ impl<'a, 'd> Parser<'a, 'd> {
         self.at_word("INTERFACE") && Self::is_name(&self.peek_at(1).tok)
     }
 
-    /// An INTERFACE declaration: reported as not supported yet and skipped to its
-    /// `END_INTERFACE`, so what follows is read.
-    pub(super) fn interface_unsupported(&mut self) {
-        let at = self.bump().span;
-        let name = self.text_of(self.peek().span).to_string();
-        self.error_at(
-            diag::UNSUPPORTED,
-            at,
-            format!("INTERFACE {name} is not supported yet; the rest of the source is checked"),
-        );
-        while !self.at(&Tok::Eof) && !self.at_word("END_INTERFACE") {
-            if matches!(
-                self.peek().tok,
-                Tok::Kw(Kw::Program | Kw::FunctionBlock | Kw::Function | Kw::Type)
-            ) {
-                return;
-            }
+    /// `INTERFACE name [EXTENDS I_A, I_B]`, its METHODs and PROPERTYs (declarations only),
+    /// `END_INTERFACE`: a FUNCTION_BLOCK without variables or body marked `interface`, its
+    /// bases in `implements`. A method ends with `END_METHOD`; a property's `GET`/`SET`
+    /// (each optional, with or without `END_GET`/`END_SET`) say which accessors it has (both
+    /// when neither is written), `END_PROPERTY` optional as TwinCAT exports write it.
+    /// `decl_only`: a TwinCAT `<Declaration>`, where END_INTERFACE may be left out.
+    pub(super) fn interface(&mut self, decl_only: bool) -> PResult<Pou> {
+        let start = self.bump().span;
+        let name = self.ident("the interface's name")?;
+        let mut oop = PouOop {
+            interface: true,
+            ..PouOop::default()
+        };
+        if self.at_word("EXTENDS") {
             self.bump();
+            loop {
+                let i = self.dotted_name("an interface's name")?;
+                oop.implements.push(i);
+                if self.eat(&Tok::Comma).is_none() {
+                    break;
+                }
+            }
         }
-        self.bump();
         self.eat(&Tok::Semi);
+        self.interface_members(&mut oop)?;
+        let end = if decl_only && self.at(&Tok::Eof) {
+            self.prev_span()
+        } else if !self.at_word("END_INTERFACE") {
+            let t = self.peek().clone();
+            if !self.quiet_at(&t) {
+                let msg = format!(
+                    "INTERFACE {} has no END_INTERFACE; found {} (an interface holds METHOD and PROPERTY declarations only)",
+                    name.name,
+                    self.describe(&t)
+                );
+                self.error_at(diag::MISSING_END, t.span, msg);
+            }
+            return Err(Reported);
+        } else {
+            let end = self.bump().span;
+            self.eat(&Tok::Semi);
+            end
+        };
+        Ok(Pou {
+            kind: PouKind::FunctionBlock,
+            name,
+            return_type: None,
+            var_blocks: Vec::new(),
+            body: Body::St(Vec::new()),
+            span: start.to(end),
+            oop: Box::new(oop),
+        })
+    }
+
+    /// The METHOD and PROPERTY declarations of an interface (also a TwinCAT `<Itf>`'s
+    /// members, one at a time).
+    pub(super) fn interface_members(&mut self, oop: &mut PouOop) -> PResult<()> {
+        while self.at_member_start() {
+            if self.at_word("ACTION") {
+                let t = self.peek().clone();
+                self.error_at(
+                    diag::SYNTAX,
+                    t.span,
+                    "an INTERFACE declares METHODs and PROPERTYs, not ACTIONs; move the action to a FUNCTION_BLOCK",
+                );
+                return Err(Reported);
+            }
+            let method = self.at_word("METHOD");
+            self.member(oop, true)?;
+            if method {
+                if let Some(m) = oop.methods.last_mut() {
+                    m.modifiers.is_abstract = true;
+                }
+                if !self.at_word("END_METHOD")
+                    && !self.at_member_start()
+                    && !self.at_word("END_INTERFACE")
+                    && !self.is_top_start()
+                {
+                    let t = self.peek().clone();
+                    let name = oop
+                        .methods
+                        .last()
+                        .map_or(String::new(), |m| m.pou.name.name.clone());
+                    self.error_at(
+                        diag::SYNTAX,
+                        t.span,
+                        format!("METHOD {name} of an INTERFACE is a declaration without a body; found {}: write the code in the FUNCTION_BLOCKs that implement it", self.describe(&t)),
+                    );
+                    while !self.at(&Tok::Eof) && !self.at_word("END_METHOD") && !self.is_top_start()
+                    {
+                        self.bump();
+                    }
+                }
+                if self.at_word("END_METHOD") {
+                    self.bump();
+                    self.eat(&Tok::Semi);
+                }
+                continue;
+            }
+            let (mut get, mut set) = (false, false);
+            while self.at_word("GET") || self.at_word("SET") {
+                let is_get = self.at_word("GET");
+                self.bump();
+                self.eat(&Tok::Semi);
+                let end = if is_get { "END_GET" } else { "END_SET" };
+                let _ = self.member_var_blocks();
+                if self.at_word(end) {
+                    self.bump();
+                    self.eat(&Tok::Semi);
+                }
+                get |= is_get;
+                set |= !is_get;
+            }
+            if !get && !set {
+                (get, set) = (true, true);
+            }
+            if self.at_word("END_PROPERTY") {
+                self.bump();
+                self.eat(&Tok::Semi);
+            }
+            if let Some(p) = oop.properties.last_mut() {
+                p.modifiers.is_abstract = true;
+                let span = p.name.span;
+                if get {
+                    p.get = Some(accessor(p, true, Vec::new(), Body::St(Vec::new()), span));
+                }
+                if set {
+                    p.set = Some(accessor(p, false, Vec::new(), Body::St(Vec::new()), span));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// `VAR_INST` (a METHOD's variables kept in the instance).
@@ -172,7 +283,16 @@ impl<'a, 'd> Parser<'a, 'd> {
     pub(super) fn member_after(&mut self, lib: &mut Library) {
         let at = self.peek().span;
         let mut oop = PouOop::default();
-        self.members(&mut oop);
+        let after_interface =
+            matches!(lib.elements.last(), Some(Element::Pou(p)) if p.oop.interface);
+        if after_interface {
+            // blark's layout: an interface's members after its END_INTERFACE.
+            if self.interface_members(&mut oop).is_err() {
+                self.bump();
+            }
+        } else {
+            self.members(&mut oop);
+        }
         match lib.elements.last_mut() {
             Some(Element::Pou(p)) if p.kind != PouKind::Function => {
                 p.oop.methods.append(&mut oop.methods);

@@ -120,17 +120,45 @@ PROGRAM main; body 3",
 }
 
 #[test]
-fn an_interface_is_not_supported_yet_and_what_follows_is_read() {
+fn an_interface_is_read_in_both_layouts() {
+    // Members inside INTERFACE … END_INTERFACE (the standard's, CODESYS's), a property's
+    // GET/SET sections optional; or after END_INTERFACE (blark's, TwinCAT's exports).
     check(
-        "INTERFACE I_Run EXTENDS I_Base
+        "INTERFACE I_Run EXTENDS I_Base, I_Other
 METHOD Run : BOOL
 VAR_INPUT x : INT; END_VAR
 END_METHOD
+PROPERTY Speed : INT
+GET
+END_GET
+END_PROPERTY
+PROPERTY Both : INT
+END_PROPERTY
 END_INTERFACE
+INTERFACE I_Two
+END_INTERFACE
+METHOD Stop
+END_METHOD
+PROPERTY Level : REAL
+END_PROPERTY
 FUNCTION_BLOCK F
 END_FUNCTION_BLOCK",
-        "FUNCTION_BLOCK F; body 0
-t.st:1:1: error[E190]: INTERFACE I_Run is not supported yet; the rest of the source is checked",
+        "FUNCTION_BLOCK I_Run implements I_Base implements I_Other; method PUBLIC Run : T [VAR_INPUT] 0 stmts; property Speed get; property Both get set; body 0
+FUNCTION_BLOCK I_Two; method PUBLIC Stop [] 0 stmts; property Level get set; body 0
+FUNCTION_BLOCK F; body 0",
+    );
+}
+
+#[test]
+fn an_interface_method_with_a_body_is_refused() {
+    check(
+        "INTERFACE I_Run
+METHOD Run : BOOL
+Run := TRUE;
+END_METHOD
+END_INTERFACE",
+        "FUNCTION_BLOCK I_Run; method PUBLIC Run : T [] 0 stmts; body 0
+t.st:3:1: error[E010]: METHOD Run of an INTERFACE is a declaration without a body; found `Run`: write the code in the FUNCTION_BLOCKs that implement it",
     );
 }
 

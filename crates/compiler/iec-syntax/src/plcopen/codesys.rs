@@ -2,8 +2,7 @@
 //! data): global variable lists of the project, programs of a resource (a device's application),
 //! the blocks of a global list whose variables differ in attributes; a POU's methods,
 //! properties, EXTENDS and IMPLEMENTS, and the actions of a POU whose body is not SFC; and
-//! what is reported as not supported yet, at its element, rather than dropped unseen:
-//! interfaces. A task's interval may be an XML duration (`PT0.05S`), as CODESYS writes it. Other data (object ids, attributes, folders, task settings) changes nothing here.
+//! interfaces (`<Interface>`, with their methods, properties and bases). A task's interval may be an XML duration (`PT0.05S`), as CODESYS writes it. Other data (object ids, attributes, folders, task settings) changes nothing here.
 
 use super::{Reader, X};
 use crate::ast::*;
@@ -23,15 +22,6 @@ fn data<'a>(holder: &'a X, kind: &'a str) -> impl Iterator<Item = &'a X> + 'a {
 }
 
 impl Reader<'_> {
-    fn not_yet(&mut self, el: &X, what: String) {
-        let span = self.span(el);
-        self.diags.error(
-            diag::UNSUPPORTED,
-            span,
-            format!("{what} is not supported yet; the rest of the project is checked"),
-        );
-    }
-
     /// A `<globalVars>` block, or the blocks of its `MixedAttrsVarList` when CODESYS wrote
     /// one: then the block itself holds every variable under the first block's attributes.
     pub(super) fn global_vars(&mut self, b: &X) -> Vec<VarBlock> {
@@ -59,10 +49,117 @@ impl Reader<'_> {
         }
         for d in data(root, "interface") {
             for i in d.children_named("Interface") {
-                let name = i.attr("name").unwrap_or("?").to_string();
-                self.not_yet(i, format!("INTERFACE {name}"));
+                if let Some(p) = self.interface_pou(i) {
+                    self.found.push(Element::Pou(p));
+                }
             }
         }
+    }
+
+    /// An `<Interface>`: its methods (`<Methods>` or `<addData>` method data, declarations
+    /// only), properties (a `<GetAccessor>`/`<SetAccessor>` says which accessors it has,
+    /// both when neither is there) and the interfaces it extends (`<Extends>` under an
+    /// `<Inheritance>`, or its own `<Extends>`), as the interface POU the text parser reads.
+    fn interface_pou(&mut self, i: &X) -> Option<Pou> {
+        let name = self.name_attr(i)?;
+        let mut oop = PouOop {
+            interface: true,
+            ..PouOop::default()
+        };
+        let listed = |tag: &'static str, kind: &'static str, item: &'static str| {
+            i.children_named(tag)
+                .flat_map(move |m| m.children_named(item))
+                .chain(data(i, kind).flat_map(move |d| d.children_named(item)))
+                .collect::<Vec<&X>>()
+        };
+        for m in listed("Methods", "method", "Method") {
+            if let Some(mut pou) = self.member_pou(m) {
+                pou.body = Body::St(Vec::new());
+                oop.methods.push(Method {
+                    modifiers: Modifiers {
+                        is_abstract: true,
+                        ..Modifiers::default()
+                    },
+                    pou,
+                });
+            }
+        }
+        for p in listed("Properties", "property", "Property") {
+            let Some(pname) = self.name_attr(p) else {
+                continue;
+            };
+            let (_, ty) = self.interface_of(p);
+            let Some(ty) = ty else {
+                let span = self.span(p);
+                self.diags.error(
+                    diag::PLCOPEN_STRUCTURE,
+                    span,
+                    format!(
+                        "PROPERTY {} of INTERFACE {} has no <returnType> in its <interface>",
+                        pname.name, name.name
+                    ),
+                );
+                continue;
+            };
+            let mut prop = Property {
+                modifiers: Modifiers {
+                    is_abstract: true,
+                    ..Modifiers::default()
+                },
+                name: pname.clone(),
+                ty,
+                get: None,
+                set: None,
+                span: pname.span,
+            };
+            let (mut get, mut set) = (
+                p.child("GetAccessor").is_some(),
+                p.child("SetAccessor").is_some(),
+            );
+            if !get && !set {
+                (get, set) = (true, true);
+            }
+            let span = pname.span;
+            if get {
+                prop.get = Some(crate::parser::accessor(
+                    &prop,
+                    true,
+                    Vec::new(),
+                    Body::St(Vec::new()),
+                    span,
+                ));
+            }
+            if set {
+                prop.set = Some(crate::parser::accessor(
+                    &prop,
+                    false,
+                    Vec::new(),
+                    Body::St(Vec::new()),
+                    span,
+                ));
+            }
+            oop.properties.push(prop);
+        }
+        let inherits = i
+            .children_named("Inheritance")
+            .chain(data(i, "pouinheritance").flat_map(|d| d.children_named("Inheritance")))
+            .flat_map(|h| h.children_named("Extends"))
+            .chain(i.children_named("Extends"));
+        for e in inherits {
+            let span = self.span(e);
+            for n in e.text.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+                oop.implements.push(Ident::new(n, span));
+            }
+        }
+        Some(Pou {
+            kind: PouKind::FunctionBlock,
+            span: name.span,
+            name,
+            return_type: None,
+            var_blocks: Vec::new(),
+            body: Body::St(Vec::new()),
+            oop: Box::new(oop),
+        })
     }
 
     /// A resource's data: the programs of the application CODESYS exports with its device.

@@ -112,7 +112,12 @@ const CODESYS: &str = r#"<?xml version="1.0" encoding="utf-8"?>
       <globalVars name="GVL"><variable name="limit"><type><INT/></type></variable></globalVars>
     </data>
     <data name="http://www.3s-software.com/plcopenxml/interface" handleUnknown="implementation">
-      <Interface name="I_Switch" ObjectId="4"/>
+      <Interface name="I_Switch" ObjectId="4">
+        <Methods>
+          <Method name="Flip" ObjectId="5"><interface><returnType><BOOL/></returnType><inputVars><variable name="hard"><type><BOOL/></type></variable></inputVars></interface><addData/></Method>
+        </Methods>
+        <Inheritance><Extends>I_Base</Extends></Inheritance>
+      </Interface>
     </data>
   </addData>
 </project>"#;
@@ -120,12 +125,20 @@ const CODESYS: &str = r#"<?xml version="1.0" encoding="utf-8"?>
 #[test]
 fn codesys_add_data_is_read_or_reported_where_it_is() {
     let (lib, msgs) = read_text(CODESYS);
-    // Methods, properties, EXTENDS and actions are read; interfaces are not supported yet.
-    let expect = ["p.xml:60:7: error[E190]: INTERFACE I_Switch"];
-    assert_eq!(msgs.len(), expect.len(), "{msgs:?}");
-    for (m, e) in msgs.iter().zip(expect) {
-        assert!(m.starts_with(e), "{msgs:?}");
-    }
+    // Methods, properties, EXTENDS, actions and interfaces are read.
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let itf = lib
+        .elements
+        .iter()
+        .find_map(|e| match e {
+            Element::Pou(p) if p.oop.interface => Some(p),
+            _ => None,
+        })
+        .unwrap();
+    assert!(itf.name.is("I_Switch") && itf.oop.implements[0].is("I_Base"));
+    let flip = &itf.oop.methods[0];
+    assert!(flip.pou.name.is("Flip") && flip.modifiers.is_abstract);
+    assert!(flip.pou.return_type.is_some() && flip.pou.var_blocks[0].vars[0].names[0].is("hard"));
     let Element::Pou(lamp) = &lib.elements[0] else {
         panic!("{:?}", lib.elements[0])
     };
@@ -145,7 +158,7 @@ fn codesys_add_data_is_read_or_reported_where_it_is() {
             _ => None,
         })
         .collect();
-    assert_eq!(pous, ["Lamp", "PLC_PRG"]);
+    assert_eq!(pous, ["Lamp", "PLC_PRG", "I_Switch"]);
     assert!(lib
         .elements
         .iter()

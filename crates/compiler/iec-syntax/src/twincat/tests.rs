@@ -284,14 +284,44 @@ fn malformed_files_are_positioned_errors() {
         msgs[0].contains("error[E055]: <Visu> is not a TwinCAT object"),
         "{msgs:?}"
     );
-    let (_, msgs, _) = read_text(
-        "i.TcIO",
-        "<TcPlcObject>\n <Itf Name=\"I_Run\"><Declaration><![CDATA[INTERFACE I_Run]]></Declaration></Itf></TcPlcObject>",
-    );
-    assert!(
-        msgs[0].starts_with("i.TcIO:2:2: error[E190]: INTERFACE I_Run is not supported yet"),
-        "{msgs:?}"
-    );
+}
+
+#[test]
+fn an_interface_file_is_read() {
+    // A .TcIO as TwinCAT 3 saves it: the declaration, methods and a property whose <Get>
+    // alone says it is read-only; the implied __SYSTEM.IQueryInterface base kept by name.
+    let text = "<?xml version=\"1.0\" encoding=\"utf-8\"?>
+<TcPlcObject Version=\"1.1.0.1\">
+  <Itf Name=\"I_Run\" Id=\"{1}\">
+    <Declaration><![CDATA[INTERFACE I_Run EXTENDS __SYSTEM.IQueryInterface
+]]></Declaration>
+    <Method Name=\"Run\" Id=\"{2}\">
+      <Declaration><![CDATA[METHOD Run : BOOL
+VAR_INPUT
+  speed : INT;
+END_VAR
+]]></Declaration>
+    </Method>
+    <Property Name=\"Speed\" Id=\"{3}\">
+      <Declaration><![CDATA[PROPERTY Speed : INT]]></Declaration>
+      <Get Name=\"Get\" Id=\"{4}\">
+        <Declaration><![CDATA[]]></Declaration>
+      </Get>
+    </Property>
+  </Itf>
+</TcPlcObject>";
+    let (lib, msgs, _) = read_text("I_Run.TcIO", text);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let Element::Pou(i) = &lib.elements[0] else {
+        panic!("{:?}", lib.elements)
+    };
+    assert!(i.oop.interface && i.name.is("I_Run"));
+    assert!(i.oop.implements[0].is("__SYSTEM.IQueryInterface"));
+    let m = &i.oop.methods[0];
+    assert!(m.pou.name.is("Run") && m.modifiers.is_abstract);
+    assert_eq!(m.pou.var_blocks[0].vars[0].names[0].name, "speed");
+    let p = &i.oop.properties[0];
+    assert!(p.name.is("Speed") && p.get.is_some() && p.set.is_none());
 }
 
 #[test]
@@ -372,4 +402,25 @@ fn no_cut_of_a_file_panics_and_every_problem_is_coded() {
             );
         }
     }
+}
+
+#[test]
+fn an_accessor_may_start_with_an_access_specifier() {
+    // TwinCAT writes `PROTECTED` (or another access word) at the top of a <Set>'s declaration.
+    let text =
+        "<TcPlcObject><POU Name=\"F\"><Declaration><![CDATA[FUNCTION_BLOCK F]]></Declaration>
+<Property Name=\"P\"><Declaration><![CDATA[PROPERTY P : INT]]></Declaration>
+<Set Name=\"Set\"><Declaration><![CDATA[PROTECTED
+VAR
+  old : INT;
+END_VAR
+]]></Declaration><Implementation><ST><![CDATA[old := P;]]></ST></Implementation></Set>
+</Property></POU></TcPlcObject>";
+    let (lib, msgs, _) = read_text("F.TcPOU", text);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let Element::Pou(f) = &lib.elements[0] else {
+        panic!("{:?}", lib.elements)
+    };
+    let set = f.oop.properties[0].set.as_ref().unwrap();
+    assert!(set.var_blocks.iter().any(|b| b.vars[0].names[0].is("old")));
 }

@@ -42,6 +42,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             return Ok(d);
         }
         let op = match b {
+            Builtin::ItfCheck => Some(ExtOp::ItfCheck { d, s: xs[0] }),
             // PCWorx X_TO_STRING(value, format): the value's own type decides its text.
             Builtin::Format => Some(ExtOp::Format {
                 d,
@@ -188,12 +189,14 @@ impl<'c, 'p> Fx<'c, 'p> {
                 p: xs[1],
             },
             Builtin::Chr => ExtOp::Chr { d, s: xs[0], cap },
+            Builtin::ItfType => ExtOp::ItfType { d, s: xs[0] },
             Builtin::DtToTod
             | Builtin::DtToDate
             | Builtin::Expt
             | Builtin::Format
             | Builtin::BcdToInt
-            | Builtin::IntToBcd => return None,
+            | Builtin::IntToBcd
+            | Builtin::ItfCheck => return None,
         })
     }
 }

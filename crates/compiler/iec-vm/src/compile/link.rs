@@ -293,7 +293,9 @@ impl ExtOp {
             | ExtOp::Math { d, s, .. }
             | ExtOp::AbsI { d, s, .. }
             | ExtOp::Bcd { d, s, .. }
-            | ExtOp::MakeRef { d, s, .. } => {
+            | ExtOp::MakeRef { d, s, .. }
+            | ExtOp::ItfCheck { d, s }
+            | ExtOp::ItfType { d, s } => {
                 g(d);
                 g(s);
             }
