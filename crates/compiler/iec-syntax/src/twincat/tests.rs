@@ -316,7 +316,8 @@ END_VAR
         panic!("{:?}", lib.elements)
     };
     assert!(i.oop.interface && i.name.is("I_Run"));
-    assert!(i.oop.implements[0].is("__SYSTEM.IQueryInterface"));
+    // The library namespace `__SYSTEM.` is dropped by the lexer (lexer/namespace.rs).
+    assert!(i.oop.implements[0].is("IQueryInterface"));
     let m = &i.oop.methods[0];
     assert!(m.pou.name.is("Run") && m.modifiers.is_abstract);
     assert_eq!(m.pou.var_blocks[0].vars[0].names[0].name, "speed");
