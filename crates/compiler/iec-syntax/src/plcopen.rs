@@ -61,9 +61,18 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
         hidden: Vec::new(),
         steps: false,
         found: Vec::new(),
+        strings: vec!["HMI_STRING".into()],
     };
     if let Some(types) = root.child("types") {
         if let Some(dts) = types.child("dataTypes") {
+            // The string types first, for the initial values that name them (`quoted`).
+            for dt in dts.children_named("dataType") {
+                if let (Some(name), Some(base)) = (dt.attr("name"), dt.child("baseType")) {
+                    if r.is_string(base) {
+                        r.strings.push(name.trim().to_string());
+                    }
+                }
+            }
             let decls: Vec<TypeDecl> = dts
                 .children_named("dataType")
                 .filter_map(|dt| r.data_type(dt))
@@ -110,6 +119,9 @@ struct Reader<'a> {
     steps: bool,
     /// Elements CODESYS keeps in `<addData>` (global variable lists, a resource's POUs).
     found: Vec<Element>,
+    /// The names of string types: the project's aliases of STRING and Beremiz SVGHMI's
+    /// HMI_STRING (the `beremiz` library's), whose initial values Beremiz writes unquoted.
+    strings: Vec<String>,
 }
 
 impl Reader<'_> {
@@ -160,7 +172,9 @@ impl Reader<'_> {
             return None;
         };
         let spec = self.type_of(base)?;
-        let init = dt.child("initialValue").and_then(|iv| self.initial(iv));
+        let init = dt
+            .child("initialValue")
+            .and_then(|iv| self.initial_of(iv, base));
         Some(TypeDecl {
             span: name.span,
             name,
@@ -305,6 +319,38 @@ impl Reader<'_> {
         }
     }
 
+    /// Whether a `<type>` or `<baseType>` holds a string type.
+    fn is_string(&self, ty: &X) -> bool {
+        match ty.children.first() {
+            Some(t) if matches!(t.name.as_str(), "string" | "wstring") => true,
+            Some(t) if t.name == "derived" => t.attr("name").is_some_and(|n| {
+                self.strings
+                    .iter()
+                    .any(|s| s.eq_ignore_ascii_case(n.trim()))
+            }),
+            _ => false,
+        }
+    }
+
+    /// The initial value `iv` of something of type `ty`. Beremiz keeps a string's initial
+    /// value as typed, quotes and all or not, and quotes it when it writes Structured Text
+    /// (PLCGenerator.py, `ComputeValue`): `<simpleValue value="blup"/>` is `'blup'`.
+    fn initial_of(&mut self, iv: &X, ty: &X) -> Option<Init> {
+        let simple = iv.children.first().filter(|v| v.name == "simpleValue");
+        if let (Some(v), true) = (simple, self.is_string(ty)) {
+            if let Some(text) = v.attr("value") {
+                let wide = ty.children.first().is_some_and(|t| t.name == "wstring");
+                let q = if wide { '"' } else { '\'' };
+                if !text.starts_with(q) && !text.ends_with(q) {
+                    let text = format!("{q}{text}{q}");
+                    let f = self.embed(&text, v.start);
+                    return parser::parse_init(f, &text, self.diags);
+                }
+            }
+        }
+        self.initial(iv)
+    }
+
     fn initial(&mut self, iv: &X) -> Option<Init> {
         let Some(v) = iv.children.first() else {
             self.missing(iv, "value inside it");
@@ -383,8 +429,10 @@ impl Reader<'_> {
             self.missing(v, "<type>");
             return None;
         };
+        let init = v
+            .child("initialValue")
+            .and_then(|iv| self.initial_of(iv, ty));
         let ty = self.type_of(ty)?;
-        let init = v.child("initialValue").and_then(|iv| self.initial(iv));
         let location = v.attr("address").map(|a| Location {
             text: a.trim().trim_start_matches('%').to_string(),
             span: self.span(v),

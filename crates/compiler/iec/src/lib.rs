@@ -9,6 +9,7 @@ pub mod dsp_fbs;
 pub mod project;
 pub mod sim;
 pub mod vendor_fbs;
+pub mod vendor_src;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -29,7 +30,7 @@ pub use petriplc_iec_vm as vm;
 pub use petriplc_iec_sema::vendor::vendor_libs_for;
 
 /// Sources read and parsed, with their diagnostics so far.
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct Sources {
     pub map: SourceMap,
     pub lib: Library,
@@ -45,6 +46,9 @@ pub struct Sources {
     /// Vendor libraries to load (`codesys`, `twincat`, `pcworx`: docs/iec.md, "Vendor
     /// libraries"); a dialect's are [`vendor_libs_for`].
     pub libs: Vec<String>,
+    /// Vendor libraries the files show they use: `beremiz` for a PLCopen project Beremiz
+    /// wrote ([`vendor_src::written_by_beremiz`]).
+    pub detected_libs: Vec<String>,
 }
 
 /// The largest file read: [`petriplc_files::IEC_SOURCE`].
@@ -108,7 +112,8 @@ impl Sources {
     /// for TwinCAT, `pcworx` for PCWorx; none for `iec`), each once.
     pub fn libs(&self) -> Vec<String> {
         let mut libs = self.libs.clone();
-        for l in sema::vendor::vendor_libs_for(self.dialect().name()) {
+        let dialect = sema::vendor::vendor_libs_for(self.dialect().name());
+        for l in self.detected_libs.iter().cloned().chain(dialect) {
             if !libs.iter().any(|x| x.eq_ignore_ascii_case(&l)) {
                 libs.push(l);
             }
@@ -126,6 +131,9 @@ impl Sources {
         } else if syntax::plcopen::is_plcopen(text)
             || (name.to_ascii_lowercase().ends_with(".xml") && text.trim_start().starts_with('<'))
         {
+            if vendor_src::written_by_beremiz(text) && self.detected_libs.is_empty() {
+                self.detected_libs.push("beremiz".into());
+            }
             syntax::plcopen::read(&mut self.map, name, text, &mut self.diags)
         } else {
             let f = self.map.add(name, text);
@@ -267,6 +275,7 @@ pub fn check_to_run(sources: &Sources, natives: &Natives) -> Result<Checked, Iec
 
 /// [`check`], of a `library` or of a program to run, with the vendor libraries' blocks.
 fn check_as(sources: &Sources, natives: &Natives, library: bool) -> Result<Checked, IecError> {
+    let sources = &*vendor_src::with_libraries(sources);
     // As `Natives::with_libs` places them (the same signature twice is harmless).
     let mut extra = natives.extra_signatures();
     for sig in sema::vendor::signatures(&sources.libs()) {
@@ -416,6 +425,7 @@ fn list(names: &[&str]) -> String {
 
 /// Checks and compiles sources for what `select` names.
 pub fn build(sources: &Sources, select: &Select, natives: Natives) -> Result<Build, IecError> {
+    let sources = &*vendor_src::with_libraries(sources);
     let natives = natives
         .in_dialect(sources.dialect())
         .with_libs(&sources.libs());
