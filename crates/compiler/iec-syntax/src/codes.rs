@@ -276,6 +276,10 @@ pub const CODES: &[Entry] = &[
       "Warning: a step no transition from a reachable step leads to, or an ACTION associated with no step.",
       "PROGRAM p\nVAR go : BOOL; END_VAR\nINITIAL_STEP s0 : END_STEP\nSTEP s1 : END_STEP\nTRANSITION FROM s1 TO s0 := go; END_TRANSITION\nEND_PROGRAM",
       "add the transition that leads to the step, associate the action with a step, or remove it."),
+    e("W045", "a comment whose inner opening is never closed, read as ending at its first close",
+      "Warning: petriplc reads `(* (* *) *)` nested, as CODESYS and TwinCAT do; when the comment then has no end, it is read as the standard and matiec (so OpenPLC and Beremiz) read every comment, ending at the first `*)`, the inner `(*` being text. What lies between the inner opening and that close is part of the comment, not code.",
+      "PROGRAM p\nVAR x : INT; END_VAR\n(* note (* unclosed *)\nx := 1;\nEND_PROGRAM",
+      "close the inner comment (`*)`), or remove its `(*`."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.
