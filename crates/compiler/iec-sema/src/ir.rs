@@ -475,6 +475,9 @@ pub struct Task {
     pub interval: Option<i64>,
     /// Lower numbers run first.
     pub priority: i64,
+    /// An event task (`SINGLE := v`): the global BOOL whose rising edge, seen at the start
+    /// of a scan, runs the task's programs once in that scan (no interval then).
+    pub single: Option<GlobalId>,
     pub span: Span,
 }
 

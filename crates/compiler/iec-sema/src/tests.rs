@@ -649,3 +649,31 @@ fn an_integer_base_raises_to_an_lreal() {
         &["t.st:5:6: error[E110]: the value assigned to `r` is LREAL but REAL is needed"],
     );
 }
+
+/// SINGLE names a global BOOL, and a task has it or INTERVAL, not both.
+#[test]
+fn single_tasks() {
+    let p = check_ok(
+        "PROGRAM p END_PROGRAM
+CONFIGURATION c VAR_GLOBAL b : BOOL; END_VAR
+RESOURCE r ON PLC TASK t (SINGLE := b, PRIORITY := 2); PROGRAM i WITH t : p; END_RESOURCE
+END_CONFIGURATION",
+    );
+    let c = p.configuration.expect("a configuration");
+    assert_eq!(c.tasks[0].single, Some(0));
+    assert_eq!(c.tasks[0].interval, None);
+    check_errors(
+        "PROGRAM p END_PROGRAM
+CONFIGURATION c VAR_GLOBAL n : INT; b : BOOL; END_VAR
+RESOURCE r ON PLC
+TASK t1 (SINGLE := NOT b);
+TASK t2 (SINGLE := b, INTERVAL := T#10ms);
+PROGRAM i WITH t1 : p;
+END_RESOURCE
+END_CONFIGURATION",
+        &[
+            "4:20: error[E150]: SINGLE names a global BOOL variable",
+            "5:35: error[E190]: a task with SINGLE runs on its rising edge and has no INTERVAL",
+        ],
+    );
+}
