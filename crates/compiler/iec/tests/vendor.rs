@@ -286,3 +286,22 @@ fn a_beremiz_project_loads_the_beremiz_library() {
         .to_string();
     assert!(e.contains("unknown type `HMI_INT`"), "{e}");
 }
+
+/// matiec's RTC (in `beremiz`): set to PDT on IN's rising edge, then running on with the
+/// scan clock; without IN, the PLC clock (the scan clock from 1970).
+#[test]
+fn rtc_runs_from_the_time_it_was_set() {
+    let src = "PROGRAM main
+VAR c : RTC; free : RTC; k : INT; ok : BOOL; q : BOOL; off : BOOL; END_VAR
+k := k + 1;
+c(IN := TRUE, PDT := DT#2024-01-01-00:00:00);
+free(IN := FALSE);
+ok := c.CDT = DT#2024-01-01-00:00:00 + INT_TO_TIME(k - 1) * 10;
+off := free.CDT = DT#1970-01-01-00:00:00 + INT_TO_TIME(k - 1) * 10;
+q := c.Q AND NOT free.Q;
+END_PROGRAM";
+    assert_eq!(
+        run(&["beremiz"], src, 3, 10 * MS, &["k", "ok", "off", "q"]),
+        ["k = 3", "ok = 1", "off = 1", "q = 1"]
+    );
+}
