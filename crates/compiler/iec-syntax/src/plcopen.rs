@@ -615,15 +615,17 @@ impl Reader<'_> {
                     continue;
                 };
                 let interval = t.attr("interval").map(str::to_string);
-                let interval = interval.and_then(|i| match codesys::iso_duration(&i) {
-                    Some(nanos) => Some(Expr {
-                        kind: ExprKind::Literal(Literal::Time {
-                            kind: crate::lexer::TimeKind::Time,
-                            nanos,
+                let interval = interval.and_then(|i| {
+                    match codesys::iso_duration(&i).or_else(|| clock_duration(&i)) {
+                        Some(nanos) => Some(Expr {
+                            kind: ExprKind::Literal(Literal::Time {
+                                kind: crate::lexer::TimeKind::Time,
+                                nanos,
+                            }),
+                            span: self.span(t),
                         }),
-                        span: self.span(t),
-                    }),
-                    None => self.expr_at(&i, t),
+                        None => self.expr_at(&i, t),
+                    }
                 });
                 let priority = t.attr("priority").map(str::to_string);
                 let priority = priority.and_then(|p| self.expr_at(&p, t));
@@ -700,3 +702,30 @@ mod codesys;
 mod graphical;
 #[cfg(test)]
 mod tests;
+
+/// A TC6 1.0 task interval (`interval="00:00:00.100000"`: the schema types it xsd:time, as
+/// matiec's test projects write it) in nanoseconds: hours, minutes, seconds with a fraction;
+/// `None` for anything else.
+fn clock_duration(text: &str) -> Option<i128> {
+    let mut parts = text.trim().split(':');
+    let (h, m, sec) = (parts.next()?, parts.next()?, parts.next()?);
+    if parts.next().is_some() {
+        return None;
+    }
+    let digits = |x: &str| !x.is_empty() && x.bytes().all(|b| b.is_ascii_digit());
+    let (whole, frac) = sec.split_once('.').unwrap_or((sec, ""));
+    if !digits(h) || !digits(m) || !digits(whole) || !(frac.is_empty() || digits(frac)) {
+        return None;
+    }
+    const S: i128 = 1_000_000_000;
+    let mut nanos: i128 = 0;
+    let mut scale = S / 10;
+    for d in frac.bytes().take(9) {
+        nanos += i128::from(d - b'0') * scale;
+        scale /= 10;
+    }
+    let hms = h.parse::<i128>().ok()? * 3_600
+        + m.parse::<i128>().ok()? * 60
+        + whole.parse::<i128>().ok()?;
+    Some(hms * S + nanos)
+}

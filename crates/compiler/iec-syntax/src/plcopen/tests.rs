@@ -287,3 +287,13 @@ fn an_unquoted_string_initial_value_is_quoted_as_beremiz_does() {
         .collect();
     assert_eq!(inits, ["blup", "x y", "q", "7"]);
 }
+
+/// TC6 1.0's task interval is an xsd:time (matiec's test projects: `00:00:00.100000`).
+#[test]
+fn a_clock_time_interval_is_a_duration() {
+    assert_eq!(clock_duration("00:00:00.100000"), Some(100_000_000));
+    assert_eq!(clock_duration("01:02:03"), Some(3_723_000_000_000));
+    assert_eq!(clock_duration("T#10ms"), None);
+    assert_eq!(clock_duration("1:2"), None);
+    assert_eq!(clock_duration("00:00:0x"), None);
+}
