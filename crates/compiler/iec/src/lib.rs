@@ -322,6 +322,8 @@ fn check_with(
         .items
         .iter()
         .filter(|d| d.severity == Severity::Warning)
+        // A library replacing a standard block (Beremiz's PID) is what loading it asks for.
+        .filter(|d| !vendor_src::is_library_file(&sources.map, d.span.file))
         .map(|d| d.render(&sources.map))
         .collect();
     match project {

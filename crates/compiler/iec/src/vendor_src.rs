@@ -44,6 +44,11 @@ pub fn written_by_beremiz(text: &str) -> bool {
         || root.contains("xmlns:ns1=\"http://www.plcopen.org/xml/tc6")
 }
 
+/// Whether `file` is a library's source (its warnings are not the project's).
+pub fn is_library_file(map: &syntax::SourceMap, file: syntax::source::FileId) -> bool {
+    map.get(file).is_some_and(|f| f.name == BEREMIZ_FILE)
+}
+
 /// `sources` with the Structured Text libraries it loads added (a copy), or itself when it
 /// loads none.
 pub fn with_libraries(sources: &Sources) -> Cow<'_, Sources> {

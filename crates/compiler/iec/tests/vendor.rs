@@ -305,3 +305,34 @@ END_PROGRAM";
         ["k = 3", "ok = 1", "off = 1", "q = 1"]
     );
 }
+
+/// matiec's PID, INTEGRAL and DERIVATIVE (in `beremiz`): CYCLE counts in seconds; in manual
+/// the PID's output is KP * X0; they replace petriplc's DSP PID without a warning.
+#[test]
+fn matiec_pid_integral_and_derivative() {
+    let src = "PROGRAM main
+VAR
+  man : PID; i : INTEGRAL; d : DERIVATIVE; k : INT;
+  out : REAL; sum : REAL; rate : REAL;
+END_VAR
+k := k + 1;
+man(AUTO := FALSE, PV := 3.0, SP := 1.0, X0 := 5.0, KP := 2.0, TR := 4.0, TD := 0.0,
+    CYCLE := T#100ms);
+out := man.XOUT;
+i(RUN := TRUE, R1 := k = 1, XIN := 2.0, X0 := 1.0, CYCLE := T#100ms);
+sum := i.XOUT;
+d(RUN := k > 1, XIN := INT_TO_REAL(k), CYCLE := T#100ms);
+rate := d.XOUT;
+END_PROGRAM";
+    // INTEGRAL: 1.0 at reset, then + 2.0 * 0.1 s per call. DERIVATIVE of XIN = k (10 per
+    // second): (3 * (5 - 2) + 4 - 3) / (10 * 0.1) = 10 at k = 5.
+    assert_eq!(
+        run(&["beremiz"], src, 5, 100 * MS, &["out", "sum", "rate"]),
+        ["out = 10.0", "sum = 1.8000002", "rate = 10.0"]
+    );
+    let mut s = Sources::new();
+    s.libs = vec!["beremiz".into()];
+    s.add_text("t.st", src);
+    let checked = petriplc_iec::check(&s, &Natives::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(checked.warnings.is_empty(), "{:?}", checked.warnings);
+}
