@@ -64,7 +64,7 @@ impl<'a> Checker<'a> {
                 x
             }
             A::Name(id) => self.name(id, cx, expected),
-            A::Field(..) | A::Index(..) | A::Bit(..) | A::Deref(_) => {
+            A::Field(..) | A::Index(..) | A::Bit(..) | A::Part(..) | A::Deref(_) => {
                 match self.place(e, cx, false) {
                     Some(p) => Expr {
                         ty: p.ty,

@@ -226,6 +226,9 @@ pub enum Step {
     Index(Vec<Expr>),
     /// One bit of a bit string or integer.
     Bit(u32),
+    /// `width` bits from bit `lo` of a bit string, as BYTE, WORD or DWORD (`.%B1` is
+    /// `Bits(8, 8)`).
+    Bits(u32, u32),
     /// What the reference or pointer here designates (checked when the program runs: not
     /// NULL, of the designated type).
     Deref,

@@ -677,3 +677,23 @@ END_CONFIGURATION",
         ],
     );
 }
+
+/// Partial access beyond bits applies to bit strings, within their length.
+#[test]
+fn partial_access_bytes_and_words() {
+    check_ok(&prog(
+        "d : DWORD; b : BYTE; w : WORD;",
+        "b := d.%B3; w := d.%W1; d.%B0 := b;",
+    ));
+    check_errors(
+        &prog(
+            "i : INT; b : BYTE; w : WORD; d : DWORD;",
+            "b := i.%B0;\nw := b.%W0;\nd := d.%D1;",
+        ),
+        &[
+            "error[E114]: partial access (.%B0) applies to bit strings (BYTE, WORD, DWORD, LWORD), not INT",
+            "error[E114]: BYTE has no part of 16 bits",
+            "error[E114]: DWORD has parts .%D0 to .%D0 of 32 bits; .%D1 does not exist",
+        ],
+    );
+}

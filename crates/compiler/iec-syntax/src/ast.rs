@@ -635,6 +635,9 @@ pub enum ExprKind {
     Field(Box<Expr>, Ident),
     /// `x.3`: one bit of a bit string (or integer).
     Bit(Box<Expr>, u32),
+    /// `x.%B1`, `x.%W0`, `x.%D1`: a byte, word or double word of a bit string (IEC
+    /// 61131-3's partial access): the part's size in bits (8, 16, 32), then its index.
+    Part(Box<Expr>, u32, u32),
     /// `a[i, j]`
     Index(Box<Expr>, Vec<Expr>),
     Call(Call),
