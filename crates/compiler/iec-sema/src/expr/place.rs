@@ -24,6 +24,18 @@ impl<'a> Checker<'a> {
                 Some(this) => Some(this),
                 None => self.deref_place(e, base, cx),
             },
+            A::Direct(text) => {
+                let id = ast::Ident::new(format!("%{text}"), e.span);
+                let p = self.var_place(&id, cx);
+                if p.is_none() {
+                    self.error(
+                        diag::UNSUPPORTED,
+                        e.span,
+                        format!("direct variable %{text} in code: declare a variable located on it (`name AT %{text} : TYPE;`, or without a name: `AT %{text} : TYPE;`)"),
+                    );
+                }
+                p
+            }
             _ => {
                 self.error(
                     diag::NOT_ASSIGNABLE,
