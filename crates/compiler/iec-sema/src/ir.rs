@@ -468,6 +468,18 @@ pub struct Configuration {
     pub name: String,
     pub tasks: Vec<Task>,
     pub programs: Vec<ProgramInstance>,
+    /// VAR_CONFIG's initial values of instance variables.
+    pub var_config: Vec<VarConfig>,
+    pub span: Span,
+}
+
+/// `resource.instance.var : TYPE := value;` in VAR_CONFIG, checked: the variable's path
+/// from the instance (`inst.fb.x`), its type and the value it starts with.
+#[derive(Clone, Debug)]
+pub struct VarConfig {
+    pub path: String,
+    pub ty: TypeId,
+    pub value: Value,
     pub span: Span,
 }
 

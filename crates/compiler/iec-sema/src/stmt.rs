@@ -687,10 +687,12 @@ impl Checker<'_> {
                 }
             }
         }
+        let var_config = self.var_config(c, &programs, &mut cx);
         Some(ir::Configuration {
             name: c.name.name.clone(),
             tasks,
             programs,
+            var_config,
             span: c.span,
         })
     }

@@ -697,3 +697,36 @@ fn partial_access_bytes_and_words() {
         ],
     );
 }
+
+/// VAR_CONFIG paths name an instance's variable of the type written; errors say which part.
+#[test]
+fn var_config_paths() {
+    let p = check_ok(
+        "PROGRAM p VAR n : INT; END_VAR END_PROGRAM
+CONFIGURATION c RESOURCE r ON PLC PROGRAM i : p; END_RESOURCE
+VAR_CONFIG r.i.n : INT := 7; END_VAR
+END_CONFIGURATION",
+    );
+    let vc = &p.configuration.expect("a configuration").var_config;
+    assert_eq!(
+        (vc[0].path.as_str(), &vc[0].value),
+        ("i.n", &crate::value::Value::Int(7))
+    );
+    check_errors(
+        "PROGRAM p VAR n : INT; END_VAR END_PROGRAM
+CONFIGURATION c RESOURCE r ON PLC PROGRAM i : p; END_RESOURCE
+VAR_CONFIG
+r.j.n : INT := 1;
+r.i.m : INT := 1;
+r.i.n : BOOL := TRUE;
+r.i.n AT %QW1 : INT;
+END_VAR
+END_CONFIGURATION",
+        &[
+            "4:3: error[E150]: no program instance j in this configuration",
+            "5:5: error[E100]: `m` is not a variable of i",
+            "6:1: error[E110]: i.n is INT; VAR_CONFIG declares it BOOL",
+            "7:10: error[E190]: a location in VAR_CONFIG is not supported",
+        ],
+    );
+}

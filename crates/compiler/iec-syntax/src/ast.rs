@@ -746,6 +746,18 @@ pub struct Configuration {
     pub name: Ident,
     pub globals: Vec<VarBlock>,
     pub resources: Vec<Resource>,
+    /// `VAR_CONFIG … END_VAR` entries: instance variables' initial values by path.
+    pub var_config: Vec<VarConfigItem>,
+    pub span: Span,
+}
+
+/// `resource.instance.fb.var [AT %QB1] : TYPE := value;` in VAR_CONFIG.
+#[derive(Clone, Debug)]
+pub struct VarConfigItem {
+    pub path: Vec<Ident>,
+    pub location: Option<Location>,
+    pub ty: TypeSpec,
+    pub init: Option<Init>,
     pub span: Span,
 }
 

@@ -653,6 +653,7 @@ impl Reader<'_> {
             resources.push(res);
         }
         Some(Configuration {
+            var_config: Vec::new(),
             span: name.span,
             name,
             globals,

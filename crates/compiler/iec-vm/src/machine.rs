@@ -206,7 +206,7 @@ impl Engine {
                 .map(|t| t.single.map(|g| code.global_addr[g as usize]))
                 .collect()
         });
-        Ok(Arc::new(Engine {
+        let mut engine = Engine {
             project,
             code,
             natives,
@@ -218,7 +218,41 @@ impl Engine {
             singles,
             compiled: OnceLock::new(),
             compiler: None,
-        }))
+        };
+        engine.apply_var_config();
+        Ok(Arc::new(engine))
+    }
+
+    /// VAR_CONFIG's values into the instances' initial memory (the checker resolved each
+    /// path to an elementary, enumeration, subrange or string variable of an instance).
+    fn apply_var_config(&mut self) {
+        let Some(c) = &self.project.configuration else {
+            return;
+        };
+        let items: Vec<(String, Value)> = c
+            .var_config
+            .iter()
+            .map(|v| (v.path.clone(), v.value.clone()))
+            .collect();
+        for (path, value) in items {
+            let Some(v) = self.lookup(&path) else {
+                continue;
+            };
+            let at = v.addr as usize;
+            let slot = match self.project.types.get(v.ty).clone() {
+                Type::Elem(e) => ext::put_value(&value, e),
+                Type::Subrange { base, .. } => ext::put_value(&value, base),
+                Type::Enum { .. } => value.as_int().unwrap_or(0) as i64 as u64,
+                Type::Str { len } => {
+                    if let Value::Str(s) = &value {
+                        ext::write_str(&mut self.code.init, at, s, len);
+                    }
+                    continue;
+                }
+                _ => continue,
+            };
+            self.code.init[at] = slot;
+        }
     }
 
     /// Sets what makes the machine code, run once when the first machine is made (before
