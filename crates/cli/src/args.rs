@@ -252,7 +252,7 @@ pub struct SimArgs {
     /// keeps its low bits, as CODESYS, TwinCAT, matiec and OpenPLC; `fault` stops the run.
     #[arg(long, value_enum, default_value = "wrap")]
     pub overflow: OverflowArg,
-    /// IEC programs: load a vendor library (`codesys`, `twincat`, `pcworx`; repeatable or
+    /// IEC programs: load a vendor library (`codesys`, `twincat`, `pcworx`, `beremiz`; repeatable or
     /// comma-separated): its functions, such as CODESYS's TIME() or PCWorx's GET_CHAR, become
     /// callable (docs/iec.md, "Vendor libraries").
     #[arg(long, value_name = "NAME", value_delimiter = ',')]
@@ -285,7 +285,7 @@ pub struct CheckArgs {
     /// `fault` (constant conversions and shift counts fold by it).
     #[arg(long, value_enum, default_value = "wrap")]
     pub overflow: OverflowArg,
-    /// Load a vendor library (`codesys`, `twincat`, `pcworx`; repeatable or
+    /// Load a vendor library (`codesys`, `twincat`, `pcworx`, `beremiz`; repeatable or
     /// comma-separated): its functions, such as CODESYS's TIME() or PCWorx's GET_CHAR, become
     /// callable (docs/iec.md, "Vendor libraries").
     #[arg(long, value_name = "NAME", value_delimiter = ',')]

@@ -112,7 +112,7 @@ fn lib_loads_a_vendor_library_on_check_and_sim() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains(
-            "unknown vendor library `siemens`; the libraries are codesys, twincat, pcworx",
+            "unknown vendor library `siemens`; the libraries are codesys, twincat, pcworx, beremiz",
         ));
     // In simulation TIME() is the simulated clock: 0, 10 ms, 20 ms…
     petriplc()

@@ -19,7 +19,7 @@ pub fn run(args: CheckArgs) -> Result<(), Failure> {
     }
     // The POUs of the project's sources, not those a vendor library declares in ST.
     let ours = |span: &petriplc_iec::syntax::source::Span| {
-        span.file.0 < petriplc_iec::syntax::builtin::BASE
+        !petriplc_iec::syntax::builtin::is_builtin(span.file)
     };
     let pous = checked
         .project

@@ -406,7 +406,7 @@ fn frame_reach(code: &Code, op: &Op) -> Option<u64> {
             b,
         } => max(&[d, a, b]),
         Op::NegNW { d, s, .. } | Op::NegLW { d, s } => max(&[d, s]),
-        Op::GetBit { d, s, n } if n < 64 => max(&[d, s]),
+        Op::GetBit { d, s, n, w } if n < 64 && w < 64 => max(&[d, s]),
         Op::AddrK { d, p, .. } => max(&[d, p]),
         Op::JmpF { c, .. } | Op::JmpT { c, .. } => max(&[c]),
         Op::CallFbI { p, .. } => max(&[p]),
@@ -828,10 +828,10 @@ impl Translator<'_, '_, '_> {
                 let v = self.b.ins().band_imm(nx, mask as i64);
                 self.st(env, d, v);
             }
-            Op::GetBit { d, s, n } => {
+            Op::GetBit { d, s, n, w } => {
                 let x = self.ld(env, s);
                 let sh = self.b.ins().ushr_imm(x, n as i64);
-                let v = self.b.ins().band_imm(sh, 1);
+                let v = self.b.ins().band_imm(sh, ((1u64 << w) - 1) as i64);
                 self.st(env, d, v);
             }
             Op::CmpI { op: c, d, a, b } | Op::CmpU { op: c, d, a, b } => {

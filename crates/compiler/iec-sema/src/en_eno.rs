@@ -111,7 +111,12 @@ pub(crate) fn mentions_en_eno(body: &ast::Body) -> bool {
     fn expr(e: &ast::Expr) -> bool {
         match &e.kind {
             A::Name(n) => n.is("EN") || n.is("ENO"),
-            A::Field(x, _) | A::Bit(x, _) | A::Unary(_, x) | A::Paren(x) | A::Deref(x) => expr(x),
+            A::Field(x, _)
+            | A::Bit(x, _)
+            | A::Part(x, ..)
+            | A::Unary(_, x)
+            | A::Paren(x)
+            | A::Deref(x) => expr(x),
             A::Index(x, ix) => expr(x) || ix.iter().any(expr),
             A::Call(c) => call(c),
             A::Binary(_, a, b) => expr(a) || expr(b),

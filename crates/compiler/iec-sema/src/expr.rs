@@ -81,7 +81,7 @@ impl<'a> Checker<'a> {
                 };
                 self.literal(&lit, span)
             }
-            A::Field(..) | A::Index(..) | A::Bit(..) | A::Deref(_) => {
+            A::Field(..) | A::Index(..) | A::Bit(..) | A::Part(..) | A::Deref(_) => {
                 match self.place(e, cx, false) {
                     Some(p) => Expr {
                         ty: p.ty,
@@ -92,10 +92,20 @@ impl<'a> Checker<'a> {
                 }
             }
             A::Direct(text) => {
+                // `%IX1.1` names the variable declared on it without a name (`AT %IX1.1 :
+                // BOOL;`, which the parser names `%IX1.1`).
+                let id = ast::Ident::new(format!("%{text}"), span);
+                if let Some(p) = self.var_place(&id, cx) {
+                    return Expr {
+                        ty: p.ty,
+                        kind: ExprKind::Load(p),
+                        span,
+                    };
+                }
                 self.error(
                     diag::UNSUPPORTED,
                     span,
-                    format!("direct variable %{text} in code: declare a variable located on it (name AT %{text} : TYPE;) and use the name"),
+                    format!("direct variable %{text} in code: declare a variable located on it (`name AT %{text} : TYPE;`, or without a name: `AT %{text} : TYPE;`)"),
                 );
                 err(span)
             }

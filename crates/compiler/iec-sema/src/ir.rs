@@ -226,6 +226,9 @@ pub enum Step {
     Index(Vec<Expr>),
     /// One bit of a bit string or integer.
     Bit(u32),
+    /// `width` bits from bit `lo` of a bit string, as BYTE, WORD or DWORD (`.%B1` is
+    /// `Bits(8, 8)`).
+    Bits(u32, u32),
     /// What the reference or pointer here designates (checked when the program runs: not
     /// NULL, of the designated type).
     Deref,
@@ -472,6 +475,18 @@ pub struct Configuration {
     pub name: String,
     pub tasks: Vec<Task>,
     pub programs: Vec<ProgramInstance>,
+    /// VAR_CONFIG's initial values of instance variables.
+    pub var_config: Vec<VarConfig>,
+    pub span: Span,
+}
+
+/// `resource.instance.var : TYPE := value;` in VAR_CONFIG, checked: the variable's path
+/// from the instance (`inst.fb.x`), its type and the value it starts with.
+#[derive(Clone, Debug)]
+pub struct VarConfig {
+    pub path: String,
+    pub ty: TypeId,
+    pub value: Value,
     pub span: Span,
 }
 
@@ -482,6 +497,9 @@ pub struct Task {
     pub interval: Option<i64>,
     /// Lower numbers run first.
     pub priority: i64,
+    /// An event task (`SINGLE := v`): the global BOOL whose rising edge, seen at the start
+    /// of a scan, runs the task's programs once in that scan (no interval then).
+    pub single: Option<GlobalId>,
     pub span: Span,
 }
 

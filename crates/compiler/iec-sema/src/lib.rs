@@ -23,6 +23,7 @@ mod stdlib;
 mod stmt;
 pub mod types;
 pub mod value;
+mod var_config;
 pub mod vendor;
 
 use petriplc_iec_syntax::ast::Library;

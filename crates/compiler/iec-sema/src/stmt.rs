@@ -629,13 +629,10 @@ impl Checker<'_> {
                     );
                     continue;
                 }
-                if let Some(s) = &t.single {
-                    self.error(
-                        diag::UNSUPPORTED,
-                        s.span,
-                        "SINGLE (event) tasks are not supported; use a cyclic task with INTERVAL",
-                    );
-                }
+                let single = t
+                    .single
+                    .as_ref()
+                    .and_then(|s| self.task_single(s, t, &mut cx));
                 let interval = match &t.interval {
                     Some(e) => {
                         cx.const_only = true;
@@ -682,6 +679,7 @@ impl Checker<'_> {
                     name: t.name.name.clone(),
                     interval,
                     priority,
+                    single,
                     span: t.span,
                 });
             }
@@ -693,12 +691,47 @@ impl Checker<'_> {
                 }
             }
         }
+        let var_config = self.var_config(c, &programs, &mut cx);
         Some(ir::Configuration {
             name: c.name.name.clone(),
             tasks,
             programs,
+            var_config,
             span: c.span,
         })
+    }
+
+    /// A task's `SINGLE := v`: the global BOOL whose rising edge runs the task once (IEC
+    /// 61131-3's event task). A direct address, an expression or a task that also has an
+    /// INTERVAL is refused with what to write.
+    fn task_single(&mut self, s: &ast::Expr, t: &ast::Task, cx: &mut Cx) -> Option<ir::GlobalId> {
+        if let Some(iv) = &t.interval {
+            self.error(
+                diag::UNSUPPORTED,
+                iv.span,
+                "a task with SINGLE runs on its rising edge and has no INTERVAL; make two tasks, one cyclic and one SINGLE",
+            );
+            return None;
+        }
+        let x = self.expr(s, cx, Some(ids::BOOL));
+        if x.ty == ids::ERROR {
+            return None;
+        }
+        match &x.kind {
+            ir::ExprKind::Load(Place {
+                root: Root::Global(g),
+                path,
+                ..
+            }) if path.is_empty() && x.ty == ids::BOOL => Some(*g),
+            _ => {
+                self.error(
+                    diag::CONFIG,
+                    s.span,
+                    "SINGLE names a global BOOL variable whose rising edge runs the task (SINGLE := start); declare one in VAR_GLOBAL",
+                );
+                None
+            }
+        }
     }
 
     fn program_instance(

@@ -649,3 +649,84 @@ fn an_integer_base_raises_to_an_lreal() {
         &["t.st:5:6: error[E110]: the value assigned to `r` is LREAL but REAL is needed"],
     );
 }
+
+/// SINGLE names a global BOOL, and a task has it or INTERVAL, not both.
+#[test]
+fn single_tasks() {
+    let p = check_ok(
+        "PROGRAM p END_PROGRAM
+CONFIGURATION c VAR_GLOBAL b : BOOL; END_VAR
+RESOURCE r ON PLC TASK t (SINGLE := b, PRIORITY := 2); PROGRAM i WITH t : p; END_RESOURCE
+END_CONFIGURATION",
+    );
+    let c = p.configuration.expect("a configuration");
+    assert_eq!(c.tasks[0].single, Some(0));
+    assert_eq!(c.tasks[0].interval, None);
+    check_errors(
+        "PROGRAM p END_PROGRAM
+CONFIGURATION c VAR_GLOBAL n : INT; b : BOOL; END_VAR
+RESOURCE r ON PLC
+TASK t1 (SINGLE := NOT b);
+TASK t2 (SINGLE := b, INTERVAL := T#10ms);
+PROGRAM i WITH t1 : p;
+END_RESOURCE
+END_CONFIGURATION",
+        &[
+            "4:20: error[E150]: SINGLE names a global BOOL variable",
+            "5:35: error[E190]: a task with SINGLE runs on its rising edge and has no INTERVAL",
+        ],
+    );
+}
+
+/// Partial access beyond bits applies to bit strings, within their length.
+#[test]
+fn partial_access_bytes_and_words() {
+    check_ok(&prog(
+        "d : DWORD; b : BYTE; w : WORD;",
+        "b := d.%B3; w := d.%W1; d.%B0 := b;",
+    ));
+    check_errors(
+        &prog(
+            "i : INT; b : BYTE; w : WORD; d : DWORD;",
+            "b := i.%B0;\nw := b.%W0;\nd := d.%D1;",
+        ),
+        &[
+            "error[E114]: partial access (.%B0) applies to bit strings (BYTE, WORD, DWORD, LWORD), not INT",
+            "error[E114]: BYTE has no part of 16 bits",
+            "error[E114]: DWORD has parts .%D0 to .%D0 of 32 bits; .%D1 does not exist",
+        ],
+    );
+}
+
+/// VAR_CONFIG paths name an instance's variable of the type written; errors say which part.
+#[test]
+fn var_config_paths() {
+    let p = check_ok(
+        "PROGRAM p VAR n : INT; END_VAR END_PROGRAM
+CONFIGURATION c RESOURCE r ON PLC PROGRAM i : p; END_RESOURCE
+VAR_CONFIG r.i.n : INT := 7; END_VAR
+END_CONFIGURATION",
+    );
+    let vc = &p.configuration.expect("a configuration").var_config;
+    assert_eq!(
+        (vc[0].path.as_str(), &vc[0].value),
+        ("i.n", &crate::value::Value::Int(7))
+    );
+    check_errors(
+        "PROGRAM p VAR n : INT; END_VAR END_PROGRAM
+CONFIGURATION c RESOURCE r ON PLC PROGRAM i : p; END_RESOURCE
+VAR_CONFIG
+r.j.n : INT := 1;
+r.i.m : INT := 1;
+r.i.n : BOOL := TRUE;
+r.i.n AT %QW1 : INT;
+END_VAR
+END_CONFIGURATION",
+        &[
+            "4:3: error[E150]: no program instance j in this configuration",
+            "5:5: error[E100]: `m` is not a variable of i",
+            "6:1: error[E110]: i.n is INT; VAR_CONFIG declares it BOOL",
+            "7:10: error[E190]: a location in VAR_CONFIG is not supported",
+        ],
+    );
+}

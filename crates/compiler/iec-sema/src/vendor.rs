@@ -1,6 +1,8 @@
 //! Vendor libraries: optional packages of the functions and function blocks CODESYS/TwinCAT
 //! and PCWorx programs call beside the standard library (`TIME()`, `GET_CHAR`,
-//! `X_TO_STRING(value, format)`, `HYSTERESIS`…), loaded by name (`--lib codesys`). This
+//! `X_TO_STRING(value, format)`, `HYSTERESIS`…) and Beremiz projects use, loaded by name
+//! (`--lib codesys`; declarations written in Structured Text are `petriplc_iec_syntax::builtin`'s,
+//! added by `sources.rs`). This
 //! module is the catalogue (which library provides which) and the meaning of those that are
 //! not plain operators: PCWorx's printf-style formats (`format.rs`), the function blocks'
 //! interfaces (`fbs.rs`). The checker types the calls in `expr/vendor.rs`. SIZEOF, ADR and
@@ -15,7 +17,7 @@ pub use format::printf;
 pub use sources::with_sources;
 
 /// The libraries, by the name `--lib` and `libs =` take.
-pub const LIBRARIES: &[&str] = &["codesys", "twincat", "pcworx"];
+pub const LIBRARIES: &[&str] = &["codesys", "twincat", "pcworx", "beremiz"];
 
 /// Every vendor function by name (upper case) and the library that provides it (docs/iec.md,
 /// "Vendor libraries", says what each does).
@@ -47,6 +49,7 @@ pub fn title(lib: &str) -> &'static str {
         "codesys" => "CODESYS/TwinCAT",
         "twincat" => "TwinCAT",
         "pcworx" => "PCWorx",
+        "beremiz" => "Beremiz",
         _ => "vendor",
     }
 }
@@ -103,7 +106,7 @@ mod tests {
         assert!(vendor_libs_for("iec").is_empty());
         assert_eq!(
             check_names(&["pcworx".into(), "siemens".into()]).unwrap_err(),
-            "unknown vendor library `siemens`; the libraries are codesys, twincat, pcworx"
+            "unknown vendor library `siemens`; the libraries are codesys, twincat, pcworx, beremiz"
         );
         assert!(check_names(&["PCWORX".into()]).is_ok());
     }

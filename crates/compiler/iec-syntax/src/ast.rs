@@ -652,6 +652,9 @@ pub enum ExprKind {
     Field(Box<Expr>, Ident),
     /// `x.3`: one bit of a bit string (or integer).
     Bit(Box<Expr>, u32),
+    /// `x.%B1`, `x.%W0`, `x.%D1`: a byte, word or double word of a bit string (IEC
+    /// 61131-3's partial access): the part's size in bits (8, 16, 32), then its index.
+    Part(Box<Expr>, u32, u32),
     /// `a[i, j]`
     Index(Box<Expr>, Vec<Expr>),
     Call(Call),
@@ -768,6 +771,18 @@ pub struct Configuration {
     pub name: Ident,
     pub globals: Vec<VarBlock>,
     pub resources: Vec<Resource>,
+    /// `VAR_CONFIG … END_VAR` entries: instance variables' initial values by path.
+    pub var_config: Vec<VarConfigItem>,
+    pub span: Span,
+}
+
+/// `resource.instance.fb.var [AT %QB1] : TYPE := value;` in VAR_CONFIG.
+#[derive(Clone, Debug)]
+pub struct VarConfigItem {
+    pub path: Vec<Ident>,
+    pub location: Option<Location>,
+    pub ty: TypeSpec,
+    pub init: Option<Init>,
     pub span: Span,
 }
 

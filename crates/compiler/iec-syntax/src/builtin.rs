@@ -1,10 +1,12 @@
 //! The parts of vendor libraries petriplc declares in Structured Text (`builtin/*.st`):
 //! TwinCAT's types, enumerations and functions that are ordinary IEC code in the vendor's
-//! library too (`T_MaxString`, `__SYSTEM.TYPE_CLASS`, `E_TcMemoryArea`…). A loaded library's
+//! library too (`T_MaxString`, `__SYSTEM.TYPE_CLASS`, `E_TcMemoryArea`…), and Beremiz's
+//! (SVGHMI types, LOGGER, the Python blocks, matiec's PID). A loaded library's
 //! source is parsed as the user's and checked with it (`petriplc_iec_sema::vendor`), so its
 //! names resolve, type-check and run exactly as the user's would. Its files have ids of their
 //! own, from [`BASE`] up, that every [`SourceMap`](crate::source::SourceMap) knows: a message
-//! or a run-time fault inside the library names `<twincat library>:line:col`.
+//! or a run-time fault inside the library names `<twincat library>:line:col`
+//! (`<beremiz library>`).
 
 use std::sync::OnceLock;
 
@@ -16,11 +18,18 @@ use crate::source::{FileId, SourceFile};
 pub const BASE: u32 = 0xFFFF_0000;
 
 /// A library's source: the library (`--lib` name), the name messages print, the text.
-const SOURCES: &[(&str, &str, &str)] = &[(
-    "twincat",
-    "<twincat library>",
-    include_str!("builtin/twincat.st"),
-)];
+const SOURCES: &[(&str, &str, &str)] = &[
+    (
+        "twincat",
+        "<twincat library>",
+        include_str!("builtin/twincat.st"),
+    ),
+    (
+        "beremiz",
+        "<beremiz library>",
+        include_str!("builtin/beremiz.st"),
+    ),
+];
 
 fn files() -> &'static [SourceFile] {
     static FILES: OnceLock<Vec<SourceFile>> = OnceLock::new();
@@ -30,6 +39,12 @@ fn files() -> &'static [SourceFile] {
             .map(|(_, name, text)| SourceFile::new(name.to_string(), text.to_string(), 0, 0))
             .collect()
     })
+}
+
+/// Whether file id `id` is a built-in source (its warnings are the library's, not the
+/// project's; its POUs are not counted as the project's).
+pub fn is_builtin(id: FileId) -> bool {
+    id.0 >= BASE
 }
 
 /// The built-in source of file id `id`, if it is one.

@@ -304,6 +304,10 @@ pub const CODES: &[Entry] = &[
       "Warning: a REFERENCE TO is dereferenced implicitly wherever it is used, so CODESYS and TwinCAT refuse `r^`; IronPLC's tests write it, and petriplc reads it as the same dereference.",
       "PROGRAM p\nVAR x, y : INT; r : REFERENCE TO INT; END_VAR\nr REF= x;\ny := r^;\nEND_PROGRAM",
       "drop the `^` (`y := r;`)."),
+    e("W045", "a comment whose inner opening is never closed, read as ending at its first close",
+      "Warning: petriplc reads `(* (* *) *)` nested, as CODESYS and TwinCAT do; when the comment then has no end, it is read as the standard and matiec (so OpenPLC and Beremiz) read every comment, ending at the first `*)`, the inner `(*` being text. What lies between the inner opening and that close is part of the comment, not code.",
+      "PROGRAM p\nVAR x : INT; END_VAR\n(* note (* unclosed *)\nx := 1;\nEND_PROGRAM",
+      "close the inner comment (`*)`), or remove its `(*`."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

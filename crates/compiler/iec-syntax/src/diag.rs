@@ -110,6 +110,7 @@ codes! {
     LOCATION_IGNORED = "W013",
     SFC_NEVER = "W033",
     REFERENCE_CARET = "W040",
+    COMMENT_NOT_NESTED = "W045",
 }
 
 /// Diagnostics collected by a stage, in the order found.

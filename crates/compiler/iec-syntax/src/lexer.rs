@@ -395,6 +395,23 @@ impl Lexer<'_, '_> {
             }
         }
         let end = if open == b'(' { "*)" } else { "*/" };
+        // Read nested, the comment has no end; read as the standard and matiec (so OpenPLC
+        // and Beremiz) read comments, it ends at the first close: an opening inside it is
+        // text (OSCAT as OpenPLC builds it has `(*From OSCAT Library *` before the next
+        // comment's end). Taken so, with a warning: what it swallows is not code.
+        let close_at = self.src[start + 2..]
+            .windows(2)
+            .position(|w| w[0] == b'*' && w[1] == close);
+        if let Some(k) = close_at {
+            self.pos = start + 2 + k + 2;
+            let line = 1 + self.src[..self.pos].iter().filter(|&&c| c == b'\n').count();
+            self.diags.warning(
+                diag::COMMENT_NOT_NESTED,
+                Span::new(self.file, start, start + 2),
+                format!("this comment holds an opening `{}` that is never closed; it is read as ending at the first `{end}` (line {line}), as the standard and matiec read comments: close each inner comment, or the code up to there is part of the comment", if open == b'(' { "(*" } else { "/*" }),
+            );
+            return;
+        }
         self.error(
             diag::UNTERMINATED_COMMENT,
             start,

@@ -61,9 +61,18 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
         hidden: Vec::new(),
         steps: false,
         found: Vec::new(),
+        strings: vec!["HMI_STRING".into()],
     };
     if let Some(types) = root.child("types") {
         if let Some(dts) = types.child("dataTypes") {
+            // The string types first, for the initial values that name them (`quoted`).
+            for dt in dts.children_named("dataType") {
+                if let (Some(name), Some(base)) = (dt.attr("name"), dt.child("baseType")) {
+                    if r.is_string(base) {
+                        r.strings.push(name.trim().to_string());
+                    }
+                }
+            }
             let decls: Vec<TypeDecl> = dts
                 .children_named("dataType")
                 .filter_map(|dt| r.data_type(dt))
@@ -110,6 +119,9 @@ struct Reader<'a> {
     steps: bool,
     /// Elements CODESYS keeps in `<addData>` (global variable lists, a resource's POUs).
     found: Vec<Element>,
+    /// The names of string types: the project's aliases of STRING and Beremiz SVGHMI's
+    /// HMI_STRING (the `beremiz` library's), whose initial values Beremiz writes unquoted.
+    strings: Vec<String>,
 }
 
 impl Reader<'_> {
@@ -160,7 +172,9 @@ impl Reader<'_> {
             return None;
         };
         let spec = self.type_of(base)?;
-        let init = dt.child("initialValue").and_then(|iv| self.initial(iv));
+        let init = dt
+            .child("initialValue")
+            .and_then(|iv| self.initial_of(iv, base));
         Some(TypeDecl {
             span: name.span,
             name,
@@ -309,6 +323,38 @@ impl Reader<'_> {
         }
     }
 
+    /// Whether a `<type>` or `<baseType>` holds a string type.
+    fn is_string(&self, ty: &X) -> bool {
+        match ty.children.first() {
+            Some(t) if matches!(t.name.as_str(), "string" | "wstring") => true,
+            Some(t) if t.name == "derived" => t.attr("name").is_some_and(|n| {
+                self.strings
+                    .iter()
+                    .any(|s| s.eq_ignore_ascii_case(n.trim()))
+            }),
+            _ => false,
+        }
+    }
+
+    /// The initial value `iv` of something of type `ty`. Beremiz keeps a string's initial
+    /// value as typed, quotes and all or not, and quotes it when it writes Structured Text
+    /// (PLCGenerator.py, `ComputeValue`): `<simpleValue value="blup"/>` is `'blup'`.
+    fn initial_of(&mut self, iv: &X, ty: &X) -> Option<Init> {
+        let simple = iv.children.first().filter(|v| v.name == "simpleValue");
+        if let (Some(v), true) = (simple, self.is_string(ty)) {
+            if let Some(text) = v.attr("value") {
+                let wide = ty.children.first().is_some_and(|t| t.name == "wstring");
+                let q = if wide { '"' } else { '\'' };
+                if !text.starts_with(q) && !text.ends_with(q) {
+                    let text = format!("{q}{text}{q}");
+                    let f = self.embed(&text, v.start);
+                    return parser::parse_init(f, &text, self.diags);
+                }
+            }
+        }
+        self.initial(iv)
+    }
+
     fn initial(&mut self, iv: &X) -> Option<Init> {
         let Some(v) = iv.children.first() else {
             self.missing(iv, "value inside it");
@@ -387,8 +433,10 @@ impl Reader<'_> {
             self.missing(v, "<type>");
             return None;
         };
+        let init = v
+            .child("initialValue")
+            .and_then(|iv| self.initial_of(iv, ty));
         let ty = self.type_of(ty)?;
-        let init = v.child("initialValue").and_then(|iv| self.initial(iv));
         let location = v.attr("address").map(|a| Location {
             text: a.trim().trim_start_matches('%').to_string(),
             span: self.span(v),
@@ -573,15 +621,17 @@ impl Reader<'_> {
                     continue;
                 };
                 let interval = t.attr("interval").map(str::to_string);
-                let interval = interval.and_then(|i| match codesys::iso_duration(&i) {
-                    Some(nanos) => Some(Expr {
-                        kind: ExprKind::Literal(Literal::Time {
-                            kind: crate::lexer::TimeKind::Time,
-                            nanos,
+                let interval = interval.and_then(|i| {
+                    match codesys::iso_duration(&i).or_else(|| clock_duration(&i)) {
+                        Some(nanos) => Some(Expr {
+                            kind: ExprKind::Literal(Literal::Time {
+                                kind: crate::lexer::TimeKind::Time,
+                                nanos,
+                            }),
+                            span: self.span(t),
                         }),
-                        span: self.span(t),
-                    }),
-                    None => self.expr_at(&i, t),
+                        None => self.expr_at(&i, t),
+                    }
                 });
                 let priority = t.attr("priority").map(str::to_string);
                 let priority = priority.and_then(|p| self.expr_at(&p, t));
@@ -609,6 +659,7 @@ impl Reader<'_> {
             resources.push(res);
         }
         Some(Configuration {
+            var_config: Vec::new(),
             span: name.span,
             name,
             globals,
@@ -658,3 +709,30 @@ mod codesys;
 mod graphical;
 #[cfg(test)]
 mod tests;
+
+/// A TC6 1.0 task interval (`interval="00:00:00.100000"`: the schema types it xsd:time, as
+/// matiec's test projects write it) in nanoseconds: hours, minutes, seconds with a fraction;
+/// `None` for anything else.
+fn clock_duration(text: &str) -> Option<i128> {
+    let mut parts = text.trim().split(':');
+    let (h, m, sec) = (parts.next()?, parts.next()?, parts.next()?);
+    if parts.next().is_some() {
+        return None;
+    }
+    let digits = |x: &str| !x.is_empty() && x.bytes().all(|b| b.is_ascii_digit());
+    let (whole, frac) = sec.split_once('.').unwrap_or((sec, ""));
+    if !digits(h) || !digits(m) || !digits(whole) || !(frac.is_empty() || digits(frac)) {
+        return None;
+    }
+    const S: i128 = 1_000_000_000;
+    let mut nanos: i128 = 0;
+    let mut scale = S / 10;
+    for d in frac.bytes().take(9) {
+        nanos += i128::from(d - b'0') * scale;
+        scale /= 10;
+    }
+    let hms = h.parse::<i128>().ok()? * 3_600
+        + m.parse::<i128>().ok()? * 60
+        + whole.parse::<i128>().ok()?;
+    Some(hms * S + nanos)
+}

@@ -413,6 +413,7 @@ impl Reader<'_> {
             })
             .collect();
         Some(Configuration {
+            var_config: Vec::new(),
             name: Ident::new(TASKS_CONFIGURATION, span),
             globals: Vec::new(),
             resources: vec![Resource {

@@ -145,7 +145,8 @@ enum Loc {
 
 struct PlaceLoc {
     loc: Loc,
-    bit: Option<u8>,
+    /// A part of the value there: its lowest bit and width (1 for a bit).
+    bit: Option<(u8, u8)>,
 }
 
 pub struct Compiler<'p> {

@@ -576,14 +576,19 @@ fn data(
             };
             m!(d) = !m!(s) & mask;
         }
-        Op::GetBit { d, s, n } => m!(d) = (m!(s) >> n) & 1,
-        Op::SetBit { d, s, n, v } => {
+        Op::GetBit { d, s, n, w: 1 } => m!(d) = (m!(s) >> n) & 1,
+        Op::GetBit { d, s, n, w } => m!(d) = (m!(s) >> n) & part_mask(w),
+        Op::SetBit { d, s, n, w: 1, v } => {
             let w = m!(s);
             m!(d) = if m!(v) != 0 {
                 w | (1 << n)
             } else {
                 w & !(1 << n)
             };
+        }
+        Op::SetBit { d, s, n, w, v } => {
+            let mask = part_mask(w) << n;
+            m!(d) = (m!(s) & !mask) | ((m!(v) << n) & mask);
         }
         Op::LdG { d, g } => m!(d) = mem[g as usize],
         Op::StG { g, s } => mem[g as usize] = m!(s),
@@ -658,4 +663,14 @@ fn data(
         _ => fail!(FaultKind::Internal, "a control instruction out of place".into()),
     });
     Ok(())
+}
+
+/// The mask of a part `w` bits wide (a partial access `.%B`, `.%W`, `.%D`).
+#[inline]
+fn part_mask(w: u8) -> u64 {
+    if w >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << w) - 1
+    }
 }

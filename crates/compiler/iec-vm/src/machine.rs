@@ -54,6 +54,8 @@ pub struct Engine {
     scan_order: Vec<u32>,
     /// Per task: whether some program instance runs in it.
     task_used: Vec<bool>,
+    /// Per task: the slot of its SINGLE variable (an event task), if it has one.
+    singles: Vec<Option<u32>>,
     /// Machine code for the instances, made when the first machine is ([`Engine::compiled`]),
     /// so that checking a program does not pay for it.
     compiled: OnceLock<Option<Box<dyn Compiled>>>,
@@ -193,10 +195,18 @@ impl Engine {
         } else {
             (0..code.instances.len() as u32).collect()
         };
-        let task_used = (0..task_order.len())
+        let task_used: Vec<bool> = (0..task_order.len())
             .map(|t| code.instances.iter().any(|i| i.task == Some(t as u32)))
             .collect();
-        Ok(Arc::new(Engine {
+        // An event task's programs run when its variable rose: a scan with one in use takes
+        // the task path, which looks at the variable (machine code still runs each instance).
+        let singles: Vec<Option<u32>> = project.configuration.as_ref().map_or_else(Vec::new, |c| {
+            c.tasks
+                .iter()
+                .map(|t| t.single.map(|g| code.global_addr[g as usize]))
+                .collect()
+        });
+        let mut engine = Engine {
             project,
             code,
             natives,
@@ -205,9 +215,44 @@ impl Engine {
             tasked,
             scan_order,
             task_used,
+            singles,
             compiled: OnceLock::new(),
             compiler: None,
-        }))
+        };
+        engine.apply_var_config();
+        Ok(Arc::new(engine))
+    }
+
+    /// VAR_CONFIG's values into the instances' initial memory (the checker resolved each
+    /// path to an elementary, enumeration, subrange or string variable of an instance).
+    fn apply_var_config(&mut self) {
+        let Some(c) = &self.project.configuration else {
+            return;
+        };
+        let items: Vec<(String, Value)> = c
+            .var_config
+            .iter()
+            .map(|v| (v.path.clone(), v.value.clone()))
+            .collect();
+        for (path, value) in items {
+            let Some(v) = self.lookup(&path) else {
+                continue;
+            };
+            let at = v.addr as usize;
+            let slot = match self.project.types.get(v.ty).clone() {
+                Type::Elem(e) => ext::put_value(&value, e),
+                Type::Subrange { base, .. } => ext::put_value(&value, base),
+                Type::Enum { .. } => value.as_int().unwrap_or(0) as i64 as u64,
+                Type::Str { len } => {
+                    if let Value::Str(s) = &value {
+                        ext::write_str(&mut self.code.init, at, s, len);
+                    }
+                    continue;
+                }
+                _ => continue,
+            };
+            self.code.init[at] = slot;
+        }
     }
 
     /// Sets what makes the machine code, run once when the first machine is made (before
@@ -638,6 +683,11 @@ pub struct Machine {
     scanner: Option<Box<dyn Scanner>>,
     /// The engine's `tasked`, kept here: the fast path reads nothing of the engine.
     tasked: bool,
+    /// Whether a whole scan may run on machine code at once: not when an event task
+    /// (SINGLE) runs programs, whose variable the task path reads first.
+    whole: bool,
+    /// Per task: its SINGLE variable at the last scan (FALSE before the first).
+    single_was: Vec<bool>,
 }
 
 impl fmt::Debug for Machine {
@@ -661,9 +711,16 @@ impl Machine {
             Some(c) => c.scanner(&engine),
             None => None,
         };
+        let whole = !engine
+            .singles
+            .iter()
+            .zip(&engine.task_used)
+            .any(|(s, &used)| s.is_some() && used);
         Machine {
             scanner,
             tasked: engine.tasked,
+            whole,
+            single_was: vec![false; tasks],
             backend: Backend::default(),
             mem: engine.code.init.clone(),
             engine,
@@ -696,6 +753,7 @@ impl Machine {
     pub fn reset(&mut self) {
         self.mem.copy_from_slice(&self.engine.code.init);
         self.next_due.iter_mut().for_each(|d| *d = None);
+        self.single_was.iter_mut().for_each(|w| *w = false);
     }
 
     /// Runs one program instance once at time `now` (nanoseconds).
@@ -729,7 +787,9 @@ impl Machine {
         // The fast path: machine code, and every task due (always, when no instance has a
         // task): one call into the scanner made for this machine, which runs every instance
         // in the order the task path would.
-        if let (Backend::Compiled, Some(s)) = (self.backend, self.scanner.as_deref_mut()) {
+        if let (Backend::Compiled, Some(s), true) =
+            (self.backend, self.scanner.as_deref_mut(), self.whole)
+        {
             let tasked = self.tasked;
             if !tasked || all_due(&self.engine, &mut self.next_due, &mut self.saved_due, now) {
                 match s.scan(&mut self.mem, now, self.iterations.max(1), &mut *check) {
@@ -785,6 +845,7 @@ impl Machine {
             stack,
             iterations,
             next_due,
+            single_was,
             ..
         } = self;
         let engine: &Engine = engine;
@@ -809,8 +870,20 @@ impl Machine {
             }
         };
         for &t in &engine.task_order {
-            let (due, next) = task_due(tasks[t].interval, next_due[t], now);
-            next_due[t] = next;
+            let due = match engine.singles[t] {
+                // SINGLE: once, in the scan that sees its variable TRUE after FALSE.
+                Some(slot) => {
+                    let v = mem[slot as usize] != 0;
+                    let rose = v && !single_was[t];
+                    single_was[t] = v;
+                    rose
+                }
+                None => {
+                    let (due, next) = task_due(tasks[t].interval, next_due[t], now);
+                    next_due[t] = next;
+                    due
+                }
+            };
             if !due {
                 continue;
             }

@@ -280,16 +280,20 @@ pub enum Op {
         a: u32,
         b: u32,
     },
+    /// `d` = the `w` bits of `s` from bit `n` (a bit: `w` 1; `.%B1`: `n` 8, `w` 8).
     GetBit {
         d: u32,
         s: u32,
         n: u8,
+        w: u8,
     },
-    /// `d = s` with bit `n` set to `v`.
+    /// `d = s` with bit `n` set to `v` (`w` 1), or its `w` bits from bit `n` set to `v`'s
+    /// low `w` bits.
     SetBit {
         d: u32,
         s: u32,
         n: u8,
+        w: u8,
         v: u32,
     },
 

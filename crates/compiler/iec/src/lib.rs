@@ -3,6 +3,7 @@
 //! compile it for the engine ([`build`]); simulate a program against a timeline and a plant
 //! with the trace format of `petriplc sim` ([`sim`]).
 
+pub mod beremiz;
 #[cfg(test)]
 mod code_examples;
 pub mod dsp_fbs;
@@ -29,7 +30,7 @@ pub use petriplc_iec_vm as vm;
 pub use petriplc_iec_sema::vendor::vendor_libs_for;
 
 /// Sources read and parsed, with their diagnostics so far.
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct Sources {
     pub map: SourceMap,
     pub lib: Library,
@@ -45,6 +46,9 @@ pub struct Sources {
     /// Vendor libraries to load (`codesys`, `twincat`, `pcworx`: docs/iec.md, "Vendor
     /// libraries"); a dialect's are [`vendor_libs_for`].
     pub libs: Vec<String>,
+    /// Vendor libraries the files show they use: `beremiz` for a PLCopen project Beremiz
+    /// wrote ([`beremiz::written_by_beremiz`]).
+    pub detected_libs: Vec<String>,
 }
 
 /// The largest file read: [`petriplc_files::IEC_SOURCE`].
@@ -108,7 +112,8 @@ impl Sources {
     /// for TwinCAT, `pcworx` for PCWorx; none for `iec`), each once.
     pub fn libs(&self) -> Vec<String> {
         let mut libs = self.libs.clone();
-        for l in sema::vendor::vendor_libs_for(self.dialect().name()) {
+        let dialect = sema::vendor::vendor_libs_for(self.dialect().name());
+        for l in self.detected_libs.iter().cloned().chain(dialect) {
             if !libs.iter().any(|x| x.eq_ignore_ascii_case(&l)) {
                 libs.push(l);
             }
@@ -126,6 +131,9 @@ impl Sources {
         } else if syntax::plcopen::is_plcopen(text)
             || (name.to_ascii_lowercase().ends_with(".xml") && text.trim_start().starts_with('<'))
         {
+            if beremiz::written_by_beremiz(text) && self.detected_libs.is_empty() {
+                self.detected_libs.push("beremiz".into());
+            }
             syntax::plcopen::read(&mut self.map, name, text, &mut self.diags)
         } else {
             let f = self.map.add(name, text);
@@ -313,6 +321,8 @@ fn check_with(
         .items
         .iter()
         .filter(|d| d.severity == Severity::Warning)
+        // A library replacing a standard block (Beremiz's PID) is what loading it asks for.
+        .filter(|d| !syntax::builtin::is_builtin(d.span.file))
         .map(|d| d.render(&sources.map))
         .collect();
     match project {

@@ -12,6 +12,12 @@
 //!             Tc2_System: the CPU counter in 100 ns units, low and high 32 bits. Here the
 //!             scan's clock (the one TON uses) in 100 ns: deterministic in `petriplc sim`,
 //!             the same for every call in one scan.
+//! RTC         VAR_INPUT IN : BOOL; PDT : DT   VAR_OUTPUT Q : BOOL; CDT : DT
+//!             matiec's (Beremiz, OpenPLC) real-time clock, IEC 61131-3 1st edition: on
+//!             a rising edge of IN the clock is set to PDT; while IN, CDT runs on from it;
+//!             without IN, CDT is the PLC's clock. Q is IN. petriplc has no wall clock in
+//!             a program: the PLC's clock is the scan clock counted from
+//!             DT#1970-01-01-00:00:00 (deterministic in `petriplc sim`).
 //! ```
 
 use petriplc_iec_sema::ir::NativeSig;
@@ -42,6 +48,23 @@ impl NativeFb for Vendor {
             let ticks = (ctx.now.max(0) / 100) as u64;
             v.set_int(0, (ticks & 0xFFFF_FFFF) as i64);
             v.set_int(1, (ticks >> 32) as i64);
+            return Ok(());
+        }
+        if self.sig.name == "RTC" {
+            // Slots: IN, PDT, Q, CDT, PREV_IN, OFFSET (nanoseconds, as DT and TIME are).
+            let clock = ctx.now;
+            let on = v.bool(0);
+            if on && !v.bool(4) {
+                v.set_int(5, v.int(1).wrapping_sub(clock));
+            }
+            let cdt = if on {
+                clock.wrapping_add(v.int(5))
+            } else {
+                clock
+            };
+            v.set_int(3, cdt);
+            v.set_bool(2, on);
+            v.set_bool(4, on);
             return Ok(());
         }
         let (x, high, low) = (v.int(0), v.int(1), v.int(2));
@@ -113,5 +136,25 @@ mod tests {
             .unwrap();
         assert_eq!((v[1] << 32) | v[0], 5_000_000_000);
         assert_eq!(v[1], 1);
+    }
+
+    #[test]
+    fn rtc_is_set_on_the_rising_edge_and_runs_on() {
+        let fbs = blocks(&["beremiz".into()]);
+        let rtc = &*fbs[0];
+        assert_eq!(rtc.signature().name, "RTC");
+        let s = 1_000_000_000i64;
+        let pdt = 1_700_000_000 * s;
+        // IN, PDT, Q, CDT, PREV_IN, OFFSET.
+        let mut v = [0, pdt as u64, 0, 0, 0, 0];
+        let mut at = |inp: bool, now: i64| {
+            v[0] = inp as u64;
+            rtc.call(&mut v, &NativeCtx { now }).unwrap();
+            (v[2], v[3] as i64)
+        };
+        assert_eq!(at(false, 5 * s), (0, 5 * s));
+        assert_eq!(at(true, 6 * s), (1, pdt));
+        assert_eq!(at(true, 8 * s), (1, pdt + 2 * s));
+        assert_eq!(at(false, 9 * s), (0, 9 * s));
     }
 }

@@ -182,7 +182,7 @@ fn libraries_are_named_and_dialects_map_to_them() {
     match build(&s, &Select::Auto, Natives::default()) {
         Err(IecError::UnknownLibrary(m)) => assert_eq!(
             m,
-            "unknown vendor library `siemens`; the libraries are codesys, twincat, pcworx"
+            "unknown vendor library `siemens`; the libraries are codesys, twincat, pcworx, beremiz"
         ),
         Err(e) => panic!("{e}"),
         Ok(_) => panic!("accepted an unknown library"),
@@ -202,4 +202,137 @@ fn libraries_are_named_and_dialects_map_to_them() {
         e.contains("u.st:2:6: error[E180]: GET_CHAR is a PCWorx function: add --lib pcworx"),
         "{e}"
     );
+}
+
+/// Beremiz's library (`--lib beremiz`): SVGHMI's types are their base types, LOGGER takes
+/// its message, and the Python blocks never answer (ACK stays FALSE, RESULT empty: petriplc
+/// runs no Python); python_gear triggers its python_eval every N-th cycle.
+#[test]
+fn beremiz_library_runs_without_python() {
+    let src = "PROGRAM main
+VAR
+  n : HMI_INT := 40; r : HMI_REAL := 1.5; s : HMI_STRING := 'x'; b : HMI_BOOL;
+  log : LOGGER; py : python_eval; poll : python_poll; gear : python_gear;
+  acks : INT; level : LOGLEVEL;
+END_VAR
+n := n + 1;
+log(TRIG := NOT log.TRIG, MSG := s, LEVEL := LOGLEVEL#WARNING);
+py(TRIG := TRUE, CODE := '1+1');
+poll(TRIG := TRUE, CODE := 'x()');
+gear(N := 2, TRIG := TRUE, CODE := 'y()');
+IF py.ACK OR poll.ACK OR gear.ACK OR py.RESULT <> '' THEN acks := acks + 1; END_IF;
+b := gear.COUNTER = 1;
+level := log.LEVEL;
+END_PROGRAM";
+    assert_eq!(
+        run(&["beremiz"], src, 3, 10 * MS, &["n", "acks", "b", "level"]),
+        ["n = 43", "acks = 0", "b = 1", "level = WARNING"]
+    );
+}
+
+/// A PLCopen project Beremiz wrote loads the library without being asked; a project that
+/// declares one of its names keeps its own.
+#[test]
+fn a_beremiz_project_loads_the_beremiz_library() {
+    let xml = |extra: &str| {
+        format!(
+            r#"<?xml version="1.0" encoding="utf-8"?>
+<project xmlns="http://www.plcopen.org/xml/tc6_0201">
+  <fileHeader companyName="Unknown" productName="Unnamed" productVersion="1" creationDateTime="2024-01-01T00:00:00"/>
+  <contentHeader name="Unnamed"><coordinateInfo><fbd><scaling x="0" y="0"/></fbd><ld><scaling x="0" y="0"/></ld><sfc><scaling x="0" y="0"/></sfc></coordinateInfo></contentHeader>
+  <types><dataTypes>{extra}</dataTypes><pous>
+    <pou name="main" pouType="program">
+      <interface><localVars>
+        <variable name="v"><type><derived name="HMI_INT"/></type></variable>
+        <variable name="s"><type><derived name="HMI_STRING"/></type><initialValue><simpleValue value="blup"/></initialValue></variable>
+      </localVars></interface>
+      <body><ST><xhtml:p xmlns:xhtml="http://www.w3.org/1999/xhtml"><![CDATA[v := v + LEN(s);]]></xhtml:p></ST></body>
+    </pou>
+  </pous></types>
+  <instances><configurations/></instances>
+</project>"#
+        )
+    };
+    for (extra, base) in [
+        ("", "INT"),
+        (
+            r#"<dataType name="HMI_INT"><baseType><DINT/></baseType></dataType>"#,
+            "DINT",
+        ),
+    ] {
+        let mut s = Sources::new();
+        s.add_text("plc.xml", &xml(extra));
+        assert_eq!(s.libs(), ["beremiz"]);
+        let b = build(&s, &Select::Auto, Natives::default()).unwrap_or_else(|e| panic!("{e}"));
+        let mut m = Machine::new(b.engine.clone());
+        m.scan(0, &mut || true).unwrap();
+        let v = b.engine.lookup("main.v").expect("v");
+        assert_eq!(display(&b.engine.project, v.ty, &m.get(v).unwrap()), "4");
+        assert_eq!(b.engine.project.types.name(v.ty), base);
+    }
+    // Not Beremiz: nothing loaded, HMI_INT unknown.
+    let mut s = Sources::new();
+    s.add_text(
+        "plc.xml",
+        &xml("").replace(
+            r#"companyName="Unknown" productName="Unnamed""#,
+            r#"companyName="3S" productName="CODESYS""#,
+        ),
+    );
+    assert!(s.libs().is_empty());
+    let e = build(&s, &Select::Auto, Natives::default())
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(e.contains("unknown type `HMI_INT`"), "{e}");
+}
+
+/// matiec's RTC (in `beremiz`): set to PDT on IN's rising edge, then running on with the
+/// scan clock; without IN, the PLC clock (the scan clock from 1970).
+#[test]
+fn rtc_runs_from_the_time_it_was_set() {
+    let src = "PROGRAM main
+VAR c : RTC; free : RTC; k : INT; ok : BOOL; q : BOOL; off : BOOL; END_VAR
+k := k + 1;
+c(IN := TRUE, PDT := DT#2024-01-01-00:00:00);
+free(IN := FALSE);
+ok := c.CDT = DT#2024-01-01-00:00:00 + INT_TO_TIME(k - 1) * 10;
+off := free.CDT = DT#1970-01-01-00:00:00 + INT_TO_TIME(k - 1) * 10;
+q := c.Q AND NOT free.Q;
+END_PROGRAM";
+    assert_eq!(
+        run(&["beremiz"], src, 3, 10 * MS, &["k", "ok", "off", "q"]),
+        ["k = 3", "ok = 1", "off = 1", "q = 1"]
+    );
+}
+
+/// matiec's PID, INTEGRAL and DERIVATIVE (in `beremiz`): CYCLE counts in seconds; in manual
+/// the PID's output is KP * X0; they replace petriplc's DSP PID without a warning.
+#[test]
+fn matiec_pid_integral_and_derivative() {
+    let src = "PROGRAM main
+VAR
+  man : PID; i : INTEGRAL; d : DERIVATIVE; k : INT;
+  out : REAL; sum : REAL; rate : REAL;
+END_VAR
+k := k + 1;
+man(AUTO := FALSE, PV := 3.0, SP := 1.0, X0 := 5.0, KP := 2.0, TR := 4.0, TD := 0.0,
+    CYCLE := T#100ms);
+out := man.XOUT;
+i(RUN := TRUE, R1 := k = 1, XIN := 2.0, X0 := 1.0, CYCLE := T#100ms);
+sum := i.XOUT;
+d(RUN := k > 1, XIN := INT_TO_REAL(k), CYCLE := T#100ms);
+rate := d.XOUT;
+END_PROGRAM";
+    // INTEGRAL: 1.0 at reset, then + 2.0 * 0.1 s per call. DERIVATIVE of XIN = k (10 per
+    // second): (3 * (5 - 2) + 4 - 3) / (10 * 0.1) = 10 at k = 5.
+    assert_eq!(
+        run(&["beremiz"], src, 5, 100 * MS, &["out", "sum", "rate"]),
+        ["out = 10.0", "sum = 1.8000002", "rate = 10.0"]
+    );
+    let mut s = Sources::new();
+    s.libs = vec!["beremiz".into()];
+    s.add_text("t.st", src);
+    let checked = petriplc_iec::check(&s, &Natives::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(checked.warnings.is_empty(), "{:?}", checked.warnings);
 }

@@ -241,7 +241,7 @@ fn libs_loads_vendor_libraries() {
     let e = start_err(&format!("{conf}libs = codesys, step7\n"), dir.path());
     assert!(
         e.contains(
-            "`libs`: unknown vendor library `step7`; the libraries are codesys, twincat, pcworx"
+            "`libs`: unknown vendor library `step7`; the libraries are codesys, twincat, pcworx, beremiz"
         ),
         "{e}"
     );

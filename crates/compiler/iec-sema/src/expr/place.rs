@@ -50,10 +50,23 @@ impl<'a> Checker<'a> {
             A::Field(base, f) => self.field_place(e, base, f, cx, write),
             A::Index(base, idx) => self.index_place(e, base, idx, cx, write),
             A::Bit(base, n) => self.bit_place(e, base, n, cx, write),
+            A::Part(base, size, n) => self.part_place(e, base, *size, *n, cx, write),
             A::Deref(base) => match self.this_deref(base, cx, e.span) {
                 Some(this) => Some(this),
                 None => self.deref_place(e, base, cx),
             },
+            A::Direct(text) => {
+                let id = ast::Ident::new(format!("%{text}"), e.span);
+                let p = self.var_place(&id, cx);
+                if p.is_none() {
+                    self.error(
+                        diag::UNSUPPORTED,
+                        e.span,
+                        format!("direct variable %{text} in code: declare a variable located on it (`name AT %{text} : TYPE;`, or without a name: `AT %{text} : TYPE;`)"),
+                    );
+                }
+                p
+            }
             _ => {
                 self.error(
                     diag::NOT_ASSIGNABLE,
@@ -308,6 +321,54 @@ impl<'a> Checker<'a> {
         }
         p.path.push(Step::Bit(*n));
         p.ty = ids::BOOL;
+        p.span = e.span;
+        Some(p)
+    }
+
+    /// `base.%B1`, `.%W0`, `.%D1`: a byte, word or double word of a longer bit string
+    /// (part `n` counts from the least significant end, as `.%X` counts bits).
+    fn part_place(
+        &mut self,
+        e: &ast::Expr,
+        base: &ast::Expr,
+        size: u32,
+        n: u32,
+        cx: &mut Cx,
+        write: bool,
+    ) -> Option<Place> {
+        let mut p = self.place(base, cx, write)?;
+        let (letter, ty) = match size {
+            8 => ('B', ids::BYTE),
+            16 => ('W', ids::WORD),
+            _ => ('D', ids::DWORD),
+        };
+        let Some(el) = self.types.elem(p.ty).filter(|e| e.is_bitstring()) else {
+            if p.ty != ids::ERROR {
+                let t = self.types.name(p.ty);
+                self.error(
+                    diag::BAD_INDEX,
+                    e.span,
+                    format!("partial access (.%{letter}{n}) applies to bit strings (BYTE, WORD, DWORD, LWORD), not {t}"),
+                );
+            }
+            return None;
+        };
+        let parts = el.bits() / size;
+        if n >= parts {
+            let what = if parts == 0 {
+                format!("{} has no part of {size} bits", el.name())
+            } else {
+                format!(
+                    "{} has parts .%{letter}0 to .%{letter}{} of {size} bits; .%{letter}{n} does not exist",
+                    el.name(),
+                    parts - 1
+                )
+            };
+            self.error(diag::BAD_INDEX, e.span, what);
+            return None;
+        }
+        p.path.push(Step::Bits(n * size, size));
+        p.ty = ty;
         p.span = e.span;
         Some(p)
     }

@@ -229,7 +229,7 @@ impl<'a> Checker<'a> {
         };
         if !matches!(
             arg.kind,
-            A::Name(_) | A::Field(..) | A::Index(..) | A::Deref(_) | A::Bit(..)
+            A::Name(_) | A::Field(..) | A::Index(..) | A::Deref(_) | A::Bit(..) | A::Part(..)
         ) {
             self.error(
                 diag::NO_ADDRESS,
@@ -266,7 +266,10 @@ impl<'a> Checker<'a> {
     /// what it designates, nor let a constant be written. `adr`: CODESYS's ADR, which may
     /// take a FUNCTION's variables and a VAR_TEMP (then kept in the POU: check/escape.rs).
     fn no_lasting_address(&self, p: &Place, cx: &Cx, adr: bool) -> Option<String> {
-        if p.path.iter().any(|s| matches!(s, Step::Bit(_))) {
+        if p.path
+            .iter()
+            .any(|s| matches!(s, Step::Bit(_) | Step::Bits(..)))
+        {
             return Some("a single bit has no address; reference the whole variable".into());
         }
         // Behind a dereference the place is inside a variable already referenced.

@@ -1,6 +1,7 @@
 //! The vendor libraries' function blocks, by their interfaces (the VM runs them natively:
 //! `petriplc_iec::vendor_fbs`): CODESYS Util's analog monitors HYSTERESIS and LIMITALARM,
-//! TwinCAT's GETCPUCOUNTER.
+//! TwinCAT's GETCPUCOUNTER, and the real-time clock RTC of matiec's library (Beremiz's,
+//! OpenPLC's).
 
 use crate::ir::{NativeSig, NativeVar, NativeVarKind};
 use crate::types::Elem;
@@ -11,6 +12,7 @@ pub const FUNCTION_BLOCKS: &[(&str, &str)] = &[
     ("HYSTERESIS", "codesys"),
     ("LIMITALARM", "codesys"),
     ("GETCPUCOUNTER", "twincat"),
+    ("RTC", "beremiz"),
 ];
 
 fn var(name: &str, ty: Elem, kind: NativeVarKind) -> NativeVar {
@@ -27,7 +29,23 @@ type Pins = &'static [(&'static str, Elem, NativeVarKind)];
 
 /// The interface of vendor function block `name` (upper case).
 pub fn signature(name: &str) -> Option<NativeSig> {
-    use NativeVarKind::{Input as I, Output as O};
+    use NativeVarKind::{Input as I, Output as O, State as S};
+    if name == "RTC" {
+        // IEC 61131-3 1st edition's RTC as matiec declares it (lib/C/iec_std_FB.h): the
+        // state is the input seen last and the offset of the set clock from the scan clock.
+        let vars = [
+            ("IN", Elem::Bool, I),
+            ("PDT", Elem::Dt, I),
+            ("Q", Elem::Bool, O),
+            ("CDT", Elem::Dt, O),
+            ("PREV_IN", Elem::Bool, S),
+            ("OFFSET", Elem::Time, S),
+        ];
+        return Some(NativeSig {
+            name: name.to_string(),
+            vars: vars.iter().map(|(n, t, k)| var(n, *t, *k)).collect(),
+        });
+    }
     let monitor: Pins = &[
         ("IN", Elem::Int, I),
         ("HIGH", Elem::Int, I),
@@ -88,6 +106,7 @@ mod tests {
     fn loaded_with_their_library() {
         assert!(signatures(&[]).is_empty());
         assert!(signatures(&["pcworx".into()]).is_empty());
+        assert_eq!(signatures(&["beremiz".into()])[0].name, "RTC");
         let names: Vec<String> = signatures(&["twincat".into()])
             .into_iter()
             .map(|s| s.name)

@@ -92,13 +92,32 @@ fn strings_and_escapes() {
     check_error("'a$Qb'", diag::BAD_ESCAPE);
 }
 
+/// A nested reading that leaves the comment open falls back to the standard's and matiec's:
+/// the comment ends at its first close, the inner opening is text (W045).
+#[test]
+fn an_unclosed_inner_comment_ends_at_the_first_close() {
+    let src = "a (* x (* y *)\nb (* z *) c";
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex(FileId(0), src, &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert_eq!(toks, [Tok::Ident, Tok::Ident, Tok::Ident, Tok::Eof]);
+    assert_eq!(d.items.len(), 1, "{d:?}");
+    assert_eq!(d.items[0].code, diag::COMMENT_NOT_NESTED);
+    assert!(d.items[0].message.contains("(line 1)"), "{d:?}");
+    assert!(!d.has_errors());
+}
+
 #[test]
 fn comments_nest_and_pragmas_vanish() {
     check(
         "a (* x (* y *) z *) b // c\n(* {pragma} *) e",
         &[Tok::Ident, Tok::Ident, Tok::Ident],
     );
-    check_error("(* (* *)", diag::UNTERMINATED_COMMENT);
+    check_error("(* abc", diag::UNTERMINATED_COMMENT);
+    check_error("(* (* x", diag::UNTERMINATED_COMMENT);
+    check_error("/* /* x", diag::UNTERMINATED_COMMENT);
     // Pragmas leave no token; what they would change is said once (docs/iec.md, "Pragmas").
     let src = "a (* x *) b\n{pragma} /* d */ {{ C { code } }} e {attribute 'hide'}";
     let mut d = Diagnostics::new();

@@ -12,6 +12,7 @@ impl<'a, 'd> Parser<'a, 'd> {
         let name = self.ident("the configuration's name")?;
         let mut globals = Vec::new();
         let mut resources = Vec::new();
+        let mut var_config = Vec::new();
         let mut single = Resource {
             name: name.clone(),
             on: None,
@@ -23,9 +24,8 @@ impl<'a, 'd> Parser<'a, 'd> {
         loop {
             let s = self.pos;
             let r: PResult<()> = match self.peek().tok {
-                Tok::Kw(Kw::VarGlobal | Kw::VarAccess | Kw::VarConfig) => {
-                    self.var_block().map(|b| globals.push(b))
-                }
+                Tok::Kw(Kw::VarConfig) => self.var_config().map(|mut v| var_config.append(&mut v)),
+                Tok::Kw(Kw::VarGlobal | Kw::VarAccess) => self.var_block().map(|b| globals.push(b)),
                 Tok::Kw(Kw::Resource) => self.resource().map(|r| resources.push(r)),
                 Tok::Kw(Kw::Task) => self.task().map(|t| single.tasks.push(t)),
                 Tok::Kw(Kw::Program) => self.program_config().map(|p| single.programs.push(p)),
@@ -49,8 +49,51 @@ impl<'a, 'd> Parser<'a, 'd> {
             name,
             globals,
             resources,
+            var_config,
             span: start.to(end.span),
         })
+    }
+
+    /// `VAR_CONFIG path [AT %loc] : type [:= init]; … END_VAR`.
+    fn var_config(&mut self) -> PResult<Vec<VarConfigItem>> {
+        self.bump();
+        let mut items = Vec::new();
+        while !self.at_kw(Kw::EndVar) {
+            let start = self.peek().span;
+            let mut path = vec![self.ident("an instance path (resource.instance.variable)")?];
+            while self.eat(&Tok::Dot).is_some() {
+                path.push(self.ident("a name after `.` in the path")?);
+            }
+            let location = if self.eat_kw(Kw::At).is_some() {
+                match self.peek().tok.clone() {
+                    Tok::Direct(text) => {
+                        let t = self.bump();
+                        Some(Location { text, span: t.span })
+                    }
+                    _ => return Err(self.expected("a location such as %QB1 after AT")),
+                }
+            } else {
+                None
+            };
+            self.expect(&Tok::Colon, "`:` and the variable's type")?;
+            let ty = self.type_spec(false)?;
+            let init = if self.eat(&Tok::Assign).is_some() {
+                Some(self.init()?)
+            } else {
+                None
+            };
+            self.expect_semi()?;
+            items.push(VarConfigItem {
+                path,
+                location,
+                ty,
+                init,
+                span: start.to(self.prev_span()),
+            });
+        }
+        self.expect_kw(Kw::EndVar)?;
+        self.eat(&Tok::Semi);
+        Ok(items)
     }
 
     fn resource(&mut self) -> PResult<Resource> {

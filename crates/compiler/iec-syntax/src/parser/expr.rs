@@ -133,22 +133,33 @@ impl<'a, 'd> Parser<'a, 'd> {
                             };
                         }
                         Tok::Direct(text) => {
-                            // x.%X3: partial access.
+                            // x.%X3, x.%B1, x.%W0, x.%D1: partial access.
                             let t = self.bump();
-                            let bit = text
-                                .strip_prefix(['X', 'x'])
-                                .and_then(|d| d.parse::<u32>().ok());
-                            let Some(bit) = bit else {
+                            let mut chars = text.chars();
+                            let size = match chars.next().map(|c| c.to_ascii_uppercase()) {
+                                Some('X') => Some(1),
+                                Some('B') => Some(8),
+                                Some('W') => Some(16),
+                                Some('D') => Some(32),
+                                _ => None,
+                            };
+                            let index = chars.as_str().parse::<u32>().ok();
+                            let (Some(size), Some(index)) = (size, index) else {
                                 self.error_at(
                                     diag::UNSUPPORTED,
                                     t.span,
-                                    "only bit access (.%X3 or .3) is supported after a variable",
+                                    "partial access after a variable is a bit (.%X3 or .3), a byte (.%B1), a word (.%W0) or a double word (.%D1)",
                                 );
                                 return Err(Reported);
                             };
                             let span = e.span.to(t.span);
+                            let base = Box::new(e);
                             e = Expr {
-                                kind: ExprKind::Bit(Box::new(e), bit),
+                                kind: if size == 1 {
+                                    ExprKind::Bit(base, index)
+                                } else {
+                                    ExprKind::Part(base, size, index)
+                                },
                                 span,
                             };
                         }

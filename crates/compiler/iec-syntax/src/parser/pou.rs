@@ -312,14 +312,18 @@ impl<'a, 'd> Parser<'a, 'd> {
     pub(super) fn var_decl(&mut self) -> PResult<VarDecl> {
         let start = self.peek().span;
         let mut names = Vec::new();
-        if self.at_kw(Kw::At) {
-            let t = self.peek().clone();
-            self.error_at(
-                diag::UNSUPPORTED,
-                t.span,
-                "a located variable needs a name: write `name AT %IX0.0 : BOOL;`",
-            );
-            return Err(Reported);
+        // `AT %IX1.1 : BOOL;`: a located variable without a name (the standard's
+        // `[variable_name] location`), which code names by its address: named `%IX1.1`,
+        // a name no identifier can take (`%IX1.1` in code resolves to it).
+        if self.at_kw(Kw::At) && matches!(self.peek_at(1).tok, Tok::Direct(_)) {
+            self.bump();
+            let t = self.bump();
+            let Tok::Direct(text) = t.tok.clone() else {
+                unreachable!("checked above")
+            };
+            names.push(Ident::new(format!("%{text}"), t.span));
+            let location = Some(Location { text, span: t.span });
+            return self.var_decl_rest(start, names, location);
         }
         loop {
             names.push(self.ident("a variable name")?);
@@ -338,6 +342,16 @@ impl<'a, 'd> Parser<'a, 'd> {
         } else {
             None
         };
+        self.var_decl_rest(start, names, location)
+    }
+
+    /// A declaration after its names and location: `: type [R_EDGE] [:= init];`.
+    fn var_decl_rest(
+        &mut self,
+        start: Span,
+        names: Vec<Ident>,
+        location: Option<Location>,
+    ) -> PResult<VarDecl> {
         self.expect(&Tok::Colon, "`:` and the variable's type")?;
         let ty = self.type_spec(false)?;
         let edge = if self.eat_kw(Kw::REdge).is_some() {

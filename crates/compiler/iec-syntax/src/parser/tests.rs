@@ -30,6 +30,7 @@ fn sexpr(e: &Expr) -> String {
         ExprKind::Name(i) => i.name.clone(),
         ExprKind::Field(b, f) => format!("{}.{}", sexpr(b), f.name),
         ExprKind::Bit(b, n) => format!("{}.{n}", sexpr(b)),
+        ExprKind::Part(b, size, n) => format!("{}.%{size}:{n}", sexpr(b)),
         ExprKind::Index(b, i) => format!(
             "{}[{}]",
             sexpr(b),

@@ -253,3 +253,60 @@ fn a_tc6_1_0_pou_instance_names_its_type_with_type() {
     let (_, msgs) = read_text(&text.replace(r#"type="main" "#, ""));
     assert!(msgs[0].contains("error[E052]"), "{msgs:?}");
 }
+
+/// Beremiz writes a string's initial value as typed and quotes it in the Structured Text it
+/// generates: `blup` is `'blup'`, for STRING, an alias of it and SVGHMI's HMI_STRING.
+#[test]
+fn an_unquoted_string_initial_value_is_quoted_as_beremiz_does() {
+    let text = r#"<project xmlns="http://www.plcopen.org/xml/tc6_0201">
+  <types><dataTypes>
+    <dataType name="Name"><baseType><string/></baseType></dataType>
+  </dataTypes><pous>
+    <pou name="main" pouType="program">
+      <interface><localVars>
+        <variable name="a"><type><string/></type><initialValue><simpleValue value="blup"/></initialValue></variable>
+        <variable name="b"><type><derived name="name"/></type><initialValue><simpleValue value="x y"/></initialValue></variable>
+        <variable name="c"><type><derived name="HMI_STRING"/></type><initialValue><simpleValue value="'q'"/></initialValue></variable>
+        <variable name="d"><type><INT/></type><initialValue><simpleValue value="7"/></initialValue></variable>
+      </localVars></interface>
+      <body><ST><xhtml:p xmlns:xhtml="http://www.w3.org/1999/xhtml"><![CDATA[a := a;]]></xhtml:p></ST></body>
+    </pou>
+  </pous></types>
+</project>"#;
+    let (lib, msgs) = read_text(text);
+    assert!(msgs.is_empty(), "{msgs:?}");
+    let pou = lib
+        .elements
+        .iter()
+        .find_map(|e| match e {
+            Element::Pou(p) => Some(p),
+            _ => None,
+        })
+        .expect("a POU");
+    let inits: Vec<String> = pou.var_blocks[0]
+        .vars
+        .iter()
+        .map(|v| match &v.init {
+            Some(Init::Expr(Expr {
+                kind: ExprKind::Literal(Literal::String { bytes, .. }),
+                ..
+            })) => String::from_utf8_lossy(bytes).into_owned(),
+            Some(Init::Expr(Expr {
+                kind: ExprKind::Literal(Literal::Int { value, .. }),
+                ..
+            })) => value.to_string(),
+            other => format!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(inits, ["blup", "x y", "q", "7"]);
+}
+
+/// TC6 1.0's task interval is an xsd:time (matiec's test projects: `00:00:00.100000`).
+#[test]
+fn a_clock_time_interval_is_a_duration() {
+    assert_eq!(clock_duration("00:00:00.100000"), Some(100_000_000));
+    assert_eq!(clock_duration("01:02:03"), Some(3_723_000_000_000));
+    assert_eq!(clock_duration("T#10ms"), None);
+    assert_eq!(clock_duration("1:2"), None);
+    assert_eq!(clock_duration("00:00:0x"), None);
+}

@@ -66,9 +66,17 @@ impl<'c, 'p> Fx<'c, 'p> {
                         }
                         return Ok(d);
                     }
-                    if let (Some(d), Some(n)) = (want, pl.bit) {
+                    if let (Some(d), Some((n, width))) = (want, pl.bit) {
                         let w = self.load_loc(pl.loc, span)?;
-                        self.emit(Op::GetBit { d, s: w, n }, span);
+                        self.emit(
+                            Op::GetBit {
+                                d,
+                                s: w,
+                                n,
+                                w: width,
+                            },
+                            span,
+                        );
                         return Ok(d);
                     }
                     self.load_place(&pl, span)

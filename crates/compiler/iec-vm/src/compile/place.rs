@@ -119,7 +119,8 @@ impl<'c, 'p> Fx<'c, 'p> {
                     }
                     ty = elem;
                 }
-                Step::Bit(n) => bit = Some(*n as u8),
+                Step::Bit(n) => bit = Some((*n as u8, 1)),
+                Step::Bits(lo, w) => bit = Some((*lo as u8, *w as u8)),
                 Step::Deref => {
                     let Some(target) = self.c.p.types.ref_target(ty) else {
                         continue;
@@ -263,6 +264,9 @@ impl<'c, 'p> Fx<'c, 'p> {
             }
             (Step::Index(_), Type::Array { elem, .. }) => *elem,
             (Step::Bit(_), _) => petriplc_iec_sema::types::ids::BOOL,
+            (Step::Bits(_, 8), _) => petriplc_iec_sema::types::ids::BYTE,
+            (Step::Bits(_, 16), _) => petriplc_iec_sema::types::ids::WORD,
+            (Step::Bits(..), _) => petriplc_iec_sema::types::ids::DWORD,
             (Step::Deref, Type::Ref { target, .. }) => *target,
             _ => ty,
         }
@@ -358,9 +362,17 @@ impl<'c, 'p> Fx<'c, 'p> {
         let w = self.load_loc(pl.loc, span)?;
         match pl.bit {
             None => Ok(w),
-            Some(n) => {
+            Some((n, width)) => {
                 let d = self.temp(1);
-                self.emit(Op::GetBit { d, s: w, n }, span);
+                self.emit(
+                    Op::GetBit {
+                        d,
+                        s: w,
+                        n,
+                        w: width,
+                    },
+                    span,
+                );
                 Ok(d)
             }
         }
@@ -370,7 +382,7 @@ impl<'c, 'p> Fx<'c, 'p> {
     pub(super) fn store_place(&mut self, pl: &PlaceLoc, s: u32, span: Span) -> R<()> {
         match pl.bit {
             None => self.store_loc(pl.loc, s, span),
-            Some(n) => {
+            Some((n, width)) => {
                 let w = self.load_loc(pl.loc, span)?;
                 let t = self.temp(1);
                 self.emit(
@@ -378,6 +390,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                         d: t,
                         s: w,
                         n,
+                        w: width,
                         v: s,
                     },
                     span,
