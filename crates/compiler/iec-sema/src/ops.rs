@@ -553,17 +553,35 @@ fn check_len(l: i128) -> OpResult<usize> {
     Ok(l.min(u32::MAX as i128) as usize)
 }
 
-pub fn left(s: &[u8], l: i128) -> OpResult<Vec<u8>> {
+/// STRING_TO_WSTRING: each Windows-1252 byte as its character's UTF-16 code unit.
+pub fn widen(s: &[u8]) -> Vec<u16> {
+    s.iter().map(|&b| lexer::cp1252_char(b) as u16).collect()
+}
+
+/// WSTRING_TO_STRING: each character as its Windows-1252 byte, `?` for the characters the
+/// code page lacks (as TwinCAT converts); a surrogate pair is one character.
+pub fn narrow(s: &[u16]) -> Vec<u8> {
+    char::decode_utf16(s.iter().copied())
+        .map(|c| c.ok().and_then(lexer::single_byte).unwrap_or(b'?'))
+        .collect()
+}
+
+/// A WSTRING's text as UTF-8 (lone surrogates as U+FFFD), for messages and display.
+pub fn wide_text(s: &[u16]) -> String {
+    String::from_utf16_lossy(s)
+}
+
+pub fn left<T: Clone>(s: &[T], l: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?;
     Ok(s[..l.min(s.len())].to_vec())
 }
 
-pub fn right(s: &[u8], l: i128) -> OpResult<Vec<u8>> {
+pub fn right<T: Clone>(s: &[T], l: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?.min(s.len());
     Ok(s[s.len() - l..].to_vec())
 }
 
-pub fn mid(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+pub fn mid<T: Clone>(s: &[T], l: i128, p: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?;
     if p < 1 || p > s.len() as i128 + 1 {
         return Err(OpError::Domain("a character position outside the string"));
@@ -573,7 +591,7 @@ pub fn mid(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
     Ok(s[start..end].to_vec())
 }
 
-pub fn insert(a: &[u8], b: &[u8], p: i128) -> OpResult<Vec<u8>> {
+pub fn insert<T: Clone>(a: &[T], b: &[T], p: i128) -> OpResult<Vec<T>> {
     if p < 0 || p > a.len() as i128 {
         return Err(OpError::Domain("a character position outside the string"));
     }
@@ -584,7 +602,7 @@ pub fn insert(a: &[u8], b: &[u8], p: i128) -> OpResult<Vec<u8>> {
     Ok(out)
 }
 
-pub fn delete(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+pub fn delete<T: Clone>(s: &[T], l: i128, p: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?;
     if p < 1 || p > s.len() as i128 + 1 {
         return Err(OpError::Domain("a character position outside the string"));
@@ -596,7 +614,7 @@ pub fn delete(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
     Ok(out)
 }
 
-pub fn replace(a: &[u8], b: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+pub fn replace<T: Clone>(a: &[T], b: &[T], l: i128, p: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?;
     if p < 1 || p > a.len() as i128 + 1 {
         return Err(OpError::Domain("a character position outside the string"));
@@ -609,7 +627,7 @@ pub fn replace(a: &[u8], b: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
     Ok(out)
 }
 
-pub fn find(a: &[u8], b: &[u8]) -> i128 {
+pub fn find<T: PartialEq>(a: &[T], b: &[T]) -> i128 {
     if b.is_empty() || b.len() > a.len() {
         return 0;
     }

@@ -223,9 +223,11 @@ pub struct Field {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Type {
     Elem(Elem),
-    /// `STRING[len]`, `len` bytes at most.
+    /// `STRING[len]`, `len` bytes at most; `WSTRING[len]` (`wide`), `len` UTF-16 code
+    /// units at most (CODESYS and TwinCAT store UCS-2/UTF-16).
     Str {
         len: u32,
+        wide: bool,
     },
     /// Dimensions as inclusive bounds, outermost first.
     Array {
@@ -296,6 +298,8 @@ pub mod ids {
     pub const ERROR: TypeId = 23;
     /// `STRING` without a length: 254 characters.
     pub const STRING: TypeId = 24;
+    /// `WSTRING` without a length: as many characters as `STRING`.
+    pub const WSTRING: TypeId = 25;
 }
 
 /// The default length of `STRING`.
@@ -305,7 +309,7 @@ pub const MAX_STRING_LEN: u32 = 65_535;
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 enum Key {
-    Str(u32),
+    Str(u32, bool),
     Array(Vec<(i64, i64)>, TypeId),
     Subrange(Elem, i128, i128),
     Fb(FbRef),
@@ -338,6 +342,8 @@ impl TypeTable {
         t.types.push(Type::Error);
         let s = t.string(DEFAULT_STRING_LEN);
         debug_assert_eq!(s, ids::STRING);
+        let w = t.wstring(DEFAULT_STRING_LEN);
+        debug_assert_eq!(w, ids::WSTRING);
         t
     }
 
@@ -368,7 +374,25 @@ impl TypeTable {
     }
 
     pub fn string(&mut self, len: u32) -> TypeId {
-        self.intern(Key::Str(len), Type::Str { len })
+        self.intern(Key::Str(len, false), Type::Str { len, wide: false })
+    }
+
+    pub fn wstring(&mut self, len: u32) -> TypeId {
+        self.intern(Key::Str(len, true), Type::Str { len, wide: true })
+    }
+
+    /// A string type of `len` characters, wide or not.
+    pub fn string_of(&mut self, len: u32, wide: bool) -> TypeId {
+        if wide {
+            self.wstring(len)
+        } else {
+            self.string(len)
+        }
+    }
+
+    /// Whether the type is `WSTRING[n]`.
+    pub fn is_wstring(&self, id: TypeId) -> bool {
+        matches!(self.get(id), Type::Str { wide: true, .. })
     }
 
     pub fn array(&mut self, dims: Vec<(i64, i64)>, elem: TypeId) -> TypeId {
@@ -460,8 +484,14 @@ impl TypeTable {
     pub fn name(&self, id: TypeId) -> String {
         match self.get(id) {
             Type::Elem(e) => e.name().to_string(),
-            Type::Str { len } if *len == DEFAULT_STRING_LEN => "STRING".into(),
-            Type::Str { len } => format!("STRING[{len}]"),
+            Type::Str { len, wide } => {
+                let n = if *wide { "WSTRING" } else { "STRING" };
+                if *len == DEFAULT_STRING_LEN {
+                    n.into()
+                } else {
+                    format!("{n}[{len}]")
+                }
+            }
             Type::Array { dims, elem } => format!(
                 "ARRAY[{}] OF {}",
                 dims.iter()
@@ -522,10 +552,19 @@ mod tests {
 
     #[test]
     fn fixed_ids_match_the_elementary_order() {
-        let t = TypeTable::new();
+        let mut t = TypeTable::new();
         assert_eq!(t.get(ids::LREAL), &Type::Elem(Elem::Lreal));
         assert_eq!(t.get(ids::DT), &Type::Elem(Elem::Dt));
-        assert_eq!(t.get(ids::STRING), &Type::Str { len: 254 });
+        assert_eq!(
+            t.get(ids::STRING),
+            &Type::Str {
+                len: 254,
+                wide: false
+            }
+        );
+        assert_eq!(t.name(ids::WSTRING), "WSTRING");
+        let w8 = t.wstring(8);
+        assert_eq!(t.name(w8), "WSTRING[8]");
         assert_eq!(TypeTable::elem_id(Elem::Word), ids::WORD);
     }
 

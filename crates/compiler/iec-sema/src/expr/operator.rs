@@ -482,12 +482,16 @@ impl<'a> Checker<'a> {
                 }
             };
         }
-        // Strings of any lengths compare and combine.
-        if let (Type::Str { len: a }, Type::Str { len: b }) =
+        // Strings of any lengths compare and combine; STRING and WSTRING do not mix (the
+        // standard has no implicit conversion between them).
+        if let (Type::Str { len: a, wide: wa }, Type::Str { len: b, wide: wb }) =
             (self.types.get(tx), self.types.get(ty))
         {
-            let t = self.types.string((*a).max(*b));
-            return Some((x, y, t));
+            if wa == wb {
+                let (n, w) = ((*a).max(*b), *wa);
+                let t = self.types.string_of(n, w);
+                return Some((x, y, t));
+            }
         }
         match (self.types.elem(tx), self.types.elem(ty)) {
             (Some(a), Some(b)) if a.widens_to(b) => {
@@ -623,7 +627,22 @@ impl<'a> Checker<'a> {
                 }
                 return konst(Value::Real(f), to, span);
             }
-            (Type::Str { .. }, Type::Str { len }) => {
+            (Type::Str { wide: wa, .. }, Type::Str { len, wide }) if wa == wide => {
+                if let ExprKind::Const(Value::WStr(s)) = &x.kind {
+                    if s.len() > *len as usize {
+                        self.error(
+                            diag::OUT_OF_RANGE,
+                            span,
+                            format!(
+                                "this string has {} characters; {} holds {len}",
+                                s.len(),
+                                self.types.name(to)
+                            ),
+                        );
+                        return err(span);
+                    }
+                    return konst(Value::WStr(s.clone()), to, span);
+                }
                 if let ExprKind::Const(Value::Str(s)) = &x.kind {
                     if s.len() > *len as usize {
                         self.error(

@@ -93,6 +93,30 @@ fn strings_and_escapes() {
 }
 
 #[test]
+fn wide_strings_and_their_escapes() {
+    // `$"` and `$$`, four hex digits a character (`$0041`, `$20AC`); `$'` is allowed too.
+    // The text is kept as UTF-8, which the checker makes UTF-16 code units.
+    check(
+        "\"a$\"b$$c$N$0041$20AC$'x'\"",
+        &[Tok::Str {
+            bytes: "a\"b$c\nA\u{20ac}'x'".as_bytes().to_vec(),
+            wide: true,
+        }],
+    );
+    // Two hex digits are STRING's form: in a WSTRING `$41` is an unknown escape.
+    check_error("\"$41\"", diag::BAD_ESCAPE);
+    check_error("\"abc", diag::UNTERMINATED_STRING);
+    // A `"` inside '…' is a plain character.
+    check(
+        "'say \"hi\"'",
+        &[Tok::Str {
+            bytes: b"say \"hi\"".to_vec(),
+            wide: false,
+        }],
+    );
+}
+
+#[test]
 fn comments_nest_and_pragmas_vanish() {
     check(
         "a (* x (* y *) z *) b // c\n(* {pragma} *) e",
