@@ -103,6 +103,7 @@ codes! {
     IN_OUT_INITIAL = "W032",
     LOCATION_IGNORED = "W013",
     SFC_NEVER = "W033",
+    REPLACEMENT_CHAR = "W043",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -526,6 +526,14 @@ impl Lexer<'_, '_> {
                 let n = c.len_utf8();
                 match single_byte(c) {
                     Some(v) => bytes.push(v),
+                    None if c == '\u{fffd}' => {
+                        self.diags.warning(
+                            diag::REPLACEMENT_CHAR,
+                            Span::new(self.file, self.pos, self.pos + n),
+                            "U+FFFD, the replacement character a conversion to UTF-8 leaves for a byte it could not read, is not a character of STRING: stored as '?'; write the character meant, or its byte as $XX",
+                        );
+                        bytes.push(b'?');
+                    }
                     None => {
                         self.error(
                             diag::NOT_LATIN1,

@@ -284,3 +284,24 @@ fn a_string_literal_holds_one_latin1_byte_per_character_whatever_the_encoding() 
         d.items[0].message
     );
 }
+
+#[test]
+fn a_replacement_character_in_a_string_is_a_warning() {
+    // ironplc's strings.st holds U+FFFD where a byte was lost on the way to UTF-8: the
+    // character meant is unknown, so STRING gets '?' and W043 says why.
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex(FileId(0), "'\u{fffd}'", &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert_eq!(
+        toks[0],
+        Tok::Str {
+            bytes: b"?".to_vec(),
+            wide: false
+        }
+    );
+    assert_eq!(d.items.len(), 1, "{d:?}");
+    assert_eq!(d.items[0].code.0, "W043");
+    assert!(!d.has_errors());
+}
