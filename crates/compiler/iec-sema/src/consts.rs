@@ -95,6 +95,11 @@ impl Checker<'_> {
         let (fc, tc) = (self.class(from), self.class(to));
         match (fc, tc) {
             (_, Class::Str) => {
+                if let (Class::Elem(e), Type::Str { len, wide: true }) = (fc, self.types.get(to)) {
+                    let mut w = ops::to_wide_text(v, e);
+                    w.truncate(*len as usize);
+                    return Ok(Value::WStr(w));
+                }
                 let bytes = match fc {
                     Class::Elem(e) => ops::to_text(v, e),
                     Class::Enum => match v {
@@ -129,7 +134,7 @@ impl Checker<'_> {
             }
             (Class::Str, Class::Elem(e)) => match v {
                 Value::Str(s) => ops::from_text(s, e),
-                Value::WStr(w) => ops::from_text(&ops::narrow(w), e),
+                Value::WStr(w) => ops::from_wide_text(w, e),
                 _ => Err(OpError::Conversion),
             },
             (Class::IntLit | Class::Enum, Class::Elem(e)) => {

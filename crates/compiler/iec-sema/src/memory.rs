@@ -10,8 +10,8 @@ use crate::types::{Elem, Type, TypeId, TypeTable};
 /// nanosecond counts: 8 bytes (CODESYS's 32-bit TIME, DATE, TOD and DT take 4).
 pub fn elem_bytes(e: Elem) -> u64 {
     match e {
-        Elem::Bool | Elem::Sint | Elem::Usint | Elem::Byte => 1,
-        Elem::Int | Elem::Uint | Elem::Word => 2,
+        Elem::Bool | Elem::Sint | Elem::Usint | Elem::Byte | Elem::Char => 1,
+        Elem::Int | Elem::Uint | Elem::Word | Elem::Wchar => 2,
         Elem::Dint | Elem::Udint | Elem::Dword | Elem::Real => 4,
         _ => 8,
     }

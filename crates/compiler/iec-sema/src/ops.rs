@@ -279,6 +279,14 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem, mode: Overflow) -> OpResult
         return Ok(v.clone());
     }
     match v {
+        // CHAR is Windows-1252, WCHAR UTF-16: between them a character keeps its meaning
+        // ('?' where the code page lacks it), not its code.
+        Value::Int(i) if from == Elem::Char && to == Elem::Wchar => {
+            Ok(Value::Int(i128::from(widen(&[*i as u8])[0])))
+        }
+        Value::Int(i) if from == Elem::Wchar && to == Elem::Char => {
+            Ok(Value::Int(i128::from(narrow(&[*i as u16])[0])))
+        }
         Value::Int(i) => {
             let i = *i;
             if is_time_like(from) && is_time_like(to) {
@@ -328,6 +336,10 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem, mode: Overflow) -> OpResult
 /// The text a value converts to (`*_TO_STRING`): the standard's literal forms.
 pub fn to_text(v: &Value, from: Elem) -> Vec<u8> {
     let s = match (v, from) {
+        // A character is its text (CHAR_TO_STRING); NUL ends a string, so it is ''.
+        (Value::Int(0), Elem::Char | Elem::Wchar) => return Vec::new(),
+        (Value::Int(i), Elem::Char) => return vec![*i as u8],
+        (Value::Int(i), Elem::Wchar) => return narrow(&[*i as u16]),
         (Value::Int(i), Elem::Bool) => if *i != 0 { "TRUE" } else { "FALSE" }.to_string(),
         (Value::Int(i), Elem::Time) => format!("T#{}", format_duration(*i)),
         (Value::Int(i), Elem::Ltime) => format!("LTIME#{}", format_duration(*i)),
@@ -418,7 +430,35 @@ pub fn format_tod(ns: i128) -> String {
 
 /// Reads a value of `to` from text (`STRING_TO_*`): the literal forms, with or without
 /// their type prefix; surrounding spaces are ignored.
+/// The WSTRING text of a value (`*_TO_WSTRING`): a WCHAR is its own unit, everything else
+/// its STRING text.
+pub fn to_wide_text(v: &Value, from: Elem) -> Vec<u16> {
+    match (v, from) {
+        (Value::Int(0), Elem::Wchar) => Vec::new(),
+        (Value::Int(i), Elem::Wchar) => vec![*i as u16],
+        _ => widen(&to_text(v, from)),
+    }
+}
+
+/// `WSTRING_TO_*`: WCHAR is the first unit (0 for ""), every other type reads the text.
+pub fn from_wide_text(w: &[u16], to: Elem) -> OpResult<Value> {
+    match to {
+        Elem::Wchar => Ok(Value::Int(i128::from(w.first().copied().unwrap_or(0)))),
+        _ => from_text(&narrow(w), to),
+    }
+}
+
 pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
+    if to.is_char() {
+        // STRING_TO_CHAR: the first character (0 for '').
+        let b = s.first().copied().unwrap_or(0);
+        let v = if to == Elem::Char {
+            i128::from(b)
+        } else {
+            i128::from(widen(&[b])[0])
+        };
+        return Ok(Value::Int(v));
+    }
     let text = std::str::from_utf8(s)
         .map_err(|_| OpError::Conversion)?
         .trim();

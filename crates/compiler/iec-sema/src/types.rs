@@ -32,9 +32,13 @@ pub enum Elem {
     Date,
     Tod,
     Dt,
+    /// A single-byte character (Windows-1252, as STRING's), its code 0..255.
+    Char,
+    /// A UTF-16 code unit, as WSTRING's characters, 0..65535.
+    Wchar,
 }
 
-pub const ELEMS: [Elem; 20] = [
+pub const ELEMS: [Elem; 22] = [
     Elem::Bool,
     Elem::Sint,
     Elem::Int,
@@ -55,6 +59,8 @@ pub const ELEMS: [Elem; 20] = [
     Elem::Date,
     Elem::Tod,
     Elem::Dt,
+    Elem::Char,
+    Elem::Wchar,
 ];
 
 impl Elem {
@@ -80,6 +86,8 @@ impl Elem {
             Elem::Date => "DATE",
             Elem::Tod => "TOD",
             Elem::Dt => "DT",
+            Elem::Char => "CHAR",
+            Elem::Wchar => "WCHAR",
         }
     }
 
@@ -104,6 +112,11 @@ impl Elem {
 
     pub fn is_unsigned(self) -> bool {
         matches!(self, Elem::Usint | Elem::Uint | Elem::Udint | Elem::Ulint)
+    }
+
+    /// CHAR or WCHAR (ANY_CHAR).
+    pub fn is_char(self) -> bool {
+        matches!(self, Elem::Char | Elem::Wchar)
     }
 
     /// ANY_INT.
@@ -150,8 +163,8 @@ impl Elem {
     pub fn bits(self) -> u32 {
         match self {
             Elem::Bool => 1,
-            Elem::Sint | Elem::Usint | Elem::Byte => 8,
-            Elem::Int | Elem::Uint | Elem::Word => 16,
+            Elem::Sint | Elem::Usint | Elem::Byte | Elem::Char => 8,
+            Elem::Int | Elem::Uint | Elem::Word | Elem::Wchar => 16,
             Elem::Dint | Elem::Udint | Elem::Dword | Elem::Real => 32,
             _ => 64,
         }
@@ -167,8 +180,8 @@ impl Elem {
             Elem::Lint | Elem::Time | Elem::Ltime | Elem::Date | Elem::Tod | Elem::Dt => {
                 (i64::MIN as i128, i64::MAX as i128)
             }
-            Elem::Usint | Elem::Byte => (0, u8::MAX as i128),
-            Elem::Uint | Elem::Word => (0, u16::MAX as i128),
+            Elem::Usint | Elem::Byte | Elem::Char => (0, u8::MAX as i128),
+            Elem::Uint | Elem::Word | Elem::Wchar => (0, u16::MAX as i128),
             Elem::Udint | Elem::Dword => (0, u32::MAX as i128),
             Elem::Ulint | Elem::Lword => (0, u64::MAX as i128),
             Elem::Real | Elem::Lreal => (i128::MIN, i128::MAX),
@@ -292,14 +305,16 @@ pub mod ids {
     pub const DATE: TypeId = 17;
     pub const TOD: TypeId = 18;
     pub const DT: TypeId = 19;
-    pub const INT_LIT: TypeId = 20;
-    pub const REAL_LIT: TypeId = 21;
-    pub const VOID: TypeId = 22;
-    pub const ERROR: TypeId = 23;
+    pub const CHAR: TypeId = 20;
+    pub const WCHAR: TypeId = 21;
+    pub const INT_LIT: TypeId = 22;
+    pub const REAL_LIT: TypeId = 23;
+    pub const VOID: TypeId = 24;
+    pub const ERROR: TypeId = 25;
     /// `STRING` without a length: 254 characters.
-    pub const STRING: TypeId = 24;
+    pub const STRING: TypeId = 26;
     /// `WSTRING` without a length: as many characters as `STRING`.
-    pub const WSTRING: TypeId = 25;
+    pub const WSTRING: TypeId = 27;
 }
 
 /// The default length of `STRING`.

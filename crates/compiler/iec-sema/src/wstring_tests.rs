@@ -1,5 +1,5 @@
-//! WSTRING in the checker: its types, literals and sizes, and the mixes of STRING and
-//! WSTRING the standard refuses (each with the conversion to write).
+//! WSTRING, CHAR and WCHAR in the checker: their types, literals and sizes, and the mixes of
+//! STRING and WSTRING the standard refuses (each with the conversion to write).
 
 use crate::memory::size_align;
 use crate::tests::run;
@@ -68,4 +68,33 @@ VAR w : WSTRING(3) := \"Grüße\"; END_VAR
 END_PROGRAM",
         &["error[E113]: this string has 5 characters; WSTRING[3] holds 3"],
     );
+}
+
+#[test]
+fn characters_are_one_character_of_their_string_type() {
+    errors(
+        "PROGRAM p
+VAR c : CHAR; w : WCHAR; b : BYTE; r : REAL; END_VAR
+c := \"a\";
+w := 'ab';
+c := c + c;
+b := c;
+c := CHAR#65;
+w := WCHAR#'a';
+r := CHAR_TO_REAL(c);
+END_PROGRAM",
+        &[
+            "3:6: error[E110]: the value assigned to `c` is WSTRING[1] but CHAR is needed; a CHAR literal is one character in single quotes ('a'), a WCHAR's in double quotes (\"a\")",
+            "4:6: error[E110]: the value assigned to `w` is STRING[2] but WCHAR is needed",
+            "5:6: error[E111]: `+` applies to numbers and durations, not CHAR",
+            "6:6: error[E110]: the value assigned to `b` is CHAR but BYTE is needed; convert explicitly: CHAR_TO_BYTE(…)",
+            "7:6: error[E110]: CHAR# types a character: write CHAR#'A'; a code converts with BYTE_TO_CHAR(65)",
+            "8:6: error[E110]: `WCHAR#` types one character: write WCHAR#\"a\" (one character in double quotes)",
+            "9:6: error[E110]: CHAR cannot be converted to REAL",
+        ],
+    );
+    // Bytes and alignment as CODESYS's BYTE and WORD.
+    let t = crate::types::TypeTable::new();
+    assert_eq!(size_align(&t, crate::types::ids::CHAR), Some((1, 1)));
+    assert_eq!(size_align(&t, crate::types::ids::WCHAR), Some((2, 2)));
 }

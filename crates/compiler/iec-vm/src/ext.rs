@@ -460,23 +460,31 @@ pub fn exec(
             let text = ops::to_text(&get_value(raw, *from), *from);
             let at = ptr(mem, base, *dp);
             if *wide {
-                write_units(mem, at, &ops::widen(&text), *cap);
+                let v = get_value(raw, *from);
+                write_units(mem, at, &ops::to_wide_text(&v, *from), *cap);
             } else {
                 write_str(mem, at, &text, *cap);
             }
         }
         ExtOp::FromStr { d, sp, to, wide } => {
             let at = ptr(mem, base, *sp);
-            let (s, call) = if *wide {
+            let r = if *wide {
                 let w = read_units(mem, at);
-                let call = format!("WSTRING_TO_{}(\"{}\")", to.name(), ops::wide_text(&w));
-                (ops::narrow(&w), call)
+                ops::from_wide_text(&w, *to).map_err(|e| {
+                    fault(
+                        e,
+                        format!("WSTRING_TO_{}(\"{}\")", to.name(), ops::wide_text(&w)),
+                    )
+                })?
             } else {
                 let s = read_str(mem, at);
-                let call = format!("STRING_TO_{}('{}')", to.name(), String::from_utf8_lossy(&s));
-                (s, call)
+                ops::from_text(&s, *to).map_err(|e| {
+                    fault(
+                        e,
+                        format!("STRING_TO_{}('{}')", to.name(), String::from_utf8_lossy(&s)),
+                    )
+                })?
             };
-            let r = ops::from_text(&s, *to).map_err(|e| fault(e, call))?;
             mem[base + *d as usize] = put_value(&r, *to);
         }
         ExtOp::Recode { dp, sp, wide, cap } => {

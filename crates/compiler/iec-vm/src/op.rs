@@ -31,8 +31,8 @@ pub fn range_of(e: Elem) -> u8 {
         Elem::Sint => 1,
         Elem::Int => 2,
         Elem::Dint => 3,
-        Elem::Usint | Elem::Byte => 4,
-        Elem::Uint | Elem::Word => 5,
+        Elem::Usint | Elem::Byte | Elem::Char => 4,
+        Elem::Uint | Elem::Word | Elem::Wchar => 5,
         Elem::Udint | Elem::Dword => 6,
         _ => 7,
     }

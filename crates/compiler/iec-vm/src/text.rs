@@ -14,6 +14,9 @@ pub fn display(project: &Project, ty: TypeId, v: &Value) -> String {
         (Type::Elem(e), v) if e.is_real() || e.is_duration() || e.is_date() => {
             String::from_utf8_lossy(&ops::to_text(v, *e)).into_owned()
         }
+        // A character as its literal: 'a', "Ω".
+        (Type::Elem(Elem::Char), Value::Int(i)) => string_literal(&[*i as u8]),
+        (Type::Elem(Elem::Wchar), Value::Int(i)) => wide_literal(&[*i as u16]),
         (Type::Enum { values, .. }, Value::Int(i)) => values
             .iter()
             .find(|(_, x)| *x as i128 == *i)

@@ -325,24 +325,6 @@ impl<'a> Checker<'a> {
         if let Some(&n) = self.native_names.get(&key) {
             return (self.types.fb(FbRef::Native(n)), None);
         }
-        // The standard's (and CODESYS's) elementary types the engine cannot hold yet: not
-        // unknown names, so E190, not E101.
-        if ["CHAR", "WCHAR"].iter().any(|w| id.is(w)) {
-            self.error(
-                diag::UNSUPPORTED,
-                id.span,
-                format!(
-                    "{} is not supported; use {}",
-                    id.name.to_ascii_uppercase(),
-                    if id.is("CHAR") {
-                        "BYTE or STRING[1]"
-                    } else {
-                        "WORD"
-                    }
-                ),
-            );
-            return (ids::ERROR, None);
-        }
         if let Some(lib) = crate::vendor::fb_provider(&key) {
             // A vendor library's function block whose library is not loaded.
             self.error(

@@ -23,6 +23,19 @@ impl<'a> Checker<'a> {
                 let Some(e) = Elem::from_name(&t.name) else {
                     return self.bad_prefix(t);
                 };
+                if e.is_char() {
+                    let (n, q, code) = if e == Elem::Char {
+                        ("CHAR", "'A'", "BYTE")
+                    } else {
+                        ("WCHAR", "\"A\"", "WORD")
+                    };
+                    self.error(
+                        diag::TYPE_MISMATCH,
+                        span,
+                        format!("{n}# types a character: write {n}#{q}; a code converts with {code}_TO_{n}({value})"),
+                    );
+                    return err(span);
+                }
                 if e.is_real() {
                     let v = *value as f64;
                     let v = if e == Elem::Real {
@@ -134,6 +147,9 @@ impl<'a> Checker<'a> {
         span: Span,
     ) -> Expr {
         if let Some(t) = ty {
+            if t.is("CHAR") || t.is("WCHAR") {
+                return self.char_literal(bytes, wide, t, span);
+            }
             let named = if t.is("STRING") {
                 Some(false)
             } else if t.is("WSTRING") {
@@ -171,6 +187,38 @@ impl<'a> Checker<'a> {
         let len = (bytes.len() as u32).clamp(1, MAX_STRING_LEN);
         let ty = self.types.string(len);
         konst(Value::Str(bytes.to_vec()), ty, span)
+    }
+
+    /// `CHAR#'a'` and `WCHAR#"a"`: one character, in the quotes of its string type.
+    fn char_literal(&mut self, bytes: &[u8], wide: bool, t: &ast::Ident, span: Span) -> Expr {
+        let e = if t.is("CHAR") {
+            Elem::Char
+        } else {
+            Elem::Wchar
+        };
+        let units: Vec<u16> = if wide {
+            String::from_utf8_lossy(bytes).encode_utf16().collect()
+        } else {
+            bytes.iter().map(|&b| u16::from(b)).collect()
+        };
+        if wide != (e == Elem::Wchar) || units.len() != 1 {
+            let form = if e == Elem::Char {
+                "CHAR#'a' (one character in single quotes)"
+            } else {
+                "WCHAR#\"a\" (one character in double quotes)"
+            };
+            self.error(
+                diag::TYPE_MISMATCH,
+                span,
+                format!("`{}#` types one character: write {form}", t.name),
+            );
+            return err(span);
+        }
+        konst(
+            Value::Int(i128::from(units[0])),
+            TypeTable::elem_id(e),
+            span,
+        )
     }
 
     fn bad_prefix(&mut self, t: &ast::Ident) -> Expr {

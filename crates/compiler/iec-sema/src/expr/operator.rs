@@ -469,6 +469,20 @@ impl<'a> Checker<'a> {
             let y = self.coerce_quiet(y, tx)?;
             return Some((x, y, tx));
         }
+        // A one-character literal where a CHAR or WCHAR is compared: `c = 'a'`.
+        let one_char = |e: &Expr| match &e.kind {
+            ExprKind::Const(Value::Str(s)) => s.len() == 1,
+            ExprKind::Const(Value::WStr(w)) => w.len() == 1,
+            _ => false,
+        };
+        if self.types.elem(tx).is_some_and(Elem::is_char) && one_char(&y) {
+            let y = self.coerce(y, tx, op);
+            return (y.ty != ids::ERROR).then_some((x, y, tx));
+        }
+        if self.types.elem(ty).is_some_and(Elem::is_char) && one_char(&x) {
+            let x = self.coerce(x, ty, op);
+            return (x.ty != ids::ERROR).then_some((x, y, ty));
+        }
         if let Some(r) = self.unify_refs(&x, &y) {
             return match r {
                 Ok(t) => {
@@ -626,6 +640,20 @@ impl<'a> Checker<'a> {
                     return err(span);
                 }
                 return konst(Value::Real(f), to, span);
+            }
+            // 'a' is a CHAR where one is needed, "a" a WCHAR (the standard's character
+            // literals are one-character strings).
+            (Type::Str { wide, .. }, Type::Elem(e))
+                if e.is_char() && *wide == (*e == Elem::Wchar) =>
+            {
+                let code = match &x.kind {
+                    ExprKind::Const(Value::Str(s)) if s.len() == 1 => Some(i128::from(s[0])),
+                    ExprKind::Const(Value::WStr(w)) if w.len() == 1 => Some(i128::from(w[0])),
+                    _ => None,
+                };
+                if let Some(c) = code {
+                    return konst(Value::Int(c), to, span);
+                }
             }
             (Type::Str { wide: wa, .. }, Type::Str { len, wide }) if wa == wide => {
                 if let ExprKind::Const(Value::WStr(s)) = &x.kind {

@@ -459,6 +459,12 @@ impl<'a> Checker<'a> {
                 if a.is_duration() && date(b) || date(a) && b.is_duration() {
                     return false;
                 }
+                // A character converts to and from its code (CHAR_TO_BYTE, WORD_TO_WCHAR)
+                // and to the other character type; not to a real, a duration or BOOL.
+                if a.is_char() || b.is_char() {
+                    let code = |e: Elem| e.is_char() || e.is_int() || e.is_bitstring();
+                    return code(a) && code(b);
+                }
                 true
             }
             (Some(_), None) if s(to) => true,

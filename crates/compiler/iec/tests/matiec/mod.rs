@@ -89,6 +89,7 @@ impl Kind {
                 Elem::Tod => Kind::Tod,
                 Elem::Dt => Kind::Dt,
                 Elem::Ltime => return Err("LTIME parameter".into()),
+                Elem::Char | Elem::Wchar => return Err("CHAR or WCHAR parameter".into()),
             },
             Type::Subrange { lo, hi, .. } => Kind::Sub(*lo, *hi),
             Type::Str { len, wide: false } => Kind::Str(*len),
