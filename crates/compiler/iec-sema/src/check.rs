@@ -253,7 +253,7 @@ impl<'a> Checker<'a> {
                 }
                 Element::Pou(p) => {
                     let key = p.name.key();
-                    if Elem::from_name(&key).is_some() || key == "STRING" {
+                    if Elem::from_name(&key).is_some() || key == "STRING" || key == "WSTRING" {
                         self.error(
                             diag::DUPLICATE,
                             p.name.span,

@@ -95,6 +95,11 @@ impl Checker<'_> {
         let (fc, tc) = (self.class(from), self.class(to));
         match (fc, tc) {
             (_, Class::Str) => {
+                if let (Class::Elem(e), Type::Str { len, wide: true }) = (fc, self.types.get(to)) {
+                    let mut w = ops::to_wide_text(v, e);
+                    w.truncate(*len as usize);
+                    return Ok(Value::WStr(w));
+                }
                 let bytes = match fc {
                     Class::Elem(e) => ops::to_text(v, e),
                     Class::Enum => match v {
@@ -105,17 +110,31 @@ impl Checker<'_> {
                     Class::RealLit => ops::to_text(v, Elem::Lreal),
                     _ => match v {
                         Value::Str(s) => s.clone(),
+                        Value::WStr(w) => {
+                            // WSTRING to WSTRING keeps every unit; to STRING narrows.
+                            if let Type::Str { len, wide: true } = self.types.get(to) {
+                                return Ok(Value::WStr(
+                                    w.iter().copied().take(*len as usize).collect(),
+                                ));
+                            }
+                            ops::narrow(w)
+                        }
                         _ => return Err(OpError::Conversion),
                     },
                 };
-                let len = match self.types.get(to) {
-                    Type::Str { len } => *len as usize,
-                    _ => 0,
-                };
-                Ok(Value::Str(bytes.into_iter().take(len).collect()))
+                match self.types.get(to) {
+                    Type::Str { len, wide: false } => {
+                        Ok(Value::Str(bytes.into_iter().take(*len as usize).collect()))
+                    }
+                    Type::Str { len, wide: true } => Ok(Value::WStr(
+                        ops::widen(&bytes).into_iter().take(*len as usize).collect(),
+                    )),
+                    _ => Err(OpError::Conversion),
+                }
             }
             (Class::Str, Class::Elem(e)) => match v {
                 Value::Str(s) => ops::from_text(s, e),
+                Value::WStr(w) => ops::from_wide_text(w, e),
                 _ => Err(OpError::Conversion),
             },
             (Class::IntLit | Class::Enum, Class::Elem(e)) => {
@@ -263,16 +282,10 @@ impl Checker<'_> {
         let cmp = op.is_comparison();
         match (x, y) {
             (Value::Str(a), Value::Str(b)) => {
-                let r = match op {
-                    BinaryOp::Eq => a == b,
-                    BinaryOp::Ne => a != b,
-                    BinaryOp::Lt => a < b,
-                    BinaryOp::Le => a <= b,
-                    BinaryOp::Gt => a > b,
-                    BinaryOp::Ge => a >= b,
-                    _ => return Err(OpError::Conversion),
-                };
-                Ok(Value::Int(r as i128))
+                Ok(Value::Int(compare(op, a.as_slice(), b.as_slice())? as i128))
+            }
+            (Value::WStr(a), Value::WStr(b)) => {
+                Ok(Value::Int(compare(op, a.as_slice(), b.as_slice())? as i128))
             }
             (Value::Real(a), Value::Real(b)) => {
                 let e = match xc {
@@ -392,6 +405,13 @@ impl Checker<'_> {
                                 a < c
                             }
                         }
+                        (Value::WStr(a), Value::WStr(c)) => {
+                            if b == Builtin::Max {
+                                a > c
+                            } else {
+                                a < c
+                            }
+                        }
                         _ => return Ok(None),
                     };
                     if better {
@@ -442,11 +462,25 @@ impl Checker<'_> {
             }
             Builtin::Len => match &v[0] {
                 Value::Str(s) => Value::Int(s.len() as i128),
+                Value::WStr(s) => Value::Int(s.len() as i128),
                 _ => return Ok(None),
             },
             _ => return Ok(None),
         }))
     }
+}
+
+/// A comparison of two strings (bytes or UTF-16 units, in their order).
+fn compare<T: Ord>(op: BinaryOp, a: &[T], b: &[T]) -> Result<bool, OpError> {
+    Ok(match op {
+        BinaryOp::Eq => a == b,
+        BinaryOp::Ne => a != b,
+        BinaryOp::Lt => a < b,
+        BinaryOp::Le => a <= b,
+        BinaryOp::Gt => a > b,
+        BinaryOp::Ge => a >= b,
+        _ => return Err(OpError::Conversion),
+    })
 }
 
 impl Expr {

@@ -195,6 +195,17 @@ pub fn conversion_hint(types: &TypeTable, from: TypeId, to: TypeId) -> String {
             (Type::RealLit, Some(b)) if b.is_int() => {
                 format!("; write an integer, or REAL_TO_{}(…)", b.name())
             }
+            (Type::Str { .. }, Some(b)) if b.is_char() => {
+                "; a CHAR literal is one character in single quotes ('a'), a WCHAR's in double quotes (\"a\")".into()
+            }
+            (Type::Str { wide: a, .. }, None) if matches!(types.get(to), Type::Str { wide, .. } if wide != a) => {
+                if *a {
+                    "; STRING and WSTRING do not mix implicitly: convert with WSTRING_TO_STRING(…)"
+                        .into()
+                } else {
+                    "; STRING and WSTRING do not mix implicitly: convert with STRING_TO_WSTRING(…), or write the literal in double quotes".into()
+                }
+            }
             _ => String::new(),
         },
     }

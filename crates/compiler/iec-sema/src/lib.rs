@@ -80,3 +80,5 @@ mod others_tests;
 mod reference_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod wstring_tests;

@@ -25,9 +25,9 @@ impl Checker<'_> {
     /// The shape of a resolved type (a function block's once its interface is resolved).
     pub(crate) fn shape(&self, ty: TypeId) -> Shape {
         match self.types.get(ty) {
-            Type::Str { len } => Shape {
+            Type::Str { len, wide } => Shape {
                 depth: 0,
-                slots: 1 + u64::from(len.div_ceil(8)),
+                slots: 1 + (u64::from(*len) * if *wide { 2 } else { 1 }).div_ceil(8),
             },
             Type::Array { .. } | Type::Struct { .. } => {
                 self.shapes.get(&ty).copied().unwrap_or(Shape::SCALAR)

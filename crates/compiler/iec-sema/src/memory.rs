@@ -10,8 +10,8 @@ use crate::types::{Elem, Type, TypeId, TypeTable};
 /// nanosecond counts: 8 bytes (CODESYS's 32-bit TIME, DATE, TOD and DT take 4).
 pub fn elem_bytes(e: Elem) -> u64 {
     match e {
-        Elem::Bool | Elem::Sint | Elem::Usint | Elem::Byte => 1,
-        Elem::Int | Elem::Uint | Elem::Word => 2,
+        Elem::Bool | Elem::Sint | Elem::Usint | Elem::Byte | Elem::Char => 1,
+        Elem::Int | Elem::Uint | Elem::Word | Elem::Wchar => 2,
         Elem::Dint | Elem::Udint | Elem::Dword | Elem::Real => 4,
         _ => 8,
     }
@@ -25,7 +25,9 @@ pub fn size_align(types: &TypeTable, ty: TypeId) -> Option<(u64, u64)> {
         // Enumerations are 16-bit in CODESYS; petriplc's hold DINT values.
         Type::Enum { .. } => (4, 4),
         Type::Ref { .. } | Type::Null => (8, 8),
-        Type::Str { len } => (u64::from(*len) + 1, 1),
+        // A WSTRING's characters are UTF-16 code units, its terminator a zero unit.
+        Type::Str { len, wide: true } => (2 * (u64::from(*len) + 1), 2),
+        Type::Str { len, wide: false } => (u64::from(*len) + 1, 1),
         Type::Array { elem, .. } => {
             let (s, a) = size_align(types, *elem)?;
             (s.checked_mul(types.element_count(ty))?, a)
@@ -70,6 +72,9 @@ mod tests {
         assert_eq!(size_align(&t, ids::INT), Some((2, 2)));
         assert_eq!(size_align(&t, ids::REAL), Some((4, 4)));
         assert_eq!(size_align(&t, ids::STRING), Some((255, 1)));
+        assert_eq!(size_align(&t, ids::WSTRING), Some((510, 2)));
+        let w = t.wstring(80);
+        assert_eq!(size_align(&t, w), Some((162, 2)));
         let a = t.array(vec![(1, 10)], ids::DINT);
         assert_eq!(size_align(&t, a), Some((40, 4)));
         // BYTE, then DINT aligned to 4, then BOOL; padded to 12.

@@ -281,6 +281,14 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem, mode: Overflow) -> OpResult
         return Ok(v.clone());
     }
     match v {
+        // CHAR is Windows-1252, WCHAR UTF-16: between them a character keeps its meaning
+        // ('?' where the code page lacks it), not its code.
+        Value::Int(i) if from == Elem::Char && to == Elem::Wchar => {
+            Ok(Value::Int(i128::from(widen(&[*i as u8])[0])))
+        }
+        Value::Int(i) if from == Elem::Wchar && to == Elem::Char => {
+            Ok(Value::Int(i128::from(narrow(&[*i as u16])[0])))
+        }
         Value::Int(i) => {
             let i = *i;
             if is_time_like(from) && is_time_like(to) {
@@ -330,6 +338,10 @@ pub fn convert_elem(v: &Value, from: Elem, to: Elem, mode: Overflow) -> OpResult
 /// The text a value converts to (`*_TO_STRING`): the standard's literal forms.
 pub fn to_text(v: &Value, from: Elem) -> Vec<u8> {
     let s = match (v, from) {
+        // A character is its text (CHAR_TO_STRING); NUL ends a string, so it is ''.
+        (Value::Int(0), Elem::Char | Elem::Wchar) => return Vec::new(),
+        (Value::Int(i), Elem::Char) => return vec![*i as u8],
+        (Value::Int(i), Elem::Wchar) => return narrow(&[*i as u16]),
         (Value::Int(i), Elem::Bool) => if *i != 0 { "TRUE" } else { "FALSE" }.to_string(),
         (Value::Int(i), Elem::Time) => format!("T#{}", format_duration(*i)),
         (Value::Int(i), Elem::Ltime) => format!("LTIME#{}", format_duration(*i)),
@@ -420,7 +432,35 @@ pub fn format_tod(ns: i128) -> String {
 
 /// Reads a value of `to` from text (`STRING_TO_*`): the literal forms, with or without
 /// their type prefix; surrounding spaces are ignored.
+/// The WSTRING text of a value (`*_TO_WSTRING`): a WCHAR is its own unit, everything else
+/// its STRING text.
+pub fn to_wide_text(v: &Value, from: Elem) -> Vec<u16> {
+    match (v, from) {
+        (Value::Int(0), Elem::Wchar) => Vec::new(),
+        (Value::Int(i), Elem::Wchar) => vec![*i as u16],
+        _ => widen(&to_text(v, from)),
+    }
+}
+
+/// `WSTRING_TO_*`: WCHAR is the first unit (0 for ""), every other type reads the text.
+pub fn from_wide_text(w: &[u16], to: Elem) -> OpResult<Value> {
+    match to {
+        Elem::Wchar => Ok(Value::Int(i128::from(w.first().copied().unwrap_or(0)))),
+        _ => from_text(&narrow(w), to),
+    }
+}
+
 pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
+    if to.is_char() {
+        // STRING_TO_CHAR: the first character (0 for '').
+        let b = s.first().copied().unwrap_or(0);
+        let v = if to == Elem::Char {
+            i128::from(b)
+        } else {
+            i128::from(widen(&[b])[0])
+        };
+        return Ok(Value::Int(v));
+    }
     let text = std::str::from_utf8(s)
         .map_err(|_| OpError::Conversion)?
         .trim();
@@ -555,17 +595,35 @@ fn check_len(l: i128) -> OpResult<usize> {
     Ok(l.min(u32::MAX as i128) as usize)
 }
 
-pub fn left(s: &[u8], l: i128) -> OpResult<Vec<u8>> {
+/// STRING_TO_WSTRING: each Windows-1252 byte as its character's UTF-16 code unit.
+pub fn widen(s: &[u8]) -> Vec<u16> {
+    s.iter().map(|&b| lexer::cp1252_char(b) as u16).collect()
+}
+
+/// WSTRING_TO_STRING: each character as its Windows-1252 byte, `?` for the characters the
+/// code page lacks (as TwinCAT converts); a surrogate pair is one character.
+pub fn narrow(s: &[u16]) -> Vec<u8> {
+    char::decode_utf16(s.iter().copied())
+        .map(|c| c.ok().and_then(lexer::single_byte).unwrap_or(b'?'))
+        .collect()
+}
+
+/// A WSTRING's text as UTF-8 (lone surrogates as U+FFFD), for messages and display.
+pub fn wide_text(s: &[u16]) -> String {
+    String::from_utf16_lossy(s)
+}
+
+pub fn left<T: Clone>(s: &[T], l: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?;
     Ok(s[..l.min(s.len())].to_vec())
 }
 
-pub fn right(s: &[u8], l: i128) -> OpResult<Vec<u8>> {
+pub fn right<T: Clone>(s: &[T], l: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?.min(s.len());
     Ok(s[s.len() - l..].to_vec())
 }
 
-pub fn mid(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+pub fn mid<T: Clone>(s: &[T], l: i128, p: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?;
     if p < 1 || p > s.len() as i128 + 1 {
         return Err(OpError::Domain("a character position outside the string"));
@@ -575,7 +633,7 @@ pub fn mid(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
     Ok(s[start..end].to_vec())
 }
 
-pub fn insert(a: &[u8], b: &[u8], p: i128) -> OpResult<Vec<u8>> {
+pub fn insert<T: Clone>(a: &[T], b: &[T], p: i128) -> OpResult<Vec<T>> {
     if p < 0 || p > a.len() as i128 {
         return Err(OpError::Domain("a character position outside the string"));
     }
@@ -586,7 +644,7 @@ pub fn insert(a: &[u8], b: &[u8], p: i128) -> OpResult<Vec<u8>> {
     Ok(out)
 }
 
-pub fn delete(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+pub fn delete<T: Clone>(s: &[T], l: i128, p: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?;
     if p < 1 || p > s.len() as i128 + 1 {
         return Err(OpError::Domain("a character position outside the string"));
@@ -598,7 +656,7 @@ pub fn delete(s: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
     Ok(out)
 }
 
-pub fn replace(a: &[u8], b: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
+pub fn replace<T: Clone>(a: &[T], b: &[T], l: i128, p: i128) -> OpResult<Vec<T>> {
     let l = check_len(l)?;
     if p < 1 || p > a.len() as i128 + 1 {
         return Err(OpError::Domain("a character position outside the string"));
@@ -611,7 +669,7 @@ pub fn replace(a: &[u8], b: &[u8], l: i128, p: i128) -> OpResult<Vec<u8>> {
     Ok(out)
 }
 
-pub fn find(a: &[u8], b: &[u8]) -> i128 {
+pub fn find<T: PartialEq>(a: &[T], b: &[T]) -> i128 {
     if b.is_empty() || b.len() > a.len() {
         return 0;
     }

@@ -109,7 +109,8 @@ pub(crate) fn typed_form(name: &str) -> Option<(&'static str, String)> {
     }
     let (f, t) = n.split_once('_')?;
     let generic = TYPED_GENERICS.iter().find(|g| **g == f)?;
-    (Elem::from_name(t).is_some() || t == "STRING").then(|| (*generic, t.to_string()))
+    (Elem::from_name(t).is_some() || t == "STRING" || t == "WSTRING")
+        .then(|| (*generic, t.to_string()))
 }
 
 /// A BCD conversion's name: `WORD_BCD_TO_INT` and `BCD_TO_INT` decode, `INT_TO_BCD_WORD`

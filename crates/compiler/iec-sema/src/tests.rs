@@ -404,24 +404,6 @@ r := SQRT_INT(i);",
 }
 
 #[test]
-fn wide_strings_and_characters_are_unsupported_not_unknown() {
-    // All four parse (STRING(n) as PCWorx and CODESYS write it); the checker says what the
-    // engine cannot hold yet.
-    check_errors(
-        "PROGRAM p
-VAR s : STRING(10); w : WSTRING; w2 : WSTRING(5); c : CHAR; wc : WCHAR; END_VAR
-s := 'abc';
-END_PROGRAM",
-        &[
-            "E190]: WSTRING is not supported; use STRING",
-            "E190]: WSTRING is not supported; use STRING",
-            "E190]: CHAR is not supported; use BYTE or STRING[1]",
-            "E190]: WCHAR is not supported; use WORD",
-        ],
-    );
-}
-
-#[test]
 fn bcd_conversions() {
     let p = check_ok(&prog(
         "w : WORD; b : BYTE; d : DWORD; i : INT; u : UINT; us : USINT; di : DINT;",

@@ -32,9 +32,13 @@ pub enum Elem {
     Date,
     Tod,
     Dt,
+    /// A single-byte character (Windows-1252, as STRING's), its code 0..255.
+    Char,
+    /// A UTF-16 code unit, as WSTRING's characters, 0..65535.
+    Wchar,
 }
 
-pub const ELEMS: [Elem; 20] = [
+pub const ELEMS: [Elem; 22] = [
     Elem::Bool,
     Elem::Sint,
     Elem::Int,
@@ -55,6 +59,8 @@ pub const ELEMS: [Elem; 20] = [
     Elem::Date,
     Elem::Tod,
     Elem::Dt,
+    Elem::Char,
+    Elem::Wchar,
 ];
 
 impl Elem {
@@ -80,6 +86,8 @@ impl Elem {
             Elem::Date => "DATE",
             Elem::Tod => "TOD",
             Elem::Dt => "DT",
+            Elem::Char => "CHAR",
+            Elem::Wchar => "WCHAR",
         }
     }
 
@@ -104,6 +112,11 @@ impl Elem {
 
     pub fn is_unsigned(self) -> bool {
         matches!(self, Elem::Usint | Elem::Uint | Elem::Udint | Elem::Ulint)
+    }
+
+    /// CHAR or WCHAR (ANY_CHAR).
+    pub fn is_char(self) -> bool {
+        matches!(self, Elem::Char | Elem::Wchar)
     }
 
     /// ANY_INT.
@@ -150,8 +163,8 @@ impl Elem {
     pub fn bits(self) -> u32 {
         match self {
             Elem::Bool => 1,
-            Elem::Sint | Elem::Usint | Elem::Byte => 8,
-            Elem::Int | Elem::Uint | Elem::Word => 16,
+            Elem::Sint | Elem::Usint | Elem::Byte | Elem::Char => 8,
+            Elem::Int | Elem::Uint | Elem::Word | Elem::Wchar => 16,
             Elem::Dint | Elem::Udint | Elem::Dword | Elem::Real => 32,
             _ => 64,
         }
@@ -167,8 +180,8 @@ impl Elem {
             Elem::Lint | Elem::Time | Elem::Ltime | Elem::Date | Elem::Tod | Elem::Dt => {
                 (i64::MIN as i128, i64::MAX as i128)
             }
-            Elem::Usint | Elem::Byte => (0, u8::MAX as i128),
-            Elem::Uint | Elem::Word => (0, u16::MAX as i128),
+            Elem::Usint | Elem::Byte | Elem::Char => (0, u8::MAX as i128),
+            Elem::Uint | Elem::Word | Elem::Wchar => (0, u16::MAX as i128),
             Elem::Udint | Elem::Dword => (0, u32::MAX as i128),
             Elem::Ulint | Elem::Lword => (0, u64::MAX as i128),
             Elem::Real | Elem::Lreal => (i128::MIN, i128::MAX),
@@ -223,9 +236,11 @@ pub struct Field {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Type {
     Elem(Elem),
-    /// `STRING[len]`, `len` bytes at most.
+    /// `STRING[len]`, `len` bytes at most; `WSTRING[len]` (`wide`), `len` UTF-16 code
+    /// units at most (CODESYS and TwinCAT store UCS-2/UTF-16).
     Str {
         len: u32,
+        wide: bool,
     },
     /// Dimensions as inclusive bounds, outermost first.
     Array {
@@ -290,12 +305,16 @@ pub mod ids {
     pub const DATE: TypeId = 17;
     pub const TOD: TypeId = 18;
     pub const DT: TypeId = 19;
-    pub const INT_LIT: TypeId = 20;
-    pub const REAL_LIT: TypeId = 21;
-    pub const VOID: TypeId = 22;
-    pub const ERROR: TypeId = 23;
+    pub const CHAR: TypeId = 20;
+    pub const WCHAR: TypeId = 21;
+    pub const INT_LIT: TypeId = 22;
+    pub const REAL_LIT: TypeId = 23;
+    pub const VOID: TypeId = 24;
+    pub const ERROR: TypeId = 25;
     /// `STRING` without a length: 254 characters.
-    pub const STRING: TypeId = 24;
+    pub const STRING: TypeId = 26;
+    /// `WSTRING` without a length: as many characters as `STRING`.
+    pub const WSTRING: TypeId = 27;
 }
 
 /// The default length of `STRING`.
@@ -305,7 +324,7 @@ pub const MAX_STRING_LEN: u32 = 65_535;
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 enum Key {
-    Str(u32),
+    Str(u32, bool),
     Array(Vec<(i64, i64)>, TypeId),
     Subrange(Elem, i128, i128),
     Fb(FbRef),
@@ -338,6 +357,8 @@ impl TypeTable {
         t.types.push(Type::Error);
         let s = t.string(DEFAULT_STRING_LEN);
         debug_assert_eq!(s, ids::STRING);
+        let w = t.wstring(DEFAULT_STRING_LEN);
+        debug_assert_eq!(w, ids::WSTRING);
         t
     }
 
@@ -368,7 +389,25 @@ impl TypeTable {
     }
 
     pub fn string(&mut self, len: u32) -> TypeId {
-        self.intern(Key::Str(len), Type::Str { len })
+        self.intern(Key::Str(len, false), Type::Str { len, wide: false })
+    }
+
+    pub fn wstring(&mut self, len: u32) -> TypeId {
+        self.intern(Key::Str(len, true), Type::Str { len, wide: true })
+    }
+
+    /// A string type of `len` characters, wide or not.
+    pub fn string_of(&mut self, len: u32, wide: bool) -> TypeId {
+        if wide {
+            self.wstring(len)
+        } else {
+            self.string(len)
+        }
+    }
+
+    /// Whether the type is `WSTRING[n]`.
+    pub fn is_wstring(&self, id: TypeId) -> bool {
+        matches!(self.get(id), Type::Str { wide: true, .. })
     }
 
     pub fn array(&mut self, dims: Vec<(i64, i64)>, elem: TypeId) -> TypeId {
@@ -460,8 +499,14 @@ impl TypeTable {
     pub fn name(&self, id: TypeId) -> String {
         match self.get(id) {
             Type::Elem(e) => e.name().to_string(),
-            Type::Str { len } if *len == DEFAULT_STRING_LEN => "STRING".into(),
-            Type::Str { len } => format!("STRING[{len}]"),
+            Type::Str { len, wide } => {
+                let n = if *wide { "WSTRING" } else { "STRING" };
+                if *len == DEFAULT_STRING_LEN {
+                    n.into()
+                } else {
+                    format!("{n}[{len}]")
+                }
+            }
             Type::Array { dims, elem } => format!(
                 "ARRAY[{}] OF {}",
                 dims.iter()
@@ -527,10 +572,19 @@ mod tests {
 
     #[test]
     fn fixed_ids_match_the_elementary_order() {
-        let t = TypeTable::new();
+        let mut t = TypeTable::new();
         assert_eq!(t.get(ids::LREAL), &Type::Elem(Elem::Lreal));
         assert_eq!(t.get(ids::DT), &Type::Elem(Elem::Dt));
-        assert_eq!(t.get(ids::STRING), &Type::Str { len: 254 });
+        assert_eq!(
+            t.get(ids::STRING),
+            &Type::Str {
+                len: 254,
+                wide: false
+            }
+        );
+        assert_eq!(t.name(ids::WSTRING), "WSTRING");
+        let w8 = t.wstring(8);
+        assert_eq!(t.name(w8), "WSTRING[8]");
         assert_eq!(TypeTable::elem_id(Elem::Word), ids::WORD);
     }
 

@@ -8,6 +8,8 @@ pub enum Value {
     Int(i128),
     Real(f64),
     Str(Vec<u8>),
+    /// A WSTRING's UTF-16 code units.
+    WStr(Vec<u16>),
     /// Every element, in row-major order.
     Array(Vec<Value>),
     /// Some fields of a structure, or some variables of a function block instance, by index.

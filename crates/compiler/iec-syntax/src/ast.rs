@@ -749,9 +749,12 @@ pub enum Literal {
         value: bool,
         ty: Option<Ident>,
     },
+    /// `'…'` (Windows-1252 bytes) or `"…"` (`wide`: UTF-8), with its prefix if typed
+    /// (`STRING#'…'`, `WSTRING#"…"`).
     String {
         bytes: Vec<u8>,
         wide: bool,
+        ty: Option<Ident>,
     },
     /// Durations, dates and times of day in nanoseconds.
     Time {

@@ -39,7 +39,7 @@ pub const CODES: &[Entry] = &[
       "PROGRAM p\nVAR d : DATE; END_VAR\nd := D#2024-02-30;\nEND_PROGRAM",
       "write a day of the calendar (`D#2024-03-01`), a time of day from 00:00:00 to 23:59:59.999999999, a duration with units (`T#1h2m3s`)."),
     e("E006", "an unknown `$` escape in a string literal",
-      "The escapes are `$$`, `$'`, `$\"`, `$L`, `$N`, `$P`, `$R`, `$T` and `$` with two hexadecimal digits.",
+      "The escapes are `$$`, `$'`, `$\"`, `$L`, `$N`, `$P`, `$R`, `$T` and `$` with two hexadecimal digits in a STRING (`'$41'`), four in a WSTRING (`\"$0041\"`).",
       "PROGRAM p\nVAR s : STRING; END_VAR\ns := 'a$qb';\nEND_PROGRAM",
       "use one of the escapes, or `$$` for a dollar sign."),
     e("E009", "a character in a STRING literal that STRING's code page does not have",
@@ -186,9 +186,9 @@ pub const CODES: &[Entry] = &[
       "",
       "pass a STRING (a literal such as '%04d' or a STRING variable) as the format."),
     e("E190", "something the engine does not support yet",
-      "WSTRING and CHAR, REFERENCE TO a function block, a result of type REFERENCE TO, UNION and others: docs/iec.md, \"What is supported\".",
-      "PROGRAM p\nVAR w : WSTRING; END_VAR\nEND_PROGRAM",
-      "use what the message suggests (STRING for WSTRING)."),
+      "REFERENCE TO a function block or to a reference, a result of type REFERENCE TO, VAR_ACCESS and others: docs/iec.md, \"What is supported\".",
+      "PROGRAM p\nVAR r : REFERENCE TO REFERENCE TO INT; END_VAR\nEND_PROGRAM",
+      "use what the message suggests."),
     e("E200", "`^` applied to something that is not a reference or pointer",
       "Only a variable (or field, element) of a `REF_TO`/`POINTER TO` type is dereferenced; docs/iec.md, \"References and pointers\".",
       "PROGRAM p\nVAR x : INT; END_VAR\nx^ := 1;\nEND_PROGRAM",
@@ -308,6 +308,10 @@ pub const CODES: &[Entry] = &[
       "Warning: petriplc reads `(* (* *) *)` nested, as CODESYS and TwinCAT do; when the comment then has no end, it is read as the standard and matiec (so OpenPLC and Beremiz) read every comment, ending at the first `*)`, the inner `(*` being text. What lies between the inner opening and that close is part of the comment, not code.",
       "PROGRAM p\nVAR x : INT; END_VAR\n(* note (* unclosed *)\nx := 1;\nEND_PROGRAM",
       "close the inner comment (`*)`), or remove its `(*`."),
+    e("W043", "U+FFFD, the replacement character, in a STRING literal",
+      "Warning: the source holds U+FFFD where a conversion to UTF-8 met a byte it could not read; the character first written there is lost. STRING has no U+FFFD (E009 for other characters outside Windows-1252), so it is stored as `?`, as a conversion to the code page stores it; matiec and ironplc read such a file too.",
+      "PROGRAM p\nVAR s : STRING[1] := '\u{FFFD}'; END_VAR\nEND_PROGRAM",
+      "write the character meant (or its byte as `$XX`) in place of the replacement character."),
 ];
 
 /// The codes of PLCopen XML projects and their graphical bodies.

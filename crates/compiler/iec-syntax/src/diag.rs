@@ -111,6 +111,7 @@ codes! {
     SFC_NEVER = "W033",
     REFERENCE_CARET = "W040",
     COMMENT_NOT_NESTED = "W045",
+    REPLACEMENT_CHAR = "W043",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -279,40 +279,52 @@ struct Lexer<'a, 'd> {
 /// The byte of `c` in STRING's code page, Windows-1252 (what CODESYS and TwinCAT store): the
 /// Latin-1 characters U+0000–U+00FF are their own byte, and 27 others (`€` is 16#80) take
 /// the places 16#80–16#9F, whose control characters a file read byte for byte also gives.
-fn single_byte(c: char) -> Option<u8> {
-    const HIGH: [(char, u8); 27] = [
-        ('\u{20ac}', 0x80),
-        ('\u{201a}', 0x82),
-        ('\u{0192}', 0x83),
-        ('\u{201e}', 0x84),
-        ('\u{2026}', 0x85),
-        ('\u{2020}', 0x86),
-        ('\u{2021}', 0x87),
-        ('\u{02c6}', 0x88),
-        ('\u{2030}', 0x89),
-        ('\u{0160}', 0x8a),
-        ('\u{2039}', 0x8b),
-        ('\u{0152}', 0x8c),
-        ('\u{017d}', 0x8e),
-        ('\u{2018}', 0x91),
-        ('\u{2019}', 0x92),
-        ('\u{201c}', 0x93),
-        ('\u{201d}', 0x94),
-        ('\u{2022}', 0x95),
-        ('\u{2013}', 0x96),
-        ('\u{2014}', 0x97),
-        ('\u{02dc}', 0x98),
-        ('\u{2122}', 0x99),
-        ('\u{0161}', 0x9a),
-        ('\u{203a}', 0x9b),
-        ('\u{0153}', 0x9c),
-        ('\u{017e}', 0x9e),
-        ('\u{0178}', 0x9f),
-    ];
-    u8::try_from(u32::from(c))
-        .ok()
-        .or_else(|| HIGH.iter().find(|(h, _)| *h == c).map(|&(_, b)| b))
+pub fn single_byte(c: char) -> Option<u8> {
+    CP1252_HIGH
+        .iter()
+        .find(|(h, _)| *h == c)
+        .map(|&(_, b)| b)
+        .or_else(|| u8::try_from(u32::from(c)).ok())
 }
+
+/// The character a STRING byte stands for in Windows-1252 (STRING_TO_WSTRING): 16#80–16#9F
+/// are `€` `‚` … where the code page has a character, their control character elsewhere.
+pub fn cp1252_char(b: u8) -> char {
+    CP1252_HIGH
+        .iter()
+        .find(|(_, x)| *x == b)
+        .map_or(char::from(b), |&(c, _)| c)
+}
+
+const CP1252_HIGH: [(char, u8); 27] = [
+    ('\u{20ac}', 0x80),
+    ('\u{201a}', 0x82),
+    ('\u{0192}', 0x83),
+    ('\u{201e}', 0x84),
+    ('\u{2026}', 0x85),
+    ('\u{2020}', 0x86),
+    ('\u{2021}', 0x87),
+    ('\u{02c6}', 0x88),
+    ('\u{2030}', 0x89),
+    ('\u{0160}', 0x8a),
+    ('\u{2039}', 0x8b),
+    ('\u{0152}', 0x8c),
+    ('\u{017d}', 0x8e),
+    ('\u{2018}', 0x91),
+    ('\u{2019}', 0x92),
+    ('\u{201c}', 0x93),
+    ('\u{201d}', 0x94),
+    ('\u{2022}', 0x95),
+    ('\u{2013}', 0x96),
+    ('\u{2014}', 0x97),
+    ('\u{02dc}', 0x98),
+    ('\u{2122}', 0x99),
+    ('\u{0161}', 0x9a),
+    ('\u{203a}', 0x9b),
+    ('\u{0153}', 0x9c),
+    ('\u{017e}', 0x9e),
+    ('\u{0178}', 0x9f),
+];
 
 fn is_ident_start(b: u8) -> bool {
     b.is_ascii_alphabetic() || b == b'_'
@@ -533,6 +545,14 @@ impl Lexer<'_, '_> {
                 let n = c.len_utf8();
                 match single_byte(c) {
                     Some(v) => bytes.push(v),
+                    None if c == '\u{fffd}' => {
+                        self.diags.warning(
+                            diag::REPLACEMENT_CHAR,
+                            Span::new(self.file, self.pos, self.pos + n),
+                            "U+FFFD, the replacement character a conversion to UTF-8 leaves for a byte it could not read, is not a character of STRING: stored as '?'; write the character meant, or its byte as $XX",
+                        );
+                        bytes.push(b'?');
+                    }
                     None => {
                         self.error(
                             diag::NOT_LATIN1,

@@ -198,6 +198,8 @@ impl Reader<'_> {
             "BOOL", "BYTE", "WORD", "DWORD", "LWORD", "SINT", "INT", "DINT", "LINT", "USINT",
             "UINT", "UDINT", "ULINT", "REAL", "LREAL", "TIME", "DATE", "DT", "TOD", "LTIME",
             "LDATE", "LDT", "LTOD", "CHAR", "WCHAR",
+            // Not TC6 elements (`<string>`, `<wstring>` are), but what some exporters write.
+            "STRING", "WSTRING",
         ];
         let n = t.name.as_str();
         if ELEMENTARY.contains(&n) {

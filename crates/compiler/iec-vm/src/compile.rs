@@ -226,7 +226,8 @@ fn is_string(p: &Project, ty: TypeId) -> bool {
 
 fn str_cap(p: &Project, ty: TypeId) -> u32 {
     match p.types.get(ty) {
-        Type::Str { len } => *len,
+        // In bytes: a WSTRING's units are two bytes each (ext::read_units).
+        Type::Str { len, wide } => len.saturating_mul(if *wide { 2 } else { 1 }),
         _ => 0,
     }
 }
@@ -255,7 +256,9 @@ fn elem_or_dint(p: &Project, ty: TypeId) -> Elem {
 }
 
 fn kind(p: &Project, ty: TypeId) -> Kind {
-    if is_string(p, ty) {
+    if p.types.is_wstring(ty) {
+        Kind::W
+    } else if is_string(p, ty) {
         Kind::S
     } else {
         ext::kind_of(elem_or_dint(p, ty))

@@ -72,6 +72,19 @@ fn cmp_f(op: Cmp, a: f64, b: f64) -> bool {
     }
 }
 
+/// A comparison's result from the operands' order.
+fn cmp_ord(op: Cmp, o: std::cmp::Ordering) -> bool {
+    use std::cmp::Ordering::*;
+    match op {
+        Cmp::Eq => o == Equal,
+        Cmp::Ne => o != Equal,
+        Cmp::Lt => o == Less,
+        Cmp::Le => o != Greater,
+        Cmp::Gt => o == Greater,
+        Cmp::Ge => o != Less,
+    }
+}
+
 fn sym(op: Arith) -> &'static str {
     match op {
         Arith::Add => "+",
@@ -415,16 +428,13 @@ fn data(
         Op::CmpF { op, d, a, b } => {
             m!(d) = cmp_f(op, f64::from_bits(m!(a)), f64::from_bits(m!(b))) as u64
         }
-        Op::CmpS { op, d, a, b } => {
-            let x = read_str(mem, m!(a) as usize);
-            let y = read_str(mem, m!(b) as usize);
-            let r = match op {
-                Cmp::Eq => x == y,
-                Cmp::Ne => x != y,
-                Cmp::Lt => x < y,
-                Cmp::Le => x <= y,
-                Cmp::Gt => x > y,
-                Cmp::Ge => x >= y,
+        Op::CmpS { op, d, a, b, wide } => {
+            let (x, y) = (m!(a) as usize, m!(b) as usize);
+            // Equal bytes are equal units; the order of WSTRINGs is their units' order.
+            let r = if wide && !matches!(op, Cmp::Eq | Cmp::Ne) {
+                cmp_ord(op, ext::read_units(mem, x).cmp(&ext::read_units(mem, y)))
+            } else {
+                cmp_ord(op, read_str(mem, x).cmp(&read_str(mem, y)))
             };
             m!(d) = r as u64;
         }

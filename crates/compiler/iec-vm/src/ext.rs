@@ -19,6 +19,8 @@ pub enum Kind {
     F,
     /// Strings: operands are pointer slots.
     S,
+    /// WSTRINGs (pointer slots): compared by UTF-16 code units.
+    W,
 }
 
 pub fn kind_of(e: Elem) -> Kind {
@@ -44,11 +46,21 @@ pub enum ExtOp {
         s: u32,
         from: Elem,
         cap: u32,
+        wide: bool,
     },
     FromStr {
         d: u32,
         sp: u32,
         to: Elem,
+        wide: bool,
+    },
+    /// STRING_TO_WSTRING (`wide`: to WSTRING) or WSTRING_TO_STRING: the string at pointer
+    /// `sp` recoded into the buffer at pointer `dp` (capacity `cap` bytes).
+    Recode {
+        dp: u32,
+        sp: u32,
+        wide: bool,
+        cap: u32,
     },
     Trunc {
         d: u32,
@@ -213,6 +225,7 @@ pub enum ExtOp {
         d: u32,
         args: Vec<u32>,
         cap: u32,
+        wide: bool,
     },
     ConcatDateTod {
         d: u32,
@@ -343,6 +356,46 @@ pub fn write_str(mem: &mut [u64], at: usize, bytes: &[u8], cap: u32) {
     }
 }
 
+/// Reads the WSTRING stored at absolute address `at`: its bytes are the UTF-16LE code
+/// units (the length slot counts bytes, as a STRING's does).
+pub fn read_units(mem: &[u64], at: usize) -> Vec<u16> {
+    read_str(mem, at)
+        .chunks_exact(2)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]))
+        .collect()
+}
+
+/// Writes a WSTRING at absolute address `at`, truncated to `cap` bytes (whole units).
+pub fn write_units(mem: &mut [u64], at: usize, units: &[u16], cap: u32) {
+    let bytes: Vec<u8> = units.iter().flat_map(|u| u.to_le_bytes()).collect();
+    write_str(mem, at, &bytes, cap & !1);
+}
+
+/// A string's characters: bytes (STRING) or UTF-16 code units (WSTRING), with how they
+/// are read and written; the string functions are written once over both.
+trait Unit: Copy + Ord {
+    fn read(mem: &[u64], at: usize) -> Vec<Self>;
+    fn write(mem: &mut [u64], at: usize, s: &[Self], cap: u32);
+}
+
+impl Unit for u8 {
+    fn read(mem: &[u64], at: usize) -> Vec<u8> {
+        read_str(mem, at)
+    }
+    fn write(mem: &mut [u64], at: usize, s: &[u8], cap: u32) {
+        write_str(mem, at, s, cap)
+    }
+}
+
+impl Unit for u16 {
+    fn read(mem: &[u64], at: usize) -> Vec<u16> {
+        read_units(mem, at)
+    }
+    fn write(mem: &mut [u64], at: usize, s: &[u16], cap: u32) {
+        write_units(mem, at, s, cap)
+    }
+}
+
 fn ptr(mem: &[u64], base: usize, s: u32) -> usize {
     slot(mem, base, s) as usize
 }
@@ -371,12 +424,13 @@ fn less(mem: &[u64], base: usize, a: u32, b: u32, kind: Kind) -> bool {
         Kind::U => slot(mem, base, a) < slot(mem, base, b),
         Kind::F => real(mem, base, a) < real(mem, base, b),
         Kind::S => read_str(mem, ptr(mem, base, a)) < read_str(mem, ptr(mem, base, b)),
+        Kind::W => read_units(mem, ptr(mem, base, a)) < read_units(mem, ptr(mem, base, b)),
     }
 }
 
 /// Stores the value of slot `src` (or the string it points to) as the result `d`.
 fn set_from(mem: &mut [u64], base: usize, d: u32, src: u32, kind: Kind, cap: u32) {
-    if kind == Kind::S {
+    if matches!(kind, Kind::S | Kind::W) {
         let s = read_str(mem, ptr(mem, base, src));
         let at = ptr(mem, base, d);
         write_str(mem, at, &s, cap);
@@ -407,21 +461,54 @@ pub fn exec(
             })?;
             mem[base + *d as usize] = put_value(&r, *to);
         }
-        ExtOp::ToStr { dp, s, from, cap } => {
+        ExtOp::ToStr {
+            dp,
+            s,
+            from,
+            cap,
+            wide,
+        } => {
             let raw = slot(mem, base, *s);
             let text = ops::to_text(&get_value(raw, *from), *from);
             let at = ptr(mem, base, *dp);
-            write_str(mem, at, &text, *cap);
+            if *wide {
+                let v = get_value(raw, *from);
+                write_units(mem, at, &ops::to_wide_text(&v, *from), *cap);
+            } else {
+                write_str(mem, at, &text, *cap);
+            }
         }
-        ExtOp::FromStr { d, sp, to } => {
-            let s = read_str(mem, ptr(mem, base, *sp));
-            let r = ops::from_text(&s, *to).map_err(|e| {
-                fault(
-                    e,
-                    format!("STRING_TO_{}('{}')", to.name(), String::from_utf8_lossy(&s)),
-                )
-            })?;
+        ExtOp::FromStr { d, sp, to, wide } => {
+            let at = ptr(mem, base, *sp);
+            let r = if *wide {
+                let w = read_units(mem, at);
+                ops::from_wide_text(&w, *to).map_err(|e| {
+                    fault(
+                        e,
+                        format!("WSTRING_TO_{}(\"{}\")", to.name(), ops::wide_text(&w)),
+                    )
+                })?
+            } else {
+                let s = read_str(mem, at);
+                ops::from_text(&s, *to).map_err(|e| {
+                    fault(
+                        e,
+                        format!("STRING_TO_{}('{}')", to.name(), String::from_utf8_lossy(&s)),
+                    )
+                })?
+            };
             mem[base + *d as usize] = put_value(&r, *to);
+        }
+        ExtOp::Recode { dp, sp, wide, cap } => {
+            let from = ptr(mem, base, *sp);
+            let at = ptr(mem, base, *dp);
+            if *wide {
+                let w = ops::widen(&read_str(mem, from));
+                write_units(mem, at, &w, *cap);
+            } else {
+                let s = ops::narrow(&read_units(mem, from));
+                write_str(mem, at, &s, *cap);
+            }
         }
         ExtOp::Trunc { d, s, to } => {
             let v = real(mem, base, *s);
@@ -646,7 +733,19 @@ pub fn exec(
                 .map_err(|er| fault(er, format!("{}(…, {k})", f.name())))?;
             mem[base + *d as usize] = r as i64 as u64;
         }
-        ExtOp::Str { f, d, args, cap } => string_fn(*f, *d, args, *cap, mem, base)?,
+        ExtOp::Str {
+            f,
+            d,
+            args,
+            cap,
+            wide,
+        } => {
+            if *wide {
+                string_fn::<u16>(*f, *d, args, *cap, mem, base)?
+            } else {
+                string_fn::<u8>(*f, *d, args, *cap, mem, base)?
+            }
+        }
         ExtOp::NonZeroStep { s } => {
             if slot(mem, base, *s) == 0 {
                 return Err(fault(
@@ -737,7 +836,7 @@ pub fn exec(
     Ok(())
 }
 
-fn string_fn(
+fn string_fn<U: Unit>(
     f: Builtin,
     d: u32,
     args: &[u32],
@@ -745,10 +844,10 @@ fn string_fn(
     mem: &mut [u64],
     base: usize,
 ) -> Result<(), OpFault> {
-    let s = |k: usize, mem: &[u64]| read_str(mem, ptr(mem, base, args[k]));
+    let s = |k: usize, mem: &[u64]| U::read(mem, ptr(mem, base, args[k]));
     let n = |k: usize, mem: &[u64]| int(mem, base, args[k]);
     let describe = |e: OpError, what: String| fault(e, what);
-    let out: Vec<u8> = match f {
+    let out: Vec<U> = match f {
         Builtin::Len => {
             mem[base + d as usize] = s(0, mem).len() as u64;
             return Ok(());
@@ -826,7 +925,7 @@ fn string_fn(
         _ => Vec::new(),
     };
     let at = ptr(mem, base, d);
-    write_str(mem, at, &out, cap);
+    U::write(mem, at, &out, cap);
     Ok(())
 }
 

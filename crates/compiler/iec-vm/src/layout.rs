@@ -5,7 +5,8 @@
 use petriplc_iec_sema::ir::{Project, VarClass};
 use petriplc_iec_sema::types::{FbRef, Type, TypeId};
 
-/// Slots of a string of `len` bytes: one for the length, then 8 bytes per slot.
+/// Slots of a string of `len` bytes (a WSTRING's: twice its characters): one for the
+/// length, then 8 bytes per slot.
 pub fn string_slots(len: u32) -> u32 {
     1 + len.div_ceil(8)
 }
@@ -26,7 +27,7 @@ impl Sizes {
             | Type::Subrange { .. }
             | Type::Ref { .. }
             | Type::Null => 1,
-            Type::Str { len } => string_slots(*len),
+            Type::Str { len, wide } => string_slots(len.saturating_mul(1 + u32::from(*wide))),
             Type::Array { elem, .. } => {
                 let n = project.types.element_count(ty);
                 let e = self.of(project, *elem)? as u64;

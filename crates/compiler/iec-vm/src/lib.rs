@@ -17,13 +17,14 @@ mod machine;
 pub mod native;
 pub mod op;
 pub mod pointer;
+mod text;
 mod vars;
 
 pub use compile::{CompileError, InstanceSpec};
 pub use exec::FaultKind;
 pub use machine::{
-    display, string_literal, Backend, Compiled, Compiler, Engine, Fault, Machine, Ran, Scanner,
-    DEFAULT_ITERATIONS,
+    Backend, Compiled, Compiler, Engine, Fault, Machine, Ran, Scanner, DEFAULT_ITERATIONS,
 };
 pub use native::{NativeCtx, NativeFb};
+pub use text::{display, string_literal, wide_literal};
 pub use vars::{RetainImage, Retained, VarRef};

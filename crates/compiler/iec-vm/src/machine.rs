@@ -243,9 +243,13 @@ impl Engine {
                 Type::Elem(e) => ext::put_value(&value, e),
                 Type::Subrange { base, .. } => ext::put_value(&value, base),
                 Type::Enum { .. } => value.as_int().unwrap_or(0) as i64 as u64,
-                Type::Str { len } => {
-                    if let Value::Str(s) = &value {
-                        ext::write_str(&mut self.code.init, at, s, len);
+                Type::Str { len, wide } => {
+                    match &value {
+                        Value::Str(s) if !wide => ext::write_str(&mut self.code.init, at, s, len),
+                        Value::WStr(w) if wide => {
+                            ext::write_units(&mut self.code.init, at, w, len.saturating_mul(2))
+                        }
+                        _ => {}
                     }
                     continue;
                 }
@@ -926,7 +930,10 @@ impl Machine {
         Some(match p.types.get(v.ty) {
             Type::Elem(e) | Type::Subrange { base: e, .. } => ext::get_value(raw, *e),
             Type::Enum { .. } => Value::Int(raw as i64 as i128),
-            Type::Str { .. } => Value::Str(ext::read_str(&self.mem, v.addr as usize)),
+            Type::Str { wide: false, .. } => Value::Str(ext::read_str(&self.mem, v.addr as usize)),
+            Type::Str { wide: true, .. } => {
+                Value::WStr(ext::read_units(&self.mem, v.addr as usize))
+            }
             _ => return None,
         })
     }
@@ -982,13 +989,27 @@ impl Machine {
                 self.mem[v.addr as usize] = i as i64 as u64;
                 Ok(())
             }
-            Type::Str { len } => match value {
+            Type::Str { len, wide: false } => match value {
                 Value::Str(s) => {
                     ext::write_str(&mut self.mem, v.addr as usize, s, len);
                     Ok(())
                 }
+                Value::WStr(w) => {
+                    ext::write_str(&mut self.mem, v.addr as usize, &ops::narrow(w), len);
+                    Ok(())
+                }
                 _ => Err("a STRING takes text".into()),
             },
+            Type::Str { len, wide: true } => {
+                let w = match value {
+                    Value::WStr(w) => w.clone(),
+                    // Text from outside (a point, a command line) in its characters.
+                    Value::Str(s) => String::from_utf8_lossy(s).encode_utf16().collect(),
+                    _ => return Err("a WSTRING takes text".into()),
+                };
+                ext::write_units(&mut self.mem, v.addr as usize, &w, len.saturating_mul(2));
+                Ok(())
+            }
             _ => Err("only elementary variables and strings can be set".into()),
         }
     }
@@ -1039,44 +1060,4 @@ impl Machine {
         }
         skipped
     }
-}
-
-/// A value as the trace and messages show it: BOOL 0/1, integers in decimal, reals and
-/// durations as IEC literals, strings in quotes.
-pub fn display(project: &Project, ty: TypeId, v: &Value) -> String {
-    match (project.types.get(ty), v) {
-        (Type::Elem(Elem::Bool), Value::Int(i)) => if *i != 0 { "1" } else { "0" }.to_string(),
-        (Type::Elem(e), v) if e.is_real() || e.is_duration() || e.is_date() => {
-            String::from_utf8_lossy(&ops::to_text(v, *e)).into_owned()
-        }
-        (Type::Enum { values, .. }, Value::Int(i)) => values
-            .iter()
-            .find(|(_, x)| *x as i128 == *i)
-            .map_or_else(|| i.to_string(), |(n, _)| n.clone()),
-        (_, Value::Int(i)) => i.to_string(),
-        (_, Value::Real(f)) => ops::format_real(*f, Elem::Lreal),
-        (_, Value::Str(s)) => string_literal(s),
-        _ => String::new(),
-    }
-}
-
-/// A string as an IEC literal: `'it$'s'`, with `$$`, `$'`, `$N`, `$T`, `$R` and `$hh` for
-/// other control characters.
-pub fn string_literal(s: &[u8]) -> String {
-    let mut out = String::from("'");
-    for &b in s {
-        match b {
-            b'\'' => out.push_str("$'"),
-            b'$' => out.push_str("$$"),
-            b'\n' => out.push_str("$N"),
-            b'\t' => out.push_str("$T"),
-            b'\r' => out.push_str("$R"),
-            0x0c => out.push_str("$P"),
-            b if b < 0x20 || b == 0x7f => out.push_str(&format!("${b:02X}")),
-            b if b < 0x80 => out.push(b as char),
-            b => out.push_str(&format!("${b:02X}")),
-        }
-    }
-    out.push('\'');
-    out
 }

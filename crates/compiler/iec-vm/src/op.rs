@@ -3,7 +3,8 @@
 //! code, whose slots are absolute); `g` operands are absolute. Every value is one 64-bit slot:
 //! BOOL 0/1, integers sign- or zero-extended, reals as f64 bits (REAL rounded to single
 //! precision), durations and dates as i64 nanoseconds; a STRING[n] is a length slot followed
-//! by its bytes, eight to a slot.
+//! by its bytes, eight to a slot; a WSTRING[n] the same with its UTF-16LE bytes (2n at
+//! most, the length slot counting bytes).
 //!
 //! Operations that can fail (overflow, division by zero, index, conversion) return a fault
 //! the VM reports with the POU and line of the instruction.
@@ -30,8 +31,8 @@ pub fn range_of(e: Elem) -> u8 {
         Elem::Sint => 1,
         Elem::Int => 2,
         Elem::Dint => 3,
-        Elem::Usint | Elem::Byte => 4,
-        Elem::Uint | Elem::Word => 5,
+        Elem::Usint | Elem::Byte | Elem::Char => 4,
+        Elem::Uint | Elem::Word | Elem::Wchar => 5,
         Elem::Udint | Elem::Dword => 6,
         _ => 7,
     }
@@ -316,12 +317,13 @@ pub enum Op {
         a: u32,
         b: u32,
     },
-    /// String comparison through pointer slots.
+    /// String comparison through pointer slots (`wide`: WSTRINGs, by UTF-16 code units).
     CmpS {
         op: Cmp,
         d: u32,
         a: u32,
         b: u32,
+        wide: bool,
     },
 
     /// Integer arithmetic of a narrow type (range `r`), of LINT-like and ULINT-like types.

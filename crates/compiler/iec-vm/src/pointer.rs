@@ -148,9 +148,11 @@ pub fn deref(
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
     Elem(Elem),
-    /// A length slot, then the bytes eight to a slot; `cap + 1` bytes (the terminator).
+    /// A length slot, then the bytes eight to a slot; `cap + 1` bytes (the terminator), or
+    /// for a WSTRING (`wide`) `cap` bytes of UTF-16LE units and a zero unit.
     Str {
         cap: u32,
+        wide: bool,
     },
     Array {
         count: u64,
@@ -203,7 +205,10 @@ pub fn shape_of(p: &Project, sizes: &Sizes, ty: TypeId) -> (Shape, u64) {
     let shape = match p.types.get(ty) {
         Type::Elem(e) | Type::Subrange { base: e, .. } => Shape::Elem(*e),
         Type::Enum { .. } => Shape::Elem(Elem::Dint),
-        Type::Str { len } => Shape::Str { cap: *len },
+        Type::Str { len, wide } => Shape::Str {
+            cap: len.saturating_mul(1 + u32::from(*wide)),
+            wide: *wide,
+        },
         Type::Array { elem, .. } => {
             let (e, eb) = shape_of(p, sizes, *elem);
             Shape::Array {
@@ -303,7 +308,10 @@ fn write_byte(mem: &mut [u64], leaf: Option<(u64, &Shape, u64)>, v: u8) {
             b[k as usize] = v;
             mem[at as usize] = elem_value(*e, b);
         }
-        Some((at, Shape::Str { cap }, k)) => {
+        Some((at, Shape::Str { cap, wide: true }, k)) => {
+            write_wide_byte(mem, at as usize, *cap, k, v)
+        }
+        Some((at, Shape::Str { cap, wide: false }, k)) => {
             let at = at as usize;
             let len = mem[at];
             // The string ends at its first zero byte, as a CODESYS STRING does; bytes past
@@ -324,6 +332,37 @@ fn write_byte(mem: &mut [u64], leaf: Option<(u64, &Shape, u64)>, v: u8) {
             }
         }
         _ => {}
+    }
+}
+
+/// Byte `k` of a WSTRING written through a pointer: the string ends at its first zero unit,
+/// as a CODESYS WSTRING does; a unit written past the end extends it when it is not zero.
+fn write_wide_byte(mem: &mut [u64], at: usize, cap: u32, k: u64, v: u8) {
+    if k >= u64::from(cap) {
+        return;
+    }
+    let len = mem[at];
+    let unit = k & !1;
+    if unit > len {
+        // A unit after the terminator: it stays outside the string.
+        return;
+    }
+    let w = &mut mem[at + 1 + (k / 8) as usize];
+    let mut b = w.to_le_bytes();
+    if unit == len {
+        // The unit after the end holds nothing yet, whatever an older value left there.
+        b[(unit % 8) as usize] = 0;
+        b[(unit % 8) as usize + 1] = 0;
+    }
+    b[(k % 8) as usize] = v;
+    *w = u64::from_le_bytes(b);
+    let pair = [b[(unit % 8) as usize], b[(unit % 8) as usize + 1]];
+    if pair == [0, 0] {
+        if unit < len {
+            mem[at] = unit;
+        }
+    } else if unit == len {
+        mem[at] = unit + 2;
     }
 }
 
@@ -579,7 +618,10 @@ mod tests {
     fn string_bytes_end_at_the_terminator() {
         // STRING[4] holding "ab": length slot, one data slot.
         let mut mem = vec![2u64, u64::from_le_bytes(*b"ab\0\0\0\0\0\0")];
-        let s = Shape::Str { cap: 4 };
+        let s = Shape::Str {
+            cap: 4,
+            wide: false,
+        };
         let at = |k| Some((0u64, &s, k));
         assert_eq!(read_byte(&mem, at(1)), b'b');
         assert_eq!(read_byte(&mem, at(2)), 0);
@@ -589,5 +631,23 @@ mod tests {
         assert_eq!(mem[0], 1, "a zero byte ends the string");
         write_byte(&mut mem, at(4), b'x');
         assert_eq!(mem[0], 1, "the terminator's place stays 0");
+    }
+
+    #[test]
+    fn wide_string_bytes_are_utf16le_units() {
+        // WSTRING[4] holding "A€": 41 00 AC 20.
+        let mut mem = vec![4u64, u64::from_le_bytes([0x41, 0, 0xac, 0x20, 0, 0, 0, 0])];
+        let s = Shape::Str { cap: 8, wide: true };
+        let at = |k| Some((0u64, &s, k));
+        assert_eq!(read_byte(&mem, at(3)), 0x20);
+        assert_eq!(read_byte(&mem, at(4)), 0);
+        write_byte(&mut mem, at(4), b'z');
+        assert_eq!(mem[0], 6, "a unit written at the end extends the string");
+        write_byte(&mut mem, at(1), 0);
+        assert_eq!(mem[0], 6, "a zero high byte of 'A' is no terminator");
+        write_byte(&mut mem, at(0), 0);
+        assert_eq!(mem[0], 0, "a zero unit ends the string");
+        write_byte(&mut mem, at(8), b'x');
+        assert_eq!(mem[0], 0, "the terminator's place stays 0");
     }
 }

@@ -560,6 +560,7 @@ fn to_i64(engine: &Engine, m: &Machine, v: VarRef) -> i64 {
         (Some(Value::Int(i)), Type::Elem(e)) if e.is_duration() => (i / 1_000_000) as i64,
         (Some(Value::Int(i)), _) => i as i64,
         (Some(Value::Str(s)), _) => s.len() as i64,
+        (Some(Value::WStr(w)), _) => w.len() as i64,
         _ => 0,
     }
 }

@@ -58,10 +58,12 @@ struct Spec {
 fn assignments(text: &str) -> Vec<(String, String)> {
     let mut out = Vec::new();
     let mut cur = String::new();
-    let mut quoted = false;
+    // The quote a STRING ('…') or WSTRING ("…") value is in.
+    let mut quote: Option<char> = None;
     let mut escaped = false;
     let mut depth = 0;
     for c in text.chars() {
+        let quoted = quote.is_some();
         if escaped {
             escaped = false;
             cur.push(c);
@@ -72,8 +74,8 @@ fn assignments(text: &str) -> Vec<(String, String)> {
                 escaped = true;
                 cur.push(c);
             }
-            '\'' => {
-                quoted = !quoted;
+            '\'' | '"' if quote.is_none_or(|q| q == c) => {
+                quote = if quoted { None } else { Some(c) };
                 cur.push(c);
             }
             '[' if !quoted => {

@@ -162,3 +162,35 @@ fn a_codesys_interface_dispatches_to_its_implementations() {
         (Some(Value::Int(6)), Some(Value::Int(30)))
     );
 }
+
+#[test]
+fn wide_strings_in_a_tc6_project() {
+    // <wstring length="…"/> and CODESYS's <WSTRING/>, a "…" initial value and a "…" literal
+    // in an ST body (what Beremiz and the OpenPLC editor write for WSTRING).
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("w.xml");
+    std::fs::write(
+        &p,
+        r#"<project xmlns="http://www.plcopen.org/xml/tc6_0201"><types><pous>
+<pou name="main" pouType="program"><interface><localVars>
+<variable name="w"><type><wstring length="8"/></type><initialValue><simpleValue value="&quot;Grüße&quot;"/></initialValue></variable>
+<variable name="v"><type><WSTRING/></type></variable>
+<variable name="n"><type><INT/></type></variable>
+</localVars></interface>
+<body><ST><xhtml:p xmlns:xhtml="http://www.w3.org/1999/xhtml"><![CDATA[v := CONCAT(w, " $20AC");
+n := LEN(v);]]></xhtml:p></ST></body></pou>
+</pous></types></project>"#,
+    )
+    .unwrap();
+    let b = build_file(&p, &Select::Auto).unwrap_or_else(|e| panic!("{e}"));
+    let e = b.engine.clone();
+    let mut m = Machine::new(e.clone());
+    m.scan(0, &mut || true).unwrap();
+    let v = e.lookup("main.v").unwrap();
+    let n = e.lookup("main.n").unwrap();
+    assert_eq!(
+        m.get(v),
+        Some(Value::WStr("Grüße €".encode_utf16().collect()))
+    );
+    assert_eq!(m.get(n), Some(Value::Int(7)));
+}

@@ -191,15 +191,7 @@ impl<'a> Checker<'a> {
     pub fn resolve_spec(&mut self, spec: &TypeSpec, cx: &mut Cx) -> (TypeId, Option<Value>) {
         match spec {
             TypeSpec::Named(id) => self.type_by_name(id),
-            TypeSpec::String { wide, len, span } => {
-                if *wide {
-                    self.error(
-                        diag::UNSUPPORTED,
-                        *span,
-                        "WSTRING is not supported; use STRING",
-                    );
-                    return (ids::ERROR, None);
-                }
+            TypeSpec::String { wide, len, .. } => {
                 let n = match len {
                     None => crate::types::DEFAULT_STRING_LEN,
                     Some(e) => match self.const_int(e, cx) {
@@ -215,7 +207,7 @@ impl<'a> Checker<'a> {
                         None => return (ids::ERROR, None),
                     },
                 };
-                (self.types.string(n), None)
+                (self.types.string_of(n, *wide), None)
             }
             TypeSpec::Array { ranges, elem, .. } => {
                 let mut dims = Vec::new();
@@ -335,6 +327,9 @@ impl<'a> Checker<'a> {
         if id.is("STRING") {
             return (ids::STRING, None);
         }
+        if id.is("WSTRING") {
+            return (ids::WSTRING, None);
+        }
         let key = id.key();
         if self.type_decls.contains_key(&key) {
             return self.named_type(&key, id.span).unwrap_or((ids::ERROR, None));
@@ -359,32 +354,6 @@ impl<'a> Checker<'a> {
         }
         if let Some(&n) = self.native_names.get(&key) {
             return (self.types.fb(FbRef::Native(n)), None);
-        }
-        if id.is("WSTRING") {
-            self.error(
-                diag::UNSUPPORTED,
-                id.span,
-                "WSTRING is not supported; use STRING",
-            );
-            return (ids::ERROR, None);
-        }
-        // The standard's (and CODESYS's) elementary types the engine cannot hold yet: not
-        // unknown names, so E190, not E101.
-        if ["CHAR", "WCHAR"].iter().any(|w| id.is(w)) {
-            self.error(
-                diag::UNSUPPORTED,
-                id.span,
-                format!(
-                    "{} is not supported; use {}",
-                    id.name.to_ascii_uppercase(),
-                    if id.is("CHAR") {
-                        "BYTE or STRING[1]"
-                    } else {
-                        "WORD"
-                    }
-                ),
-            );
-            return (ids::ERROR, None);
         }
         if let Some(lib) = crate::vendor::fb_provider(&key) {
             // A vendor library's function block whose library is not loaded.
@@ -591,7 +560,8 @@ impl<'a> Checker<'a> {
     pub fn default_value(&self, ty: TypeId) -> Value {
         match self.types.get(ty) {
             Type::Elem(e) if e.is_real() => Value::Real(0.0),
-            Type::Str { .. } => Value::Str(Vec::new()),
+            Type::Str { wide: false, .. } => Value::Str(Vec::new()),
+            Type::Str { wide: true, .. } => Value::WStr(Vec::new()),
             Type::Enum { values, .. } => Value::Int(values.first().map_or(0, |v| v.1) as i128),
             Type::Subrange { lo, .. } => Value::Int(*lo),
             Type::Array { .. } => Value::Array(Vec::new()),

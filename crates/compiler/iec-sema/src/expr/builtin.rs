@@ -307,16 +307,22 @@ impl<'a> Checker<'a> {
                 self.fold(mk(vec![s, l, p], ty))
             }
             Concat => {
-                let mut xs = Vec::new();
+                let mut xs: Vec<Expr> = Vec::new();
                 let mut len: u32 = 0;
                 for a in args {
                     let Some(s) = self.string_arg(f, a, cx) else {
                         return err(span);
                     };
+                    if let Some(first) = xs.first() {
+                        if !self.same_width(f, first.ty, &s) {
+                            return err(span);
+                        }
+                    }
                     len = len.saturating_add(self.str_len(s.ty));
                     xs.push(s);
                 }
-                let ty = self.types.string(len.clamp(1, MAX_STRING_LEN));
+                let wide = self.types.is_wstring(xs[0].ty);
+                let ty = self.types.string_of(len.clamp(1, MAX_STRING_LEN), wide);
                 self.fold(mk(xs, ty))
             }
             Insert | Replace => {
@@ -326,6 +332,9 @@ impl<'a> Checker<'a> {
                 let Some(c) = self.string_arg(f, &args[1], cx) else {
                     return err(span);
                 };
+                if !self.same_width(f, a.ty, &c) {
+                    return err(span);
+                }
                 let mut xs = vec![a.clone(), c.clone()];
                 for arg in &args[2..] {
                     let Some(n) = self.int_arg(f, arg, cx) else {
@@ -334,7 +343,8 @@ impl<'a> Checker<'a> {
                     xs.push(n);
                 }
                 let len = self.str_len(a.ty).saturating_add(self.str_len(c.ty));
-                let ty = self.types.string(len.clamp(1, MAX_STRING_LEN));
+                let wide = self.types.is_wstring(a.ty);
+                let ty = self.types.string_of(len.clamp(1, MAX_STRING_LEN), wide);
                 self.fold(mk(xs, ty))
             }
             Delete => {
@@ -356,6 +366,9 @@ impl<'a> Checker<'a> {
                 let Some(c) = self.string_arg(f, &args[1], cx) else {
                     return err(span);
                 };
+                if !self.same_width(f, a.ty, &c) {
+                    return err(span);
+                }
                 self.fold(mk(vec![a, c], ids::INT))
             }
             _ => err(span),
@@ -398,10 +411,31 @@ impl<'a> Checker<'a> {
             return None;
         }
         if !self.types.is_string(x.ty) {
-            self.arg_error(f, "a STRING", x.ty, a.span);
+            self.arg_error(f, "a STRING or WSTRING", x.ty, a.span);
             return None;
         }
         Some(x)
+    }
+
+    /// Whether the string `x` is as wide as the first string argument (of type `first`):
+    /// STRING and WSTRING do not mix in one call (the standard converts neither implicitly).
+    fn same_width(&mut self, f: &str, first: TypeId, x: &Expr) -> bool {
+        let (a, b) = (self.types.is_wstring(first), self.types.is_wstring(x.ty));
+        if a == b {
+            return true;
+        }
+        let (an, bn) = (self.types.name(first), self.types.name(x.ty));
+        let conv = if a {
+            "STRING_TO_WSTRING"
+        } else {
+            "WSTRING_TO_STRING"
+        };
+        self.error(
+            diag::TYPE_MISMATCH,
+            x.span,
+            format!("{f} takes strings of one kind: this is {bn}, its first string {an}; convert it with {conv}(…)"),
+        );
+        false
     }
 
     fn int_arg(&mut self, f: &str, a: &StdArg<'_>, cx: &mut Cx) -> Option<Expr> {
@@ -418,7 +452,7 @@ impl<'a> Checker<'a> {
 
     pub fn str_len(&self, ty: TypeId) -> u32 {
         match self.types.get(ty) {
-            Type::Str { len } => *len,
+            Type::Str { len, .. } => *len,
             _ => 0,
         }
     }

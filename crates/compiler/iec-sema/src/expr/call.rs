@@ -267,7 +267,7 @@ impl<'a> Checker<'a> {
             return true;
         }
         match (self.types.get(from), self.types.get(to)) {
-            (Type::Str { .. }, Type::Str { .. }) => true,
+            (Type::Str { wide: a, .. }, Type::Str { wide: b, .. }) => a == b,
             (Type::Elem(a), Type::Elem(b)) => a.widens_to(*b),
             (Type::Subrange { base, .. }, Type::Elem(b)) => base.widens_to(*b),
             (Type::Elem(a), Type::Subrange { base, .. }) => a.widens_to(*base),

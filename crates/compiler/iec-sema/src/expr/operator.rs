@@ -520,6 +520,20 @@ impl<'a> Checker<'a> {
             let y = self.coerce_quiet(y, tx)?;
             return Some((x, y, tx));
         }
+        // A one-character literal where a CHAR or WCHAR is compared: `c = 'a'`.
+        let one_char = |e: &Expr| match &e.kind {
+            ExprKind::Const(Value::Str(s)) => s.len() == 1,
+            ExprKind::Const(Value::WStr(w)) => w.len() == 1,
+            _ => false,
+        };
+        if self.types.elem(tx).is_some_and(Elem::is_char) && one_char(&y) {
+            let y = self.coerce(y, tx, op);
+            return (y.ty != ids::ERROR).then_some((x, y, tx));
+        }
+        if self.types.elem(ty).is_some_and(Elem::is_char) && one_char(&x) {
+            let x = self.coerce(x, ty, op);
+            return (x.ty != ids::ERROR).then_some((x, y, ty));
+        }
         if let Some(r) = self.unify_refs(&x, &y) {
             return match r {
                 Ok(t) => {
@@ -533,12 +547,16 @@ impl<'a> Checker<'a> {
                 }
             };
         }
-        // Strings of any lengths compare and combine.
-        if let (Type::Str { len: a }, Type::Str { len: b }) =
+        // Strings of any lengths compare and combine; STRING and WSTRING do not mix (the
+        // standard has no implicit conversion between them).
+        if let (Type::Str { len: a, wide: wa }, Type::Str { len: b, wide: wb }) =
             (self.types.get(tx), self.types.get(ty))
         {
-            let t = self.types.string((*a).max(*b));
-            return Some((x, y, t));
+            if wa == wb {
+                let (n, w) = ((*a).max(*b), *wa);
+                let t = self.types.string_of(n, w);
+                return Some((x, y, t));
+            }
         }
         match (self.types.elem(tx), self.types.elem(ty)) {
             (Some(a), Some(b)) if a.widens_to(b) => {
@@ -690,7 +708,36 @@ impl<'a> Checker<'a> {
                 }
                 return konst(Value::Real(f), to, span);
             }
-            (Type::Str { .. }, Type::Str { len }) => {
+            // 'a' is a CHAR where one is needed, "a" a WCHAR (the standard's character
+            // literals are one-character strings).
+            (Type::Str { wide, .. }, Type::Elem(e))
+                if e.is_char() && *wide == (*e == Elem::Wchar) =>
+            {
+                let code = match &x.kind {
+                    ExprKind::Const(Value::Str(s)) if s.len() == 1 => Some(i128::from(s[0])),
+                    ExprKind::Const(Value::WStr(w)) if w.len() == 1 => Some(i128::from(w[0])),
+                    _ => None,
+                };
+                if let Some(c) = code {
+                    return konst(Value::Int(c), to, span);
+                }
+            }
+            (Type::Str { wide: wa, .. }, Type::Str { len, wide }) if wa == wide => {
+                if let ExprKind::Const(Value::WStr(s)) = &x.kind {
+                    if s.len() > *len as usize {
+                        self.error(
+                            diag::OUT_OF_RANGE,
+                            span,
+                            format!(
+                                "this string has {} characters; {} holds {len}",
+                                s.len(),
+                                self.types.name(to)
+                            ),
+                        );
+                        return err(span);
+                    }
+                    return konst(Value::WStr(s.clone()), to, span);
+                }
                 if let ExprKind::Const(Value::Str(s)) = &x.kind {
                     if s.len() > *len as usize {
                         self.error(

@@ -357,7 +357,7 @@ impl<'a> Checker<'a> {
                 let ok_same = self.base_type(x.ty) == ft
                     || matches!(
                         (self.types.get(x.ty), self.types.get(ft)),
-                        (Type::Str { .. }, Type::Str { .. })
+                        (Type::Str { wide: a, .. }, Type::Str { wide: b, .. }) if a == b
                     );
                 if ok_same
                     || matches!(self.types.get(x.ty), Type::IntLit | Type::RealLit)
@@ -367,10 +367,24 @@ impl<'a> Checker<'a> {
                 } else {
                     let (a, b) = (self.types.name(x.ty), self.types.name(ft));
                     let _ = from_elem;
+                    // A string's conversions are named by its kind, not its length.
+                    let an = match self.types.get(x.ty) {
+                        Type::Str { wide: true, .. } => "WSTRING".to_string(),
+                        Type::Str { wide: false, .. } => "STRING".to_string(),
+                        _ => a.clone(),
+                    };
+                    let fix = if an == to {
+                        format!("it is {to} already: leave the conversion out")
+                    } else {
+                        format!("use {an}_TO_{to} (or TO_{to})")
+                    };
                     self.error(
                         diag::TYPE_MISMATCH,
                         args[0].span,
-                        format!("{} converts {b}, and this argument is {a}; use {a}_TO_{to} (or TO_{to})", name.name),
+                        format!(
+                            "{} converts {b}, and this argument is {a}; {fix}",
+                            name.name
+                        ),
                     );
                     return err(span);
                 }
@@ -412,7 +426,11 @@ impl<'a> Checker<'a> {
         if let Some(e) = Elem::from_name(name) {
             return Some(TypeTable::elem_id(e));
         }
-        (name == "STRING").then_some(ids::STRING)
+        match name {
+            "STRING" => Some(ids::STRING),
+            "WSTRING" => Some(ids::WSTRING),
+            _ => None,
+        }
     }
 
     /// Whether the explicit conversion functions convert `from` to `to`.
@@ -440,6 +458,12 @@ impl<'a> Checker<'a> {
                 }
                 if a.is_duration() && date(b) || date(a) && b.is_duration() {
                     return false;
+                }
+                // A character converts to and from its code (CHAR_TO_BYTE, WORD_TO_WCHAR)
+                // and to the other character type; not to a real, a duration or BOOL.
+                if a.is_char() || b.is_char() {
+                    let code = |e: Elem| e.is_char() || e.is_int() || e.is_bitstring();
+                    return code(a) && code(b);
                 }
                 true
             }

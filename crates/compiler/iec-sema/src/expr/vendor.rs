@@ -70,7 +70,7 @@ impl<'a> Checker<'a> {
                 if s.ty == ids::ERROR {
                     return Some(err(span));
                 }
-                if !matches!(self.types.get(s.ty), Type::Str { .. }) {
+                if !matches!(self.types.get(s.ty), Type::Str { wide: false, .. }) {
                     let t = self.types.name(s.ty);
                     self.error(
                         diag::TYPE_MISMATCH,
@@ -149,7 +149,7 @@ impl<'a> Checker<'a> {
         if s.ty == ids::ERROR || p.ty == ids::ERROR {
             return err(span);
         }
-        if !matches!(self.types.get(s.ty), Type::Str { .. }) {
+        if !matches!(self.types.get(s.ty), Type::Str { wide: false, .. }) {
             let t = self.types.name(s.ty);
             self.error(
                 diag::TYPE_MISMATCH,
@@ -243,7 +243,7 @@ impl<'a> Checker<'a> {
             );
             return Some(err(span));
         }
-        if !matches!(self.types.get(fmt.ty), Type::Str { .. }) {
+        if !matches!(self.types.get(fmt.ty), Type::Str { wide: false, .. }) {
             let t = self.types.name(fmt.ty);
             self.error(
                 diag::VENDOR_ARGUMENT,

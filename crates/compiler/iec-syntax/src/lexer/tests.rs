@@ -110,6 +110,30 @@ fn an_unclosed_inner_comment_ends_at_the_first_close() {
 }
 
 #[test]
+fn wide_strings_and_their_escapes() {
+    // `$"` and `$$`, four hex digits a character (`$0041`, `$20AC`); `$'` is allowed too.
+    // The text is kept as UTF-8, which the checker makes UTF-16 code units.
+    check(
+        "\"a$\"b$$c$N$0041$20AC$'x'\"",
+        &[Tok::Str {
+            bytes: "a\"b$c\nA\u{20ac}'x'".as_bytes().to_vec(),
+            wide: true,
+        }],
+    );
+    // Two hex digits are STRING's form: in a WSTRING `$41` is an unknown escape.
+    check_error("\"$41\"", diag::BAD_ESCAPE);
+    check_error("\"abc", diag::UNTERMINATED_STRING);
+    // A `"` inside '…' is a plain character.
+    check(
+        "'say \"hi\"'",
+        &[Tok::Str {
+            bytes: b"say \"hi\"".to_vec(),
+            wide: false,
+        }],
+    );
+}
+
+#[test]
 fn comments_nest_and_pragmas_vanish() {
     check(
         "a (* x (* y *) z *) b // c\n(* {pragma} *) e",
@@ -278,4 +302,25 @@ fn a_string_literal_holds_one_latin1_byte_per_character_whatever_the_encoding() 
         "{}",
         d.items[0].message
     );
+}
+
+#[test]
+fn a_replacement_character_in_a_string_is_a_warning() {
+    // ironplc's strings.st holds U+FFFD where a byte was lost on the way to UTF-8: the
+    // character meant is unknown, so STRING gets '?' and W043 says why.
+    let mut d = Diagnostics::new();
+    let toks: Vec<Tok> = lex(FileId(0), "'\u{fffd}'", &mut d)
+        .into_iter()
+        .map(|t| t.tok)
+        .collect();
+    assert_eq!(
+        toks[0],
+        Tok::Str {
+            bytes: b"?".to_vec(),
+            wide: false
+        }
+    );
+    assert_eq!(d.items.len(), 1, "{d:?}");
+    assert_eq!(d.items[0].code.0, "W043");
+    assert!(!d.has_errors());
 }

@@ -303,7 +303,11 @@ impl<'a, 'd> Parser<'a, 'd> {
             }
             Tok::Str { bytes, wide } => {
                 self.bump();
-                lit(ExprKind::Literal(Literal::String { bytes, wide }))
+                lit(ExprKind::Literal(Literal::String {
+                    bytes,
+                    wide,
+                    ty: None,
+                }))
             }
             Tok::Time { kind, nanos } => {
                 self.bump();
@@ -385,10 +389,14 @@ impl<'a, 'd> Parser<'a, 'd> {
                 value: Ident::new(self.text_of(t.span), t.span),
             },
             Tok::Str { bytes, wide } if !neg => {
-                // STRING#'abc'
+                // STRING#'abc', WSTRING#"abc"
                 self.bump();
                 return Ok(Expr {
-                    kind: ExprKind::Literal(Literal::String { bytes, wide }),
+                    kind: ExprKind::Literal(Literal::String {
+                        bytes,
+                        wide,
+                        ty: Some(ty),
+                    }),
                     span: p.span.to(t.span),
                 });
             }

@@ -51,7 +51,12 @@ impl<'c, 'p> Fx<'c, 'p> {
                 from: elem_or_dint(p, args[0].ty),
                 cap,
             }),
-            _ => Self::builtin_op(b, d, xs, k, re, cap),
+            _ => {
+                // A string function's characters are its first argument's (LEN, FIND take
+                // strings and give an integer).
+                let wide = args.first().is_some_and(|a| p.types.is_wstring(a.ty));
+                Self::builtin_op(b, d, xs, k, re, cap, wide)
+            }
         };
         let Some(op) = op else {
             return Err(CompileError::Unsupported(format!(
@@ -84,7 +89,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             | Builtin::Insert
             | Builtin::Delete
             | Builtin::Replace => self.string_buffer(ty, span),
-            _ if k == Kind::S => self.string_buffer(ty, span),
+            _ if matches!(k, Kind::S | Kind::W) => self.string_buffer(ty, span),
             _ => want.unwrap_or_else(|| self.temp(1)),
         }
     }
@@ -92,7 +97,15 @@ impl<'c, 'p> Fx<'c, 'p> {
     /// The instruction computing `b` over the argument slots `xs` into `d`, for a result of
     /// kind `k`, element `re` and string capacity `cap`; `None` for the conversions the checker
     /// lowers otherwise.
-    fn builtin_op(b: Builtin, d: u32, xs: Vec<u32>, k: Kind, re: Elem, cap: u32) -> Option<ExtOp> {
+    fn builtin_op(
+        b: Builtin,
+        d: u32,
+        xs: Vec<u32>,
+        k: Kind,
+        re: Elem,
+        cap: u32,
+        wide: bool,
+    ) -> Option<ExtOp> {
         Some(match b {
             Builtin::Abs if re.is_real() => ExtOp::Math {
                 f: Builtin::Abs,
@@ -157,6 +170,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                 d,
                 args: xs,
                 cap: 0,
+                wide,
             },
             Builtin::Left
             | Builtin::Right
@@ -169,6 +183,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                 d,
                 args: xs,
                 cap,
+                wide,
             },
             Builtin::ConcatDateTod => ExtOp::ConcatDateTod {
                 d,

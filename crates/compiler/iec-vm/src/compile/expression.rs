@@ -22,6 +22,15 @@ impl<'c, 'p> Fx<'c, 'p> {
         let p = self.p();
         match &e.kind {
             ExprKind::Const(v) => {
+                if let Value::WStr(w) = v {
+                    let n = (w.len().max(1) * 2) as u32;
+                    let mut slots = vec![0u64; layout::string_slots(n) as usize];
+                    ext::write_units(&mut slots, 0, w, n);
+                    let c = self.const_block(&slots);
+                    let d = self.temp(1);
+                    self.emit(Op::Lea { d, s: c }, span);
+                    return Ok(d);
+                }
                 if let Value::Str(s) = v {
                     let mut slots =
                         vec![0u64; layout::string_slots(s.len().max(1) as u32) as usize];
@@ -223,11 +232,12 @@ impl<'c, 'p> Fx<'c, 'p> {
         }
         if let Some(c) = Self::comparison(op) {
             let o = match kind(p, a.ty) {
-                Kind::S => Op::CmpS {
+                k @ (Kind::S | Kind::W) => Op::CmpS {
                     op: c,
                     d,
                     a: x,
                     b: y,
+                    wide: k == Kind::W,
                 },
                 Kind::F => Op::CmpF {
                     op: c,
@@ -557,7 +567,8 @@ impl<'c, 'p> Fx<'c, 'p> {
         let p = self.p();
         let from = x.ty;
         if is_string(p, to) {
-            if is_string(p, from) {
+            let wide = p.types.is_wstring(to);
+            if is_string(p, from) && p.types.is_wstring(from) == wide {
                 // Truncation happens where the string is stored.
                 return self.expr(x, None);
             }
@@ -566,6 +577,19 @@ impl<'c, 'p> Fx<'c, 'p> {
             let buf = self.temp(layout::string_slots(cap));
             let dp = self.temp(1);
             self.emit(Op::Lea { d: dp, s: buf }, span);
+            if is_string(p, from) {
+                // STRING_TO_WSTRING, WSTRING_TO_STRING.
+                self.ext(
+                    ExtOp::Recode {
+                        dp,
+                        sp: s,
+                        wide,
+                        cap,
+                    },
+                    span,
+                );
+                return Ok(dp);
+            }
             let fe = elem_or_dint(p, from);
             self.ext(
                 ExtOp::ToStr {
@@ -573,6 +597,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                     s,
                     from: fe,
                     cap,
+                    wide,
                 },
                 span,
             );
@@ -586,6 +611,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                     d,
                     sp,
                     to: elem_or_dint(p, to),
+                    wide: p.types.is_wstring(from),
                 },
                 span,
             );

@@ -329,6 +329,10 @@ impl ExtOp {
                 g(d);
                 g(sp);
             }
+            ExtOp::Recode { dp, sp, .. } => {
+                g(dp);
+                g(sp);
+            }
             ExtOp::Pow { d, a, b, .. }
             | ExtOp::TimeScale { d, a, b, .. }
             | ExtOp::TodAdd { d, a, b, .. }

@@ -239,11 +239,11 @@ impl<'p> Compiler<'p> {
                 let v = init.cloned().unwrap_or(Value::Int(lo));
                 mem[at] = ext::put_value(&v, base);
             }
-            Type::Str { len } => {
-                if let Some(Value::Str(s)) = init {
-                    ext::write_str(mem, at, s, len);
-                }
-            }
+            Type::Str { len, wide } => match init {
+                Some(Value::Str(s)) if !wide => ext::write_str(mem, at, s, len),
+                Some(Value::WStr(w)) if wide => ext::write_units(mem, at, w, len.saturating_mul(2)),
+                _ => {}
+            },
             Type::Array { elem, .. } => {
                 let n = p.types.element_count(ty) as usize;
                 let es = self.sizes.of(p, elem).unwrap_or(1) as usize;
