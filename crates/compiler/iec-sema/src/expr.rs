@@ -65,7 +65,7 @@ impl<'a> Checker<'a> {
             }
             A::Name(id) => self.name(id, cx, expected),
             A::Field(..) | A::Index(..) | A::Bit(..) | A::Deref(_) => {
-                match self.place(e, cx, false) {
+                match self.value_place(e, cx, false) {
                     Some(p) => Expr {
                         ty: p.ty,
                         kind: ExprKind::Load(p),

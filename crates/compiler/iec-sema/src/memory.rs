@@ -4,7 +4,7 @@
 //! structure to its largest member and padded to it, as CODESYS and TwinCAT lay out data
 //! on 64-bit targets (docs/iec.md, "References and pointers").
 
-use crate::types::{Elem, Type, TypeId, TypeTable};
+use crate::types::{Elem, Field, Type, TypeId, TypeTable};
 
 /// Bytes of an elementary value. Durations, dates and times are petriplc's 64-bit
 /// nanosecond counts: 8 bytes (CODESYS's 32-bit TIME, DATE, TOD and DT take 4).
@@ -30,6 +30,9 @@ pub fn size_align(types: &TypeTable, ty: TypeId) -> Option<(u64, u64)> {
             let (s, a) = size_align(types, *elem)?;
             (s.checked_mul(types.element_count(ty))?, a)
         }
+        Type::Struct { .. } if types.union_members(ty).is_some() => {
+            return union_size_align(types, types.union_members(ty).unwrap_or(&[]));
+        }
         Type::Struct { fields, .. } => {
             let mut off = 0u64;
             let mut align = 1u64;
@@ -42,6 +45,19 @@ pub fn size_align(types: &TypeTable, ty: TypeId) -> Option<(u64, u64)> {
         }
         Type::Fb(_) | Type::IntLit | Type::RealLit | Type::Void | Type::Error => return None,
     })
+}
+
+/// Bytes and alignment of a UNION of `members`: the largest member's size, rounded up to
+/// the strictest member's alignment, as CODESYS and TwinCAT (and C) lay a union out.
+pub fn union_size_align(types: &TypeTable, members: &[Field]) -> Option<(u64, u64)> {
+    let mut size = 0u64;
+    let mut align = 1u64;
+    for m in members {
+        let (s, a) = size_align(types, m.ty)?;
+        size = size.max(s);
+        align = align.max(a);
+    }
+    Some((size.div_ceil(align) * align, align))
 }
 
 /// Byte offset of each field of a structure.

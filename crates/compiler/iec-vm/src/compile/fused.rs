@@ -61,10 +61,12 @@ impl<'c, 'p> Fx<'c, 'p> {
                     return Ok(None);
                 };
                 if !scalar(me.p(), target.ty)
-                    || target
-                        .path
-                        .iter()
-                        .any(|s| matches!(s, Step::Index(_) | Step::Bit(_) | Step::Deref))
+                    || target.path.iter().any(|s| {
+                        matches!(
+                            s,
+                            Step::Index(_) | Step::Bit(_) | Step::Deref | Step::Overlay { .. }
+                        )
+                    })
                 {
                     return Ok(None);
                 }

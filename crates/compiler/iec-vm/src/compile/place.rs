@@ -141,6 +141,13 @@ impl<'c, 'p> Fx<'c, 'p> {
                     loc = Loc::Ind(d, 0);
                     ty = target;
                 }
+                // The checker lets a union's member be only read or assigned, which
+                // `view_of` compiles.
+                Step::Overlay { .. } => {
+                    return Err(crate::compile::CompileError::Unsupported(
+                        "a union's member used as a variable with an address of its own".into(),
+                    ))
+                }
             }
         }
         Ok(PlaceLoc { loc, bit })
@@ -150,10 +157,20 @@ impl<'c, 'p> Fx<'c, 'p> {
     /// array): read and written through the designated variable's byte image
     /// ([`crate::pointer::View`]), so a pointer of another type than the variable's works
     /// as in CODESYS. The handle's slot, the subscript and its lower bound, the type.
+    ///
+    /// A union's member (`Step::Overlay`) is the same view, through a handle of the union
+    /// made on the spot.
     pub(super) fn view_of(&mut self, p: &Place) -> R<Option<ViewAt>> {
-        let Some(k) = p.path.iter().rposition(|s| matches!(s, Step::Deref)) else {
+        let Some(k) = p
+            .path
+            .iter()
+            .rposition(|s| matches!(s, Step::Deref | Step::Overlay { .. }))
+        else {
             return Ok(None);
         };
+        if let Step::Overlay { ty: target, .. } = p.path[k] {
+            return self.overlay_view(p, k, target).map(Some);
+        }
         let Some(e) = self.c.p.types.elem(p.ty) else {
             return Ok(None);
         };
@@ -198,6 +215,63 @@ impl<'c, 'p> Fx<'c, 'p> {
             e,
             what: self.c.p.types.name(ty),
         }))
+    }
+
+    /// The view of union member `p.path[k]` (of type `target`; the checker allowed only
+    /// an elementary member or an element of a one-dimension array of them).
+    fn overlay_view(&mut self, p: &Place, k: usize, target: TypeId) -> R<ViewAt> {
+        let mut uty = self.root_ty(p.root);
+        for s in &p.path[..k] {
+            uty = self.step_ty(uty, s);
+        }
+        let unsupported = |what: &str| crate::compile::CompileError::Unsupported(what.into());
+        let (e, idx) = match (&p.path[k + 1..], self.c.p.types.get(target)) {
+            ([], _) => (self.c.p.types.elem(target), None),
+            ([Step::Index(subs)], Type::Array { dims, elem }) if subs.len() == 1 => {
+                (self.c.p.types.elem(*elem), Some((&subs[0], dims[0])))
+            }
+            _ => (None, None),
+        };
+        let Some(e) = e else {
+            return Err(unsupported("this use of a union's member"));
+        };
+        if uty > crate::pointer::MAX_TAGGED_TYPE {
+            return Err(unsupported("a union beyond the first types of a project"));
+        }
+        let prefix = Place {
+            root: p.root,
+            path: p.path[..k].to_vec(),
+            ty: uty,
+            span: p.span,
+        };
+        let pl = self.place_loc(&prefix)?;
+        let a = self.addr_of(pl.loc, p.span)?;
+        let h = self.temp(1);
+        self.ext(
+            ExtOp::MakeRef {
+                d: h,
+                s: a,
+                ty: uty,
+            },
+            p.span,
+        );
+        let idx = match idx {
+            Some((x, (lo, hi))) => {
+                // The member's own bounds, as an array element's are checked (the view
+                // checks only the union's).
+                let i = self.expr(x, None)?;
+                let d = self.temp(1);
+                self.ext(ExtOp::Check { d, s: i, lo, hi }, x.span);
+                Some((d, lo))
+            }
+            None => None,
+        };
+        Ok(ViewAt {
+            h,
+            idx,
+            e,
+            what: format!("member of {}", self.c.p.types.name(uty)),
+        })
     }
 
     pub(super) fn view_load(&mut self, v: ViewAt, d: u32, span: Span) {
@@ -264,6 +338,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             (Step::Index(_), Type::Array { elem, .. }) => *elem,
             (Step::Bit(_), _) => petriplc_iec_sema::types::ids::BOOL,
             (Step::Deref, Type::Ref { target, .. }) => *target,
+            (Step::Overlay { ty, .. }, _) => *ty,
             _ => ty,
         }
     }
