@@ -257,12 +257,17 @@ impl<'c, 'p> Fx<'c, 'p> {
         );
         let idx = match idx {
             Some((x, (lo, hi))) => {
-                // The member's own bounds, as an array element's are checked (the view
-                // checks only the union's).
+                // The member's own bounds, checked as an array element's are (the view
+                // checks only the union's): the element's number from 0, `i - lo`.
                 let i = self.expr(x, None)?;
+                let zero = self.konst(0);
+                let a = self.c.units[self.unit].arrays.len() as u32;
+                self.c.units[self.unit]
+                    .arrays
+                    .push(ArrayInfo { lo, hi, stride: 1 });
                 let d = self.temp(1);
-                self.ext(ExtOp::Check { d, s: i, lo, hi }, x.span);
-                Some((d, lo))
+                self.emit(Op::Index { d, p: zero, i, a }, x.span);
+                Some((d, 0))
             }
             None => None,
         };
