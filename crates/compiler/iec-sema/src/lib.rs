@@ -70,3 +70,5 @@ mod others_tests;
 mod reference_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod union_tests;
