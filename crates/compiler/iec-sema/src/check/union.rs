@@ -194,12 +194,26 @@ impl<'a> Checker<'a> {
             .and_then(|m| m.get(member as usize))
             .map_or(String::new(), |m| m.name.clone());
         let msg = if fits {
-            format!("member `{mn}` of UNION {un} is read and assigned through the union's bytes and has no address of its own: it cannot be an in-out, an output's target or ADR/REF's argument; copy it to a variable first")
+            format!("member `{mn}` of UNION {un} is read and assigned through the union's bytes and has no address of its own: it cannot be an in-out, an output's target, REF's argument, nor (a part of it) ADR's; copy it to a variable first, or take ADR of the member itself")
         } else {
             format!("member `{mn}` of UNION {un} is {tn}: only elementary members, and elements of a one-dimension ARRAY OF an elementary type, are read and written yet; copy the member's bytes with MEMCPY(ADR(x), ADR(u), SIZEOF(x))")
         };
         self.error(diag::UNION_ACCESS, p.span, msg);
         false
+    }
+
+    /// Whether `ADR` takes the place: a union's member itself is at the union's address
+    /// (and the pointer designates the union's bytes); a part of a member is not (reported).
+    pub(crate) fn union_address_ok(&mut self, p: &Place) -> bool {
+        match p
+            .path
+            .iter()
+            .rposition(|s| matches!(s, Step::Overlay { .. }))
+        {
+            None => true,
+            Some(k) if k + 1 == p.path.len() => true,
+            Some(_) => self.union_place_ok(p, false),
+        }
     }
 
     /// The initial value of a union: `(m := v)` for a named member, or a value for the first.

@@ -28,7 +28,8 @@ impl<'a> Checker<'a> {
         self.union_place_ok(&p, true).then_some(p)
     }
 
-    fn place_inner(&mut self, e: &ast::Expr, cx: &mut Cx, write: bool) -> Option<Place> {
+    /// [`Self::place`] that lets a union's member through, for the callers that know it.
+    pub(crate) fn place_inner(&mut self, e: &ast::Expr, cx: &mut Cx, write: bool) -> Option<Place> {
         let p = self.reference_place(e, cx, write)?;
         Some(self.through_reference(p))
     }
