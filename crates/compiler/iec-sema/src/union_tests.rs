@@ -52,7 +52,7 @@ fn only_elementary_members_and_their_array_elements_are_read_and_written() {
              x := u.s;\nu.w := v.w;\nf(io := u.s, q => u.w[0]);\npw := ADR(u.w[1]);\nu.zz := 1;\nEND_PROGRAM\n"
         ),
         &[
-            "t.st:15:6: error[E222]: member `s` of UNION U is STRING: only elementary members",
+            "t.st:15:6: error[E222]: member `s` of UNION U is STRING: only its elementary values are read and written",
             "t.st:16:1: error[E222]: member `w` of UNION U is ARRAY[0..1] OF WORD",
             "t.st:17:9: error[E222]: member `s` of UNION U is STRING",
             "t.st:17:19: error[E222]: member `w` of UNION U is read and assigned through the union's bytes and has no address of its own",
@@ -88,5 +88,19 @@ fn a_union_extends_nothing() {
     assert_eq!(
         d.render(&map).trim(),
         "t.st:7:1: error[E190]: a UNION that EXTENDS another is not supported yet; list all its members"
+    );
+}
+
+#[test]
+fn a_union_inside_a_union_is_not_read_through_yet() {
+    check_diags(
+        "TYPE I :\nUNION\n  b : BYTE;\nEND_UNION\nEND_TYPE\nTYPE S :\nSTRUCT\n  w : WORD;\n  i : I;\nEND_STRUCT\nEND_TYPE\n\
+         TYPE U :\nUNION\n  i : I;\n  s : S;\nEND_UNION\nEND_TYPE\n\
+         PROGRAM p\nVAR u : U; b : BYTE; w : WORD; pb : POINTER TO BYTE; END_VAR\n\
+         w := u.s.w; pb := ADR(u.i);\nb := u.i.b;\npb := ADR(u.s.i.b);\nEND_PROGRAM\n",
+        &[
+            "t.st:21:6: error[E222]: member `b` of UNION I lies inside another union",
+            "t.st:22:11: error[E222]: member `b` of UNION I lies inside another union",
+        ],
     );
 }

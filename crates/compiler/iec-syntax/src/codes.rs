@@ -230,7 +230,7 @@ pub const CODES: &[Entry] = &[
       "TYPE U :\nUNION\n  n : INT;\n  p : POINTER TO INT;\nEND_UNION\nEND_TYPE",
       "keep only data members; give the union variable its initial value (`u : U := (n := 1);`), and keep pointers outside the union."),
     e("E222", "a UNION member used in a way the engine does not support",
-      "A union's member is read and written through the union's bytes: an elementary member, or an element of a member that is a one-dimension ARRAY OF an elementary type, can be read and assigned. Such a member has no slots of its own, so it is not an in-out, an output's target or REF's argument (ADR of the member itself is the union's address, and takes it); STRING, structure and whole-array members are not read or written directly yet.",
+      "A union's member is read and written through the union's bytes: an elementary value in it (an elementary member, a structure member's field, an element of an array member) can be read and assigned. Such a member has no slots of its own, so it is not an in-out, an output's target or REF's argument (ADR of the member itself is the union's address, and takes it); whole STRING, structure and array members, and a union inside a union, are not read or written directly yet.",
       "TYPE U :\nUNION\n  s : STRING;\n  d : DINT;\nEND_UNION\nEND_TYPE\nPROGRAM p\nVAR u : U; x : STRING; END_VAR\nx := u.s;\nEND_PROGRAM",
       "copy the member through a variable (`x := u.d; F(io := x); u.d := x;`), or copy its bytes with `MEMCPY(ADR(x), ADR(u.s), SIZEOF(x))`."),
     e("E223", "a wrong initial value of a UNION",

@@ -176,13 +176,14 @@ impl<'a> Checker<'a> {
         let elementary = |t: TypeId, me: &Self| {
             me.types.elem(t).is_some() && !matches!(me.types.get(t), Type::Subrange { .. })
         };
-        let fits = match (&p.path[k + 1..], self.types.get(mty)) {
-            ([], _) => elementary(mty, self),
-            ([Step::Index(ix)], Type::Array { dims, elem }) => {
-                ix.len() == 1 && dims.len() == 1 && elementary(*elem, self)
-            }
-            _ => false,
-        };
+        let overlays = p
+            .path
+            .iter()
+            .filter(|s| matches!(s, Step::Overlay { .. }))
+            .count();
+        let fits = overlays == 1
+            && memory::overlay_path(&self.types, mty, &p.path[k + 1..])
+                .is_some_and(|(_, _, t)| elementary(t, self));
         if fits && value {
             return true;
         }
@@ -193,10 +194,12 @@ impl<'a> Checker<'a> {
             .union_members(union)
             .and_then(|m| m.get(member as usize))
             .map_or(String::new(), |m| m.name.clone());
-        let msg = if fits {
+        let msg = if overlays > 1 {
+            format!("member `{mn}` of UNION {un} lies inside another union: a union within a union is not read through yet; copy the inner union's bytes to a variable with MEMCPY(ADR(x), ADR(u), SIZEOF(x)) and use x.{mn}")
+        } else if fits {
             format!("member `{mn}` of UNION {un} is read and assigned through the union's bytes and has no address of its own: it cannot be an in-out, an output's target, REF's argument, nor (a part of it) ADR's; copy it to a variable first, or take ADR of the member itself")
         } else {
-            format!("member `{mn}` of UNION {un} is {tn}: only elementary members, and elements of a one-dimension ARRAY OF an elementary type, are read and written yet; copy the member's bytes with MEMCPY(ADR(x), ADR(u), SIZEOF(x))")
+            format!("member `{mn}` of UNION {un} is {tn}: only its elementary values are read and written (an elementary member, an element of an array member, a structure member's elementary field), not a whole STRING, array or structure, nor a union inside it, yet; copy the member's bytes with MEMCPY(ADR(x), ADR(u), SIZEOF(x))")
         };
         self.error(diag::UNION_ACCESS, p.span, msg);
         false
@@ -211,7 +214,14 @@ impl<'a> Checker<'a> {
             .rposition(|s| matches!(s, Step::Overlay { .. }))
         {
             None => true,
-            Some(k) if k + 1 == p.path.len() => true,
+            Some(k)
+                if k + 1 == p.path.len()
+                    && !p.path[..k]
+                        .iter()
+                        .any(|s| matches!(s, Step::Overlay { .. })) =>
+            {
+                true
+            }
             Some(_) => self.union_place_ok(p, false),
         }
     }

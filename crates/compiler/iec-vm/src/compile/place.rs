@@ -217,22 +217,21 @@ impl<'c, 'p> Fx<'c, 'p> {
         }))
     }
 
-    /// The view of union member `p.path[k]` (of type `target`; the checker allowed only
-    /// an elementary member or an element of a one-dimension array of them).
+    /// The view of union member `p.path[k]` (of type `target`; the checker allowed only an
+    /// elementary value in it: `memory::overlay_path`).
     fn overlay_view(&mut self, p: &Place, k: usize, target: TypeId) -> R<ViewAt> {
         let mut uty = self.root_ty(p.root);
         for s in &p.path[..k] {
             uty = self.step_ty(uty, s);
         }
         let unsupported = |what: &str| crate::compile::CompileError::Unsupported(what.into());
-        let (e, idx) = match (&p.path[k + 1..], self.c.p.types.get(target)) {
-            ([], _) => (self.c.p.types.elem(target), None),
-            ([Step::Index(subs)], Type::Array { dims, elem }) if subs.len() == 1 => {
-                (self.c.p.types.elem(*elem), Some((&subs[0], dims[0])))
-            }
-            _ => (None, None),
+        let types = &self.c.p.types;
+        let Some((off, idx, last)) =
+            petriplc_iec_sema::memory::overlay_path(types, target, &p.path[k + 1..])
+        else {
+            return Err(unsupported("this use of a union's member"));
         };
-        let Some(e) = e else {
+        let Some(e) = types.elem(last) else {
             return Err(unsupported("this use of a union's member"));
         };
         if uty > crate::pointer::MAX_TAGGED_TYPE {
@@ -255,6 +254,23 @@ impl<'c, 'p> Fx<'c, 'p> {
             },
             p.span,
         );
+        let h = if off > 0 {
+            // A field or a constant element inside the member: the handle moved there.
+            let n = self.konst(off);
+            let d = self.temp(1);
+            self.ext(
+                ExtOp::PtrAdd {
+                    d,
+                    p: h,
+                    n,
+                    sub: false,
+                },
+                p.span,
+            );
+            d
+        } else {
+            h
+        };
         let idx = match idx {
             Some((x, (lo, hi))) => {
                 // The member's own bounds, checked as an array element's are (the view
