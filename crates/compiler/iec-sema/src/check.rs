@@ -21,6 +21,7 @@ mod body;
 mod escape;
 mod interface;
 mod resolve;
+mod union;
 
 /// How many types deep a type is, and how many slots its values take (a string 1 + a slot per
 /// 8 bytes, as the VM stores it; a function block instance its variables): the checker

@@ -1,11 +1,11 @@
 //! CODESYS and TwinCAT forms beyond the standard: the short-circuit `AND_THEN` and `OR_ELSE`,
-//! `REFERENCE TO`, `UNION` and `STRUCT EXTENDS`; what is accepted and the errors around them.
+//! `REFERENCE TO` and `STRUCT EXTENDS` (`UNION`: union_tests.rs); what is accepted and the errors around them.
 
 use crate::tests::run;
 
 /// Checks `src`; every rendered diagnostic line must contain the fragment at its place in
 /// `expect`, and there must be as many.
-fn check_diags(src: &str, expect: &[&str]) {
+pub(crate) fn check_diags(src: &str, expect: &[&str]) {
     let (p, text) = run(src);
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), expect.len(), "got:\n{text}");
@@ -104,17 +104,5 @@ fn a_caret_after_a_reference_is_redundant_and_warned() {
     check_diags(
         "PROGRAM p\nVAR x, y : INT; r : REFERENCE TO INT; END_VAR\nr REF= x;\ny := r^;\nr := y;\nEND_PROGRAM\n",
         &["t.st:4:6: warning[W040]: this is a REFERENCE TO INT, dereferenced where it is used: the `^` is redundant"],
-    );
-}
-
-#[test]
-fn a_union_is_read_whole_and_told_unsupported() {
-    check_diags(
-        "TYPE U :\nUNION\n  d : DINT;\n  w : ARRAY[0..1] OF WORD;\nEND_UNION\nEND_TYPE\n\
-         PROGRAM p\nVAR x : INT; END_VAR\nx := y;\nEND_PROGRAM\n",
-        &[
-            "t.st:2:1: error[E190]: UNION (members sharing their bytes) is not supported yet",
-            "t.st:9:6: error[E100]: `y` is not declared",
-        ],
     );
 }

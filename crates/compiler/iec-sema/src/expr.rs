@@ -82,7 +82,7 @@ impl<'a> Checker<'a> {
                 self.literal(&lit, span)
             }
             A::Field(..) | A::Index(..) | A::Bit(..) | A::Part(..) | A::Deref(_) => {
-                match self.place(e, cx, false) {
+                match self.value_place(e, cx, false) {
                     Some(p) => Expr {
                         ty: p.ty,
                         kind: ExprKind::Load(p),

@@ -232,6 +232,14 @@ pub enum Step {
     /// What the reference or pointer here designates (checked when the program runs: not
     /// NULL, of the designated type).
     Deref,
+    /// Member `member` (of type `ty`) of the UNION `union`, at byte 0 of the union's bytes:
+    /// read and written through a view of the union's byte image, as a pointer of another
+    /// type is.
+    Overlay {
+        union: TypeId,
+        member: u32,
+        ty: TypeId,
+    },
 }
 
 #[derive(Clone, Debug)]

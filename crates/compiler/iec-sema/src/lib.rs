@@ -81,4 +81,6 @@ mod reference_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod union_tests;
+#[cfg(test)]
 mod wstring_tests;

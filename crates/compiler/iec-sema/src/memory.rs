@@ -4,7 +4,8 @@
 //! structure to its largest member and padded to it, as CODESYS and TwinCAT lay out data
 //! on 64-bit targets (docs/iec.md, "References and pointers").
 
-use crate::types::{Elem, Type, TypeId, TypeTable};
+use crate::ir::{Expr, Step};
+use crate::types::{Elem, Field, Type, TypeId, TypeTable};
 
 /// Bytes of an elementary value. Durations, dates and times are petriplc's 64-bit
 /// nanosecond counts: 8 bytes (CODESYS's 32-bit TIME, DATE, TOD and DT take 4).
@@ -32,6 +33,9 @@ pub fn size_align(types: &TypeTable, ty: TypeId) -> Option<(u64, u64)> {
             let (s, a) = size_align(types, *elem)?;
             (s.checked_mul(types.element_count(ty))?, a)
         }
+        Type::Struct { .. } if types.union_members(ty).is_some() => {
+            return union_size_align(types, types.union_members(ty).unwrap_or(&[]));
+        }
         Type::Struct { fields, .. } => {
             let mut off = 0u64;
             let mut align = 1u64;
@@ -44,6 +48,65 @@ pub fn size_align(types: &TypeTable, ty: TypeId) -> Option<(u64, u64)> {
         }
         Type::Fb(_) | Type::IntLit | Type::RealLit | Type::Void | Type::Error => return None,
     })
+}
+
+/// Bytes and alignment of a UNION of `members`: the largest member's size, rounded up to
+/// the strictest member's alignment, as CODESYS and TwinCAT (and C) lay a union out.
+pub fn union_size_align(types: &TypeTable, members: &[Field]) -> Option<(u64, u64)> {
+    let mut size = 0u64;
+    let mut align = 1u64;
+    for m in members {
+        let (s, a) = size_align(types, m.ty)?;
+        size = size.max(s);
+        align = align.max(a);
+    }
+    Some((size.div_ceil(align) * align, align))
+}
+
+/// Where `rest` leads inside a union's member of type `ty` (fields of structures, constant
+/// subscripts, and last at most one variable subscript of a one-dimension array): the constant
+/// byte offset, the variable subscript with its array's bounds, and the type reached (`None`:
+/// a path the byte views do not take, e.g. through another union).
+pub type OverlayPath<'p> = (u64, Option<(&'p Expr, (i64, i64))>, TypeId);
+
+/// See [`OverlayPath`].
+pub fn overlay_path<'p>(
+    types: &TypeTable,
+    mut ty: TypeId,
+    rest: &'p [Step],
+) -> Option<OverlayPath<'p>> {
+    let mut off = 0u64;
+    let mut var = None;
+    for (n, s) in rest.iter().enumerate() {
+        match (s, types.get(ty)) {
+            (Step::Field(i), Type::Struct { fields, .. }) if types.union_members(ty).is_none() => {
+                off += *field_offsets(types, ty).get(*i as usize)?;
+                ty = fields.get(*i as usize)?.ty;
+            }
+            (Step::Index(ix), Type::Array { dims, elem }) => {
+                let es = size_align(types, *elem)?.0;
+                let consts: Option<Vec<i128>> = ix.iter().map(Expr::const_int).collect();
+                match consts {
+                    Some(c) if c.len() == dims.len() => {
+                        // Row-major, as the array's bytes lie; the checker held constant
+                        // subscripts to the bounds.
+                        let mut lin = 0i128;
+                        for (k, (lo, hi)) in dims.iter().enumerate() {
+                            lin = lin * i128::from(hi - lo + 1) + (c[k] - i128::from(*lo));
+                        }
+                        off += u64::try_from(lin).ok()? * es;
+                    }
+                    None if dims.len() == 1 && ix.len() == 1 && n + 1 == rest.len() => {
+                        var = Some((&ix[0], dims[0]));
+                    }
+                    _ => return None,
+                }
+                ty = *elem;
+            }
+            _ => return None,
+        }
+    }
+    Some((off, var, ty))
 }
 
 /// Byte offset of each field of a structure.

@@ -47,7 +47,7 @@ impl Checker<'_> {
                         return r;
                     }
                 }
-                let p = self.place(target, cx, true);
+                let p = self.value_place(target, cx, true);
                 let p = p?;
                 let x = self.expr(value, cx, Some(p.ty));
                 if !self.writable(&p, cx, target.span) {

@@ -337,6 +337,10 @@ enum Key {
 pub struct TypeTable {
     types: Vec<Type>,
     interned: HashMap<Key, TypeId>,
+    /// CODESYS's and TwinCAT's UNIONs: each is a [`Type::Struct`] of one field, the union's
+    /// bytes (an `ARRAY[0..n-1] OF BYTE`), and here its members, which all start at byte 0
+    /// and are read and written through that byte image (`memory`, iec-vm's `pointer.rs`).
+    unions: HashMap<TypeId, Vec<Field>>,
 }
 
 impl Default for TypeTable {
@@ -350,6 +354,7 @@ impl TypeTable {
         let mut t = TypeTable {
             types: ELEMS.iter().map(|&e| Type::Elem(e)).collect(),
             interned: HashMap::new(),
+            unions: HashMap::new(),
         };
         t.types.push(Type::IntLit);
         t.types.push(Type::RealLit);
@@ -455,6 +460,16 @@ impl TypeTable {
             Type::Ref { target, .. } => Some(*target),
             _ => None,
         }
+    }
+
+    /// Makes the structure `id` a UNION of `members` (its one field holds the bytes).
+    pub fn set_union(&mut self, id: TypeId, members: Vec<Field>) {
+        self.unions.insert(id, members);
+    }
+
+    /// The members of a UNION (`None`: `id` is no union).
+    pub fn union_members(&self, id: TypeId) -> Option<&[Field]> {
+        self.unions.get(&id).map(Vec::as_slice)
     }
 
     /// A named (nominal) type: a new id every time.

@@ -84,6 +84,8 @@ pub enum TypeSpec {
         fields: Vec<VarDecl>,
         span: Span,
     },
+    /// CODESYS's and TwinCAT's `UNION … END_UNION`: members overlaying the same bytes.
+    Union { members: Vec<VarDecl>, span: Span },
     /// `(A, B := 5, C)`, optionally typed `INT (A := 1, B := 2)`.
     Enum {
         base: Option<Ident>,
@@ -115,6 +117,7 @@ impl TypeSpec {
             TypeSpec::String { span, .. }
             | TypeSpec::Array { span, .. }
             | TypeSpec::Struct { span, .. }
+            | TypeSpec::Union { span, .. }
             | TypeSpec::Enum { span, .. }
             | TypeSpec::Subrange { span, .. }
             | TypeSpec::Ref { span, .. }

@@ -94,6 +94,9 @@ impl<'a> Checker<'a> {
                 let id = self.enum_type(&d.name.name, values, base.as_ref(), &mut cx);
                 (id, None)
             }
+            TypeSpec::Union { members, span } => {
+                (self.union_type(&d.name, members, *span, &mut cx), None)
+            }
             spec => self.resolve_spec(spec, &mut cx),
         };
         if let Some(init) = &d.init {
@@ -288,6 +291,14 @@ impl<'a> Checker<'a> {
                 );
                 (ids::ERROR, None)
             }
+            TypeSpec::Union { span, .. } => {
+                self.error(
+                    diag::BAD_DECLARATION,
+                    *span,
+                    "declare the UNION in TYPE … END_TYPE and use its name here",
+                );
+                (ids::ERROR, None)
+            }
             TypeSpec::Enum { values, base, .. } => {
                 let id = self.enum_type("(anonymous enumeration)", values, base.as_ref(), cx);
                 (id, None)
@@ -418,7 +429,10 @@ impl<'a> Checker<'a> {
         v
     }
 
-    fn initial_inner(&mut self, init: &Init, ty: TypeId, cx: &mut Cx) -> Option<Value> {
+    pub(super) fn initial_inner(&mut self, init: &Init, ty: TypeId, cx: &mut Cx) -> Option<Value> {
+        if self.types.union_members(ty).is_some() {
+            return self.union_initial(init, ty, cx);
+        }
         match (init, self.types.get(ty).clone()) {
             (Init::Array { items, span }, Type::Array { dims, elem }) => {
                 let count: u64 = dims.iter().map(|(l, h)| (h - l + 1) as u64).product();

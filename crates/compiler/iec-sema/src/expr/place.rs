@@ -14,7 +14,22 @@ impl<'a> Checker<'a> {
     /// an array element, a bit, an instance's input or output. A CODESYS `REFERENCE TO` is
     /// an alias: what it designates is the place (dereferenced implicitly, checked when the
     /// program runs as `^` is).
+    /// A union's member is refused here (it has no address of its own): [`Self::value_place`]
+    /// is for reading and assigning.
     pub fn place(&mut self, e: &ast::Expr, cx: &mut Cx, write: bool) -> Option<Place> {
+        let p = self.place_inner(e, cx, write)?;
+        self.union_place_ok(&p, false).then_some(p)
+    }
+
+    /// Like [`Self::place`], for a place that is only read or assigned, which may be a
+    /// union's member.
+    pub fn value_place(&mut self, e: &ast::Expr, cx: &mut Cx, write: bool) -> Option<Place> {
+        let p = self.place_inner(e, cx, write)?;
+        self.union_place_ok(&p, true).then_some(p)
+    }
+
+    /// [`Self::place`] that lets a union's member through, for the callers that know it.
+    pub(crate) fn place_inner(&mut self, e: &ast::Expr, cx: &mut Cx, write: bool) -> Option<Place> {
         let p = self.reference_place(e, cx, write)?;
         Some(self.through_reference(p))
     }
@@ -41,7 +56,7 @@ impl<'a> Checker<'a> {
         write: bool,
     ) -> Option<Place> {
         match &e.kind {
-            A::Paren(inner) if !write => self.place(inner, cx, write),
+            A::Paren(inner) if !write => self.place_inner(inner, cx, write),
             A::Name(id) => self.name_place(id, cx),
             A::Field(base, f) if self.is_global_list(base, cx) => match self.list_member(base, f) {
                 true => self.name_place(f, cx),
@@ -108,8 +123,11 @@ impl<'a> Checker<'a> {
         cx: &mut Cx,
         write: bool,
     ) -> Option<Place> {
-        let mut p = self.place(base, cx, write)?;
+        let mut p = self.place_inner(base, cx, write)?;
         let span = e.span;
+        if self.types.union_members(p.ty).is_some() {
+            return self.union_member(p, f, span);
+        }
         match self.types.get(p.ty).clone() {
             Type::Struct { fields, name } => {
                 let Some(i) = fields
@@ -224,7 +242,7 @@ impl<'a> Checker<'a> {
         cx: &mut Cx,
         write: bool,
     ) -> Option<Place> {
-        let mut p = self.place(base, cx, write)?;
+        let mut p = self.place_inner(base, cx, write)?;
         let Type::Array { dims, elem } = self.types.get(p.ty).clone() else {
             if p.ty != ids::ERROR {
                 let t = self.types.name(p.ty);
@@ -291,7 +309,7 @@ impl<'a> Checker<'a> {
         cx: &mut Cx,
         write: bool,
     ) -> Option<Place> {
-        let mut p = self.place(base, cx, write)?;
+        let mut p = self.place_inner(base, cx, write)?;
         let Some(el) = self
             .types
             .elem(p.ty)

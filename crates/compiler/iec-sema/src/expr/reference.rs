@@ -238,7 +238,15 @@ impl<'a> Checker<'a> {
             );
             return err(span);
         }
-        let Some(place) = self.place(arg, cx, false) else {
+        // ADR of a union's member is the union's address (every member starts at its byte
+        // 0), as CODESYS gives it: TcUnit copies into members with MEMCPY(ADR(u.m), …).
+        let place = if fname == "ADR" {
+            self.place_inner(arg, cx, false)
+                .filter(|p| self.union_address_ok(p))
+        } else {
+            self.place(arg, cx, false)
+        };
+        let Some(place) = place else {
             return err(span);
         };
         if let Some(why) = self.no_lasting_address(&place, cx, fname == "ADR") {
@@ -421,7 +429,8 @@ impl<'a> Checker<'a> {
                 let (t, _) = self.type_by_name(id);
                 t
             }
-            _ => match self.place(arg, cx, false) {
+            // A union's member has a size like any variable.
+            _ => match self.place_inner(arg, cx, false) {
                 Some(p) => p.ty,
                 None => return err(span),
             },

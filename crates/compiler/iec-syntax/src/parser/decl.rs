@@ -116,6 +116,13 @@ impl<'a, 'd> Parser<'a, 'd> {
             match &mut spec {
                 TypeSpec::Struct { base, .. } => *base = Some(b),
                 TypeSpec::Unsupported { .. } => {}
+                TypeSpec::Union { span, .. } => {
+                    self.error_at(
+                        diag::UNSUPPORTED,
+                        *span,
+                        "a UNION that EXTENDS another is not supported yet; list all its members",
+                    );
+                }
                 other => {
                     self.error_at(
                         diag::BAD_DECLARATION,
@@ -132,8 +139,10 @@ impl<'a, 'd> Parser<'a, 'd> {
         };
         // TwinCAT and CODESYS write `END_STRUCT` (and the last declaration) without `;`
         // before `END_TYPE`: the keyword ends the declaration.
-        let closed = matches!(spec, TypeSpec::Struct { .. } | TypeSpec::Unsupported { .. })
-            && init.is_none();
+        let closed = matches!(
+            spec,
+            TypeSpec::Struct { .. } | TypeSpec::Union { .. } | TypeSpec::Unsupported { .. }
+        ) && init.is_none();
         if !(closed || self.at_kw(Kw::EndType)) {
             self.expect_semi()?;
         } else {
@@ -191,23 +200,24 @@ impl<'a, 'd> Parser<'a, 'd> {
                     span,
                 })
             }
-            // CODESYS's and TwinCAT's UNION … END_UNION: read whole, so the rest of the
-            // source is checked, and told as not supported.
+            // CODESYS's and TwinCAT's UNION … END_UNION: every member starts at byte 0.
             Tok::Ident if in_type && self.at_word("UNION") => {
                 self.bump();
+                let mut members = Vec::new();
                 while !self.at_word("END_UNION") && !self.is_top_start() && !self.at_kw(Kw::EndType)
                 {
                     let s = self.pos;
-                    if self.var_decl().is_err() {
-                        self.sync_decl(s);
+                    match self.var_decl() {
+                        Ok(d) => members.push(d),
+                        Err(Reported) => self.sync_decl(s),
                     }
                 }
                 if !self.at_word("END_UNION") {
                     return Err(self.expected("`END_UNION`"));
                 }
                 self.bump();
-                Ok(TypeSpec::Unsupported {
-                    what: "UNION (members sharing their bytes) is not supported yet; declare a STRUCT, or read a variable's bytes as another type through a POINTER TO".into(),
+                Ok(TypeSpec::Union {
+                    members,
                     span: start.to(self.prev_span()),
                 })
             }

@@ -94,6 +94,21 @@ impl<'c, 'p> Fx<'c, 'p> {
                 }
             }
             ExprKind::Ref(place) => {
+                // ADR(u.m): a handle of the union `u` itself, whose bytes `m` starts (the
+                // pointer's accesses go through them).
+                let stripped;
+                let place = match place.path.last() {
+                    Some(petriplc_iec_sema::ir::Step::Overlay { union, .. }) => {
+                        stripped = petriplc_iec_sema::ir::Place {
+                            root: place.root,
+                            path: place.path[..place.path.len() - 1].to_vec(),
+                            ty: *union,
+                            span: place.span,
+                        };
+                        &stripped
+                    }
+                    _ => place,
+                };
                 if place.ty > crate::pointer::MAX_TAGGED_TYPE {
                     return Err(CompileError::Unsupported(format!(
                         "a reference to a type beyond the first {} types of a project",

@@ -64,7 +64,11 @@ impl<'c, 'p> Fx<'c, 'p> {
                     || target.path.iter().any(|s| {
                         matches!(
                             s,
-                            Step::Index(_) | Step::Bit(_) | Step::Bits(..) | Step::Deref
+                            Step::Index(_)
+                                | Step::Bit(_)
+                                | Step::Bits(..)
+                                | Step::Deref
+                                | Step::Overlay { .. }
                         )
                     })
                 {

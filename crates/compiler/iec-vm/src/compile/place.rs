@@ -142,6 +142,13 @@ impl<'c, 'p> Fx<'c, 'p> {
                     loc = Loc::Ind(d, 0);
                     ty = target;
                 }
+                // The checker lets a union's member be only read or assigned, which
+                // `view_of` compiles.
+                Step::Overlay { .. } => {
+                    return Err(crate::compile::CompileError::Unsupported(
+                        "a union's member used as a variable with an address of its own".into(),
+                    ))
+                }
             }
         }
         Ok(PlaceLoc { loc, bit })
@@ -151,10 +158,20 @@ impl<'c, 'p> Fx<'c, 'p> {
     /// array): read and written through the designated variable's byte image
     /// ([`crate::pointer::View`]), so a pointer of another type than the variable's works
     /// as in CODESYS. The handle's slot, the subscript and its lower bound, the type.
+    ///
+    /// A union's member (`Step::Overlay`) is the same view, through a handle of the union
+    /// made on the spot.
     pub(super) fn view_of(&mut self, p: &Place) -> R<Option<ViewAt>> {
-        let Some(k) = p.path.iter().rposition(|s| matches!(s, Step::Deref)) else {
+        let Some(k) = p
+            .path
+            .iter()
+            .rposition(|s| matches!(s, Step::Deref | Step::Overlay { .. }))
+        else {
             return Ok(None);
         };
+        if let Step::Overlay { ty: target, .. } = p.path[k] {
+            return self.overlay_view(p, k, target).map(Some);
+        }
         let Some(e) = self.c.p.types.elem(p.ty) else {
             return Ok(None);
         };
@@ -199,6 +216,84 @@ impl<'c, 'p> Fx<'c, 'p> {
             e,
             what: self.c.p.types.name(ty),
         }))
+    }
+
+    /// The view of union member `p.path[k]` (of type `target`; the checker allowed only an
+    /// elementary value in it: `memory::overlay_path`).
+    fn overlay_view(&mut self, p: &Place, k: usize, target: TypeId) -> R<ViewAt> {
+        let mut uty = self.root_ty(p.root);
+        for s in &p.path[..k] {
+            uty = self.step_ty(uty, s);
+        }
+        let unsupported = |what: &str| crate::compile::CompileError::Unsupported(what.into());
+        let types = &self.c.p.types;
+        let Some((off, idx, last)) =
+            petriplc_iec_sema::memory::overlay_path(types, target, &p.path[k + 1..])
+        else {
+            return Err(unsupported("this use of a union's member"));
+        };
+        let Some(e) = types.elem(last) else {
+            return Err(unsupported("this use of a union's member"));
+        };
+        if uty > crate::pointer::MAX_TAGGED_TYPE {
+            return Err(unsupported("a union beyond the first types of a project"));
+        }
+        let prefix = Place {
+            root: p.root,
+            path: p.path[..k].to_vec(),
+            ty: uty,
+            span: p.span,
+        };
+        let pl = self.place_loc(&prefix)?;
+        let a = self.addr_of(pl.loc, p.span)?;
+        let h = self.temp(1);
+        self.ext(
+            ExtOp::MakeRef {
+                d: h,
+                s: a,
+                ty: uty,
+            },
+            p.span,
+        );
+        let h = if off > 0 {
+            // A field or a constant element inside the member: the handle moved there.
+            let n = self.konst(off);
+            let d = self.temp(1);
+            self.ext(
+                ExtOp::PtrAdd {
+                    d,
+                    p: h,
+                    n,
+                    sub: false,
+                },
+                p.span,
+            );
+            d
+        } else {
+            h
+        };
+        let idx = match idx {
+            Some((x, (lo, hi))) => {
+                // The member's own bounds, checked as an array element's are (the view
+                // checks only the union's): the element's number from 0, `i - lo`.
+                let i = self.expr(x, None)?;
+                let zero = self.konst(0);
+                let a = self.c.units[self.unit].arrays.len() as u32;
+                self.c.units[self.unit]
+                    .arrays
+                    .push(ArrayInfo { lo, hi, stride: 1 });
+                let d = self.temp(1);
+                self.emit(Op::Index { d, p: zero, i, a }, x.span);
+                Some((d, 0))
+            }
+            None => None,
+        };
+        Ok(ViewAt {
+            h,
+            idx,
+            e,
+            what: format!("member of {}", self.c.p.types.name(uty)),
+        })
     }
 
     pub(super) fn view_load(&mut self, v: ViewAt, d: u32, span: Span) {
@@ -268,6 +363,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             (Step::Bits(_, 16), _) => petriplc_iec_sema::types::ids::WORD,
             (Step::Bits(..), _) => petriplc_iec_sema::types::ids::DWORD,
             (Step::Deref, Type::Ref { target, .. }) => *target,
+            (Step::Overlay { ty, .. }, _) => *ty,
             _ => ty,
         }
     }

@@ -128,10 +128,13 @@ impl<'c, 'p> Fx<'c, 'p> {
         // IF c THEN x := constant; END_IF → one instruction.
         if branches.len() == 1 && else_body.is_empty() && branches[0].1.len() == 1 {
             if let StmtKind::Assign { target, value } = &branches[0].1[0].kind {
-                let deref = target
-                    .path
-                    .iter()
-                    .any(|s| matches!(s, petriplc_iec_sema::ir::Step::Deref));
+                let deref = target.path.iter().any(|s| {
+                    matches!(
+                        s,
+                        petriplc_iec_sema::ir::Step::Deref
+                            | petriplc_iec_sema::ir::Step::Overlay { .. }
+                    )
+                });
                 if let (ExprKind::Const(v), true, false) =
                     (&value.kind, scalar(self.p(), target.ty), deref)
                 {
