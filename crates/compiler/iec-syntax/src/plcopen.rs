@@ -31,6 +31,29 @@ pub fn is_plcopen(text: &str) -> bool {
     head.contains("<project") && NAMESPACES.iter().any(|ns| head.contains(ns))
 }
 
+/// Whether a PLCopen XML project was written by Beremiz: its fileHeader names Beremiz
+/// (as product, company or in its description), or holds the values Beremiz gives a new
+/// project (`companyName="Unknown"`, `productName="Unnamed"`, ProjectController.py), or the
+/// root element declares the `ns1` prefix Beremiz's XML writer (xmlclass) adds.
+pub fn written_by_beremiz(text: &str) -> bool {
+    let Some(start) = text.find("<fileHeader") else {
+        return false;
+    };
+    let root = &text[..start];
+    let header = &text[start..];
+    let header = &header[..header.find('>').unwrap_or(header.len())];
+    let attr = |name: &str| {
+        let key = format!("{name}=\"");
+        header.find(&key).map(|i| {
+            let v = &header[i + key.len()..];
+            &v[..v.find('"').unwrap_or(v.len())]
+        })
+    };
+    header.to_ascii_lowercase().contains("beremiz")
+        || (attr("companyName") == Some("Unknown") && attr("productName") == Some("Unnamed"))
+        || root.contains("xmlns:ns1=\"http://www.plcopen.org/xml/tc6")
+}
+
 /// Reads a PLCopen project. `name` is the path printed in messages.
 pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics) -> Library {
     let file = map.add(name, text);
@@ -62,6 +85,7 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
         steps: false,
         found: Vec::new(),
         strings: vec!["HMI_STRING".into()],
+        beremiz: written_by_beremiz(text),
     };
     if let Some(types) = root.child("types") {
         if let Some(dts) = types.child("dataTypes") {
@@ -119,6 +143,9 @@ struct Reader<'a> {
     steps: bool,
     /// Elements CODESYS keeps in `<addData>` (global variable lists, a resource's POUs).
     found: Vec<Element>,
+    /// Whether Beremiz (or OpenPLC Editor) wrote the project: its string initial values may
+    /// be unquoted ([`Reader::initial_of`]).
+    beremiz: bool,
     /// The names of string types: the project's aliases of STRING and Beremiz SVGHMI's
     /// HMI_STRING (the `beremiz` library's), whose initial values Beremiz writes unquoted.
     strings: Vec<String>,
@@ -340,9 +367,14 @@ impl Reader<'_> {
 
     /// The initial value `iv` of something of type `ty`. Beremiz keeps a string's initial
     /// value as typed, quotes and all or not, and quotes it when it writes Structured Text
-    /// (PLCGenerator.py, `ComputeValue`): `<simpleValue value="blup"/>` is `'blup'`.
+    /// (PLCGenerator.py, `ComputeValue`): `<simpleValue value="blup"/>` is `'blup'`. Other
+    /// writers (CODESYS) keep an expression there (`CONCAT(prefix, '#')`, a constant's
+    /// name), read as written.
     fn initial_of(&mut self, iv: &X, ty: &X) -> Option<Init> {
-        let simple = iv.children.first().filter(|v| v.name == "simpleValue");
+        let simple = iv
+            .children
+            .first()
+            .filter(|v| self.beremiz && v.name == "simpleValue");
         if let (Some(v), true) = (simple, self.is_string(ty)) {
             if let Some(text) = v.attr("value") {
                 let wide = ty.children.first().is_some_and(|t| t.name == "wstring");

@@ -2,28 +2,7 @@
 //! loads the vendor library `beremiz` (its Structured Text is
 //! `petriplc_iec_syntax::builtin`, docs/iec.md, "Vendor libraries").
 
-/// Whether a PLCopen XML project was written by Beremiz: its fileHeader names Beremiz
-/// (as product, company or in its description), or holds the values Beremiz gives a new
-/// project (`companyName="Unknown"`, `productName="Unnamed"`, ProjectController.py), or the
-/// root element declares the `ns1` prefix Beremiz's XML writer (xmlclass) adds.
-pub fn written_by_beremiz(text: &str) -> bool {
-    let Some(start) = text.find("<fileHeader") else {
-        return false;
-    };
-    let root = &text[..start];
-    let header = &text[start..];
-    let header = &header[..header.find('>').unwrap_or(header.len())];
-    let attr = |name: &str| {
-        let key = format!("{name}=\"");
-        header.find(&key).map(|i| {
-            let v = &header[i + key.len()..];
-            &v[..v.find('"').unwrap_or(v.len())]
-        })
-    };
-    header.to_ascii_lowercase().contains("beremiz")
-        || (attr("companyName") == Some("Unknown") && attr("productName") == Some("Unnamed"))
-        || root.contains("xmlns:ns1=\"http://www.plcopen.org/xml/tc6")
-}
+pub use petriplc_iec_syntax::plcopen::written_by_beremiz;
 
 #[cfg(test)]
 mod tests {

@@ -259,6 +259,7 @@ fn a_tc6_1_0_pou_instance_names_its_type_with_type() {
 #[test]
 fn an_unquoted_string_initial_value_is_quoted_as_beremiz_does() {
     let text = r#"<project xmlns="http://www.plcopen.org/xml/tc6_0201">
+  <fileHeader companyName="Unknown" productName="Unnamed" productVersion="1" creationDateTime="2024-01-01T00:00:00"/>
   <types><dataTypes>
     <dataType name="Name"><baseType><string/></baseType></dataType>
   </dataTypes><pous>
@@ -309,4 +310,22 @@ fn a_clock_time_interval_is_a_duration() {
     assert_eq!(clock_duration("T#10ms"), None);
     assert_eq!(clock_duration("1:2"), None);
     assert_eq!(clock_duration("00:00:0x"), None);
+}
+
+#[test]
+fn a_string_initial_value_of_another_writer_is_read_as_written() {
+    // CODESYS keeps an expression there; only Beremiz's projects get their values quoted.
+    let text = r#"<project xmlns="http://www.plcopen.org/xml/tc6_0200">
+  <fileHeader companyName="" productName="CODESYS" productVersion="3.5" creationDateTime="2024-01-01T00:00:00"/>
+  <types><dataTypes/><pous>
+    <pou name="main" pouType="program">
+      <interface><localVars>
+        <variable name="a"><type><string/></type><initialValue><simpleValue value="CONCAT('ab', '#')"/></initialValue></variable>
+      </localVars></interface>
+      <body><ST><xhtml xmlns="http://www.w3.org/1999/xhtml">a := a;</xhtml></ST></body>
+    </pou>
+  </pous></types>
+</project>"#;
+    let (_, msgs) = read_text(text);
+    assert!(msgs.is_empty(), "{msgs:?}");
 }
