@@ -398,6 +398,16 @@ impl<'a, 'd> Parser<'a, 'd> {
                 span: start.to(self.prev_span()),
             });
         }
+        if self.at(&Tok::LParen) && self.peek_at(1).tok == Tok::RParen {
+            // CODESYS's and TwinCAT's `fb : FB_X := ();`: no value given (FB_init's
+            // arguments, none here), so every member keeps its declared initial value.
+            self.bump();
+            self.bump();
+            return Ok(Init::Struct {
+                fields: Vec::new(),
+                span: start.to(self.prev_span()),
+            });
+        }
         if self.at(&Tok::LParen)
             && Self::is_name(&self.peek_at(1).tok)
             && self.peek_at(2).tok == Tok::Assign
