@@ -5,6 +5,8 @@
 //! body, placed at the line and column where the body starts in the XML file, so messages
 //! about it point into the XML file.
 
+pub(crate) mod builtin;
+
 /// Index of a source in its [`SourceMap`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct FileId(pub u32);
@@ -207,7 +209,7 @@ impl SourceMap {
     }
 
     pub fn file(&self, id: FileId) -> &SourceFile {
-        match crate::builtin::file(id) {
+        match builtin::file(id) {
             Some(f) => f,
             None => &self.files[id.0 as usize],
         }
@@ -215,7 +217,7 @@ impl SourceMap {
 
     /// A source of this map, or one of the built-in vendor libraries' ([`crate::builtin`]).
     pub fn get(&self, id: FileId) -> Option<&SourceFile> {
-        crate::builtin::file(id).or_else(|| self.files.get(id.0 as usize))
+        builtin::file(id).or_else(|| self.files.get(id.0 as usize))
     }
 
     pub fn files(&self) -> impl Iterator<Item = (FileId, &SourceFile)> {

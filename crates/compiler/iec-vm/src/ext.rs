@@ -530,8 +530,9 @@ pub fn exec(
         | ExtOp::PtrAdd { .. }
         | ExtOp::ViewLoad { .. }
         | ExtOp::Mem { .. }
-        | ExtOp::ViewStore { .. } => {
-            // Run by crate::pointer::exec, which has the shapes.
+        | ExtOp::ViewStore { .. }
+        | ExtOp::ItfType { .. } => {
+            // Run by crate::pointer::exec, which has the shapes (and the handles' format).
             return Err(fault(
                 OpError::Domain("internal error"),
                 "a pointer instruction without its shapes".into(),
@@ -763,10 +764,6 @@ pub fn exec(
                 ));
             }
             mem[base + *d as usize] = h;
-        }
-        ExtOp::ItfType { d, s } => {
-            let h = mem[base + *s as usize];
-            mem[base + *d as usize] = crate::pointer::type_of(h) as u64;
         }
         ExtOp::Now { d } => {
             mem[base + *d as usize] = (now - now.rem_euclid(1_000_000)) as u64;

@@ -491,6 +491,10 @@ pub fn exec(
         }
         .store(mem, base, *s, shapes),
         ExtOp::Mem { f, d, a, b, n } => mem_fn(*f, mem, base, [*d, *a, *b, *n], shapes),
+        ExtOp::ItfType { d, s } => {
+            mem[base + *d as usize] = type_of(mem[base + *s as usize]) as u64;
+            Ok(())
+        }
         _ => return None,
     })
 }
