@@ -4,7 +4,7 @@ use petriplc_iec_syntax::ast::{self, ExprKind as A};
 use petriplc_iec_syntax::diag;
 
 use crate::check::{Checker, Cx};
-use crate::ir::{Expr, ExprKind, FnCall, VarClass, VarId};
+use crate::ir::{Expr, ExprKind, FnCall, Place, VarClass, VarId};
 use crate::types::{ids, RefKind, Type, TypeId};
 
 use super::{err, konst, Bound};
@@ -407,20 +407,7 @@ impl<'a> Checker<'a> {
             return false;
         }
         let Some(v) = &a.value else { return true };
-        // An in-out REFERENCE TO is the caller's reference itself (the callee may rebind it).
-        let is_ref = matches!(
-            self.types.get(var.ty),
-            Type::Ref {
-                kind: RefKind::ReferenceTo,
-                ..
-            }
-        );
-        let pl = if is_ref {
-            self.reference_place(v, cx, true)
-        } else {
-            self.place(v, cx, true)
-        };
-        let Some(pl) = pl else {
+        let Some(pl) = self.bound_place(var.ty, v, cx) else {
             return false;
         };
         if !self.writable(&pl, cx, v.span) {
@@ -437,6 +424,23 @@ impl<'a> Checker<'a> {
         }
         out.in_outs.push((id, pl));
         true
+    }
+
+    /// The caller's variable an in-out or output of type `ty` is bound to. An in-out
+    /// REFERENCE TO is the caller's reference itself (the callee may rebind it).
+    fn bound_place(&mut self, ty: TypeId, v: &ast::Expr, cx: &mut Cx) -> Option<Place> {
+        let is_ref = matches!(
+            self.types.get(ty),
+            Type::Ref {
+                kind: RefKind::ReferenceTo,
+                ..
+            }
+        );
+        if is_ref {
+            self.reference_place(v, cx, true)
+        } else {
+            self.place(v, cx, true)
+        }
     }
 
     /// An output connected with `=>`: a writable variable it can be stored in.
@@ -461,20 +465,7 @@ impl<'a> Checker<'a> {
             return false;
         }
         let Some(v) = &a.value else { return true };
-        // An in-out REFERENCE TO is the caller's reference itself (the callee may rebind it).
-        let is_ref = matches!(
-            self.types.get(var.ty),
-            Type::Ref {
-                kind: RefKind::ReferenceTo,
-                ..
-            }
-        );
-        let pl = if is_ref {
-            self.reference_place(v, cx, true)
-        } else {
-            self.place(v, cx, true)
-        };
-        let Some(pl) = pl else {
+        let Some(pl) = self.bound_place(var.ty, v, cx) else {
             return false;
         };
         if !self.writable(&pl, cx, v.span) {

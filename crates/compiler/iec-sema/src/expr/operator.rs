@@ -723,35 +723,25 @@ impl<'a> Checker<'a> {
                 }
             }
             (Type::Str { wide: wa, .. }, Type::Str { len, wide }) if wa == wide => {
-                if let ExprKind::Const(Value::WStr(s)) = &x.kind {
-                    if s.len() > *len as usize {
+                // A constant of either width: its characters (bytes or UTF-16 units) must fit.
+                let chars = match &x.kind {
+                    ExprKind::Const(Value::WStr(s)) => Some(s.len()),
+                    ExprKind::Const(Value::Str(s)) => Some(s.len()),
+                    _ => None,
+                };
+                if let (Some(n), ExprKind::Const(v)) = (chars, &x.kind) {
+                    if n > *len as usize {
                         self.error(
                             diag::OUT_OF_RANGE,
                             span,
                             format!(
-                                "this string has {} characters; {} holds {len}",
-                                s.len(),
+                                "this string has {n} characters; {} holds {len}",
                                 self.types.name(to)
                             ),
                         );
                         return err(span);
                     }
-                    return konst(Value::WStr(s.clone()), to, span);
-                }
-                if let ExprKind::Const(Value::Str(s)) = &x.kind {
-                    if s.len() > *len as usize {
-                        self.error(
-                            diag::OUT_OF_RANGE,
-                            span,
-                            format!(
-                                "this string has {} characters; {} holds {len}",
-                                s.len(),
-                                self.types.name(to)
-                            ),
-                        );
-                        return err(span);
-                    }
-                    return konst(Value::Str(s.clone()), to, span);
+                    return konst(v.clone(), to, span);
                 }
                 return Expr {
                     kind: ExprKind::Convert(Box::new(x)),
