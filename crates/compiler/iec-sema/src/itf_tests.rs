@@ -1,18 +1,7 @@
 //! The checker's rules of interfaces (docs/iec.md, "Interfaces"): IMPLEMENTS checked, the
 //! values an interface takes, and its misuses, each with its code and message.
 
-use crate::tests::run;
-
-/// The diagnostics of checking `src` (one a line), or `ok`.
-fn check_src(src: &str, expect: &str) {
-    let (p, rendered) = run(src);
-    let got = if p.is_some() && rendered.is_empty() {
-        "ok".to_string()
-    } else {
-        rendered
-    };
-    assert_eq!(got.trim_end(), expect.trim_end(), "{src}");
-}
+use crate::tests::check_src;
 
 const ITF: &str = "INTERFACE I_Base
 METHOD Id : INT

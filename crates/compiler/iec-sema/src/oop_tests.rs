@@ -1,18 +1,7 @@
 //! The checker's rules of object orientation (docs/iec.md, "Object orientation"): each misuse
 //! with its code and message, and what is accepted.
 
-use crate::tests::run;
-
-/// The diagnostics of checking `src` (one a line), or `ok`.
-fn check_src(src: &str, expect: &str) {
-    let (p, rendered) = run(src);
-    let got = if p.is_some() && rendered.is_empty() {
-        "ok".to_string()
-    } else {
-        rendered
-    };
-    assert_eq!(got.trim_end(), expect.trim_end(), "{src}");
-}
+use crate::tests::check_src;
 
 const BASE: &str = "FUNCTION_BLOCK b
 VAR x : INT; END_VAR

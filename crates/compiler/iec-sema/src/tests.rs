@@ -10,6 +10,18 @@ pub(crate) fn run(src: &str) -> (Option<ir::Project>, String) {
     run_in(src, Overflow::default())
 }
 
+/// The diagnostics of checking `src` (one a line), or `ok`, against `expect`: the
+/// `check(input, expect)` of the checker's rule tests (OOP, interfaces).
+pub(crate) fn check_src(src: &str, expect: &str) {
+    let (p, rendered) = run(src);
+    let got = if p.is_some() && rendered.is_empty() {
+        "ok".to_string()
+    } else {
+        rendered
+    };
+    assert_eq!(got.trim_end(), expect.trim_end(), "{src}");
+}
+
 fn run_in(src: &str, overflow: Overflow) -> (Option<ir::Project>, String) {
     let mut map = SourceMap::new();
     let f = map.add("t.st", src);

@@ -119,6 +119,23 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// Reports that union `uname` has no member named `name`, listing its members.
+    fn no_member(&mut self, uname: &str, members: &[Field], name: &Ident) {
+        let list = members
+            .iter()
+            .map(|x| x.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ");
+        self.error(
+            diag::NO_FIELD,
+            name.span,
+            format!(
+                "UNION {uname} has no member `{}`; its members are {list}",
+                name.name
+            ),
+        );
+    }
+
     /// `u.m`: member `m` of the union `p` (`None`, reported: there is no such member).
     pub(crate) fn union_member(&mut self, mut p: Place, f: &Ident, span: Span) -> Option<Place> {
         let members = self.types.union_members(p.ty)?.to_vec();
@@ -127,19 +144,7 @@ impl<'a> Checker<'a> {
             .position(|m| m.name.eq_ignore_ascii_case(&f.name))
         else {
             let uname = self.types.name(p.ty);
-            self.error(
-                diag::NO_FIELD,
-                f.span,
-                format!(
-                    "UNION {uname} has no member `{}`; its members are {}",
-                    f.name,
-                    members
-                        .iter()
-                        .map(|x| x.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            );
+            self.no_member(&uname, &members, f);
             return None;
         };
         p.path.push(Step::Overlay {
@@ -244,19 +249,7 @@ impl<'a> Checker<'a> {
                     .iter()
                     .find(|m| m.name.eq_ignore_ascii_case(&n.name))
                 else {
-                    self.error(
-                        diag::NO_FIELD,
-                        n.span,
-                        format!(
-                            "UNION {uname} has no member `{}`; its members are {}",
-                            n.name,
-                            members
-                                .iter()
-                                .map(|x| x.name.as_str())
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ),
-                    );
+                    self.no_member(&uname, &members, n);
                     return None;
                 };
                 (m.clone(), v)
