@@ -50,14 +50,7 @@ pub fn parse_body(file: FileId, text: &str, diags: &mut Diagnostics) -> Vec<Stmt
     let tokens = lexer::lex(file, text, diags);
     let mut p = Parser::new(file, text, tokens, diags);
     let body = p.statements(&[]);
-    if !p.at(&Tok::Eof) {
-        let t = p.peek().clone();
-        p.error_at(
-            diag::SYNTAX,
-            t.span,
-            format!("{} is not a statement here", p.describe(&t)),
-        );
-    }
+    p.expect_eof(|t| format!("{t} is not a statement here"));
     body
 }
 
@@ -111,15 +104,7 @@ pub fn parse_declaration(file: FileId, text: &str, diags: &mut Diagnostics) -> O
             );
         }
     }
-    if !p.at(&Tok::Eof) {
-        let t = p.peek().clone();
-        let msg = format!(
-            "{} after the declaration of {}",
-            p.describe(&t),
-            pou.name.name
-        );
-        p.error_at(diag::SYNTAX, t.span, msg);
-    }
+    p.expect_eof(|t| format!("{t} after the declaration of {}", pou.name.name));
     pou.body = Body::St(Vec::new());
     Some(pou)
 }
@@ -134,30 +119,14 @@ pub fn parse_interface_declaration(
     let tokens = lexer::lex(file, text, diags);
     let mut p = Parser::new(file, text, tokens, diags);
     if !p.at_interface() {
-        let t = p.peek().clone();
-        if !p.quiet_at(&t) {
-            p.error_at(
-                diag::SYNTAX,
-                t.span,
-                "an interface's declaration starts with INTERFACE and its name",
-            );
-        }
+        p.refuse_start("an interface's declaration starts with INTERFACE and its name");
         return None;
     }
     let pou = p.interface(true).ok()?;
-    if !p.at(&Tok::Eof) {
-        let t = p.peek().clone();
-        let msg = format!(
-            "{} after the declaration of {}",
-            p.describe(&t),
-            pou.name.name
-        );
-        p.error_at(diag::SYNTAX, t.span, msg);
-    }
+    p.expect_eof(|t| format!("{t} after the declaration of {}", pou.name.name));
     Some(pou)
 }
 
-/// Parses one expression alone (a PLCopen initial value, a task interval).
 /// The `<Declaration>` of a TwinCAT method, property or action (`METHOD M : INT` and its
 /// variable blocks, `PROPERTY P : INT`): the member, without a body.
 pub fn parse_member_declaration(
@@ -169,22 +138,13 @@ pub fn parse_member_declaration(
     let mut p = Parser::new(file, text, tokens, diags);
     let mut oop = PouOop::default();
     if !p.at_member_start() {
-        let t = p.peek().clone();
-        if !p.quiet_at(&t) {
-            p.error_at(
-                diag::SYNTAX,
-                t.span,
-                "a member's declaration starts with METHOD, PROPERTY or ACTION and its name",
-            );
-        }
+        p.refuse_start(
+            "a member's declaration starts with METHOD, PROPERTY or ACTION and its name",
+        );
         return None;
     }
     p.member(&mut oop, true).ok()?;
-    if !p.at(&Tok::Eof) {
-        let t = p.peek().clone();
-        let msg = format!("{} after the member's declaration", p.describe(&t));
-        p.error_at(diag::SYNTAX, t.span, msg);
-    }
+    p.expect_eof(|t| format!("{t} after the member's declaration"));
     Some(oop)
 }
 
@@ -193,25 +153,16 @@ pub fn parse_var_blocks(file: FileId, text: &str, diags: &mut Diagnostics) -> Ve
     let tokens = lexer::lex(file, text, diags);
     let mut p = Parser::new(file, text, tokens, diags);
     let blocks = p.member_var_blocks();
-    if !p.at(&Tok::Eof) {
-        let t = p.peek().clone();
-        let msg = format!("{} where variable blocks were expected", p.describe(&t));
-        p.error_at(diag::SYNTAX, t.span, msg);
-    }
+    p.expect_eof(|t| format!("{t} where variable blocks were expected"));
     blocks
 }
 
+/// Parses one expression alone (a PLCopen initial value, a task interval).
 pub fn parse_expression(file: FileId, text: &str, diags: &mut Diagnostics) -> Option<Expr> {
     let tokens = lexer::lex(file, text, diags);
     let mut p = Parser::new(file, text, tokens, diags);
     let e = p.expr().ok()?;
-    if !p.at(&Tok::Eof) {
-        let t = p.peek().clone();
-        p.error_at(
-            diag::SYNTAX,
-            t.span,
-            format!("{} after the expression", p.describe(&t)),
-        );
+    if !p.expect_eof(|t| format!("{t} after the expression")) {
         return None;
     }
     Some(e)
@@ -359,6 +310,28 @@ impl<'a, 'd> Parser<'a, 'd> {
         let msg = format!("expected {what}, found {}", self.describe(&t));
         self.error_at(code, t.span, msg);
         Reported
+    }
+
+    /// At the end of a part parsed alone (a body, a declaration, an expression): reports a
+    /// token left over, `what` telling what it follows (given the token's description).
+    /// True when the text ended there.
+    fn expect_eof(&mut self, what: impl FnOnce(String) -> String) -> bool {
+        if self.at(&Tok::Eof) {
+            return true;
+        }
+        let t = self.peek().clone();
+        let msg = what(self.describe(&t));
+        self.error_at(diag::SYNTAX, t.span, msg);
+        false
+    }
+
+    /// A part parsed alone does not start as it must: `msg` at the first token, unless the
+    /// lexer already reported the problem there.
+    fn refuse_start(&mut self, msg: &str) {
+        let t = self.peek().clone();
+        if !self.quiet_at(&t) {
+            self.error_at(diag::SYNTAX, t.span, msg);
+        }
     }
 
     fn quiet_at(&self, t: &Token) -> bool {
