@@ -85,32 +85,13 @@ impl Reader<'_> {
             }
         }
         for p in listed("Properties", "property", "Property") {
-            let Some(pname) = self.name_attr(p) else {
-                continue;
+            let abstract_ = Modifiers {
+                is_abstract: true,
+                ..Modifiers::default()
             };
-            let (_, ty) = self.interface_of(p);
-            let Some(ty) = ty else {
-                let span = self.span(p);
-                self.diags.error(
-                    diag::PLCOPEN_STRUCTURE,
-                    span,
-                    format!(
-                        "PROPERTY {} of INTERFACE {} has no <returnType> in its <interface>",
-                        pname.name, name.name
-                    ),
-                );
+            let owner = format!("INTERFACE {}", name.name);
+            let Some(mut prop) = self.property_head(p, &owner, abstract_) else {
                 continue;
-            };
-            let mut prop = Property {
-                modifiers: Modifiers {
-                    is_abstract: true,
-                    ..Modifiers::default()
-                },
-                name: pname.clone(),
-                ty,
-                get: None,
-                set: None,
-                span: pname.span,
             };
             let (mut get, mut set) = (
                 p.child("GetAccessor").is_some(),
@@ -119,7 +100,7 @@ impl Reader<'_> {
             if !get && !set {
                 (get, set) = (true, true);
             }
-            let span = pname.span;
+            let span = prop.span;
             if get {
                 prop.get = Some(crate::parser::accessor(
                     &prop,
@@ -173,6 +154,33 @@ impl Reader<'_> {
         }
     }
 
+    /// A `<Property>` of `owner` (named in messages) without its accessors: its name and the
+    /// type of its `<returnType>` (`None`, reported, when either is missing).
+    fn property_head(&mut self, p: &X, owner: &str, modifiers: Modifiers) -> Option<Property> {
+        let pname = self.name_attr(p)?;
+        let (_, ty) = self.interface_of(p);
+        let Some(ty) = ty else {
+            let span = self.span(p);
+            self.diags.error(
+                diag::PLCOPEN_STRUCTURE,
+                span,
+                format!(
+                    "PROPERTY {} of {owner} has no <returnType> in its <interface>",
+                    pname.name
+                ),
+            );
+            return None;
+        };
+        Some(Property {
+            modifiers,
+            span: pname.span,
+            name: pname,
+            ty,
+            get: None,
+            set: None,
+        })
+    }
+
     /// A POU's data: its methods, properties (`<GetAccessor>`, `<SetAccessor>`), EXTENDS and
     /// IMPLEMENTS, and its actions when its body is not SFC (whose actions are its steps').
     pub(super) fn pou_add_data(&mut self, pou: &X, name: &Ident) -> PouOop {
@@ -189,30 +197,10 @@ impl Reader<'_> {
         }
         for d in data(pou, "property") {
             for p in d.children_named("Property") {
-                let Some(pname) = self.name_attr(p) else {
+                let Some(mut prop) = self.property_head(p, &name.name, Modifiers::default()) else {
                     continue;
                 };
-                let (_, ty) = self.interface_of(p);
-                let Some(ty) = ty else {
-                    let span = self.span(p);
-                    self.diags.error(
-                        diag::PLCOPEN_STRUCTURE,
-                        span,
-                        format!(
-                            "PROPERTY {} of {} has no <returnType> in its <interface>",
-                            pname.name, name.name
-                        ),
-                    );
-                    continue;
-                };
-                let mut prop = Property {
-                    modifiers: Modifiers::default(),
-                    name: pname.clone(),
-                    ty,
-                    get: None,
-                    set: None,
-                    span: pname.span,
-                };
+                let pname = prop.name.clone();
                 for (tag, get) in [("GetAccessor", true), ("SetAccessor", false)] {
                     if let Some(acc) = p.child(tag) {
                         let (blocks, _) = self.interface_of(acc);
