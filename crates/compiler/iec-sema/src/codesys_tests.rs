@@ -1,19 +1,7 @@
 //! CODESYS and TwinCAT forms beyond the standard: the short-circuit `AND_THEN` and `OR_ELSE`,
 //! `REFERENCE TO` and `STRUCT EXTENDS` (`UNION`: union_tests.rs); what is accepted and the errors around them.
 
-use crate::tests::run;
-
-/// Checks `src`; every rendered diagnostic line must contain the fragment at its place in
-/// `expect`, and there must be as many.
-pub(crate) fn check_diags(src: &str, expect: &[&str]) {
-    let (p, text) = run(src);
-    let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines.len(), expect.len(), "got:\n{text}");
-    for (l, e) in lines.iter().zip(expect) {
-        assert!(l.contains(e), "expected `{e}` in\n{l}\n(all:\n{text})");
-    }
-    assert_eq!(p.is_some(), !text.contains("error["), "{text}");
-}
+use crate::tests::{check_diags, run};
 
 #[test]
 fn and_then_and_or_else_take_bool_only() {

@@ -1,19 +1,7 @@
 //! What other compilers (matiec, CODESYS, TwinCAT, PCWorx) accept and the standard does not:
 //! accepted with a warning, and where it stays refused.
 
-use crate::tests::run;
-
-/// Checks `src`; every rendered diagnostic line must contain the fragment at its place in
-/// `expect`, and there must be as many.
-fn check_diags(src: &str, expect: &[&str]) {
-    let (p, text) = run(src);
-    let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines.len(), expect.len(), "got:\n{text}");
-    for (l, e) in lines.iter().zip(expect) {
-        assert!(l.contains(e), "expected `{e}` in\n{l}\n(all:\n{text})");
-    }
-    assert_eq!(p.is_some(), !text.contains("error["), "{text}");
-}
+use crate::tests::check_diags;
 
 const FB: &str = "FUNCTION_BLOCK fb\nVAR n : INT; END_VAR\nVAR CONSTANT k : INT := 3; END_VAR\nVAR_TEMP t : INT; END_VAR\nn := n + 1;\nEND_FUNCTION_BLOCK\n";
 

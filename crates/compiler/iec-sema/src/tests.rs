@@ -22,6 +22,18 @@ pub(crate) fn check_src(src: &str, expect: &str) {
     assert_eq!(got.trim_end(), expect.trim_end(), "{src}");
 }
 
+/// Checks `src`; every rendered diagnostic line must contain the fragment at its place in
+/// `expect`, and there must be as many.
+pub(crate) fn check_diags(src: &str, expect: &[&str]) {
+    let (p, text) = run(src);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), expect.len(), "got:\n{text}");
+    for (l, e) in lines.iter().zip(expect) {
+        assert!(l.contains(e), "expected `{e}` in\n{l}\n(all:\n{text})");
+    }
+    assert_eq!(p.is_some(), !text.contains("error["), "{text}");
+}
+
 fn run_in(src: &str, overflow: Overflow) -> (Option<ir::Project>, String) {
     let mut map = SourceMap::new();
     let f = map.add("t.st", src);

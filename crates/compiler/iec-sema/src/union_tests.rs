@@ -1,9 +1,8 @@
 //! CODESYS's and TwinCAT's `UNION`: what is accepted, and the errors (E221–E223) around
 //! declaring, reading and initialising its members.
 
-use crate::codesys_tests::check_diags;
 use crate::memory;
-use crate::tests::run;
+use crate::tests::{check_diags, run};
 
 const U: &str =
     "TYPE U :\nUNION\n  a : INT;\n  s : STRING;\n  w : ARRAY[0..1] OF WORD;\nEND_UNION\nEND_TYPE\n";
