@@ -2,12 +2,14 @@
 
 use super::*;
 
+/// The tokens of `src` without their spans (`Eof` last), its diagnostics in `d`.
+fn kinds(src: &str, d: &mut Diagnostics) -> Vec<Tok> {
+    lex(FileId(0), src, d).into_iter().map(|t| t.tok).collect()
+}
+
 fn check(src: &str, expect: &[Tok]) {
     let mut d = Diagnostics::new();
-    let toks: Vec<Tok> = lex(FileId(0), src, &mut d)
-        .into_iter()
-        .map(|t| t.tok)
-        .collect();
+    let toks = kinds(src, &mut d);
     assert!(d.is_empty(), "{src}: {d:?}");
     let mut want = expect.to_vec();
     want.push(Tok::Eof);
@@ -98,10 +100,7 @@ fn strings_and_escapes() {
 fn an_unclosed_inner_comment_ends_at_the_first_close() {
     let src = "a (* x (* y *)\nb (* z *) c";
     let mut d = Diagnostics::new();
-    let toks: Vec<Tok> = lex(FileId(0), src, &mut d)
-        .into_iter()
-        .map(|t| t.tok)
-        .collect();
+    let toks = kinds(src, &mut d);
     assert_eq!(toks, [Tok::Ident, Tok::Ident, Tok::Ident, Tok::Eof]);
     assert_eq!(d.items.len(), 1, "{d:?}");
     assert_eq!(d.items[0].code, diag::COMMENT_NOT_NESTED);
@@ -145,10 +144,7 @@ fn comments_nest_and_pragmas_vanish() {
     // Pragmas leave no token; what they would change is said once (docs/iec.md, "Pragmas").
     let src = "a (* x *) b\n{pragma} /* d */ {{ C { code } }} e {attribute 'hide'}";
     let mut d = Diagnostics::new();
-    let toks: Vec<Tok> = lex(FileId(0), src, &mut d)
-        .into_iter()
-        .map(|t| t.tok)
-        .collect();
+    let toks = kinds(src, &mut d);
     assert_eq!(toks, [Tok::Ident, Tok::Ident, Tok::Ident, Tok::Eof]);
     let got: Vec<(diag::Code, &str)> = d
         .items
@@ -221,10 +217,7 @@ fn operators() {
         ],
     );
     let mut d = Diagnostics::new();
-    let toks: Vec<Tok> = lex(FileId(0), "a ? b", &mut d)
-        .into_iter()
-        .map(|t| t.tok)
-        .collect();
+    let toks = kinds("a ? b", &mut d);
     assert_eq!(toks, [Tok::Ident, Tok::Error, Tok::Ident, Tok::Eof]);
     assert_eq!(d.items[0].code, diag::BAD_CHAR);
 }
@@ -309,10 +302,7 @@ fn a_replacement_character_in_a_string_is_a_warning() {
     // ironplc's strings.st holds U+FFFD where a byte was lost on the way to UTF-8: the
     // character meant is unknown, so STRING gets '?' and W043 says why.
     let mut d = Diagnostics::new();
-    let toks: Vec<Tok> = lex(FileId(0), "'\u{fffd}'", &mut d)
-        .into_iter()
-        .map(|t| t.tok)
-        .collect();
+    let toks = kinds("'\u{fffd}'", &mut d);
     assert_eq!(
         toks[0],
         Tok::Str {
