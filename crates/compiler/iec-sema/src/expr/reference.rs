@@ -14,6 +14,22 @@ use crate::value::Value;
 use super::{err, konst};
 
 impl<'a> Checker<'a> {
+    /// The one positional argument of `call` (`ADR(x)`, `SIZEOF(x)`, `__ISVALIDREF(r)`);
+    /// `None`, with `usage` reported, when there is not exactly one.
+    fn sole_argument<'c>(
+        &mut self,
+        call: &'c ast::Call,
+        usage: impl Into<String>,
+    ) -> Option<&'c ast::Expr> {
+        let arg = match call.args.as_slice() {
+            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
+            _ => None,
+        };
+        if arg.is_none() {
+            self.error(diag::BAD_ARGUMENTS, call.span, usage);
+        }
+        arg
+    }
     /// `NULL` (a name no declaration takes).
     pub(super) fn null(&mut self, span: Span) -> Expr {
         let t = self.types.null();
@@ -167,16 +183,9 @@ impl<'a> Checker<'a> {
     /// REF_TO is compared with NULL or 0 instead; they are taken too).
     pub(super) fn is_valid_ref(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
         let span = call.span;
-        let arg = match call.args.as_slice() {
-            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
-            _ => None,
-        };
-        let Some(arg) = arg else {
-            self.error(
-                diag::BAD_ARGUMENTS,
-                span,
-                "__ISVALIDREF takes one reference: __ISVALIDREF(r)",
-            );
+        let Some(arg) =
+            self.sole_argument(call, "__ISVALIDREF takes one reference: __ISVALIDREF(r)")
+        else {
             return err(span);
         };
         let Some(p) = self.reference_place(arg, cx, false) else {
@@ -215,16 +224,8 @@ impl<'a> Checker<'a> {
     pub(super) fn ref_of(&mut self, name: &ast::Ident, call: &ast::Call, cx: &mut Cx) -> Expr {
         let span = call.span;
         let fname = name.name.to_ascii_uppercase();
-        let arg = match call.args.as_slice() {
-            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
-            _ => None,
-        };
-        let Some(arg) = arg else {
-            self.error(
-                diag::BAD_ARGUMENTS,
-                span,
-                format!("{fname} takes one variable: {fname}(x)"),
-            );
+        let Some(arg) = self.sole_argument(call, format!("{fname} takes one variable: {fname}(x)"))
+        else {
             return err(span);
         };
         if !matches!(
@@ -412,16 +413,8 @@ impl<'a> Checker<'a> {
     /// `SIZEOF(x)` (CODESYS): the bytes of a variable's or a type's image, a constant.
     pub(super) fn size_of(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
         let span = call.span;
-        let arg = match call.args.as_slice() {
-            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
-            _ => None,
-        };
-        let Some(arg) = arg else {
-            self.error(
-                diag::BAD_ARGUMENTS,
-                span,
-                "SIZEOF takes one variable or type: SIZEOF(x)",
-            );
+        let Some(arg) = self.sole_argument(call, "SIZEOF takes one variable or type: SIZEOF(x)")
+        else {
             return err(span);
         };
         let ty = match &arg.kind {
