@@ -70,6 +70,21 @@ t.st:20:10: error[E216]: Motor's Level implements I_Run's with other parameters:
 }
 
 #[test]
+fn an_interface_extending_itself_is_refused() {
+    check_src(
+        "INTERFACE I_A EXTENDS I_B
+END_INTERFACE
+INTERFACE I_B EXTENDS I_A
+END_INTERFACE
+INTERFACE I_C EXTENDS I_C
+END_INTERFACE",
+        "t.st:1:23: error[E210]: I_A extends itself through I_B; a chain of EXTENDS must end
+t.st:3:23: error[E210]: I_B extends itself through I_A; a chain of EXTENDS must end
+t.st:5:23: error[E210]: I_C extends itself through I_C; a chain of EXTENDS must end",
+    );
+}
+
+#[test]
 fn implements_and_an_interfaces_extends_name_interfaces() {
     check_src(
         "FUNCTION_BLOCK Base

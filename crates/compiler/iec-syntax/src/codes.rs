@@ -202,7 +202,7 @@ pub const CODES: &[Entry] = &[
       "PROGRAM p\nVAR RETAIN r : REF_TO INT; END_VAR\nEND_PROGRAM",
       "declare it without RETAIN or AT, and set it again at start-up."),
     e("E210", "a wrong EXTENDS, or object-oriented parts where they do not belong",
-      "Only a FUNCTION_BLOCK extends, and what it extends is another FUNCTION_BLOCK of the project; a chain of EXTENDS ends. Methods, properties and actions belong to a FUNCTION_BLOCK (actions also to a PROGRAM), not to a FUNCTION.",
+      "Only a FUNCTION_BLOCK extends, and what it extends is another FUNCTION_BLOCK of the project (an INTERFACE extends INTERFACEs); a chain of EXTENDS ends, for blocks and interfaces alike. Methods, properties and actions belong to a FUNCTION_BLOCK (actions also to a PROGRAM), not to a FUNCTION.",
       "FUNCTION_BLOCK a EXTENDS missing\nEND_FUNCTION_BLOCK",
       "declare the base FUNCTION_BLOCK, correct its name, or break the circle."),
     e("E211", "a method, property or SUPER^ used in a way it cannot be",

@@ -420,6 +420,24 @@ impl<'a> Checker<'a> {
             };
             self.error(diag::ITF_NOT_INTERFACE, i.span, msg);
         }
+        if interface {
+            // As a FUNCTION_BLOCK's EXTENDS (E210): the chain of bases must end.
+            for i in &ast.oop.implements {
+                let cycle = self
+                    .lookup_itf(i)
+                    .is_some_and(|b| self.interfaces_of(b).contains(&p));
+                if cycle {
+                    self.error(
+                        diag::OOP_DECLARATION,
+                        i.span,
+                        format!(
+                            "{} extends itself through {}; a chain of EXTENDS must end",
+                            ast.name.name, i.name
+                        ),
+                    );
+                }
+            }
+        }
         if interface || ast.kind != PouKind::FunctionBlock {
             if !interface && !ast.oop.implements.is_empty() {
                 self.error(
