@@ -94,3 +94,43 @@ fn a_caret_after_a_reference_is_redundant_and_warned() {
         &["t.st:4:6: warning[W040]: this is a REFERENCE TO INT, dereferenced where it is used: the `^` is redundant"],
     );
 }
+
+#[test]
+fn a_function_without_a_result_type_is_codesys_and_twincat_only() {
+    let src = "FUNCTION F_Set\nVAR_IN_OUT x : INT; END_VAR\nx := 1;\nEND_FUNCTION\n\
+               PROGRAM p\nVAR v : INT; END_VAR\nF_Set(x := v);\nEND_PROGRAM\n";
+    check_diags(
+        src,
+        &["t.st:1:10: error[E010]: a FUNCTION declares its result type: FUNCTION F_Set : INT (CODESYS and TwinCAT take one without"],
+    );
+    let twincat = format!("{{attribute 'TcTypeSystem'}}\n{src}");
+    let (p, text) = crate::tests::run_dialect(&twincat, petriplc_iec_syntax::Dialect::Twincat);
+    assert!(p.is_some() && !text.contains("error["), "{text}");
+    // It has no value to use.
+    let (p, text) = crate::tests::run_dialect(
+        "FUNCTION F_Set\nEND_FUNCTION\nPROGRAM p\nVAR v : INT; END_VAR\nv := F_Set();\nEND_PROGRAM\n",
+        petriplc_iec_syntax::Dialect::Codesys,
+    );
+    assert!(p.is_none() && text.contains("error["), "{text}");
+}
+
+#[test]
+fn var_stat_is_one_variable_for_every_instance() {
+    check_diags(
+        "FUNCTION_BLOCK FB_A\nVAR_STAT n : INT; END_VAR\nn := n + 1;\nEND_FUNCTION_BLOCK\n\
+         PROGRAM p\nVAR a, b : FB_A; END_VAR\na(); b();\nEND_PROGRAM\n",
+        &[],
+    );
+    let (p, text) = run(
+        "FUNCTION_BLOCK FB_A\nVAR_STAT n : INT; END_VAR\nn := n + 1;\nEND_FUNCTION_BLOCK\nPROGRAM p\nVAR a : FB_A; END_VAR\na();\nEND_PROGRAM\n",
+    );
+    let p = p.unwrap_or_else(|| panic!("{text}"));
+    let names: Vec<&str> = p.globals.iter().map(|g| g.name.as_str()).collect();
+    assert_eq!(names, ["FB_A.$stat.n"]);
+    // A static is no instance member: the instance does not name it.
+    check_diags(
+        "FUNCTION_BLOCK FB_A\nVAR_STAT n : INT; END_VAR\nEND_FUNCTION_BLOCK\n\
+         PROGRAM p\nVAR a : FB_A; x : INT; END_VAR\nx := a.n;\nEND_PROGRAM\n",
+        &["error[E1"],
+    );
+}

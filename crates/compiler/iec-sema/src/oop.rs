@@ -274,12 +274,10 @@ impl<'a> Checker<'a> {
             .collect()
     }
 
-    /// Whether a FUNCTION-like POU has a result variable (a method without a type has none).
+    /// Whether a FUNCTION-like POU has a result variable (a method, or a CODESYS/TwinCAT
+    /// FUNCTION, without a type has none).
     pub(crate) fn has_result(&self, p: PouId) -> bool {
-        match self.oop.members.get(&p) {
-            Some(_) => self.pou_asts[p as usize].return_type.is_some(),
-            None => true,
-        }
+        self.pou_asts[p as usize].return_type.is_some()
     }
 
     /// After a block's own variables: its methods' VAR_INST (in the instance, named

@@ -352,7 +352,7 @@ impl Checker<'_> {
     #[allow(clippy::too_many_arguments)]
     fn for_loop(
         &mut self,
-        var: &ast::Ident,
+        var: &ast::Expr,
         from: &ast::Expr,
         to: &ast::Expr,
         by: Option<&ast::Expr>,
@@ -360,22 +360,20 @@ impl Checker<'_> {
         cx: &mut Cx,
         span: Span,
     ) -> Option<StmtKind> {
-        let name_expr = ast::Expr {
-            kind: ast::ExprKind::Name(var.clone()),
-            span: var.span,
-        };
-        let p = self.place(&name_expr, cx, true)?;
+        let p = self.place(var, cx, true)?;
         if !self.writable(&p, cx, var.span) {
             return None;
         }
-        let ok_ty = self.types.elem(p.ty).is_some_and(|e| e.is_int())
-            && !matches!(self.types.get(p.ty), Type::Subrange { .. });
+        // A subrange variable (CODESYS and TwinCAT accept it) runs as its base type: the
+        // bounds are checked where the loop begins, and the step past the end leaves it one
+        // step beyond, as those PLCs leave it.
+        let ok_ty = self.types.elem(p.ty).is_some_and(|e| e.is_int());
         if !ok_ty {
             let t = self.types.name(p.ty);
             self.error(
                 diag::BAD_FOR,
                 var.span,
-                format!("the control variable of FOR is SINT, INT, DINT, LINT or an unsigned integer; `{}` is {t}", var.name),
+                format!("the control variable of FOR is SINT, INT, DINT, LINT or an unsigned integer; `{}` is {t}", self.src_text(var)),
             );
             return None;
         }

@@ -34,6 +34,24 @@ pub(crate) fn check_diags(src: &str, expect: &[&str]) {
     assert_eq!(p.is_some(), !text.contains("error["), "{text}");
 }
 
+/// Checks `src` in a vendor's dialect.
+pub(crate) fn run_dialect(
+    src: &str,
+    dialect: petriplc_iec_syntax::Dialect,
+) -> (Option<ir::Project>, String) {
+    let mut map = SourceMap::new();
+    let f = map.add("t.st", src);
+    let mut d = petriplc_iec_syntax::Diagnostics::new();
+    let lib = parser::parse(f, src, &mut d);
+    assert!(!d.has_errors(), "syntax: {}", d.render(&map));
+    let options = Options {
+        dialect,
+        ..Options::default()
+    };
+    let (p, diags) = check(&lib, &options);
+    (p, diags.render(&map))
+}
+
 fn run_in(src: &str, overflow: Overflow) -> (Option<ir::Project>, String) {
     let mut map = SourceMap::new();
     let f = map.add("t.st", src);

@@ -481,6 +481,9 @@ pub enum VarKind {
     Global,
     /// `VAR_INST` of a METHOD: kept in the function block instance between calls.
     Inst,
+    /// `VAR_STAT` (CODESYS, TwinCAT): one variable for all calls and instances of the POU,
+    /// kept as a hidden global (docs/iec.md, "Static variables").
+    Stat,
     /// `VAR_ACCESS`, `VAR_CONFIG` (reported as not supported).
     Other,
 }
@@ -496,6 +499,7 @@ impl VarKind {
             VarKind::External => "VAR_EXTERNAL",
             VarKind::Global => "VAR_GLOBAL",
             VarKind::Inst => "VAR_INST",
+            VarKind::Stat => "VAR_STAT",
             VarKind::Other => "VAR_ACCESS",
         }
     }
@@ -575,7 +579,8 @@ pub enum StmtKind {
         else_body: Option<Vec<Stmt>>,
     },
     For {
-        var: Ident,
+        /// A variable, or (CODESYS, TwinCAT) any integer place: `FOR a[1] := …`.
+        var: Box<Expr>,
         from: Expr,
         to: Expr,
         by: Option<Expr>,

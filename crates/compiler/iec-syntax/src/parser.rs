@@ -219,6 +219,9 @@ struct Parser<'a, 'd> {
     il: bool,
     /// The 0-based line of every token (computed for IL bodies, which are line-oriented).
     tok_lines: Vec<u32>,
+    /// Statements one statement of the source stands for after the one returned (a
+    /// chained assignment's outer assignments), taken by the statement list.
+    queued: Vec<Stmt>,
     diags: &'d mut Diagnostics,
 }
 
@@ -235,6 +238,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             reported_at: usize::MAX,
             il: false,
             tok_lines: Vec::new(),
+            queued: Vec::new(),
             diags,
         }
     }

@@ -91,6 +91,15 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// The hidden global of a POU's (or a member's) `VAR_STAT` variable.
+    pub(crate) fn static_name(&self, p: PouId, var: &str) -> String {
+        let owner = match self.oop.members.get(&p) {
+            Some(m) => self.inst_prefix(m),
+            None => format!("{}.", self.pou_asts[p as usize].name.name),
+        };
+        format!("{owner}$stat.{var}")
+    }
+
     /// A CONSTANT declared without a value holds its type's initial value (a structure's
     /// field defaults, 0…). CODESYS and TwinCAT accept it with a warning (C0228, which
     /// OSCAT's global constants switch off); so does petriplc.
@@ -139,7 +148,23 @@ impl<'a> Checker<'a> {
             VarKind::Global,
             VarKind::Other,
             VarKind::Inst,
+            VarKind::Stat,
         ];
+        let member = self.oop.members.contains_key(&p);
+        if ast.kind == PouKind::Function
+            && !member
+            && ast.return_type.is_none()
+            && !self.dialect.is_codesys_family()
+        {
+            self.error(
+                diag::SYNTAX,
+                ast.name.span,
+                format!(
+                    "a FUNCTION declares its result type: FUNCTION {} : INT (CODESYS and TwinCAT take one without, called as a statement: --dialect codesys or twincat)",
+                    ast.name.name
+                ),
+            );
+        }
         if ast.kind == PouKind::Function && self.has_result(p) {
             let ty = match &ast.return_type {
                 Some(t) => self.resolve_spec(t, &mut cx).0,
@@ -237,6 +262,7 @@ impl<'a> Checker<'a> {
                     | VarKind::Local
                     | VarKind::Temp
                     | VarKind::External
+                    | VarKind::Stat
             ),
         };
         if !allowed {
@@ -272,7 +298,12 @@ impl<'a> Checker<'a> {
         // distinction in text editors") and VAR_IN_OUT CONSTANT (TwinCAT) are read as VAR_INPUT
         // and VAR_IN_OUT: their value comes from the caller, so it is no compile-time constant.
         let constant = b.constant && !matches!(b.kind, VarKind::Input | VarKind::InOut);
-        if constant && !matches!(b.kind, VarKind::Local | VarKind::External | VarKind::Global) {
+        if constant
+            && !matches!(
+                b.kind,
+                VarKind::Local | VarKind::External | VarKind::Global | VarKind::Stat
+            )
+        {
             self.error(
                 diag::BAD_DECLARATION,
                 b.span,
@@ -347,7 +378,7 @@ impl<'a> Checker<'a> {
                     }
                 }
             }
-            if constant && d.init.is_none() && b.kind == VarKind::Local {
+            if constant && d.init.is_none() && matches!(b.kind, VarKind::Local | VarKind::Stat) {
                 self.constant_without_value(d.span);
             }
             // TwinCAT's `AT %I*`, `%Q*`, `%M*` (an address the I/O configuration gives each
@@ -428,6 +459,27 @@ impl<'a> Checker<'a> {
                             VarClass::Local
                         }
                     },
+                    VarKind::Stat => {
+                        // One variable for every call and instance, as CODESYS and TwinCAT
+                        // keep it: a hidden global named `POU.$stat.NAME`, which no
+                        // identifier can name, so it clashes with nothing.
+                        let p = cx.pou.expect("VAR_STAT is read in a POU");
+                        let name = self.static_name(p, &n.name);
+                        let g = self.globals.len() as GlobalId;
+                        self.global_names.insert(name.to_ascii_uppercase(), g);
+                        self.globals.push(Var {
+                            name,
+                            ty,
+                            class: VarClass::Global,
+                            init: init.clone(),
+                            constant,
+                            retain: b.retain == ast::Retain::Retain,
+                            location: None,
+                            span: n.span,
+                        });
+                        self.global_direct.push(false);
+                        VarClass::External(g)
+                    }
                     _ => VarClass::Local,
                 };
                 let constant = constant

@@ -391,7 +391,7 @@ impl<'a> Checker<'a> {
         Some(p)
     }
 
-    fn src_text(&self, e: &ast::Expr) -> String {
+    pub(crate) fn src_text(&self, e: &ast::Expr) -> String {
         match &e.kind {
             A::Name(i) => i.name.clone(),
             _ => "this".into(),

@@ -45,7 +45,7 @@ impl<'a> Checker<'a> {
                 }
                 None => k,
                 Some(n) => {
-                    let key = n.key();
+                    let key = self.vendor_param(fname, n.key());
                     match params.iter().position(|p| *p == key) {
                         Some(i) => i,
                         None if extensible => {
@@ -471,5 +471,30 @@ impl<'a> Checker<'a> {
             (None, Some(_)) if s(from) => true,
             _ => false,
         }
+    }
+
+    /// The standard's name of a string function's parameter written with CODESYS's and
+    /// TwinCAT's (Tc2_Standard: `LEN(STR)`, `LEFT(STR, SIZE)`, `MID(STR, LEN, POS)`,
+    /// `CONCAT(STR1, STR2)`, `INSERT(STR1, STR2, POS)`…), in those dialects.
+    fn vendor_param(&self, fname: &str, key: String) -> String {
+        const STRING_FUNCTIONS: [&str; 9] = [
+            "LEN", "LEFT", "RIGHT", "MID", "CONCAT", "INSERT", "DELETE", "REPLACE", "FIND",
+        ];
+        if !self.dialect.is_codesys_family()
+            || !STRING_FUNCTIONS
+                .iter()
+                .any(|f| fname.eq_ignore_ascii_case(f))
+        {
+            return key;
+        }
+        let standard = match key.as_str() {
+            "STR" => "IN",
+            "STR1" => "IN1",
+            "STR2" => "IN2",
+            "SIZE" | "LEN" => "L",
+            "POS" => "P",
+            _ => return key,
+        };
+        standard.to_string()
     }
 }

@@ -194,8 +194,11 @@ impl<'a, 'd> Parser<'a, 'd> {
     }
 
     /// `VAR_INST` (a METHOD's variables kept in the instance).
+    /// `VAR_INST` (a METHOD's variables kept in the instance) or `VAR_STAT` (CODESYS and
+    /// TwinCAT: one variable shared by every call and instance), words rather than keywords
+    /// so that code naming a variable so still reads.
     pub(super) fn at_var_inst(&self) -> bool {
-        self.at_word("VAR_INST")
+        self.at_word("VAR_INST") || self.at_word("VAR_STAT")
     }
 
     /// Modifiers written before a name: `ABSTRACT`, `FINAL`, an access specifier. A word

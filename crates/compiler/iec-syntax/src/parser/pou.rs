@@ -16,18 +16,11 @@ impl<'a, 'd> Parser<'a, 'd> {
         };
         let name = self.ident("the POU's name")?;
         let return_type = if kind == PouKind::Function {
+            // CODESYS and TwinCAT take a FUNCTION without a result type (called as a
+            // statement); the checker refuses it in the standard's dialect.
             if self.eat(&Tok::Colon).is_some() {
                 Some(self.type_spec(false)?)
             } else {
-                let span = self.peek().span;
-                self.error_at(
-                    diag::SYNTAX,
-                    span,
-                    format!(
-                        "a FUNCTION declares its result type: FUNCTION {} : INT",
-                        name.name
-                    ),
-                );
                 None
             }
         } else {
@@ -211,6 +204,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             Tok::Kw(Kw::VarTemp) => VarKind::Temp,
             Tok::Kw(Kw::VarExternal) => VarKind::External,
             Tok::Kw(Kw::VarGlobal) => VarKind::Global,
+            Tok::Ident if self.text_of(t.span).eq_ignore_ascii_case("VAR_STAT") => VarKind::Stat,
             Tok::Ident => VarKind::Inst,
             _ => VarKind::Other,
         };

@@ -58,8 +58,14 @@ impl<'a, 'd> Parser<'a, 'd> {
             }
             let start = self.pos;
             match self.statement() {
-                Ok(s) => out.push(s),
-                Err(Reported) => self.sync_stmt(start, extra),
+                Ok(s) => {
+                    out.push(s);
+                    out.append(&mut self.queued);
+                }
+                Err(Reported) => {
+                    self.queued.clear();
+                    self.sync_stmt(start, extra)
+                }
             }
         }
         out
@@ -206,9 +212,34 @@ impl<'a, 'd> Parser<'a, 'd> {
         Ok({
             let target = self.postfix()?;
             if self.eat(&Tok::Assign).is_some() {
-                let value = self.expr()?;
+                let mut value = self.expr()?;
+                // CODESYS's and TwinCAT's chained assignment `a := b := 0;`: read right to
+                // left as `b := 0; a := b;` (each place gets the value the next one holds).
+                let mut targets = vec![target];
+                while self.at(&Tok::Assign) && is_place(&value) {
+                    self.bump();
+                    targets.push(value);
+                    value = self.expr()?;
+                }
                 self.expect_semi()?;
-                StmtKind::Assign { target, value }
+                let inner = targets.pop().expect("one target at least");
+                let mut from = inner.clone();
+                while let Some(t) = targets.pop() {
+                    let span = t.span.to(from.span);
+                    let next = t.clone();
+                    self.queued.push(Stmt {
+                        kind: StmtKind::Assign {
+                            target: t,
+                            value: from,
+                        },
+                        span,
+                    });
+                    from = next;
+                }
+                StmtKind::Assign {
+                    target: inner,
+                    value,
+                }
             } else if self.at_word("REF")
                 && self.peek_at(1).tok == Tok::Eq
                 && self.peek().span.end == self.peek_at(1).span.start
@@ -409,7 +440,12 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     fn for_stmt(&mut self) -> PResult<StmtKind> {
         let start = self.bump().span;
-        let var = self.ident("the FOR loop's control variable")?;
+        // The standard names a variable; CODESYS and TwinCAT take any integer place
+        // (TcUnit's `FOR Offset[1] := …`).
+        if !self.at_name() {
+            return Err(self.expected("the FOR loop's control variable"));
+        }
+        let var = Box::new(self.postfix()?);
         self.expect(&Tok::Assign, "`:=` and the initial value")?;
         let from = self.expr()?;
         if self.eat_kw(Kw::To).is_none() {
@@ -442,5 +478,19 @@ impl<'a, 'd> Parser<'a, 'd> {
             by,
             body,
         })
+    }
+}
+
+/// Whether an expression names a place an assignment can write (a variable, an element, a
+/// member, a dereference).
+fn is_place(e: &Expr) -> bool {
+    match &e.kind {
+        ExprKind::Name(_) | ExprKind::Direct(_) => true,
+        ExprKind::Field(base, _)
+        | ExprKind::Bit(base, _)
+        | ExprKind::Part(base, _, _)
+        | ExprKind::Index(base, _)
+        | ExprKind::Deref(base) => is_place(base),
+        _ => false,
     }
 }

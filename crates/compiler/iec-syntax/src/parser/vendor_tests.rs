@@ -187,3 +187,53 @@ fn a_syntax_error_in_until_is_the_only_error() {
     );
     assert_eq!(d.lines().filter(|l| l.contains("error[")).count(), 1, "{d}");
 }
+
+/// A statement list written back as `target := value` pairs, to see what it stands for.
+fn assignments(stmts: &[Stmt], text: &str) -> Vec<String> {
+    stmts
+        .iter()
+        .map(|s| match &s.kind {
+            StmtKind::Assign { target, value } => format!(
+                "{} := {}",
+                &text[target.span.start as usize..target.span.end as usize],
+                &text[value.span.start as usize..value.span.end as usize]
+            ),
+            other => format!("{other:?}"),
+        })
+        .collect()
+}
+
+#[test]
+fn a_chained_assignment_reads_right_to_left() {
+    let src = "PROGRAM p\nVAR a, b : INT; c : ARRAY[1..2] OF INT; END_VAR\n\
+               a := b := c[1] := 3 + a;\na := 1;\nEND_PROGRAM";
+    let lib = check_ok(src);
+    assert_eq!(
+        assignments(body(&lib), src),
+        ["c[1] := 3 + a", "b := c[1]", "a := b", "a := 1"]
+    );
+    // The value before the last `:=` must be a place.
+    let (_, d) = diags_of("PROGRAM p\nVAR a, b : INT; END_VAR\na := b + 1 := 3;\nEND_PROGRAM");
+    assert_eq!(
+        d,
+        "t.st:3:11: error[E012]: expected `;` after this, found `:=`\n"
+    );
+}
+
+#[test]
+fn a_for_loop_counts_with_any_place() {
+    let lib = check_ok(
+        "PROGRAM p\nVAR o : ARRAY[1..2] OF INT; s : ST; END_VAR\n\
+         FOR o[1] := 1 TO 3 DO ; END_FOR\nFOR s.n := 1 TO 3 DO ; END_FOR\nEND_PROGRAM",
+    );
+    let kinds: Vec<bool> = body(&lib)
+        .iter()
+        .map(|s| matches!(&s.kind, StmtKind::For { var, .. } if !matches!(var.kind, ExprKind::Name(_))))
+        .collect();
+    assert_eq!(kinds, [true, true]);
+    let (_, d) = diags_of("PROGRAM p\nFOR 1 := 1 TO 3 DO ; END_FOR\nEND_PROGRAM");
+    assert!(
+        d.contains("error[E010]: expected the FOR loop's control variable"),
+        "{d}"
+    );
+}
