@@ -56,11 +56,14 @@ pub struct Options {
 pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnostics) {
     // The loaded vendor libraries' declarations in Structured Text come first.
     let mut diags = Diagnostics::default();
-    let (project, more) = match vendor::with_sources(lib, &options.libs, &mut diags) {
-        Some(whole) => check::Checker::new(&whole, options).run(),
-        None => check::Checker::new(lib, options).run(),
-    };
+    let whole = vendor::with_sources(lib, &options.libs, &mut diags);
+    let lib = whole.as_ref().unwrap_or(lib);
+    // CODESYS's and TwinCAT's implicit FB_init calls, written out as method calls.
+    let lowered = petriplc_iec_syntax::fb_init::lower(lib, &mut diags);
+    let lib = lowered.as_ref().unwrap_or(lib);
+    let (project, more) = check::Checker::new(lib, options).run();
     diags.extend(more);
+    let project = project.filter(|_| !diags.has_errors());
     (project, diags)
 }
 

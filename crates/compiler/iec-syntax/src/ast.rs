@@ -534,6 +534,9 @@ pub struct VarDecl {
     pub init: Option<Init>,
     /// `R_EDGE`/`F_EDGE` on a BOOL input.
     pub edge: Option<Edge>,
+    /// CODESYS's and TwinCAT's `fb : FB_X(10, b := 2);`: the arguments its FB_init method is
+    /// called with when the program starts (iec-sema's `fb_init.rs`).
+    pub fb_init: Option<Vec<Arg>>,
     pub span: Span,
 }
 

@@ -123,6 +123,7 @@ pub(crate) fn decl(n: &str, ty: &str, init: Option<Init>, span: Span) -> VarDecl
         ty: TypeSpec::Named(Ident::new(ty, span)),
         init,
         edge: None,
+        fb_init: None,
         span,
     }
 }

@@ -98,6 +98,7 @@ codes! {
     UNION_MEMBER = "E221",
     UNION_ACCESS = "E222",
     UNION_INITIAL = "E223",
+    FB_INIT_ARGUMENTS = "E237",
     SHADOWS_STANDARD = "W001",
     NOT_CHECKED = "W002",
     UNUSED_RESULT = "W003",
@@ -115,6 +116,7 @@ codes! {
     REFERENCE_CARET = "W040",
     COMMENT_NOT_NESTED = "W045",
     REPLACEMENT_CHAR = "W043",
+    FB_INIT_NOT_CALLED = "W049",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -12,6 +12,7 @@ pub mod codes;
 pub mod depth;
 pub mod diag;
 pub mod dialect;
+pub mod fb_init;
 pub mod lexer;
 pub mod parser;
 pub mod plcopen;

@@ -482,6 +482,7 @@ impl Reader<'_> {
             ty,
             init,
             edge: None,
+            fb_init: None,
         })
     }
 

@@ -458,3 +458,44 @@ impl<'a, 'd> Parser<'a, 'd> {
         })
     }
 }
+
+/// Whether a type's name is an elementary type's (after which `(…)` is a subrange or an
+/// enumeration's values, not a block's FB_init arguments).
+pub(super) fn is_elementary_name(name: &str) -> bool {
+    const ELEMENTARY: [&str; 33] = [
+        "SINT",
+        "INT",
+        "DINT",
+        "LINT",
+        "USINT",
+        "UINT",
+        "UDINT",
+        "ULINT",
+        "BYTE",
+        "WORD",
+        "DWORD",
+        "LWORD",
+        "BOOL",
+        "BIT",
+        "REAL",
+        "LREAL",
+        "TIME",
+        "LTIME",
+        "DATE",
+        "LDATE",
+        "TIME_OF_DAY",
+        "TOD",
+        "LTOD",
+        "DATE_AND_TIME",
+        "DT",
+        "LDT",
+        "STRING",
+        "WSTRING",
+        "CHAR",
+        "WCHAR",
+        "__XWORD",
+        "__UXINT",
+        "__XINT",
+    ];
+    ELEMENTARY.iter().any(|e| e.eq_ignore_ascii_case(name))
+}

@@ -489,6 +489,7 @@ pub fn accessor(
                     ty: prop.ty.clone(),
                     init: None,
                     edge: None,
+                    fb_init: None,
                     span: prop.name.span,
                 }],
                 list: None,

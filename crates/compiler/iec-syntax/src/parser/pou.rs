@@ -347,7 +347,18 @@ impl<'a, 'd> Parser<'a, 'd> {
         location: Option<Location>,
     ) -> PResult<VarDecl> {
         self.expect(&Tok::Colon, "`:` and the variable's type")?;
-        let ty = self.type_spec(false)?;
+        // `fb : FB_X(args)` (CODESYS, TwinCAT): a block's name and its FB_init's arguments;
+        // after an elementary type's name the parentheses are a subrange or enumeration.
+        let fb_init_args = self.at(&Tok::Ident)
+            && self.peek_at(1).tok == Tok::LParen
+            && !super::decl::is_elementary_name(self.text_of(self.peek().span));
+        let (ty, fb_init) = if fb_init_args {
+            let name = self.ident("a type")?;
+            let (args, _) = self.args()?;
+            (TypeSpec::Named(name), Some(args))
+        } else {
+            (self.type_spec(false)?, None)
+        };
         let edge = if self.eat_kw(Kw::REdge).is_some() {
             Some(Edge::Rising)
         } else if self.eat_kw(Kw::FEdge).is_some() {
@@ -367,6 +378,7 @@ impl<'a, 'd> Parser<'a, 'd> {
             ty,
             init,
             edge,
+            fb_init,
             span: start.to(self.prev_span()),
         })
     }

@@ -237,3 +237,19 @@ fn a_for_loop_counts_with_any_place() {
         "{d}"
     );
 }
+
+#[test]
+fn a_block_name_takes_fb_init_arguments_an_elementary_name_a_subrange() {
+    let lib = check_ok(
+        "PROGRAM p\nVAR a : FB_X(10, b := 2); r : INT (1..5); e : INT (A, B); s : STRING(8); END_VAR\nEND_PROGRAM",
+    );
+    let Element::Pou(p) = &lib.elements[0] else {
+        panic!("a POU")
+    };
+    let v = &p.var_blocks[0].vars;
+    assert!(matches!(&v[0].ty, TypeSpec::Named(n) if n.is("FB_X")));
+    assert_eq!(v[0].fb_init.as_ref().map(Vec::len), Some(2));
+    assert!(matches!(v[1].ty, TypeSpec::Subrange { .. }) && v[1].fb_init.is_none());
+    assert!(matches!(v[2].ty, TypeSpec::Enum { .. }));
+    assert!(matches!(v[3].ty, TypeSpec::String { .. }));
+}
