@@ -178,6 +178,9 @@ impl<'a> Checker<'a> {
     pub fn run(mut self) -> (Option<ir::Project>, Diagnostics) {
         self.collect();
         self.collect_members();
+        // Global variables first: a type's bounds may name a global constant (TwinCAT's
+        // `ARRAY[1..GVL_Param.MaxN] OF …`); a global's type is resolved when it is met.
+        self.collect_globals();
         // Named types, in declaration order (each resolves what it needs first).
         let names: Vec<(String, &'a ast::TypeDecl)> = self
             .lib
@@ -199,7 +202,6 @@ impl<'a> Checker<'a> {
                 self.named_type(&key, d.name.span);
             }
         }
-        self.collect_globals();
         for i in 0..self.pou_asts.len() {
             self.interface(i as PouId);
         }

@@ -173,3 +173,46 @@ fn cpu_counter_follows_the_scan_clock() {
     }
     assert_eq!(seen, ["0", "100000", "5000000000"]);
 }
+
+/// A structure (a `.TcDUT`, read before the GVLs) whose bounds are a GVL's constants, as
+/// TcUnit's `ST_TestSuiteResult` has them.
+#[test]
+fn a_type_takes_its_bounds_from_a_gvl_constant() {
+    const DUT: &str = r#"<?xml version="1.0" encoding="utf-8"?>
+<TcPlcObject Version="1.1.0.1">
+  <DUT Name="ST_Slots" Id="{00000000-0000-0000-0000-000000000004}">
+    <Declaration><![CDATA[TYPE ST_Slots :
+STRUCT
+    aSlots : ARRAY[1..GVL_Param.nMax] OF INT;
+    nId : UINT(0..GVL_Param.nMax);
+END_STRUCT
+END_TYPE
+]]></Declaration>
+  </DUT>
+</TcPlcObject>"#;
+    let main = MAIN
+        .replace(
+            "aSlots : ARRAY[1..GVL_Param.nMax] OF INT;",
+            "aSlots : ARRAY[1..GVL_Param.nMax] OF INT;\n    st : ST_Slots;",
+        )
+        .replace(
+            "bSame := eType = eBase;",
+            "bSame := eType = eBase;\nst.aSlots[GVL_Param.nMax] := 7;\nst.nId := GVL_Param.nMax;",
+        );
+    let mut s = Sources::new();
+    s.add_text("ST_Slots.TcDUT", DUT);
+    s.add_text("GVL_Main.TcGVL", GVL);
+    s.add_text("GVL_Param.TcGVL", PARAMS);
+    s.add_text("MAIN.TcPOU", &main);
+    let b = build(&s, &Select::Auto, Natives::default()).unwrap_or_else(|e| panic!("{e}"));
+    let mut m = Machine::new(b.engine.clone());
+    m.scan(0, &mut || true).unwrap();
+    let get = |v: &str| {
+        let r = b.engine.lookup(v).unwrap_or_else(|| panic!("no {v}"));
+        display(&b.engine.project, r.ty, &m.get(r).unwrap())
+    };
+    assert_eq!(
+        (get("MAIN.st.aSlots[3]"), get("MAIN.st.nId")),
+        ("7".into(), "3".into())
+    );
+}

@@ -31,6 +31,8 @@ impl<'a> Checker<'a> {
                 _ => {}
             }
         }
+        // Constants first: other globals' types may use them (`ARRAY[1..MaxN] OF …`).
+        blocks.sort_by_key(|(b, _)| !b.constant);
         let mut cx = Cx::global();
         for (b, direct) in blocks {
             if b.kind != VarKind::Global {
