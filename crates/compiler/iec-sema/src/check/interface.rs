@@ -312,22 +312,28 @@ impl<'a> Checker<'a> {
                 "CONSTANT applies to VAR, VAR_INPUT, VAR_IN_OUT, VAR_EXTERNAL and VAR_GLOBAL blocks",
             );
         }
+        // CODESYS and TwinCAT let a FUNCTION or METHOD hold instances, new at every call
+        // (their frame is initialised at each call); a VAR_IN_OUT is the caller's instance.
+        let instance_here = pou.kind != PouKind::Function
+            || b.kind == VarKind::InOut
+            || (self.dialect.is_codesys_family()
+                && matches!(b.kind, VarKind::Local | VarKind::Temp));
         for d in &b.vars {
             let (ty, def) = self.resolve_spec(&d.ty, cx);
             if let Type::Fb(FbRef::User(q)) = *self.types.get(ty) {
                 self.interface(q);
-                if pou.kind == PouKind::Function {
+                if !instance_here {
                     self.error(
                         diag::BAD_DECLARATION,
                         d.span,
-                        "a FUNCTION has no memory between calls and cannot hold a function block instance; make it a FUNCTION_BLOCK",
+                        "a FUNCTION has no memory between calls and cannot hold a function block instance; make it a FUNCTION_BLOCK (CODESYS and TwinCAT create one anew at every call: --dialect codesys or twincat)",
                     );
                 }
-            } else if matches!(self.types.get(ty), Type::Fb(_)) && pou.kind == PouKind::Function {
+            } else if matches!(self.types.get(ty), Type::Fb(_)) && !instance_here {
                 self.error(
                     diag::BAD_DECLARATION,
                     d.span,
-                    "a FUNCTION has no memory between calls and cannot hold a function block instance; make it a FUNCTION_BLOCK",
+                    "a FUNCTION has no memory between calls and cannot hold a function block instance; make it a FUNCTION_BLOCK (CODESYS and TwinCAT create one anew at every call: --dialect codesys or twincat)",
                 );
             }
             // A reference (VAR_EXTERNAL, VAR_IN_OUT) takes no storage of its own.
