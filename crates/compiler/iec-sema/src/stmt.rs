@@ -447,7 +447,8 @@ impl Checker<'_> {
                 || self
                     .global_names
                     .get(&key)
-                    .is_some_and(|&g| self.global_direct[g as usize]);
+                    .is_some_and(|&g| self.global_direct[g as usize])
+                || self.is_this_member(n, cx);
             if !is_var {
                 let e = ast::Expr {
                     kind: ast::ExprKind::Call(call.clone()),

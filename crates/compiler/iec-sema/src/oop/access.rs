@@ -55,6 +55,12 @@ impl<'a> Checker<'a> {
         })
     }
 
+    /// Whether `id` in a member's body names a variable of the instance (so `id(…);` calls
+    /// that instance, not a function).
+    pub(crate) fn is_this_member(&mut self, id: &ast::Ident, cx: &Cx) -> bool {
+        self.this_member_place(id, cx).is_some()
+    }
+
     /// The instance itself (`THIS^`) where code works on one.
     pub(crate) fn this_place(&mut self, cx: &Cx, span: Span) -> Option<Place> {
         let t = cx.this.as_ref()?;
