@@ -280,7 +280,11 @@ impl<'a> Checker<'a> {
             );
         }
         for d in &b.vars {
-            let (ty, def) = self.resolve_spec(&d.ty, cx);
+            let (ty, def) = if b.kind == VarKind::InOut {
+                self.resolve_in_out_spec(&d.ty, cx, pou.kind != PouKind::Program)
+            } else {
+                self.resolve_spec(&d.ty, cx)
+            };
             if let Type::Fb(FbRef::User(q)) = *self.types.get(ty) {
                 self.interface(q);
                 if pou.kind == PouKind::Function {

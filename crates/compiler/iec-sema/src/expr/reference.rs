@@ -250,6 +250,9 @@ impl<'a> Checker<'a> {
         let Some(place) = place else {
             return err(span);
         };
+        if self.types.is_var_array(place.ty) {
+            return self.var_array_whole(arg.span);
+        }
         if let Some(why) = self.no_lasting_address(&place, cx, fname == "ADR") {
             self.error(
                 diag::NO_ADDRESS,
