@@ -256,7 +256,8 @@ fn the_vm_runs_what_is_not_compiled() {
 /// the values and the out-of-range fault are the VM's.
 #[test]
 fn array_star_in_outs_are_the_vms() {
-    let src = "FUNCTION Sum : DINT VAR_IN_OUT xs : ARRAY[*, *] OF INT; END_VAR VAR i, j : DINT; END_VAR
+    let src =
+        "FUNCTION Sum : DINT VAR_IN_OUT xs : ARRAY[*, *] OF INT; END_VAR VAR i, j : DINT; END_VAR
            Sum := 0;
            FOR i := LOWER_BOUND(xs, 1) TO UPPER_BOUND(xs, 1) DO
              FOR j := LOWER_BOUND(xs, 2) TO UPPER_BOUND(xs, 2) DO Sum := Sum + xs[i, j]; END_FOR;
