@@ -425,3 +425,28 @@ proptest::proptest! {
         parse(FileId(0), &src, &mut d);
     }
 }
+
+#[test]
+fn variable_length_arrays() {
+    let lib = check_ok(
+        "FUNCTION f : BOOL\n\
+         VAR_IN_OUT a : ARRAY[*] OF INT; m : ARRAY[*, *, *] OF STRING[4]; END_VAR\n\
+         END_FUNCTION",
+    );
+    let Element::Pou(p) = &lib.elements[0] else {
+        panic!("not a POU")
+    };
+    let dims: Vec<u32> = p.var_blocks[0]
+        .vars
+        .iter()
+        .map(|d| match &d.ty {
+            TypeSpec::ArrayStar { dims, .. } => *dims,
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(dims, [1, 3]);
+    // Every dimension is `*`, or none is.
+    let (_, d) =
+        diags_of("FUNCTION f : BOOL\nVAR_IN_OUT a : ARRAY[*, 1..2] OF INT; END_VAR\nEND_FUNCTION");
+    assert!(d.starts_with("t.st:2:25: error[E010]: expected `*`"), "{d}");
+}
