@@ -375,3 +375,25 @@ fn an_array_star_subscript_outside_the_callers_array_faults_where_it_is() {
         "{f}"
     );
 }
+
+/// A METHOD and an ACTION of a block reading the block's own ARRAY[*] in-out (through the
+/// instance), with the bounds the last call passed.
+#[test]
+fn a_blocks_array_star_in_out_is_seen_by_its_methods() {
+    check(
+        "FUNCTION_BLOCK Hold VAR_IN_OUT xs : ARRAY[*] OF INT; END_VAR VAR_OUTPUT n, top : DINT; END_VAR
+           n := Width();
+           Peek();
+         METHOD Width : DINT
+           Width := UPPER_BOUND(xs, 1) - LOWER_BOUND(xs, 1) + 1;
+         END_METHOD
+         ACTION Peek:
+           top := xs[UPPER_BOUND(xs, 1)];
+         END_ACTION
+         END_FUNCTION_BLOCK",
+        "a : ARRAY[-1..2] OF INT := [4, 3, 2, 1]; h : Hold; n, top : DINT;",
+        "h(xs := a, n => n, top => top);",
+        1,
+        "n=4 top=1",
+    );
+}
