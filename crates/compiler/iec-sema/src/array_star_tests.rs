@@ -104,16 +104,18 @@ fn an_array_star_is_not_used_as_a_whole() {
     check_diags(
         "FUNCTION f : BOOL
 VAR_IN_OUT a, b : ARRAY[*] OF INT; END_VAR
-VAR p : POINTER TO INT; END_VAR
+VAR p : POINTER TO INT; n : DINT; END_VAR
 a := b;
 p := ADR(a);
 f := a = b;
+n := SIZEOF(a);
 END_FUNCTION",
         &[
             "t.st:4:6: error[E230]: an ARRAY[*] in-out is used element by element",
             "t.st:5:10: error[E230]",
             "t.st:6:6: error[E230]",
             "t.st:6:10: error[E230]",
+            "t.st:7:13: error[E230]",
         ],
     );
 }

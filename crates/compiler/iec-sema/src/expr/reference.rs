@@ -434,6 +434,10 @@ impl<'a> Checker<'a> {
         if ty == ids::ERROR {
             return err(span);
         }
+        if self.types.is_var_array(ty) {
+            // Its size is the caller's array's, which SIZEOF (a constant) cannot give.
+            return self.var_array_whole(arg.span);
+        }
         match crate::memory::size_align(&self.types, ty) {
             Some((n, _)) => konst(Value::Int(i128::from(n)), ids::INT_LIT, span),
             None => {
