@@ -397,3 +397,21 @@ fn a_blocks_array_star_in_out_is_seen_by_its_methods() {
         "n=4 top=1",
     );
 }
+
+/// A function with an ARRAY[*] in-out called as a statement, with EN/ENO, and in a larger
+/// expression: the array and its bounds are passed each time.
+#[test]
+fn array_star_calls_as_statements_and_with_en() {
+    check(
+        "FUNCTION Bump : INT VAR_IN_OUT xs : ARRAY[*] OF INT; END_VAR VAR i : DINT; END_VAR
+           FOR i := LOWER_BOUND(xs, 1) TO UPPER_BOUND(xs, 1) DO xs[i] := xs[i] + 1; END_FOR;
+           Bump := xs[LOWER_BOUND(xs, 1)];
+         END_FUNCTION",
+        "a : ARRAY[2..3] OF INT; b : ARRAY[0..0] OF INT; go : BOOL; e : BOOL := TRUE; r : INT;",
+        "Bump(xs := a);
+         r := Bump(EN := go, xs := b, ENO => e);
+         r := r + 10 * Bump(a);",
+        1,
+        "a[2]=2 a[3]=2 b[0]=0 e=0 r=20",
+    );
+}
