@@ -1,4 +1,5 @@
-//! The checker's rules for ARRAY[*] in-outs and LOWER_BOUND/UPPER_BOUND.
+//! The checker's rules for ARRAY[*] in-outs and LOWER_BOUND/UPPER_BOUND, and for the FOR loops
+//! over array elements TcUnit walks such arrays with.
 
 use crate::tests::{check_diags, check_src};
 
@@ -116,6 +117,30 @@ END_FUNCTION",
             "t.st:6:6: error[E230]",
             "t.st:6:10: error[E230]",
             "t.st:7:13: error[E230]",
+        ],
+    );
+}
+
+/// TcUnit's loops over an array's elements as control variables: an element with constant
+/// subscripts or a field of the POU's own variable; a variable subscript or an in-out's
+/// element is refused (its place would move during the loop, or lives in the caller).
+#[test]
+fn a_for_loop_runs_on_an_element_with_constant_subscripts() {
+    check_diags(
+        "TYPE S : STRUCT k : INT; END_STRUCT END_TYPE
+FUNCTION f : BOOL
+VAR_IN_OUT io : ARRAY[1..2] OF INT; END_VAR
+VAR o : ARRAY[1..2] OF DINT; s : S; i : INT := 1; r : ARRAY[1..2] OF REAL; END_VAR
+FOR o[1] := 0 TO 3 DO FOR o[2] := 0 TO 1 DO f := TRUE; END_FOR; END_FOR;
+FOR s.k := 1 TO 2 DO f := FALSE; END_FOR;
+FOR o[i] := 0 TO 3 DO f := TRUE; END_FOR;
+FOR io[1] := 0 TO 3 DO f := TRUE; END_FOR;
+FOR r[1] := 0 TO 3 DO f := TRUE; END_FOR;
+END_FUNCTION",
+        &[
+            "t.st:7:5: error[E143]: the control variable of FOR is a variable of the POU, or an element",
+            "t.st:8:5: error[E143]",
+            "t.st:9:5: error[E143]: the control variable of FOR is SINT, INT, DINT, LINT or an unsigned integer; `this element` is REAL",
         ],
     );
 }

@@ -352,7 +352,7 @@ impl Checker<'_> {
     #[allow(clippy::too_many_arguments)]
     fn for_loop(
         &mut self,
-        var: &ast::Ident,
+        var: &ast::Expr,
         from: &ast::Expr,
         to: &ast::Expr,
         by: Option<&ast::Expr>,
@@ -360,12 +360,29 @@ impl Checker<'_> {
         cx: &mut Cx,
         span: Span,
     ) -> Option<StmtKind> {
-        let name_expr = ast::Expr {
-            kind: ast::ExprKind::Name(var.clone()),
-            span: var.span,
-        };
-        let p = self.place(&name_expr, cx, true)?;
+        let p = self.place(var, cx, true)?;
         if !self.writable(&p, cx, var.span) {
+            return None;
+        }
+        // An element or field (TcUnit's `FOR Offset[1] :=`) has a fixed place for the
+        // whole loop only with constant subscripts, which the loop's instructions need.
+        let fixed = p.path.iter().all(|s| match s {
+            ir::Step::Field(_) => true,
+            ir::Step::Index(ix) => ix.iter().all(|i| i.const_int().is_some()),
+            _ => false,
+        });
+        let own = match p.root {
+            Root::Var(v) => cx.vars.get(v as usize).is_some_and(|x| {
+                !matches!(x.class, ir::VarClass::InOut | ir::VarClass::External(_))
+            }),
+            _ => false,
+        };
+        if !fixed || (!p.path.is_empty() && !own) {
+            self.error(
+                diag::BAD_FOR,
+                var.span,
+                "the control variable of FOR is a variable of the POU, or an element (constant subscripts) or field of one",
+            );
             return None;
         }
         let ok_ty = self.types.elem(p.ty).is_some_and(|e| e.is_int())
@@ -375,7 +392,7 @@ impl Checker<'_> {
             self.error(
                 diag::BAD_FOR,
                 var.span,
-                format!("the control variable of FOR is SINT, INT, DINT, LINT or an unsigned integer; `{}` is {t}", var.name),
+                format!("the control variable of FOR is SINT, INT, DINT, LINT or an unsigned integer; `{}` is {t}", control_name(var)),
             );
             return None;
         }
@@ -404,8 +421,8 @@ impl Checker<'_> {
             return None;
         }
         let root = match p.root {
-            Root::Var(v) => Some(v),
-            Root::Global(_) | Root::This => None,
+            Root::Var(v) if p.path.is_empty() => Some(v),
+            _ => None,
         };
         if let Some(v) = root {
             cx.for_vars.push(v);
@@ -882,5 +899,13 @@ impl Checker<'_> {
 impl Place {
     pub fn is_var(&self, v: VarId) -> bool {
         self.path.is_empty() && self.root == Root::Var(v)
+    }
+}
+
+/// How a FOR loop's control variable is named in a message: its name, else its text's kind.
+fn control_name(var: &ast::Expr) -> String {
+    match &var.kind {
+        ast::ExprKind::Name(n) => n.name.clone(),
+        _ => "this element".into(),
     }
 }

@@ -583,7 +583,9 @@ pub enum StmtKind {
         else_body: Option<Vec<Stmt>>,
     },
     For {
-        var: Ident,
+        /// The control variable: a name, or (CODESYS, TwinCAT: TcUnit's `FOR Offset[1] :=`)
+        /// an element or field of a variable.
+        var: Expr,
         from: Expr,
         to: Expr,
         by: Option<Expr>,

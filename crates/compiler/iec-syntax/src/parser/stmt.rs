@@ -409,7 +409,17 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     fn for_stmt(&mut self) -> PResult<StmtKind> {
         let start = self.bump().span;
-        let var = self.ident("the FOR loop's control variable")?;
+        let name = self.ident("the FOR loop's control variable")?;
+        let var = Expr {
+            span: name.span,
+            kind: ExprKind::Name(name),
+        };
+        // `a[1]`, `s.x`: the rest of the designator after the name.
+        let var = if matches!(self.peek().tok, Tok::LBracket | Tok::Dot) {
+            self.designator_after(var)?
+        } else {
+            var
+        };
         self.expect(&Tok::Assign, "`:=` and the initial value")?;
         let from = self.expr()?;
         if self.eat_kw(Kw::To).is_none() {
