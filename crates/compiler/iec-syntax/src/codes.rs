@@ -160,7 +160,7 @@ pub const CODES: &[Entry] = &[
       "PROGRAM p\nEXIT;\nEND_PROGRAM",
       "use them inside FOR, WHILE or REPEAT; leave a POU with RETURN."),
     e("E143", "a FOR loop whose variable, bounds or step are not integers",
-      "Also `BY 0`, which would never end.",
+      "Also `BY 0`, which would never end, and a control variable that is an element with a variable subscript (`FOR a[i] :=`) or an in-out's element: an element with constant subscripts or a field of the POU's own variable (`FOR Offset[1] :=`, as TcUnit writes) is one.",
       "PROGRAM p\nVAR r : REAL; END_VAR\nFOR r := 1 TO 10 DO\nEND_FOR;\nEND_PROGRAM",
       "count with an integer variable."),
     e("E150", "a CONFIGURATION, RESOURCE, TASK or program instance problem",
