@@ -584,8 +584,8 @@ pub enum StmtKind {
     },
     For {
         /// The control variable: a name, or (CODESYS, TwinCAT: TcUnit's `FOR Offset[1] :=`)
-        /// an element or field of a variable.
-        var: Expr,
+        /// an element or field of a variable (boxed: the statement stays small).
+        var: Box<Expr>,
         from: Expr,
         to: Expr,
         by: Option<Expr>,

@@ -446,7 +446,7 @@ impl<'a, 'd> Parser<'a, 'd> {
         let body = self.statements(&[]);
         self.expect_end(Kw::EndFor, start, "FOR")?;
         Ok(StmtKind::For {
-            var,
+            var: Box::new(var),
             from,
             to,
             by,
