@@ -251,3 +251,31 @@ fn the_vm_runs_what_is_not_compiled() {
     }
     assert_eq!(state(&m), "n=4 b=1");
 }
+
+/// ARRAY[*] in-outs: machine code hands the checked subscript (`Op::IndexV`) to the VM, so
+/// the values and the out-of-range fault are the VM's.
+#[test]
+fn array_star_in_outs_are_the_vms() {
+    let src =
+        "FUNCTION Sum : DINT VAR_IN_OUT xs : ARRAY[*, *] OF INT; END_VAR VAR i, j : DINT; END_VAR
+           Sum := 0;
+           FOR i := LOWER_BOUND(xs, 1) TO UPPER_BOUND(xs, 1) DO
+             FOR j := LOWER_BOUND(xs, 2) TO UPPER_BOUND(xs, 2) DO Sum := Sum + xs[i, j]; END_FOR;
+           END_FOR;
+           xs[UPPER_BOUND(xs, 1), UPPER_BOUND(xs, 2)] := 7;
+         END_FUNCTION
+         FUNCTION ElemAt : INT VAR_IN_OUT xs : ARRAY[*] OF INT; END_VAR VAR_INPUT i : DINT; END_VAR
+           ElemAt := xs[i];
+         END_FUNCTION
+         PROGRAM main VAR m : ARRAY[0..1, 2..3] OF INT := [1, 2, 3, 4]; s : DINT;
+           v : ARRAY[-1..1] OF INT := [5, 6, 8]; k : DINT := -1; r : INT; END_VAR
+           s := s + Sum(m); r := ElemAt(v, k); k := k + 1;
+         END_PROGRAM";
+    let s = lockstep(src, 2);
+    assert_eq!(s, "m=[1,2,3,7] s=23 v=[5,6,8] k=1 r=6", "{s}");
+    let got = lockstep(src, 4);
+    assert!(
+        got.starts_with("fault: ") && got.contains("index 2 is outside the array's bounds -1..1"),
+        "{got}"
+    );
+}

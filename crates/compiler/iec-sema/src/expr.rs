@@ -11,6 +11,7 @@ use crate::types::{ids, Type, TypeId, TypeTable};
 use crate::value::Value;
 
 mod bcd;
+mod bounds;
 mod builtin;
 mod call;
 mod name;
@@ -49,6 +50,14 @@ impl<'a> Checker<'a> {
     /// Checks an expression; `expected` is the type the context wants, when known (it
     /// resolves bare enumeration values and generic results, and types literals).
     pub fn expr(&mut self, e: &ast::Expr, cx: &mut Cx, expected: Option<TypeId>) -> Expr {
+        let x = self.expr_inner(e, cx, expected);
+        if self.types.is_var_array(x.ty) {
+            return self.var_array_whole(x.span);
+        }
+        x
+    }
+
+    fn expr_inner(&mut self, e: &ast::Expr, cx: &mut Cx, expected: Option<TypeId>) -> Expr {
         let span = e.span;
         if matches!(e.kind, A::Name(_) | A::Field(..)) {
             if let Some(x) = self.property_read(e, cx) {

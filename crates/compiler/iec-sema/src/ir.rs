@@ -390,6 +390,10 @@ pub enum Builtin {
     /// The type id of the instance an interface handle designates (DINT; -1 for NULL): the
     /// selector of an interface member's dispatch.
     ItfType,
+    /// A bound of an ARRAY[*] in-out: its arguments the array (a `Load` of the in-out,
+    /// never read as a value), the dimension from 1, and 1 for the upper bound, 0 for the
+    /// lower (DINT constants).
+    Bound,
 }
 
 impl Builtin {
@@ -440,6 +444,7 @@ impl Builtin {
             Builtin::MemCmp => "MEMCMP",
             Builtin::ItfCheck => "interface call",
             Builtin::ItfType => "interface dispatch",
+            Builtin::Bound => "LOWER_BOUND/UPPER_BOUND",
         }
     }
 }

@@ -68,6 +68,8 @@ pub fn check(lib: &Library, options: &Options) -> (Option<ir::Project>, Diagnost
 }
 
 #[cfg(test)]
+mod array_star_tests;
+#[cfg(test)]
 mod codesys_tests;
 #[cfg(test)]
 mod en_eno_tests;

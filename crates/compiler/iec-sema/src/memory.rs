@@ -46,7 +46,13 @@ pub fn size_align(types: &TypeTable, ty: TypeId) -> Option<(u64, u64)> {
             }
             (off.div_ceil(align) * align, align)
         }
-        Type::Fb(_) | Type::IntLit | Type::RealLit | Type::Void | Type::Error => return None,
+        // An ARRAY[*] has the size of the array passed: none of its own.
+        Type::Fb(_)
+        | Type::VarArray { .. }
+        | Type::IntLit
+        | Type::RealLit
+        | Type::Void
+        | Type::Error => return None,
     })
 }
 

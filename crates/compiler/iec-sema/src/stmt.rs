@@ -364,6 +364,27 @@ impl Checker<'_> {
         if !self.writable(&p, cx, var.span) {
             return None;
         }
+        // An element or field (TcUnit's `FOR Offset[1] :=`) has a fixed place for the
+        // whole loop only with constant subscripts, which the loop's instructions need.
+        let fixed = p.path.iter().all(|s| match s {
+            ir::Step::Field(_) => true,
+            ir::Step::Index(ix) => ix.iter().all(|i| i.const_int().is_some()),
+            _ => false,
+        });
+        let own = match p.root {
+            Root::Var(v) => cx.vars.get(v as usize).is_some_and(|x| {
+                !matches!(x.class, ir::VarClass::InOut | ir::VarClass::External(_))
+            }),
+            _ => false,
+        };
+        if !fixed || (!p.path.is_empty() && !own) {
+            self.error(
+                diag::BAD_FOR,
+                var.span,
+                "the control variable of FOR is a variable of the POU, or an element (constant subscripts) or field of one",
+            );
+            return None;
+        }
         // A subrange variable (CODESYS and TwinCAT accept it) runs as its base type: the
         // bounds are checked where the loop begins, and the step past the end leaves it one
         // step beyond, as those PLCs leave it.
@@ -373,7 +394,7 @@ impl Checker<'_> {
             self.error(
                 diag::BAD_FOR,
                 var.span,
-                format!("the control variable of FOR is SINT, INT, DINT, LINT or an unsigned integer; `{}` is {t}", self.src_text(var)),
+                format!("the control variable of FOR is SINT, INT, DINT, LINT or an unsigned integer; `{}` is {t}", control_name(var)),
             );
             return None;
         }
@@ -402,8 +423,8 @@ impl Checker<'_> {
             return None;
         }
         let root = match p.root {
-            Root::Var(v) => Some(v),
-            Root::Global(_) | Root::This => None,
+            Root::Var(v) if p.path.is_empty() => Some(v),
+            _ => None,
         };
         if let Some(v) = root {
             cx.for_vars.push(v);
@@ -881,5 +902,13 @@ impl Checker<'_> {
 impl Place {
     pub fn is_var(&self, v: VarId) -> bool {
         self.path.is_empty() && self.root == Root::Var(v)
+    }
+}
+
+/// How a FOR loop's control variable is named in a message: its name, else its text's kind.
+fn control_name(var: &ast::Expr) -> String {
+    match &var.kind {
+        ast::ExprKind::Name(n) => n.name.clone(),
+        _ => "this element".into(),
     }
 }

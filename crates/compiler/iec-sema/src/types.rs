@@ -247,6 +247,13 @@ pub enum Type {
         dims: Vec<(i64, i64)>,
         elem: TypeId,
     },
+    /// `ARRAY[*, …] OF elem`, `dims` dimensions: a VAR_IN_OUT's type only, bound to any
+    /// array of that element type and number of dimensions; the bounds travel with the
+    /// reference (iec-vm's in-out descriptor).
+    VarArray {
+        dims: u32,
+        elem: TypeId,
+    },
     Struct {
         name: String,
         fields: Vec<Field>,
@@ -326,6 +333,7 @@ pub const MAX_STRING_LEN: u32 = 65_535;
 enum Key {
     Str(u32, bool),
     Array(Vec<(i64, i64)>, TypeId),
+    VarArray(u32, TypeId),
     Subrange(Elem, i128, i128),
     Fb(FbRef),
     Ref(RefKind, TypeId),
@@ -419,6 +427,25 @@ impl TypeTable {
         self.intern(Key::Array(dims.clone(), elem), Type::Array { dims, elem })
     }
 
+    /// `ARRAY[*, …] OF elem` of `dims` dimensions.
+    pub fn var_array(&mut self, dims: u32, elem: TypeId) -> TypeId {
+        self.intern(Key::VarArray(dims, elem), Type::VarArray { dims, elem })
+    }
+
+    /// Whether the type is an `ARRAY[*]`.
+    pub fn is_var_array(&self, id: TypeId) -> bool {
+        matches!(self.get(id), Type::VarArray { .. })
+    }
+
+    /// An array's number of dimensions and element type (fixed bounds or `ARRAY[*]`).
+    pub fn array_shape(&self, id: TypeId) -> Option<(u32, TypeId)> {
+        match self.get(id) {
+            Type::Array { dims, elem } => Some((dims.len() as u32, *elem)),
+            Type::VarArray { dims, elem } => Some((*dims, *elem)),
+            _ => None,
+        }
+    }
+
     pub fn subrange(&mut self, base: Elem, lo: i128, hi: i128) -> TypeId {
         self.intern(Key::Subrange(base, lo, hi), Type::Subrange { base, lo, hi })
     }
@@ -448,7 +475,7 @@ impl TypeTable {
     pub fn holds_reference(&self, id: TypeId) -> bool {
         match self.get(id) {
             Type::Ref { .. } | Type::Null => true,
-            Type::Array { elem, .. } => self.holds_reference(*elem),
+            Type::Array { elem, .. } | Type::VarArray { elem, .. } => self.holds_reference(*elem),
             Type::Struct { fields, .. } => fields.iter().any(|f| self.holds_reference(f.ty)),
             _ => false,
         }
@@ -528,6 +555,11 @@ impl TypeTable {
                     .map(|(l, h)| format!("{l}..{h}"))
                     .collect::<Vec<_>>()
                     .join(", "),
+                self.name(*elem)
+            ),
+            Type::VarArray { dims, elem } => format!(
+                "ARRAY[{}] OF {}",
+                vec!["*"; *dims as usize].join(", "),
                 self.name(*elem)
             ),
             Type::Struct { name, .. } | Type::Enum { name, .. } => name.clone(),
@@ -613,6 +645,12 @@ mod tests {
         assert_ne!(a, c);
         assert_eq!(t.string(254), ids::STRING);
         assert_eq!(t.name(a), "ARRAY[1..3] OF INT");
+        let v = t.var_array(2, ids::INT);
+        assert_eq!(v, t.var_array(2, ids::INT));
+        assert_ne!(v, t.var_array(1, ids::INT));
+        assert_eq!(t.name(v), "ARRAY[*, *] OF INT");
+        assert_eq!(t.array_shape(a), Some((1, ids::INT)));
+        assert_eq!(t.array_shape(v), Some((2, ids::INT)));
     }
 
     #[test]

@@ -77,6 +77,13 @@ pub enum TypeSpec {
         elem: Box<TypeSpec>,
         span: Span,
     },
+    /// `ARRAY [*, …] OF elem` (IEC 61131-3 3rd edition): an array of any bounds, `dims`
+    /// dimensions; only a VAR_IN_OUT's type (the checker says so elsewhere).
+    ArrayStar {
+        dims: u32,
+        elem: Box<TypeSpec>,
+        span: Span,
+    },
     Struct {
         /// CODESYS's and TwinCAT's `TYPE name EXTENDS base : STRUCT`: the base structure's
         /// fields come first.
@@ -116,6 +123,7 @@ impl TypeSpec {
             TypeSpec::Named(i) => i.span,
             TypeSpec::String { span, .. }
             | TypeSpec::Array { span, .. }
+            | TypeSpec::ArrayStar { span, .. }
             | TypeSpec::Struct { span, .. }
             | TypeSpec::Union { span, .. }
             | TypeSpec::Enum { span, .. }
@@ -582,7 +590,8 @@ pub enum StmtKind {
         else_body: Option<Vec<Stmt>>,
     },
     For {
-        /// A variable, or (CODESYS, TwinCAT) any integer place: `FOR a[1] := …`.
+        /// The control variable: a name, or (CODESYS, TwinCAT: TcUnit's `FOR Offset[1] :=`)
+        /// an element or field of a variable (boxed: the statement stays small).
         var: Box<Expr>,
         from: Expr,
         to: Expr,

@@ -30,6 +30,7 @@ mod statement;
 #[cfg(test)]
 mod tests;
 mod unit;
+mod vararray;
 
 const TAG: u32 = 0xC000_0000;
 const FRAME: u32 = 0x0000_0000;

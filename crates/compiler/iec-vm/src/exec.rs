@@ -627,6 +627,17 @@ fn data(
             }
             m!(d) = m!(p) + ((idx - info.lo) as u64) * info.stride as u64;
         }
+        Op::IndexV { d, p, i, b } => {
+            let (lo, hi, stride) = (m!(b) as i64, m!(b + 1) as i64, m!(b + 2));
+            let idx = m!(i) as i64;
+            if idx < lo || idx > hi {
+                fail!(
+                    FaultKind::IndexOutOfRange,
+                    format!("index {idx} is outside the array's bounds {lo}..{hi}")
+                );
+            }
+            m!(d) = m!(p).wrapping_add(((idx - lo) as u64).wrapping_mul(stride));
+        }
         Op::CopyI { dp, sp, n } => {
             let (to, from) = (m!(dp) as usize, m!(sp) as usize);
             if to != from {

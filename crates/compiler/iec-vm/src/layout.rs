@@ -40,6 +40,8 @@ impl Sizes {
                 }
                 total
             }
+            // Never a value: only an in-out has the type, laid out by `in_out_slots`.
+            Type::VarArray { .. } => 1,
             Type::Fb(FbRef::User(p)) => self.fb.get(*p as usize).copied().flatten()?,
             Type::Fb(FbRef::Native(k)) => project.natives[*k as usize].vars.len() as u32,
             Type::IntLit | Type::RealLit | Type::Void | Type::Error => 1,
@@ -91,13 +93,24 @@ pub fn frame_slots(project: &Project, sizes: &Sizes, pou: u32) -> u64 {
         .iter()
         .map(|v| match v.class {
             VarClass::External(_) => 0,
-            VarClass::InOut => 1,
+            VarClass::InOut => u64::from(in_out_slots(project, v.ty)),
             _ => sizes.of_wide(project, v.ty),
         })
         .fold(0u64, u64::saturating_add)
 }
 
-/// Lays out a POU's variables; in-outs take one slot (a pointer).
+/// Slots of an in-out of type `ty`: the caller's address, and for an ARRAY[*] its
+/// descriptor after it, (lower bound, upper bound, stride in slots) per dimension, which the
+/// caller writes with the address and the callee's subscripts are checked against.
+pub fn in_out_slots(project: &Project, ty: TypeId) -> u32 {
+    match project.types.get(ty) {
+        Type::VarArray { dims, .. } => 1 + 3 * dims,
+        _ => 1,
+    }
+}
+
+/// Lays out a POU's variables; in-outs take one slot (a pointer), an ARRAY[*] one its
+/// descriptor too ([`in_out_slots`]).
 pub fn frame_layout(project: &Project, sizes: &Sizes, pou: u32) -> FrameLayout {
     let p = project.pou(pou);
     let mut offsets = Vec::with_capacity(p.vars.len());
@@ -108,7 +121,7 @@ pub fn frame_layout(project: &Project, sizes: &Sizes, pou: u32) -> FrameLayout {
                 offsets.push(None);
                 continue;
             }
-            VarClass::InOut => 1,
+            VarClass::InOut => in_out_slots(project, v.ty),
             _ => sizes.of(project, v.ty).unwrap_or(1),
         };
         offsets.push(Some(off));

@@ -198,6 +198,14 @@ pub enum Op {
         i: u32,
         a: u32,
     },
+    /// `Index` over bounds known when the program runs (an ARRAY[*] in-out's dimension):
+    /// slots `b`, `b + 1`, `b + 2` hold the lower bound, the upper bound and the stride.
+    IndexV {
+        d: u32,
+        p: u32,
+        i: u32,
+        b: u32,
+    },
     /// Copies `n` slots from address `sp` to address `dp` (pointer slots).
     CopyI {
         dp: u32,

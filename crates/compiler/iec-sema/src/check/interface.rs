@@ -319,7 +319,11 @@ impl<'a> Checker<'a> {
             || (self.dialect.is_codesys_family()
                 && matches!(b.kind, VarKind::Local | VarKind::Temp));
         for d in &b.vars {
-            let (ty, def) = self.resolve_spec(&d.ty, cx);
+            let (ty, def) = if b.kind == VarKind::InOut {
+                self.resolve_in_out_spec(&d.ty, cx, pou.kind != PouKind::Program)
+            } else {
+                self.resolve_spec(&d.ty, cx)
+            };
             if let Type::Fb(FbRef::User(q)) = *self.types.get(ty) {
                 self.interface(q);
                 if !instance_here {

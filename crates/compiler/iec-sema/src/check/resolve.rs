@@ -189,6 +189,37 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// The type of a VAR_IN_OUT as written: `ARRAY[*, …] OF T` is allowed here (`in_pou`:
+    /// the POU is not a PROGRAM, which no caller passes arrays to), any other type as
+    /// [`Self::resolve_spec`] resolves it.
+    pub fn resolve_in_out_spec(
+        &mut self,
+        spec: &TypeSpec,
+        cx: &mut Cx,
+        in_pou: bool,
+    ) -> (TypeId, Option<Value>) {
+        match spec {
+            TypeSpec::ArrayStar { dims, elem, span } if in_pou => {
+                let (et, _) = self.resolve_spec(elem, cx);
+                if et == ids::ERROR {
+                    return (ids::ERROR, None);
+                }
+                if *dims > 3 {
+                    // The standard's and the vendors' uses go to three; the limit keeps
+                    // the in-out's descriptor small.
+                    self.error(
+                        diag::ARRAY_STAR_PLACE,
+                        *span,
+                        format!("ARRAY[*] has at most 3 dimensions here, not {dims}"),
+                    );
+                    return (ids::ERROR, None);
+                }
+                (self.types.var_array(*dims, et), None)
+            }
+            _ => self.resolve_spec(spec, cx),
+        }
+    }
+
     /// Resolves a type as written; returns its id and the default value it brings (a
     /// declared type's initial value).
     pub fn resolve_spec(&mut self, spec: &TypeSpec, cx: &mut Cx) -> (TypeId, Option<Value>) {
@@ -256,6 +287,14 @@ impl<'a> Checker<'a> {
                     .filter(|_| count <= 1_000_000)
                     .map(|v| Value::Array(vec![v; count as usize]));
                 (id, default)
+            }
+            TypeSpec::ArrayStar { span, .. } => {
+                self.error(
+                    diag::ARRAY_STAR_PLACE,
+                    *span,
+                    "ARRAY[*] takes the bounds of the array a caller passes, so it is only the type of a VAR_IN_OUT of a FUNCTION, FUNCTION_BLOCK or METHOD; give the bounds here (ARRAY[1..10] OF …)",
+                );
+                (ids::ERROR, None)
             }
             TypeSpec::Subrange { base, lo, hi, span } => {
                 let Some(b) = Elem::from_name(&base.name).filter(|e| e.is_int()) else {

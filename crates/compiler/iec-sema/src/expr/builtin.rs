@@ -50,6 +50,8 @@ impl<'a> Checker<'a> {
             MemCpy | MemSet | MemCmp => (&["DEST", "SRC", "N"], 3, false),
             // Made by interface calls (oop/itf.rs), never by name.
             ItfCheck | ItfType => (&["IN"], 1, false),
+            // Made by array_bound (expr/bounds.rs), never by name here.
+            Bound => (&["IN", "DIM"], 2, false),
         };
         let Some(args) = self.std_args(f, call, params, min, ext) else {
             return err(span);
@@ -79,7 +81,7 @@ impl<'a> Checker<'a> {
                 self.fold(mk(vec![d, t], ids::DT))
             }
             DtToTod | DtToDate | Expt | BcdToInt | IntToBcd | Time | GetChar | Format | Chr
-            | MemCpy | MemSet | MemCmp | ItfCheck | ItfType => err(span),
+            | MemCpy | MemSet | MemCmp | ItfCheck | ItfType | Bound => err(span),
         }
     }
 

@@ -74,6 +74,9 @@ impl<'a> Checker<'a> {
         if name.is("SIZEOF") || name.is("XSIZEOF") {
             return self.size_of(call, cx);
         }
+        if name.is("LOWER_BOUND") || name.is("UPPER_BOUND") {
+            return self.array_bound(name, call, cx);
+        }
         if name.is("MEMCPY") || name.is("MEMSET") || name.is("MEMCMP") {
             return self.mem_call(name, call, cx);
         }
@@ -413,7 +416,10 @@ impl<'a> Checker<'a> {
         if !self.writable(&pl, cx, v.span) {
             return false;
         }
-        if pl.ty != var.ty && pl.ty != ids::ERROR {
+        // An ARRAY[*] takes any array of its element type and dimensions.
+        let fits = self.types.is_var_array(var.ty)
+            && self.types.array_shape(pl.ty) == self.types.array_shape(var.ty);
+        if pl.ty != var.ty && pl.ty != ids::ERROR && !fits {
             let (a1, b1) = (self.types.name(pl.ty), self.types.name(var.ty));
             self.error(
                 diag::TYPE_MISMATCH,

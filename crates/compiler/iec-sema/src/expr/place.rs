@@ -243,16 +243,22 @@ impl<'a> Checker<'a> {
         write: bool,
     ) -> Option<Place> {
         let mut p = self.place_inner(base, cx, write)?;
-        let Type::Array { dims, elem } = self.types.get(p.ty).clone() else {
-            if p.ty != ids::ERROR {
-                let t = self.types.name(p.ty);
-                self.error(
-                    diag::BAD_INDEX,
-                    e.span,
-                    format!("only arrays are indexed; this is {t}"),
-                );
+        let (dims, elem) = match self.types.get(p.ty).clone() {
+            Type::Array { dims, elem } => (dims, elem),
+            // An ARRAY[*] in-out's subscripts are checked when the program runs, against
+            // the bounds of the array the caller passed.
+            Type::VarArray { dims, elem } => (vec![(i64::MIN, i64::MAX); dims as usize], elem),
+            _ => {
+                if p.ty != ids::ERROR {
+                    let t = self.types.name(p.ty);
+                    self.error(
+                        diag::BAD_INDEX,
+                        e.span,
+                        format!("only arrays are indexed; this is {t}"),
+                    );
+                }
+                return None;
             }
-            return None;
         };
         if idx.len() != dims.len() {
             self.error(

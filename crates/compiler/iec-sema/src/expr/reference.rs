@@ -250,6 +250,9 @@ impl<'a> Checker<'a> {
         let Some(place) = place else {
             return err(span);
         };
+        if self.types.is_var_array(place.ty) {
+            return self.var_array_whole(arg.span);
+        }
         if let Some(why) = self.no_lasting_address(&place, cx, fname == "ADR") {
             self.error(
                 diag::NO_ADDRESS,
@@ -430,6 +433,10 @@ impl<'a> Checker<'a> {
         };
         if ty == ids::ERROR {
             return err(span);
+        }
+        if self.types.is_var_array(ty) {
+            // Its size is the caller's array's, which SIZEOF (a constant) cannot give.
+            return self.var_array_whole(arg.span);
         }
         match crate::memory::size_align(&self.types, ty) {
             Some((n, _)) => konst(Value::Int(i128::from(n)), ids::INT_LIT, span),

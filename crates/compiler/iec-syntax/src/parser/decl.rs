@@ -171,17 +171,34 @@ impl<'a, 'd> Parser<'a, 'd> {
             Tok::Kw(Kw::Array) => {
                 self.bump();
                 self.expect(&Tok::LBracket, "`[` after ARRAY")?;
+                // `ARRAY[*, *] OF T`: dimensions whose bounds the caller's array gives.
+                if self.at(&Tok::Star) {
+                    let mut dims = 0u32;
+                    loop {
+                        if self.at(&Tok::Star) {
+                            self.bump();
+                            dims += 1;
+                        } else {
+                            return Err(
+                                self.expected("`*` (every dimension of ARRAY[*, …] is `*`)")
+                            );
+                        }
+                        if self.eat(&Tok::Comma).is_none() {
+                            break;
+                        }
+                    }
+                    self.expect(&Tok::RBracket, "`]` after the array's dimensions")?;
+                    self.expect_kw(Kw::Of)?;
+                    let elem = self.type_spec(false)?;
+                    let span = start.to(self.prev_span());
+                    return Ok(TypeSpec::ArrayStar {
+                        dims,
+                        elem: Box::new(elem),
+                        span,
+                    });
+                }
                 let mut ranges = Vec::new();
                 loop {
-                    if self.at(&Tok::Star) {
-                        let t = self.bump();
-                        self.error_at(
-                            diag::UNSUPPORTED,
-                            t.span,
-                            "variable-length arrays (ARRAY[*]) are not supported; give the bounds (ARRAY[1..10] OF …)",
-                        );
-                        return Err(Reported);
-                    }
                     let lo = self.expr()?;
                     self.expect(&Tok::DotDot, "`..` between the array's bounds")?;
                     let hi = self.expr()?;

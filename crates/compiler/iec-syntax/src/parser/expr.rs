@@ -111,8 +111,21 @@ impl<'a, 'd> Parser<'a, 'd> {
         r
     }
 
+    /// The fields, subscripts, calls and `^` after `e` (already read): the rest of a
+    /// designator such as a FOR loop's control variable `a[1]`.
+    pub(super) fn designator_after(&mut self, e: Expr) -> PResult<Expr> {
+        let mut links = 0;
+        let r = self.postfix_from(e, &mut links);
+        self.unlink(links);
+        r
+    }
+
     fn postfix_chain(&mut self, links: &mut usize) -> PResult<Expr> {
-        let mut e = self.primary()?;
+        let e = self.primary()?;
+        self.postfix_from(e, links)
+    }
+
+    fn postfix_from(&mut self, mut e: Expr, links: &mut usize) -> PResult<Expr> {
         loop {
             if matches!(
                 self.peek().tok,

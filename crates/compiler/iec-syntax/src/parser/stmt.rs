@@ -440,12 +440,17 @@ impl<'a, 'd> Parser<'a, 'd> {
 
     fn for_stmt(&mut self) -> PResult<StmtKind> {
         let start = self.bump().span;
-        // The standard names a variable; CODESYS and TwinCAT take any integer place
-        // (TcUnit's `FOR Offset[1] := …`).
-        if !self.at_name() {
-            return Err(self.expected("the FOR loop's control variable"));
-        }
-        let var = Box::new(self.postfix()?);
+        let name = self.ident("the FOR loop's control variable")?;
+        let var = Expr {
+            span: name.span,
+            kind: ExprKind::Name(name),
+        };
+        // `a[1]`, `s.x`: the rest of the designator after the name (CODESYS, TwinCAT).
+        let var = Box::new(if matches!(self.peek().tok, Tok::LBracket | Tok::Dot) {
+            self.designator_after(var)?
+        } else {
+            var
+        });
         self.expect(&Tok::Assign, "`:=` and the initial value")?;
         let from = self.expr()?;
         if self.eat_kw(Kw::To).is_none() {

@@ -424,3 +424,47 @@ proptest::proptest! {
         parse(FileId(0), &src, &mut d);
     }
 }
+
+#[test]
+fn variable_length_arrays() {
+    let lib = check_ok(
+        "FUNCTION f : BOOL\n\
+         VAR_IN_OUT a : ARRAY[*] OF INT; m : ARRAY[*, *, *] OF STRING[4]; END_VAR\n\
+         END_FUNCTION",
+    );
+    let Element::Pou(p) = &lib.elements[0] else {
+        panic!("not a POU")
+    };
+    let dims: Vec<u32> = p.var_blocks[0]
+        .vars
+        .iter()
+        .map(|d| match &d.ty {
+            TypeSpec::ArrayStar { dims, .. } => *dims,
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(dims, [1, 3]);
+    // Every dimension is `*`, or none is.
+    let (_, d) =
+        diags_of("FUNCTION f : BOOL\nVAR_IN_OUT a : ARRAY[*, 1..2] OF INT; END_VAR\nEND_FUNCTION");
+    assert!(d.starts_with("t.st:2:25: error[E010]: expected `*`"), "{d}");
+}
+
+#[test]
+fn a_for_loop_over_an_element() {
+    let lib = check_ok("PROGRAM p\nFOR Offset[1] := 0 TO 3 DO END_FOR;\nFOR s.k := 1 TO 2 DO END_FOR;\nEND_PROGRAM");
+    let Element::Pou(p) = &lib.elements[0] else {
+        panic!("not a POU")
+    };
+    let Body::St(stmts) = &p.body else {
+        panic!("not ST")
+    };
+    let vars: Vec<String> = stmts
+        .iter()
+        .filter_map(|s| match &s.kind {
+            StmtKind::For { var, .. } => Some(sexpr(var)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(vars, ["Offset[1]", "s.k"]);
+}

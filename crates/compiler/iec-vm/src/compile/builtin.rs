@@ -18,6 +18,10 @@ impl<'c, 'p> Fx<'c, 'p> {
         want: Option<u32>,
         span: Span,
     ) -> R<u32> {
+        if b == Builtin::Bound {
+            // Its array argument is not a value: the bound is read from its descriptor.
+            return self.var_array_bound(args, want, span);
+        }
         let p = self.p();
         let mut xs = Vec::with_capacity(args.len());
         for a in args {
@@ -211,7 +215,8 @@ impl<'c, 'p> Fx<'c, 'p> {
             | Builtin::Format
             | Builtin::BcdToInt
             | Builtin::IntToBcd
-            | Builtin::ItfCheck => return None,
+            | Builtin::ItfCheck
+            | Builtin::Bound => return None,
         })
     }
 }

@@ -46,6 +46,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             let a = self.addr_of(pl.loc, place.span)?;
             ptrs.push((*v, a));
         }
+        let descs = self.var_array_descs(&callee.vars, &call.in_outs)?;
         for (v, vty, x) in vals {
             let off = layout.offsets[v as usize].unwrap_or(0);
             let dst = self.region_loc(Region::Unit(unit), off);
@@ -66,6 +67,13 @@ impl<'c, 'p> Fx<'c, 'p> {
             let off = layout.offsets[v as usize].unwrap_or(0);
             let dst = self.region_loc(Region::Unit(unit), off);
             self.store_loc(dst, a, span);
+        }
+        for (v, xs) in descs {
+            let off = layout.offsets[v as usize].unwrap_or(0);
+            for (j, x) in xs.into_iter().enumerate() {
+                let dst = self.region_loc(Region::Unit(unit), off + 1 + j as u32);
+                self.store_loc(dst, x, span);
+            }
         }
         let at = self.emit(Op::CallAbs { entry: 0 }, span);
         self.unit().calls.push((at, Target::Unit(unit)));
@@ -145,6 +153,12 @@ impl<'c, 'p> Fx<'c, 'p> {
             let off = offsets[*v as usize].unwrap_or(0);
             let dst = self.offset(inst, off);
             self.store_loc(dst, a, span);
+            if self.c.p.types.is_var_array(vars_ty[*v as usize]) {
+                for (j, x) in self.var_array_desc(place, span)?.into_iter().enumerate() {
+                    let dst = self.offset(inst, off + 1 + j as u32);
+                    self.store_loc(dst, x, span);
+                }
+            }
         }
         // The call.
         match (natives, inst) {
@@ -187,6 +201,22 @@ impl<'c, 'p> Fx<'c, 'p> {
             }
         }
         Ok(())
+    }
+
+    /// The descriptors of a function call's ARRAY[*] in-outs, computed before any argument
+    /// is stored, as the arguments are.
+    fn var_array_descs(
+        &mut self,
+        vars: &[petriplc_iec_sema::ir::Var],
+        in_outs: &[(petriplc_iec_sema::ir::VarId, petriplc_iec_sema::ir::Place)],
+    ) -> R<Vec<(u32, Vec<u32>)>> {
+        let mut out = Vec::new();
+        for (v, place) in in_outs {
+            if self.c.p.types.is_var_array(vars[*v as usize].ty) {
+                out.push((*v, self.var_array_desc(place, place.span)?));
+            }
+        }
+        Ok(out)
     }
 
     fn pinned(&self) -> u32 {

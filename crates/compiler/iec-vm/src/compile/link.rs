@@ -241,6 +241,12 @@ impl Op {
                 *p = f(*p);
                 *i = f(*i);
             }
+            Op::IndexV { d, p, i, b } => {
+                *d = f(*d);
+                *p = f(*p);
+                *i = f(*i);
+                *b = f(*b);
+            }
             Op::CopyI { dp, sp, .. } | Op::StrCopyI { dp, sp, .. } => {
                 *dp = f(*dp);
                 *sp = f(*sp);

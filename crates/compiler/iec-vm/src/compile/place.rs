@@ -55,6 +55,14 @@ impl<'c, 'p> Fx<'c, 'p> {
             Root::This => self.this_ty(),
         };
         let mut bit = None;
+        // The slot of the ARRAY[*] in-out reached so far (its descriptor follows it).
+        let mut var_array = match p.root {
+            Root::Var(v) if self.glue_of.is_none() && self.c.p.types.is_var_array(ty) => {
+                let off = self.layout.offsets[v as usize].unwrap_or(0);
+                Some(Loc::Slot(FRAME | off))
+            }
+            _ => None,
+        };
         for step in &p.path {
             match step {
                 Step::Field(i) => {
@@ -72,6 +80,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                         loc = self.offset(loc, off);
                         ty = var.ty;
                         if var.class == VarClass::InOut {
+                            var_array = self.c.p.types.is_var_array(ty).then_some(loc);
                             loc = self.deref(loc, p.span)?;
                         }
                     }
@@ -84,6 +93,14 @@ impl<'c, 'p> Fx<'c, 'p> {
                     _ => {}
                 },
                 Step::Index(subs) => {
+                    if let (Type::VarArray { elem, .. }, Some(desc)) =
+                        (self.c.p.types.get(ty).clone(), var_array.take())
+                    {
+                        let ptr = self.addr_of(loc, p.span)?;
+                        loc = self.var_array_index(ptr, desc, subs)?;
+                        ty = elem;
+                        continue;
+                    }
                     let Type::Array { dims, elem } = self.c.p.types.get(ty).clone() else {
                         continue;
                     };
@@ -322,7 +339,7 @@ impl<'c, 'p> Fx<'c, 'p> {
         );
     }
 
-    fn root_ty(&self, root: Root) -> TypeId {
+    pub(super) fn root_ty(&self, root: Root) -> TypeId {
         match root {
             Root::Var(v) => {
                 if self.glue_of.is_some() {
@@ -347,7 +364,7 @@ impl<'c, 'p> Fx<'c, 'p> {
     }
 
     /// The type a step of a path leads to from `ty`.
-    fn step_ty(&self, ty: TypeId, s: &Step) -> TypeId {
+    pub(super) fn step_ty(&self, ty: TypeId, s: &Step) -> TypeId {
         let types = &self.c.p.types;
         match (s, types.get(ty)) {
             (Step::Field(i), Type::Struct { fields, .. }) => fields[*i as usize].ty,
@@ -357,7 +374,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                     self.c.p.natives[*k as usize].vars[*i as usize].ty,
                 )
             }
-            (Step::Index(_), Type::Array { elem, .. }) => *elem,
+            (Step::Index(_), Type::Array { elem, .. } | Type::VarArray { elem, .. }) => *elem,
             (Step::Bit(_), _) => petriplc_iec_sema::types::ids::BOOL,
             (Step::Bits(_, 8), _) => petriplc_iec_sema::types::ids::BYTE,
             (Step::Bits(_, 16), _) => petriplc_iec_sema::types::ids::WORD,

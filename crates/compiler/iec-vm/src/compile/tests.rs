@@ -328,3 +328,90 @@ fn a_reference_in_a_retained_instance_is_not_retained() {
     let paths: Vec<String> = e.retained().into_iter().map(|r| r.path).collect();
     assert_eq!(paths, vec!["main.k.n", "main.k.s"]);
 }
+
+/// ARRAY[*] in-outs of a FUNCTION and of a FUNCTION_BLOCK: elements read and written in
+/// the caller's array through the descriptor, an instance's in-out passed on to a function,
+/// bounds read at run time.
+#[test]
+fn array_star_in_outs_compute_on_the_callers_array() {
+    check(
+        "FUNCTION Fill : DINT VAR_IN_OUT xs : ARRAY[*, *] OF DINT; END_VAR VAR i, j : DINT; END_VAR
+           FOR i := LOWER_BOUND(xs, 1) TO UPPER_BOUND(xs, 1) DO
+             FOR j := LOWER_BOUND(xs, 2) TO UPPER_BOUND(xs, 2) DO xs[i, j] := i * 10 + j; END_FOR;
+           END_FOR;
+           Fill := UPPER_BOUND(xs, 2) - LOWER_BOUND(xs, 1);
+         END_FUNCTION
+         FUNCTION Last : DINT VAR_IN_OUT xs : ARRAY[*, *] OF DINT; END_VAR
+           Last := xs[UPPER_BOUND(xs, 1), UPPER_BOUND(xs, 2)];
+         END_FUNCTION
+         FUNCTION_BLOCK Keep VAR_IN_OUT xs : ARRAY[*, *] OF DINT; END_VAR VAR_OUTPUT l : DINT; END_VAR
+           l := Last(xs);
+         END_FUNCTION_BLOCK",
+        "m : ARRAY[1..2, 3..5] OF DINT; r, l : DINT; k : Keep;",
+        "r := Fill(m); k(xs := m, l => l);",
+        1,
+        "m[1,3]=13 m[2,4]=24 m[2,5]=25 r=4 l=25",
+    );
+}
+
+/// A subscript outside the caller's array is the ordinary index fault, at the line of the
+/// access in the callee.
+#[test]
+fn an_array_star_subscript_outside_the_callers_array_faults_where_it_is() {
+    let src = "FUNCTION Get : INT\nVAR_IN_OUT xs : ARRAY[*] OF INT; END_VAR\nVAR_INPUT i : DINT; END_VAR\nGet := xs[i];\nEND_FUNCTION\n\
+               PROGRAM main\nVAR a : ARRAY[0..2] OF INT; n : DINT := 2; r : INT; END_VAR\nr := Get(a, n); n := n + 1;\nEND_PROGRAM\n";
+    let engine = engine(src);
+    let mut m = Machine::new(engine);
+    m.set_backend(Backend::Vm);
+    assert!(m.scan(0, &mut || true).is_ok());
+    let f = m.scan(10_000_000, &mut || true).unwrap_err();
+    assert_eq!(
+        (f.pou.as_str(), f.line, f.message.as_str()),
+        (
+            "FUNCTION Get",
+            4,
+            "array index out of range: index 3 is outside the array's bounds 0..2"
+        ),
+        "{f}"
+    );
+}
+
+/// A METHOD and an ACTION of a block reading the block's own ARRAY[*] in-out (through the
+/// instance), with the bounds the last call passed.
+#[test]
+fn a_blocks_array_star_in_out_is_seen_by_its_methods() {
+    check(
+        "FUNCTION_BLOCK Hold VAR_IN_OUT xs : ARRAY[*] OF INT; END_VAR VAR_OUTPUT n, top : DINT; END_VAR
+           n := Width();
+           Peek();
+         METHOD Width : DINT
+           Width := UPPER_BOUND(xs, 1) - LOWER_BOUND(xs, 1) + 1;
+         END_METHOD
+         ACTION Peek:
+           top := xs[UPPER_BOUND(xs, 1)];
+         END_ACTION
+         END_FUNCTION_BLOCK",
+        "a : ARRAY[-1..2] OF INT := [4, 3, 2, 1]; h : Hold; n, top : DINT;",
+        "h(xs := a, n => n, top => top);",
+        1,
+        "n=4 top=1",
+    );
+}
+
+/// A function with an ARRAY[*] in-out called as a statement, with EN/ENO, and in a larger
+/// expression: the array and its bounds are passed each time.
+#[test]
+fn array_star_calls_as_statements_and_with_en() {
+    check(
+        "FUNCTION Bump : INT VAR_IN_OUT xs : ARRAY[*] OF INT; END_VAR VAR i : DINT; END_VAR
+           FOR i := LOWER_BOUND(xs, 1) TO UPPER_BOUND(xs, 1) DO xs[i] := xs[i] + 1; END_FOR;
+           Bump := xs[LOWER_BOUND(xs, 1)];
+         END_FUNCTION",
+        "a : ARRAY[2..3] OF INT; b : ARRAY[0..0] OF INT; go : BOOL; e : BOOL := TRUE; r : INT;",
+        "Bump(xs := a);
+         r := Bump(EN := go, xs := b, ENO => e);
+         r := r + 10 * Bump(a);",
+        1,
+        "a[2]=2 a[3]=2 b[0]=0 e=0 r=20",
+    );
+}
