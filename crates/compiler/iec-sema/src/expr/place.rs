@@ -469,7 +469,8 @@ impl<'a> Checker<'a> {
     /// A place that may be written here: reports why not otherwise.
     pub fn writable(&mut self, p: &Place, cx: &Cx, span: Span) -> bool {
         let var = self.var_of(p, cx).clone();
-        if matches!(self.types.get(p.ty), Type::Fb(_)) {
+        // CODESYS and TwinCAT copy an instance assigned to another of its block.
+        if matches!(self.types.get(p.ty), Type::Fb(_)) && !self.dialect.is_codesys_family() {
             self.error(
                 diag::NOT_ASSIGNABLE,
                 span,
