@@ -3,7 +3,7 @@
 //! types and values, `interface.rs` globals and interfaces, `body.rs` bodies); statements and
 //! expressions are checked in `stmt.rs` and `expr.rs`.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeSet, HashMap, HashSet};
 
 use petriplc_iec_syntax::ast::{self, Element, Ident, Library, PouKind};
 use petriplc_iec_syntax::depth::{Depth, MAX_TYPE_DEPTH};
@@ -101,6 +101,10 @@ pub(crate) struct Checker<'a> {
     pub global_lists: HashMap<String, HashSet<String>>,
     /// Globals of a top-level VAR_GLOBAL list: visible without VAR_EXTERNAL.
     pub global_direct: Vec<bool>,
+    /// Function blocks with an instance in a FUNCTION's or METHOD's frame (CODESYS,
+    /// TwinCAT): their variables end with that call, so ADR of them follows a FUNCTION's
+    /// rules (check/escape.rs).
+    pub(crate) frame_fbs: BTreeSet<PouId>,
     /// Enumeration value names → (type, value) of every enumeration declaring them.
     pub enum_values: HashMap<String, Vec<(TypeId, i64)>>,
     /// R_EDGE / F_EDGE inputs per POU.
@@ -155,6 +159,7 @@ impl<'a> Checker<'a> {
             global_names: HashMap::new(),
             global_lists: HashMap::new(),
             global_direct: Vec::new(),
+            frame_fbs: BTreeSet::new(),
             enum_values: HashMap::new(),
             edges: HashMap::new(),
             calls: Vec::new(),

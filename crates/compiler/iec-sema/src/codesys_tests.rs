@@ -134,3 +134,35 @@ fn var_stat_is_one_variable_for_every_instance() {
         &["error[E1"],
     );
 }
+
+#[test]
+fn a_block_with_an_instance_in_a_function_keeps_no_pointer_to_itself_beyond_the_call() {
+    let leak = "FUNCTION_BLOCK FB_L\nVAR k : INT; END_VAR\nVAR_EXTERNAL gp : POINTER TO INT; END_VAR\ngp := ADR(k);\nEND_FUNCTION_BLOCK\n\
+                VAR_GLOBAL gp : POINTER TO INT; END_VAR\n";
+    // Instantiated in a program only: the instance lasts, the pointer may be kept.
+    let (p, text) = crate::tests::run_dialect(
+        &format!("{leak}PROGRAM main\nVAR l : FB_L; END_VAR\nl();\nEND_PROGRAM\n"),
+        petriplc_iec_syntax::Dialect::Twincat,
+    );
+    assert!(p.is_some(), "{text}");
+    // In a FUNCTION's frame (or a METHOD's), directly or in an array: E201.
+    for decl in ["l : FB_L;", "ls : ARRAY[1..2] OF FB_L;"] {
+        let (p, text) = crate::tests::run_dialect(
+            &format!("{leak}FUNCTION F : INT\nVAR {decl} END_VAR\nF := 1;\nEND_FUNCTION\nPROGRAM main\nVAR x : INT; END_VAR\nx := F();\nEND_PROGRAM\n"),
+            petriplc_iec_syntax::Dialect::Twincat,
+        );
+        assert!(
+            p.is_none()
+                && text.contains("t.st:4:7: error[E201]")
+                && text.contains("an instance of this block is a FUNCTION's or METHOD's variable"),
+            "{decl}: {text}"
+        );
+    }
+    // A METHOD keeps pointers to its block's variables in the block (THIS lasts).
+    let (p, text) = crate::tests::run_dialect(
+        "FUNCTION_BLOCK FB_M\nVAR k : INT; p : POINTER TO INT; END_VAR\nMETHOD Bind\np := ADR(k);\nEND_METHOD\nEND_FUNCTION_BLOCK\n\
+         PROGRAM main\nVAR m : FB_M; END_VAR\nm.Bind();\nEND_PROGRAM\n",
+        petriplc_iec_syntax::Dialect::Twincat,
+    );
+    assert!(p.is_some(), "{text}");
+}

@@ -31,7 +31,7 @@ pub const DONE_FLAG: &str = "__FB_INIT_DONE";
 /// globals) are reported (W049).
 pub fn lower(lib: &Library, diags: &mut Diagnostics) -> Option<Library> {
     let blocks = Blocks::of(lib);
-    if !blocks.any_init && !has_init_args(lib) {
+    if !blocks.any_init && !has_init_args(lib) && !has_runtime_init(lib, &blocks) {
         return None;
     }
     not_called(lib, &blocks, diags);
@@ -101,6 +101,17 @@ fn not_called(lib: &Library, blocks: &Blocks, diags: &mut Diagnostics) {
     }
 }
 
+fn has_runtime_init(lib: &Library, blocks: &Blocks) -> bool {
+    lib.elements.iter().any(|el| match el {
+        Element::Pou(p) => std::iter::once(p)
+            .chain(p.oop.methods.iter().map(|m| &m.pou))
+            .flat_map(|p| &p.var_blocks)
+            .flat_map(|b| &b.vars)
+            .any(|d| blocks.runtime_init(d).is_some()),
+        _ => false,
+    })
+}
+
 fn has_init_args(lib: &Library) -> bool {
     lib.elements.iter().any(|el| match el {
         Element::Pou(p) => std::iter::once(p)
@@ -115,21 +126,29 @@ fn has_init_args(lib: &Library) -> bool {
 /// What the lowering knows of the project's function blocks, by upper-case name.
 struct Blocks<'a> {
     fbs: BTreeMap<String, &'a Pou>,
+    interfaces: BTreeSet<String>,
     any_init: bool,
 }
 
 impl<'a> Blocks<'a> {
     fn of(lib: &'a Library) -> Self {
         let mut fbs = BTreeMap::new();
+        let mut interfaces = BTreeSet::new();
         for el in &lib.elements {
             if let Element::Pou(p) = el {
-                if p.kind == PouKind::FunctionBlock && !p.oop.interface {
+                if p.oop.interface {
+                    interfaces.insert(p.name.key());
+                } else if p.kind == PouKind::FunctionBlock {
                     fbs.entry(p.name.key()).or_insert(p);
                 }
             }
         }
         let any_init = fbs.values().any(|p| own_fb_init(p));
-        Blocks { fbs, any_init }
+        Blocks {
+            fbs,
+            interfaces,
+            any_init,
+        }
     }
 
     /// The block and its bases, most derived first (a circle stops the walk).
@@ -148,6 +167,24 @@ impl<'a> Blocks<'a> {
             }
         }
         out
+    }
+
+    /// The initial value of a declaration that is computed when the program starts rather
+    /// than a constant: `ADR(x)`, `REF(x)`, or an instance given to an interface variable
+    /// (`log : I_Logger := fbLog;`).
+    fn runtime_init<'d>(&self, d: &'d VarDecl) -> Option<&'d Expr> {
+        let Some(Init::Expr(e)) = &d.init else {
+            return None;
+        };
+        let reference = matches!(&e.kind, ExprKind::Call(c)
+            if matches!(&c.callee.kind, ExprKind::Name(n) if n.is("ADR") || n.is("REF")));
+        let itf = matches!(&d.ty, TypeSpec::Named(t) if self.interfaces.contains(&t.key()))
+            && match &e.kind {
+                ExprKind::Name(n) => !n.is("NULL"),
+                ExprKind::Field(..) | ExprKind::Index(..) => true,
+                _ => false,
+            };
+        (reference || itf).then_some(e)
     }
 
     /// An instance of the block needs initialising (its FB_init, or its members').
@@ -190,6 +227,18 @@ impl<'a> Blocks<'a> {
                 continue;
             }
             for d in &b.vars {
+                if let Some(e) = self.runtime_init(d) {
+                    for n in &d.names {
+                        out.push(Init1 {
+                            name: n.clone(),
+                            nested: false,
+                            fb_init: None,
+                            assign: Some(e.clone()),
+                            span: d.span,
+                        });
+                    }
+                    continue;
+                }
                 let TypeSpec::Named(ty) = &d.ty else { continue };
                 let key = ty.key();
                 let fb = self.fbs.contains_key(&key);
@@ -204,6 +253,7 @@ impl<'a> Blocks<'a> {
                         name: n.clone(),
                         nested,
                         fb_init: init.then(|| d.fb_init.clone().unwrap_or_default()),
+                        assign: None,
                         span: d.span,
                     });
                 }
@@ -218,11 +268,13 @@ const INSTANCE: &[VarKind] = &[VarKind::Local, VarKind::Input, VarKind::Output];
 /// The variables a FUNCTION or METHOD has anew at each call.
 const PER_CALL: &[VarKind] = &[VarKind::Local, VarKind::Temp];
 
-/// One instance to initialise: its name, whether its members need it, FB_init's arguments.
+/// One variable to initialise: an instance (whether its members need it, FB_init's
+/// arguments) or a variable whose initial value is computed (`assign`).
 struct Init1 {
     name: Ident,
     nested: bool,
     fb_init: Option<Vec<Arg>>,
+    assign: Option<Expr>,
     span: Span,
 }
 
@@ -230,9 +282,15 @@ fn own_fb_init(p: &Pou) -> bool {
     p.oop.methods.iter().any(|m| m.pou.name.is("FB_init"))
 }
 
-/// The statements that initialise `inits`, the contained instances first.
+/// The statements that initialise `inits`: the computed initial values (as the other
+/// initial values, before any FB_init), then the instances, the contained ones first.
 fn calls(inits: &[Init1]) -> Vec<Stmt> {
     let mut out = Vec::new();
+    for i in inits {
+        if let Some(e) = &i.assign {
+            out.push(build::assign(build::name(&i.name.name, i.span), e.clone()));
+        }
+    }
     for i in inits {
         let inst = build::name(&i.name.name, i.span);
         if i.nested {
@@ -275,6 +333,18 @@ fn call_stmt(c: Call) -> Stmt {
 fn prepend(body: &mut Body, stmts: Vec<Stmt>) {
     if let Body::St(b) = body {
         b.splice(0..0, stmts);
+    }
+}
+
+/// Drops the computed initial values of `kinds` blocks (their assignments are in the
+/// initialisation written out).
+fn strip_runtime_inits(blocks_of: &mut [VarBlock], kinds: &[VarKind], blocks: &Blocks) {
+    for b in blocks_of.iter_mut().filter(|b| kinds.contains(&b.kind)) {
+        for d in &mut b.vars {
+            if blocks.runtime_init(d).is_some() {
+                d.init = None;
+            }
+        }
     }
 }
 
@@ -333,6 +403,16 @@ fn lower_pou(p: &mut Pou, blocks: &Blocks) {
         let own: Vec<&VarBlock> = m.pou.var_blocks.iter().collect();
         let inits = blocks.inits_of(&own, PER_CALL, &mut BTreeSet::new());
         prepend(&mut m.pou.body, calls(&inits));
+        strip_runtime_inits(&mut m.pou.var_blocks, PER_CALL, blocks);
+    }
+    // A body the statements cannot be put before (IL, a chart read elsewhere) keeps its
+    // initial values, which the checker then reports.
+    if matches!(p.body, Body::St(_)) || p.kind == PouKind::FunctionBlock {
+        let kinds = match p.kind {
+            PouKind::Function => PER_CALL,
+            _ => INSTANCE,
+        };
+        strip_runtime_inits(&mut p.var_blocks, kinds, blocks);
     }
 }
 
@@ -456,6 +536,21 @@ mod tests {
              t.st:10:12: warning[W049]: petriplc does not call FB_init for an instance in VAR_GLOBAL yet: the declared initial values stand; call an initialising method of your own on the first scan\n\
              t.st:12:5: warning[W049]: petriplc does not call FB_init for the elements of an array yet: the declared initial values stand; call an initialising method of your own on the first scan\n\
              t.st:12:27: error[E237]: `B(…)` passes arguments to FB_init, but B is no FUNCTION_BLOCK with an FB_init method; declare `METHOD FB_init : BOOL` with VAR_INPUT bInitRetains, bInCopyCode and the parameters, or drop the parentheses",
+        );
+    }
+
+    #[test]
+    fn computed_initial_values_are_set_before_fb_init() {
+        let src = format!(
+            "{INNER}INTERFACE I_X\nEND_INTERFACE\n\
+             PROGRAM p\nVAR c : INT; i : I(1); r : REF_TO INT := REF(c); x : I_X := i; \
+             n : I_X := NULL; END_VAR\nEND_PROGRAM"
+        );
+        check(
+            &src,
+            "I: \nFB_init: n :=\n\
+             I_X: \n\
+             p: IF[__FB_INIT_DONE :=; r :=; x :=; i.FB_init(false,false,…)]",
         );
     }
 }

@@ -19,13 +19,26 @@ impl<'a> Checker<'a> {
     /// Checks that no pointer to the frame of POU `p` escapes its body.
     pub(super) fn frame_escapes(&mut self, p: PouId, kind: PouKind, body: &[Stmt]) {
         let vars = self.pous[p as usize].vars.clone();
+        // A block with an instance in a FUNCTION's or METHOD's frame (or inside such an
+        // instance) may end with that call: its variables are a frame's too.
+        let in_frame = kind == PouKind::FunctionBlock && self.in_frame(p);
+        // A method's THIS is its block's instance, which outlives the call unless the
+        // instance is itself in a frame.
+        let this_lasts = self
+            .oop
+            .members
+            .get(&p)
+            .is_some_and(|m| !self.in_frame(m.owner));
         let frame: Vec<bool> = vars
             .iter()
             .map(|v| {
+                if this_lasts && v.name == "THIS" && v.class == VarClass::InOut {
+                    return false;
+                }
                 // An in-out designates a caller's variable, which may be the caller's own
                 // temporary: a pointer to it lasts only as long as the call, as a frame's.
                 matches!(v.class, VarClass::Temp | VarClass::InOut)
-                    || (kind == PouKind::Function
+                    || ((kind == PouKind::Function || in_frame)
                         && !matches!(v.class, VarClass::External(_) | VarClass::Global))
             })
             .collect();
@@ -58,6 +71,11 @@ impl<'a> Checker<'a> {
         f.stmts(body);
         errors.sort_by_key(|e| (e.0.start, e.0.end));
         errors.dedup_by_key(|e| (e.0.start, e.0.end));
+        let why = if in_frame {
+            " (an instance of this block is a FUNCTION's or METHOD's variable, which ends with its call)"
+        } else {
+            ""
+        };
         for (span, target) in errors {
             let name = match target {
                 Into::Var(v) => Some(vars[v as usize].name.clone()),
@@ -66,17 +84,42 @@ impl<'a> Checker<'a> {
             };
             let msg = match name {
                 Some(n) => format!(
-                    "a pointer to this {}'s own variables is stored in `{}`, which outlives the call; keep it in a pointer declared in the POU's VAR_TEMP (a FUNCTION's VAR)",
+                    "a pointer to this {}'s own variables is stored in `{}`, which outlives the call; keep it in a pointer declared in the POU's VAR_TEMP (a FUNCTION's VAR){}",
                     kind.keyword(),
-                    n
+                    n,
+                    why
                 ),
                 _ => format!(
-                    "a pointer to this {}'s own variables may only be kept in its VAR or VAR_TEMP pointers, dereferenced, compared and moved (p + n); it must not be stored elsewhere or passed to a call, since the variables end with the call",
-                    kind.keyword()
+                    "a pointer to this {}'s own variables may only be kept in its VAR or VAR_TEMP pointers, dereferenced, compared and moved (p + n); it must not be stored elsewhere or passed to a call, since the variables end with the call{}",
+                    kind.keyword(),
+                    why
                 ),
             };
             self.error(diag::NO_ADDRESS, span, msg);
         }
+    }
+}
+
+impl Checker<'_> {
+    /// Whether block `p` has an instance in a FUNCTION's or METHOD's frame, directly or
+    /// inside another block's instance that has one.
+    fn in_frame(&self, p: PouId) -> bool {
+        let mut seen = BTreeSet::new();
+        let mut todo: Vec<PouId> = self.frame_fbs.iter().copied().collect();
+        while let Some(q) = todo.pop() {
+            if q == p {
+                return true;
+            }
+            if !seen.insert(q) {
+                continue;
+            }
+            for v in &self.pous[q as usize].vars {
+                if v.class != VarClass::InOut {
+                    todo.extend(self.blocks_in(v.ty));
+                }
+            }
+        }
+        false
     }
 }
 

@@ -102,6 +102,19 @@ impl<'a> Checker<'a> {
         format!("{owner}$stat.{var}")
     }
 
+    /// The user function blocks whose instances a variable of type `ty` holds (itself, the
+    /// elements of an array, a structure's fields).
+    pub(super) fn blocks_in(&self, ty: crate::types::TypeId) -> Vec<PouId> {
+        match self.types.get(ty) {
+            Type::Fb(FbRef::User(q)) => vec![*q],
+            Type::Array { elem, .. } => self.blocks_in(*elem),
+            Type::Struct { fields, .. } => {
+                fields.iter().flat_map(|f| self.blocks_in(f.ty)).collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+
     /// A CONSTANT declared without a value holds its type's initial value (a structure's
     /// field defaults, 0…). CODESYS and TwinCAT accept it with a warning (C0228, which
     /// OSCAT's global constants switch off); so does petriplc.
@@ -324,6 +337,10 @@ impl<'a> Checker<'a> {
             } else {
                 self.resolve_spec(&d.ty, cx)
             };
+            if pou.kind == PouKind::Function && b.kind != VarKind::InOut {
+                let fbs = self.blocks_in(ty);
+                self.frame_fbs.extend(fbs);
+            }
             if let Type::Fb(FbRef::User(q)) = *self.types.get(ty) {
                 self.interface(q);
                 if !instance_here {
