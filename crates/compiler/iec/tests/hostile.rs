@@ -37,7 +37,7 @@ fn piece() -> impl Strategy<Value = Piece> {
         depth().prop_map(Piece::Parens),
         depth().prop_map(Piece::Unary),
         (
-            prop::sample::select(vec!["+", "*", "AND", "OR", "-", "<", "**"]),
+            prop::sample::select(vec!["+", "*", "AND", "OR", "-", "<", "**", ":="]),
             depth()
         )
             .prop_map(|(op, n)| Piece::Chain(op, n)),
