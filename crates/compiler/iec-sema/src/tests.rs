@@ -39,29 +39,31 @@ pub(crate) fn run_dialect(
     src: &str,
     dialect: petriplc_iec_syntax::Dialect,
 ) -> (Option<ir::Project>, String) {
-    let mut map = SourceMap::new();
-    let f = map.add("t.st", src);
-    let mut d = petriplc_iec_syntax::Diagnostics::new();
-    let lib = parser::parse(f, src, &mut d);
-    assert!(!d.has_errors(), "syntax: {}", d.render(&map));
-    let options = Options {
-        dialect,
-        ..Options::default()
-    };
-    let (p, diags) = check(&lib, &options);
-    (p, diags.render(&map))
+    run_with(
+        src,
+        Options {
+            dialect,
+            ..Options::default()
+        },
+    )
 }
 
 fn run_in(src: &str, overflow: Overflow) -> (Option<ir::Project>, String) {
+    run_with(
+        src,
+        Options {
+            overflow,
+            ..Options::default()
+        },
+    )
+}
+
+fn run_with(src: &str, options: Options) -> (Option<ir::Project>, String) {
     let mut map = SourceMap::new();
     let f = map.add("t.st", src);
     let mut d = petriplc_iec_syntax::Diagnostics::new();
     let lib = parser::parse(f, src, &mut d);
     assert!(!d.has_errors(), "syntax: {}", d.render(&map));
-    let options = Options {
-        overflow,
-        ..Options::default()
-    };
     let (p, diags) = check(&lib, &options);
     (p, diags.render(&map))
 }
