@@ -69,14 +69,27 @@ fn reference_to_binds_with_ref_assign_and_is_refused_where_it_cannot_work() {
          VAR_TEMP t : INT; END_VAR\n\
          r REF= x + 1;\nr REF= z;\nx REF= y;\nr REF= t;\ny := __ISVALIDREF(x);\nEND_PROGRAM\n",
         &[
-            "t.st:4:14: error[E190]: a result of type REFERENCE TO is not supported yet",
-            "t.st:8:54: error[E190]: REFERENCE TO a function block instance is not supported yet",
             "t.st:8:76: error[E190]: a REFERENCE TO cannot designate another REFERENCE TO",
             "t.st:10:8: error[E220]: `REF=` binds a REFERENCE TO to a variable, not to an expression's value",
             "t.st:11:8: error[E220]: `REF=` binds a REFERENCE TO INT to a variable of that type; this is REAL",
             "t.st:12:1: error[E220]: `REF=` binds a REFERENCE TO; this is INT: assign it with `:=`",
             "t.st:13:8: error[E201]: a pointer to this PROGRAM's own variables is stored in `r`",
             "t.st:14:19: error[E200]: __ISVALIDREF tests a REFERENCE TO; this is INT",
+        ],
+    );
+    // A REFERENCE TO result: bound inside, passed on by a call of the same type only; a
+    // FUNCTION's own variable does not outlive the call; a call's result is not a target.
+    check_diags(
+        "FUNCTION f : REFERENCE TO INT\nVAR i : INT; END_VAR\nf REF= i;\nEND_FUNCTION\n\
+         FUNCTION g : REFERENCE TO REAL\nEND_FUNCTION\n\
+         FUNCTION h : INT\nEND_FUNCTION\n\
+         PROGRAM p\nVAR x : INT; r : REFERENCE TO INT; END_VAR\n\
+         r REF= f();\nx := f() + 1;\nr REF= g();\nr REF= h();\nf() REF= x;\nEND_PROGRAM\n",
+        &[
+            "t.st:3:8: error[E201]",
+            "t.st:13:8: error[E220]: `REF=` binds a REFERENCE TO INT to a variable of that type, or to a call giving a REFERENCE TO INT; this call gives REFERENCE TO REAL",
+            "t.st:14:8: error[E220]: `REF=` binds a REFERENCE TO INT to a variable of that type, or to a call giving a REFERENCE TO INT; this call gives INT",
+            "t.st:15:1: error[E220]: `REF=` binds a REFERENCE TO variable; a call's result is bound inside the call",
         ],
     );
     // An input binds to the variable given; an expression cannot be bound.

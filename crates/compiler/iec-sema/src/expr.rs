@@ -1,12 +1,12 @@
 //! Expressions: names, literals typed by their context, operators with the standard's type
 //! rules, places (what can be written), and calls of functions (user and standard).
 
-use petriplc_iec_syntax::ast::{self, ExprKind as A};
+use petriplc_iec_syntax::ast::{self, ExprKind as A, RefKind};
 use petriplc_iec_syntax::diag;
 use petriplc_iec_syntax::source::Span;
 
 use crate::check::{Checker, Cx};
-use crate::ir::{Expr, ExprKind, Place, VarId};
+use crate::ir::{Expr, ExprKind, Place, Root, Step, VarId};
 use crate::types::{ids, Type, TypeId, TypeTable};
 use crate::value::Value;
 
@@ -120,7 +120,30 @@ impl<'a> Checker<'a> {
             }
             A::Unary(op, inner) => self.unary(*op, inner, cx, expected, span),
             A::Binary(op, a, b) => self.binary(*op, a, b, cx, expected, span),
-            A::Call(call) => self.call_expr(call, cx, expected),
+            A::Call(call) => {
+                let x = self.call_expr(call, cx, expected);
+                // A REFERENCE TO result is the variable it designates.
+                match self.types.get(x.ty) {
+                    Type::Ref {
+                        kind: RefKind::ReferenceTo,
+                        ..
+                    } => {
+                        let p = Place {
+                            root: Root::Value,
+                            ty: x.ty,
+                            span,
+                            path: vec![Step::Value(Box::new(x))],
+                        };
+                        let p = self.through_reference(p);
+                        Expr {
+                            ty: p.ty,
+                            kind: ExprKind::Load(p),
+                            span,
+                        }
+                    }
+                    _ => x,
+                }
+            }
         }
     }
 

@@ -132,7 +132,7 @@ fn place_reads(p: &Place, out: &mut Vec<Root>) -> bool {
                 }
             }
             // Behind a reference any variable may be read: evaluate it once.
-            crate::ir::Step::Deref => ok = false,
+            crate::ir::Step::Deref | crate::ir::Step::Value(_) => ok = false,
             _ => {}
         }
     }

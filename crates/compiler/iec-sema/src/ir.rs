@@ -214,6 +214,10 @@ pub enum Root {
     /// The whole instance of the function block (or program) whose own body this is:
     /// `THIS^`, and the instance a method or action called inside the body works on.
     This,
+    /// A reference computed by an expression, which is the path's first step
+    /// ([`Step::Value`]): a call giving a REFERENCE TO (`obj.Get().x`), `f()^`, `(p + 2)^`,
+    /// CODESYS's pointer indexing `p[i]`. The path goes on with [`Step::Deref`].
+    Value,
 }
 
 #[derive(Clone, Debug)]
@@ -240,6 +244,9 @@ pub enum Step {
         member: u32,
         ty: TypeId,
     },
+    /// The reference a [`Root::Value`] place starts from (only as that place's first step),
+    /// evaluated where the place is.
+    Value(Box<Expr>),
 }
 
 #[derive(Clone, Debug)]
@@ -255,8 +262,10 @@ impl Expr {
     pub fn depth(&self) -> usize {
         fn place<'e>(p: &'e Place, d: usize, todo: &mut Vec<(&'e Expr, usize)>) {
             for s in &p.path {
-                if let Step::Index(ix) = s {
-                    todo.extend(ix.iter().map(|i| (i, d)));
+                match s {
+                    Step::Index(ix) => todo.extend(ix.iter().map(|i| (i, d))),
+                    Step::Value(x) => todo.push((x, d)),
+                    _ => {}
                 }
             }
         }

@@ -64,7 +64,8 @@ pub(crate) struct Oop<'a> {
     /// INTERFACE → its `__QUERYINTERFACE` function (`oop/query.rs`), and back.
     pub queries: HashMap<PouId, PouId>,
     pub query_of: HashMap<PouId, PouId>,
-    /// What `var_of` gives for `Root::This` (the instance: not constant, not an input).
+    /// What `var_of` gives for `Root::This` (the instance) and `Root::Value` (what a computed
+    /// reference designates): not constant, not an input.
     pub this_var: Var,
 }
 

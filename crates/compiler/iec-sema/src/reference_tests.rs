@@ -188,3 +188,18 @@ fn zero_is_null_for_a_pointer_only() {
         ],
     );
 }
+
+#[test]
+fn pointer_indexing_takes_one_integer_subscript_of_a_pointer_to() {
+    errors(
+        &prog(
+            "a : ARRAY[0..3] OF INT; p : POINTER TO INT; r : REF_TO INT; x : INT;",
+            "p := ADR(a); x := p[1]; p[0] := 1; x := p[1, 2]; x := p[1.5]; r := REF(a[0]); x := r[1];",
+        ),
+        &[
+            "t.st:5:41: error[E114]: a pointer takes one subscript",
+            "t.st:5:57: error[E114]: a subscript is an integer; this is a real literal",
+            "t.st:5:84: error[E114]: only arrays are indexed; this is REF_TO INT",
+        ],
+    );
+}

@@ -93,8 +93,12 @@ const TYPED_GENERICS: &[&str] = &[
 /// included.
 pub fn is_standard_function(name: &str) -> bool {
     let n = name.to_ascii_uppercase();
+    // A conversion counts when it names types (`BYTE_TO_HEXSTR` of Tc2_Utilities is none).
+    let ty = |t: &str| Elem::from_name(t).is_some() || t == "STRING" || t == "WSTRING";
+    let conversion =
+        conversion_of(&n).is_some_and(|(from, to, _)| from.as_deref().is_none_or(ty) && ty(&to));
     STANDARD_FUNCTIONS.contains(&n.as_str())
-        || conversion_of(&n).is_some()
+        || conversion
         || typed_form(&n).is_some()
         || bcd_conversion(&n).is_some()
 }

@@ -182,7 +182,7 @@ impl Flow<'_> {
                         }
                         (Root::Var(v), _) => self.escape(value, Into::Var(v)),
                         (Root::Global(g), _) => self.escape(value, Into::Global(g)),
-                        (Root::This, _) => self.escape(value, Into::Elsewhere),
+                        (Root::This | Root::Value, _) => self.escape(value, Into::Elsewhere),
                     }
                     self.inner(value);
                 } else {
@@ -293,8 +293,10 @@ impl Flow<'_> {
 
     fn place(&mut self, p: &Place) {
         for s in &p.path {
-            if let Step::Index(ix) = s {
-                ix.iter().for_each(|x| self.expr(x));
+            match s {
+                Step::Index(ix) => ix.iter().for_each(|x| self.expr(x)),
+                Step::Value(x) => self.expr(x),
+                _ => {}
             }
         }
     }

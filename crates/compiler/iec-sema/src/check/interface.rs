@@ -192,22 +192,6 @@ impl<'a> Checker<'a> {
                     "a function cannot return a function block instance",
                 );
             }
-            let ty = if let Type::Ref {
-                kind: ast::RefKind::ReferenceTo,
-                ..
-            } = self.types.get(ty)
-            {
-                // The call would be a place of the caller's (`f().x := 1`), which the IR's
-                // places (rooted in variables) cannot be yet.
-                self.error(
-                    diag::UNSUPPORTED,
-                    ast.return_type.as_ref().map_or(ast.name.span, |t| t.span()),
-                    "a result of type REFERENCE TO is not supported yet; return a POINTER TO (ADR(x)) and dereference the result with `^`",
-                );
-                ids::ERROR
-            } else {
-                ty
-            };
             result = Some(0);
             cx.vars.push(Var {
                 name: ast.name.name.clone(),

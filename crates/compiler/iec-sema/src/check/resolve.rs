@@ -348,10 +348,9 @@ impl<'a> Checker<'a> {
                     return (ids::ERROR, None);
                 }
                 if *kind == ast::RefKind::ReferenceTo {
-                    // A reference is an alias of data; CODESYS has no reference to a
-                    // reference, and references to instances come with interfaces.
+                    // A reference is an alias of data or of an instance; CODESYS has no
+                    // reference to a reference.
                     let why = match self.types.get(t) {
-                        Type::Fb(_) => Some("REFERENCE TO a function block instance is not supported yet; reference its data (a structure) or pass the instance as VAR_IN_OUT"),
                         Type::Ref { kind: ast::RefKind::ReferenceTo, .. } => Some("a REFERENCE TO cannot designate another REFERENCE TO; reference the data itself"),
                         _ => None,
                     };

@@ -392,7 +392,7 @@ impl<'a> Checker<'a> {
     pub fn var_of<'c>(&'c self, p: &Place, cx: &'c Cx) -> &'c crate::ir::Var {
         match p.root {
             Root::Var(v) => &cx.vars[v as usize],
-            Root::This => &self.oop.this_var,
+            Root::This | Root::Value => &self.oop.this_var,
             Root::Global(g) => {
                 if let Some(v) = cx.vars.iter().find(|v| v.class == VarClass::External(g)) {
                     return v;

@@ -593,7 +593,7 @@ impl<'a> Checker<'a> {
         })
     }
 
-    fn convert(&self, x: Expr, to: TypeId) -> Expr {
+    pub(super) fn convert(&self, x: Expr, to: TypeId) -> Expr {
         let span = x.span;
         if let ExprKind::Const(v) = &x.kind {
             if let Some(v) = self.convert_const(v, x.ty, to) {

@@ -66,6 +66,27 @@ impl<'a> Checker<'a> {
             A::Index(base, idx) => self.index_place(e, base, idx, cx, write),
             A::Bit(base, n) => self.bit_place(e, base, n, cx, write),
             A::Part(base, size, n) => self.part_place(e, base, *size, *n, cx, write),
+            // A call giving a REFERENCE TO (`obj.Get().x`); any other call has no place.
+            A::Call(call) => {
+                let x = self.call_expr(call, cx, None);
+                match self.types.get(x.ty) {
+                    Type::Ref {
+                        kind: ast::RefKind::ReferenceTo,
+                        ..
+                    } => Some(Place {
+                        root: Root::Value,
+                        ty: x.ty,
+                        span: e.span,
+                        path: vec![Step::Value(Box::new(x))],
+                    }),
+                    _ => {
+                        if x.ty != ids::ERROR {
+                            self.error(diag::NOT_ASSIGNABLE, e.span, "this is not a variable");
+                        }
+                        None
+                    }
+                }
+            }
             A::Deref(base) => match self.this_deref(base, cx, e.span) {
                 Some(this) => Some(this),
                 None => self.deref_place(e, base, cx),
@@ -243,6 +264,13 @@ impl<'a> Checker<'a> {
         write: bool,
     ) -> Option<Place> {
         let mut p = self.place_inner(base, cx, write)?;
+        if let Type::Ref {
+            kind: ast::RefKind::PointerTo,
+            target,
+        } = *self.types.get(p.ty)
+        {
+            return self.pointer_index(e, p, target, idx, cx);
+        }
         let (dims, elem) = match self.types.get(p.ty).clone() {
             Type::Array { dims, elem } => (dims, elem),
             // An ARRAY[*] in-out's subscripts are checked when the program runs, against

@@ -44,7 +44,10 @@ impl<'a> Checker<'a> {
         cx: &mut Cx,
     ) -> Option<Place> {
         // The reference itself is only read, whether its target is read or written.
-        let mut p = self.reference_place(base, cx, false)?;
+        let mut p = match computed(base) {
+            true => self.computed_reference(base, cx)?,
+            false => self.reference_place(base, cx, false)?,
+        };
         if let Some(i) = self.itf_of_type(p.ty) {
             let n = self.pou_asts[i as usize].name.name.clone();
             self.error(
@@ -87,6 +90,34 @@ impl<'a> Checker<'a> {
         Some(p)
     }
 
+    /// The reference an expression computes (`f()`, `obj.Get()`, `p + 2`), as the root of a
+    /// place (`Root::Value`) that a dereference follows; `None` (reported) when the value is
+    /// no reference.
+    pub(crate) fn computed_reference(&mut self, e: &ast::Expr, cx: &mut Cx) -> Option<Place> {
+        let x = match &e.kind {
+            A::Call(call) => self.call_expr(call, cx, None),
+            _ => self.expr(e, cx, None),
+        };
+        if x.ty == ids::ERROR {
+            return None;
+        }
+        if !matches!(self.types.get(x.ty), Type::Ref { .. }) {
+            let t = self.types.name(x.ty);
+            self.error(
+                diag::NOT_A_REFERENCE,
+                e.span,
+                format!("`^` dereferences a REF_TO or POINTER TO; this is {t}"),
+            );
+            return None;
+        }
+        Some(Place {
+            root: Root::Value,
+            ty: x.ty,
+            span: e.span,
+            path: vec![Step::Value(Box::new(x))],
+        })
+    }
+
     /// CODESYS's `r REF= x`: the REFERENCE TO `r` bound to the variable `x` (of the type it
     /// designates), under ADR's rules: a FUNCTION's variables and a VAR_TEMP only while the
     /// reference stays in the POU (check/escape.rs). `r REF= other` binds `r` to what the
@@ -98,6 +129,14 @@ impl<'a> Checker<'a> {
         cx: &mut Cx,
     ) -> Option<(Place, Expr)> {
         let p = self.reference_place(target, cx, true)?;
+        if matches!(p.root, Root::Value) && p.path.len() == 1 {
+            self.error(
+                diag::REF_ASSIGN,
+                target.span,
+                "`REF=` binds a REFERENCE TO variable; a call's result is bound inside the call (`Name REF= x;`)",
+            );
+            return None;
+        }
         let Type::Ref {
             kind: RefKind::ReferenceTo,
             ..
@@ -137,6 +176,32 @@ impl<'a> Checker<'a> {
             );
         if unbind {
             return Some(konst(Value::Int(0), rty, value.span));
+        }
+        if let A::Call(call) = &value.kind {
+            // A call giving a REFERENCE TO of the same type (TcUnit's `r REF= suite.AddTest(…)`)
+            // passes its reference on, bound or not.
+            let x = self.call_expr(call, cx, None);
+            if x.ty == ids::ERROR {
+                return None;
+            }
+            if self.types.ref_target(x.ty) == Some(designated)
+                && matches!(
+                    self.types.get(x.ty),
+                    Type::Ref {
+                        kind: RefKind::ReferenceTo,
+                        ..
+                    }
+                )
+            {
+                return Some(Expr { ty: rty, ..x });
+            }
+            let (want, got) = (self.types.name(designated), self.types.name(x.ty));
+            self.error(
+                diag::REF_ASSIGN,
+                value.span,
+                format!("{what} binds a REFERENCE TO {want} to a variable of that type, or to a call giving a REFERENCE TO {want}; this call gives {got}"),
+            );
+            return None;
         }
         if !matches!(
             value.kind,
@@ -413,6 +478,76 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// CODESYS's pointer indexing `p[i]`: the `i`-th `T` after the one the POINTER TO T `p`
+    /// points at, `(p + i * SIZEOF(T))^`, checked where it is dereferenced as any moved
+    /// pointer is.
+    pub(super) fn pointer_index(
+        &mut self,
+        e: &ast::Expr,
+        p: Place,
+        target: TypeId,
+        idx: &[ast::Expr],
+        cx: &mut Cx,
+    ) -> Option<Place> {
+        let [i] = idx else {
+            self.error(
+                diag::BAD_INDEX,
+                e.span,
+                "a pointer takes one subscript: p[i] is the i-th element after the one p points at",
+            );
+            return None;
+        };
+        let size = crate::memory::size_align(&self.types, target).map(|(n, _)| n);
+        let Some(size) = size.filter(|n| *n > 0) else {
+            let t = self.types.name(target);
+            self.error(
+                diag::BAD_INDEX,
+                e.span,
+                format!("{t} has no size of its own to step by; index an array, or move the pointer by bytes (p + n)"),
+            );
+            return None;
+        };
+        let x = self.expr(i, cx, Some(ids::DINT));
+        if x.ty == ids::ERROR {
+            return None;
+        }
+        if !self.is_integral(x.ty) {
+            let t = self.types.name(x.ty);
+            self.error(
+                diag::BAD_INDEX,
+                i.span,
+                format!("a subscript is an integer; this is {t}"),
+            );
+            return None;
+        }
+        let span = e.span;
+        let x = self.convert(x, ids::LINT);
+        let n = Expr {
+            kind: ExprKind::Binary(
+                BinaryOp::Mul,
+                Box::new(x),
+                Box::new(konst(Value::Int(size as i128), ids::LINT, span)),
+            ),
+            ty: ids::LINT,
+            span,
+        };
+        let ptr = Expr {
+            ty: p.ty,
+            kind: ExprKind::Load(p),
+            span,
+        };
+        let moved = self.pointer_arith(BinaryOp::Add, ptr, n, span);
+        if moved.ty == ids::ERROR {
+            return None;
+        }
+        Some(Place {
+            root: Root::Value,
+            ty: target,
+            span,
+            path: vec![Step::Value(Box::new(moved)), Step::Deref],
+        })
+    }
+
     /// `SIZEOF(x)` (CODESYS): the bytes of a variable's or a type's image, a constant.
     pub(super) fn size_of(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
         let span = call.span;
@@ -544,5 +679,15 @@ impl<'a> Checker<'a> {
             );
         }
         None
+    }
+}
+
+/// Whether `e` computes a value rather than naming a variable: a call, arithmetic (`p + 2`),
+/// either in parentheses.
+pub(crate) fn computed(e: &ast::Expr) -> bool {
+    match &e.kind {
+        A::Call(_) | A::Binary(..) | A::Unary(..) => true,
+        A::Paren(inner) => computed(inner),
+        _ => false,
     }
 }

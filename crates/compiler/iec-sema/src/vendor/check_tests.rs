@@ -340,3 +340,23 @@ fn codesys_stores_an_enumeration_value_in_an_integer() {
     let narrow = check_in(Dialect::Codesys, &src.replace("w := E.B;", "s := E.B;"));
     assert!(narrow.contains("300 does not fit SINT"), "{narrow}");
 }
+
+#[test]
+fn the_libraries_check_without_a_warning() {
+    // A library's own functions (`BYTE_TO_HEXSTR`) are not taken for standard ones.
+    for lib in ["codesys", "twincat", "pcworx"] {
+        let src = "PROGRAM p\nVAR x : INT; END_VAR\nx := 1;\nEND_PROGRAM\n";
+        let mut map = SourceMap::new();
+        let f = map.add("t.st", src);
+        let mut d = petriplc_iec_syntax::Diagnostics::new();
+        let parsed = parser::parse(f, src, &mut d);
+        let libs = vec![lib.to_string()];
+        let options = Options {
+            natives: crate::vendor::signatures(&libs),
+            libs,
+            ..Options::default()
+        };
+        let (p, d) = check(&parsed, &options);
+        assert!(p.is_some() && d.is_empty(), "{lib}: {}", d.render(&map));
+    }
+}

@@ -198,6 +198,8 @@ impl<'a, 'd> Parser<'a, 'd> {
                 StmtKind::Return
             }
             Tok::Direct(_) => self.assign_or_call()?,
+            // `(p + 4)^ := 9;`: CODESYS's pointer moved and dereferenced.
+            Tok::LParen => self.assign_or_call()?,
             _ if self.at_name() => self.assign_or_call()?,
             _ => return Err(self.expected("a statement")),
         };

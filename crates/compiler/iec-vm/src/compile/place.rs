@@ -41,6 +41,8 @@ impl<'c, 'p> Fx<'c, 'p> {
             Root::Global(g) => self.region_loc(Region::Global(g), 0),
             // The instance's variables start at the frame's base.
             Root::This => Loc::Slot(FRAME),
+            // Set by the path's first step, `Step::Value`.
+            Root::Value => Loc::Slot(0),
         };
         let mut ty = match p.root {
             Root::Var(v) => {
@@ -53,6 +55,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             }
             Root::Global(g) => self.c.p.globals[g as usize].ty,
             Root::This => self.this_ty(),
+            Root::Value => petriplc_iec_sema::types::ids::ERROR,
         };
         let mut bit = None;
         // The slot of the ARRAY[*] in-out reached so far (its descriptor follows it).
@@ -138,6 +141,10 @@ impl<'c, 'p> Fx<'c, 'p> {
                 }
                 Step::Bit(n) => bit = Some((*n as u8, 1)),
                 Step::Bits(lo, w) => bit = Some((*lo as u8, *w as u8)),
+                Step::Value(e) => {
+                    loc = Loc::Slot(self.expr(e, None)?);
+                    ty = e.ty;
+                }
                 Step::Deref => {
                     let Some(target) = self.c.p.types.ref_target(ty) else {
                         continue;
@@ -350,6 +357,8 @@ impl<'c, 'p> Fx<'c, 'p> {
             }
             Root::Global(g) => self.c.p.globals[g as usize].ty,
             Root::This => self.this_ty(),
+            // The path's first step (`Step::Value`) gives the type.
+            Root::Value => petriplc_iec_sema::types::ids::ERROR,
         }
     }
 
@@ -381,6 +390,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             (Step::Bits(..), _) => petriplc_iec_sema::types::ids::DWORD,
             (Step::Deref, Type::Ref { target, .. }) => *target,
             (Step::Overlay { ty, .. }, _) => *ty,
+            (Step::Value(e), _) => e.ty,
             _ => ty,
         }
     }
