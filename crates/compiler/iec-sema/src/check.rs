@@ -105,6 +105,8 @@ pub(crate) struct Checker<'a> {
     /// TwinCAT): their variables end with that call, so ADR of them follows a FUNCTION's
     /// rules (check/escape.rs).
     pub(crate) frame_fbs: BTreeSet<PouId>,
+    /// The bodies whose frame pointers are checked once every body is (check/escape.rs).
+    pub(crate) escape_todo: Vec<(PouId, ir::PouKind)>,
     /// Enumeration value names → (type, value) of every enumeration declaring them.
     pub enum_values: HashMap<String, Vec<(TypeId, i64)>>,
     /// R_EDGE / F_EDGE inputs per POU.
@@ -160,6 +162,7 @@ impl<'a> Checker<'a> {
             global_lists: HashMap::new(),
             global_direct: Vec::new(),
             frame_fbs: BTreeSet::new(),
+            escape_todo: Vec::new(),
             enum_values: HashMap::new(),
             edges: HashMap::new(),
             calls: Vec::new(),
@@ -213,6 +216,8 @@ impl<'a> Checker<'a> {
         for i in 0..self.pou_asts.len() {
             self.body(i as PouId);
         }
+        // Once every body is known: a pointer may go to a callee that does not keep it.
+        self.all_frame_escapes();
         self.oop_rules();
         let configuration = self.configurations();
         let diags = std::mem::take(&mut self.diags).sorted();

@@ -179,3 +179,22 @@ fn a_block_with_an_instance_in_a_function_keeps_no_pointer_to_itself_beyond_the_
     );
     assert!(p.is_some(), "{text}");
 }
+
+#[test]
+fn named_and_positional_arguments_mix_in_the_codesys_family() {
+    use petriplc_iec_syntax::Dialect;
+    let src = "FUNCTION f : INT\nVAR_INPUT a, b : INT; END_VAR\nf := a * 10 + b;\nEND_FUNCTION\n\
+               PROGRAM p\nVAR x : INT; END_VAR\nx := f(a := 1, 2);\nx := f(1, a := 2);\nEND_PROGRAM\n";
+    let (_, text) = crate::tests::run_dialect(src, Dialect::Codesys);
+    // The second call gives `a` twice: its first argument is parameter 1, `a`.
+    assert_eq!(
+        text.trim(),
+        "t.st:8:11: error[E130]: parameter `a` is given twice",
+        "{text}"
+    );
+    let (_, text) = crate::tests::run_dialect(src, Dialect::Iec);
+    assert!(
+        text.contains("t.st:7:6: error[E130]: the call of f mixes named (x := …) and positional arguments; name them all (CODESYS and TwinCAT take argument k without a name as parameter k"),
+        "{text}"
+    );
+}

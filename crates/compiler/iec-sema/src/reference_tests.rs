@@ -110,12 +110,17 @@ fn adr_of_a_functions_variables_stays_in_the_function() {
     let ok = "FUNCTION f : DINT\nVAR_INPUT s : STRING(10); END_VAR\nVAR p : POINTER TO BYTE; q : POINTER TO BYTE; END_VAR\np := ADR(s);\nq := p + 1;\nIF q <> p THEN f := BYTE_TO_DINT(q^); END_IF;\nEND_FUNCTION\n";
     let (good, d) = run(ok);
     assert!(good, "{d}");
+    // `h` keeps nothing (it reads through its input and passes it to `k`, which keeps
+    // nothing either): a frame pointer may go to it. `keep` stores its input in a global.
     errors(
-        "VAR_GLOBAL g : POINTER TO BYTE; END_VAR\nFUNCTION h : BOOL\nVAR_INPUT p : POINTER TO BYTE; END_VAR\nh := TRUE;\nEND_FUNCTION\nFUNCTION f : POINTER TO BYTE\nVAR_EXTERNAL g : POINTER TO BYTE; END_VAR\nVAR s : STRING; p : POINTER TO BYTE; b : BOOL; END_VAR\np := ADR(s);\ng := p;\nf := ADR(s) + 1;\nb := h(p);\nEND_FUNCTION\n",
+        "VAR_GLOBAL g : POINTER TO BYTE; END_VAR\nFUNCTION h : BOOL\nVAR_INPUT p : POINTER TO BYTE; END_VAR\nVAR q : POINTER TO BYTE; END_VAR\nq := p + 1;\nh := q^ = 0 AND k(q);\nEND_FUNCTION\n\
+         FUNCTION k : BOOL\nVAR_INPUT p : POINTER TO BYTE; END_VAR\nk := p <> NULL;\nEND_FUNCTION\n\
+         FUNCTION keep : BOOL\nVAR_INPUT p : POINTER TO BYTE; END_VAR\nVAR_EXTERNAL g : POINTER TO BYTE; END_VAR\ng := p;\nEND_FUNCTION\n\
+         FUNCTION f : POINTER TO BYTE\nVAR_EXTERNAL g : POINTER TO BYTE; END_VAR\nVAR s : STRING; p : POINTER TO BYTE; b : BOOL; END_VAR\np := ADR(s);\ng := p;\nf := ADR(s) + 1;\nb := h(p);\nb := keep(p);\nEND_FUNCTION\n",
         &[
-            "t.st:10:6: error[E201]: a pointer to this FUNCTION's own variables is stored in `g`, which outlives the call",
-            "t.st:11:6: error[E201]: a pointer to this FUNCTION's own variables is stored in `f`",
-            "t.st:12:8: error[E201]: a pointer to this FUNCTION's own variables may only be kept in its VAR or VAR_TEMP pointers",
+            "t.st:21:6: error[E201]: a pointer to this FUNCTION's own variables is stored in `g`, which outlives the call",
+            "t.st:22:6: error[E201]: a pointer to this FUNCTION's own variables is stored in `f`",
+            "t.st:24:11: error[E201]: a pointer to this FUNCTION's own variables may only be kept in its VAR or VAR_TEMP pointers",
         ],
     );
 }

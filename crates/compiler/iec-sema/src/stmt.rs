@@ -327,6 +327,21 @@ impl Checker<'_> {
         } else {
             x
         };
+        // CODESYS and TwinCAT: an enumeration's value labels an integer selector by its
+        // number (TcUnit's `CASE UDINT_TO_INT(AnyTypeClass) OF TypeClass.TYPE_BOOL :`).
+        let enum_label = self.dialect.is_codesys_family()
+            && matches!(self.types.get(x.ty), Type::Enum { .. })
+            && self
+                .types
+                .elem(sel_ty)
+                .is_some_and(|e| e.is_int() || e.is_bitstring());
+        if enum_label {
+            if let (Some(Value::Int(v)), Some(el)) = (self.eval_const(&x), self.types.elem(sel_ty))
+            {
+                // Converted as the selector was (TYPE_INTERFACE, 16#F000, is -4096 as INT).
+                return Some(crate::types::wrap(v, el));
+            }
+        }
         if x.ty != sel_ty && !self.assignable(x.ty, sel_ty) {
             let (a, b) = (self.types.name(x.ty), self.types.name(sel_ty));
             self.error(

@@ -37,7 +37,7 @@ impl<'a> Checker<'a> {
                 body.extend(self.stmts(stmts, &mut cx));
                 // Results of calls given EN inside an expression are variables of the POU.
                 self.pous[p as usize].vars = cx.vars;
-                self.frame_escapes(p, kind, &body);
+                self.escape_todo.push((p, kind));
                 self.pous[p as usize].body = body;
             }
             ast::Body::Il { code, .. } => {
@@ -58,7 +58,7 @@ impl<'a> Checker<'a> {
                 body.extend(self.il_body(code, &mut cx));
                 // The accumulator's temporaries are variables of the POU.
                 self.pous[p as usize].vars = cx.vars;
-                self.frame_escapes(p, kind, &body);
+                self.escape_todo.push((p, kind));
                 self.pous[p as usize].body = body;
             }
             ast::Body::Graphical { language, span, .. } => {

@@ -1,8 +1,9 @@
 //! CODESYS's `ADR` of a variable that lives only during one call (a FUNCTION's variables, a
 //! VAR_TEMP, and what a VAR_IN_OUT designates, which may be the caller's temporary) is allowed only where the pointer cannot outlive the call: it is kept in the
 //! POU's own VAR/VAR_TEMP pointer variables, dereferenced, compared and moved by pointer
-//! arithmetic, never stored elsewhere nor passed on (E201). No run-time check is needed then:
-//! a pointer to a frame exists only while the frame does.
+//! arithmetic, passed to a FUNCTION's or METHOD's input that keeps it no longer than its call
+//! (the same rules in the callee: `kept_inputs`), never stored elsewhere (E201). No run-time
+//! check is needed then: a pointer to a frame exists only while the frame does.
 
 use std::collections::BTreeSet;
 
@@ -16,8 +17,78 @@ use crate::ir::{GlobalId, VarClass, VarId};
 use super::Checker;
 
 impl<'a> Checker<'a> {
+    /// [`Self::frame_escapes`] for every body checked.
+    pub(super) fn all_frame_escapes(&mut self) {
+        let free = self.free_inputs();
+        for (p, kind) in std::mem::take(&mut self.escape_todo) {
+            let body = std::mem::take(&mut self.pous[p as usize].body);
+            self.frame_escapes(p, kind, &body, &free);
+            self.pous[p as usize].body = body;
+        }
+    }
+
+    /// The pointer inputs of FUNCTIONs and METHODs that do not keep what they are given
+    /// beyond the call: in the callee the pointer is only dereferenced, compared, moved,
+    /// kept in its VAR/VAR_TEMP pointers and passed to such inputs, as a frame pointer
+    /// may be. Found by growing the set of inputs that do keep it until it is stable.
+    fn free_inputs(&self) -> BTreeSet<(PouId, VarId)> {
+        let mut candidates = Vec::new();
+        for &(p, kind) in &self.escape_todo {
+            let member = self.oop.members.contains_key(&p);
+            if kind != PouKind::Function && !member {
+                continue;
+            }
+            for (v, var) in self.pous[p as usize].vars.iter().enumerate() {
+                if var.class == VarClass::Input && self.types.ref_target(var.ty).is_some() {
+                    candidates.push((p, v as VarId));
+                }
+            }
+        }
+        let mut free: BTreeSet<(PouId, VarId)> = candidates.iter().copied().collect();
+        loop {
+            let mut kept = Vec::new();
+            for &(p, v) in free.iter() {
+                let vars = &self.pous[p as usize].vars;
+                let frame = vec![false; vars.len()];
+                let local: Vec<bool> = vars
+                    .iter()
+                    .map(|x| matches!(x.class, VarClass::Local | VarClass::Temp))
+                    .collect();
+                // The callee's own VAR/VAR_TEMP pointers may hold it, as a frame's.
+                let slots = local.clone();
+                let mut holders = BTreeSet::from([v]);
+                let mut errors = Vec::new();
+                let body = &self.pous[p as usize].body;
+                holders_of(body, &frame, &slots, &mut holders, &free);
+                let mut f = Flow {
+                    frame: &frame,
+                    slots: &slots,
+                    holders: &mut holders,
+                    free: &free,
+                    errors: Some(&mut errors),
+                };
+                f.stmts(body);
+                if !errors.is_empty() {
+                    kept.push((p, v));
+                }
+            }
+            if kept.is_empty() {
+                return free;
+            }
+            for k in kept {
+                free.remove(&k);
+            }
+        }
+    }
+
     /// Checks that no pointer to the frame of POU `p` escapes its body.
-    pub(super) fn frame_escapes(&mut self, p: PouId, kind: PouKind, body: &[Stmt]) {
+    fn frame_escapes(
+        &mut self,
+        p: PouId,
+        kind: PouKind,
+        body: &[Stmt],
+        free: &BTreeSet<(PouId, VarId)>,
+    ) {
         let vars = self.pous[p as usize].vars.clone();
         // A block with an instance in a FUNCTION's or METHOD's frame (or inside such an
         // instance) may end with that call: its variables are a frame's too.
@@ -42,30 +113,23 @@ impl<'a> Checker<'a> {
                         && !matches!(v.class, VarClass::External(_) | VarClass::Global))
             })
             .collect();
-        let local: Vec<bool> = vars
+        // A plain VAR/VAR_TEMP of the POU of a frame's lifetime (a FUNCTION's inputs,
+        // outputs and result are not: the caller sees them; a function block's VAR outlives
+        // the call) may hold a frame pointer.
+        let slots: Vec<bool> = vars
             .iter()
-            .map(|v| matches!(v.class, VarClass::Local | VarClass::Temp))
+            .zip(&frame)
+            .map(|(v, f)| *f && matches!(v.class, VarClass::Local | VarClass::Temp))
             .collect();
         // Variables that may hold such a pointer: plain VAR/VAR_TEMP pointers assigned one.
         let mut holders = BTreeSet::new();
-        loop {
-            let before = holders.len();
-            let mut f = Flow {
-                frame: &frame,
-                local: &local,
-                holders: &mut holders,
-                errors: None,
-            };
-            f.stmts(body);
-            if holders.len() == before {
-                break;
-            }
-        }
+        holders_of(body, &frame, &slots, &mut holders, free);
         let mut errors = Vec::new();
         let mut f = Flow {
             frame: &frame,
-            local: &local,
+            slots: &slots,
             holders: &mut holders,
+            free,
             errors: Some(&mut errors),
         };
         f.stmts(body);
@@ -123,9 +187,37 @@ impl Checker<'_> {
     }
 }
 
+/// Grows `holders` with the variables a frame pointer is assigned to, until stable.
+fn holders_of(
+    body: &[Stmt],
+    frame: &[bool],
+    slots: &[bool],
+    holders: &mut BTreeSet<VarId>,
+    free: &BTreeSet<(PouId, VarId)>,
+) {
+    loop {
+        let before = holders.len();
+        let mut f = Flow {
+            frame,
+            slots,
+            holders,
+            free,
+            errors: None,
+        };
+        f.stmts(body);
+        if holders.len() == before {
+            return;
+        }
+    }
+}
+
 struct Flow<'f> {
+    /// The variables whose address is a frame pointer.
     frame: &'f [bool],
-    local: &'f [bool],
+    /// The variables that may hold one (the POU's own VAR/VAR_TEMP of a frame's lifetime).
+    slots: &'f [bool],
+    /// Inputs of callees that keep a pointer no longer than the call.
+    free: &'f BTreeSet<(PouId, VarId)>,
     holders: &'f mut BTreeSet<VarId>,
     /// `None` while the holders are gathered; then every escape found, with the variable
     /// it was stored in, if any.
@@ -241,10 +333,8 @@ impl Flow<'_> {
         }
     }
 
-    /// A plain VAR/VAR_TEMP of the POU of a frame's lifetime (a FUNCTION's inputs, outputs
-    /// and result are not: the caller sees them; a function block's VAR outlives the call).
     fn is_holder_slot(&self, v: VarId) -> bool {
-        self.local[v as usize] && self.frame[v as usize]
+        self.slots[v as usize]
     }
 
     /// An expression whose value must not be a frame pointer.
@@ -279,7 +369,12 @@ impl Flow<'_> {
                 }
             }
             ExprKind::Call(c) => {
-                c.inputs.iter().for_each(|(_, x)| self.expr(x));
+                for (v, x) in &c.inputs {
+                    match self.free.contains(&(c.pou, *v)) {
+                        true => self.inner(x),
+                        false => self.expr(x),
+                    }
+                }
                 c.in_outs.iter().for_each(|(_, p)| self.place(p));
                 c.outputs.iter().for_each(|(_, p)| self.place(p));
             }

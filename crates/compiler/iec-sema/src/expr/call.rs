@@ -188,8 +188,10 @@ impl<'a> Checker<'a> {
     }
 
     /// Binds a call's arguments to parameters (`vars`): formal (by name) or positional (in
-    /// declaration order), never mixed. `fb`: a function block call (inputs not given keep
-    /// their values; in-outs must be given).
+    /// declaration order), mixed only in the CODESYS family (TcUnit's `File.Write(BufferPointer
+    /// := ADR(Buffer), Xml.Length)`), where argument number k without a name is parameter
+    /// number k. `fb`: a function block call (inputs not given keep their values; in-outs must
+    /// be given).
     pub fn bind_args(
         &mut self,
         callee: &str,
@@ -201,11 +203,11 @@ impl<'a> Checker<'a> {
         let mut out = Bound::default();
         let formal = call.args.iter().any(|a| a.name.is_some());
         let positional = call.args.iter().any(|a| a.name.is_none());
-        if formal && positional {
+        if formal && positional && !self.dialect.is_codesys_family() {
             self.error(
                 diag::BAD_ARGUMENTS,
                 call.span,
-                format!("the call of {callee} mixes named (x := …) and positional arguments; name them all"),
+                format!("the call of {callee} mixes named (x := …) and positional arguments; name them all (CODESYS and TwinCAT take argument k without a name as parameter k: --dialect codesys or twincat)"),
             );
             return None;
         }

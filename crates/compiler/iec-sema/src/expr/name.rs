@@ -235,6 +235,27 @@ impl<'a> Checker<'a> {
 
     /// A name in an expression: a variable, a constant of an enumeration, or an error.
     pub(super) fn name(&mut self, id: &ast::Ident, cx: &mut Cx, expected: Option<TypeId>) -> Expr {
+        // CODESYS's THIS is a pointer to the instance (`p := THIS;`, TcUnit's FB_init
+        // keeping its suite's address): where a pointer is wanted, it is ADR(THIS^).
+        let wants_pointer = expected.is_some_and(|t| {
+            matches!(
+                self.types.get(t),
+                Type::Ref {
+                    kind: ast::RefKind::PointerTo,
+                    ..
+                }
+            )
+        });
+        if wants_pointer && id.is("THIS") && cx.this.is_some() {
+            if let Some(p) = self.this_place(cx, id.span) {
+                let ty = self.types.reference(ast::RefKind::PointerTo, p.ty);
+                return Expr {
+                    kind: ExprKind::Ref(p),
+                    ty,
+                    span: id.span,
+                };
+            }
+        }
         if let Some(place) = self.var_place(id, cx) {
             let var = self.var_of(&place, cx).clone();
             if cx.const_only {

@@ -11,6 +11,12 @@ use crate::types::{ids, Elem, Type, TypeId, TypeTable};
 
 use super::{err, StdArg};
 
+/// The standard's string functions (CODESYS and TwinCAT also name their parameters their own
+/// way, and have a WSTRING form of each, `W` + the name).
+const STRING_FUNCTIONS: [&str; 9] = [
+    "LEN", "LEFT", "RIGHT", "MID", "CONCAT", "INSERT", "DELETE", "REPLACE", "FIND",
+];
+
 impl<'a> Checker<'a> {
     /// Binds a standard function's arguments to its parameter names; `extensible`: the
     /// last name repeats with increasing numbers.
@@ -35,11 +41,13 @@ impl<'a> Checker<'a> {
                 return None;
             }
             let idx = match &a.name {
-                None if formal => {
+                // CODESYS and TwinCAT: argument k without a name is parameter k (TcUnit's
+                // `FIND(STR1 := TestSuiteName, '.')`).
+                None if formal && !self.dialect.is_codesys_family() => {
                     self.error(
                         diag::BAD_ARGUMENTS,
                         call.span,
-                        format!("the call of {fname} mixes named and positional arguments"),
+                        format!("the call of {fname} mixes named and positional arguments; name them all (CODESYS and TwinCAT take argument k without a name as parameter k: --dialect codesys or twincat)"),
                     );
                     return None;
                 }
@@ -159,6 +167,12 @@ impl<'a> Checker<'a> {
         let typed = stdlib::typed_form(&key);
         let shown = key.as_str();
         let f = typed.as_ref().map_or(shown, |(g, _)| *g);
+        // CODESYS's and TwinCAT's WSTRING forms (`WLEN`, `WCONCAT`…) are the standard's
+        // string functions, which take WSTRING as well.
+        let f = match f.strip_prefix('W') {
+            Some(g) if self.dialect.is_codesys_family() && STRING_FUNCTIONS.contains(&g) => g,
+            _ => f,
+        };
         use BinaryOp::*;
         // Operators as functions.
         let op = match f {
@@ -359,7 +373,19 @@ impl<'a> Checker<'a> {
                         (self.types.get(x.ty), self.types.get(ft)),
                         (Type::Str { wide: a, .. }, Type::Str { wide: b, .. }) if a == b
                     );
-                if ok_same
+                // CODESYS and TwinCAT take an enumeration for an integer (TcUnit's
+                // `UDINT_TO_INT(AnyTypeClass)`): its value's number.
+                let enum_as_int = self.dialect.is_codesys_family()
+                    && matches!(self.types.get(x.ty), Type::Enum { .. })
+                    && from_elem.is_some_and(|e| e.is_int() || e.is_bitstring())
+                    && self.convertible(x.ty, ft);
+                if enum_as_int {
+                    Expr {
+                        kind: ExprKind::Convert(Box::new(x)),
+                        ty: ft,
+                        span: args[0].span,
+                    }
+                } else if ok_same
                     || matches!(self.types.get(x.ty), Type::IntLit | Type::RealLit)
                     || self.assignable(x.ty, ft)
                 {
@@ -477,14 +503,12 @@ impl<'a> Checker<'a> {
     /// TwinCAT's (Tc2_Standard: `LEN(STR)`, `LEFT(STR, SIZE)`, `MID(STR, LEN, POS)`,
     /// `CONCAT(STR1, STR2)`, `INSERT(STR1, STR2, POS)`…), in those dialects.
     fn vendor_param(&self, fname: &str, key: String) -> String {
-        const STRING_FUNCTIONS: [&str; 9] = [
-            "LEN", "LEFT", "RIGHT", "MID", "CONCAT", "INSERT", "DELETE", "REPLACE", "FIND",
-        ];
-        if !self.dialect.is_codesys_family()
-            || !STRING_FUNCTIONS
-                .iter()
-                .any(|f| fname.eq_ignore_ascii_case(f))
-        {
+        let f = fname.to_ascii_uppercase();
+        let f = f
+            .strip_prefix('W')
+            .filter(|g| STRING_FUNCTIONS.contains(g))
+            .unwrap_or(&f);
+        if !self.dialect.is_codesys_family() || !STRING_FUNCTIONS.contains(&f) {
             return key;
         }
         let standard = match key.as_str() {
