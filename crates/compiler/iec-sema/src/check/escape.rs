@@ -236,10 +236,16 @@ impl Flow<'_> {
     /// Whether the value of `e` may be a pointer into the frame.
     fn carries(&self, e: &Expr) -> bool {
         match &e.kind {
-            ExprKind::Ref(p) => {
-                !p.path.iter().any(|s| matches!(s, Step::Deref))
-                    && matches!(p.root, Root::Var(v) if self.frame[v as usize])
-            }
+            // An address inside what a pointer designates is a frame pointer when that
+            // pointer is one (`ADR(p^.x)`, `ADR(p[2])`).
+            ExprKind::Ref(p) => match p.path.iter().position(|s| matches!(s, Step::Deref)) {
+                None => matches!(p.root, Root::Var(v) if self.frame[v as usize]),
+                Some(k) => match (p.root, p.path.first()) {
+                    (Root::Value, Some(Step::Value(x))) => self.carries(x),
+                    (Root::Var(v), _) => k == 0 && self.holders.contains(&v),
+                    _ => false,
+                },
+            },
             ExprKind::Load(p) => {
                 p.path.is_empty() && matches!(p.root, Root::Var(v) if self.holders.contains(&v))
             }
@@ -390,7 +396,8 @@ impl Flow<'_> {
         for s in &p.path {
             match s {
                 Step::Index(ix) => ix.iter().for_each(|x| self.expr(x)),
-                Step::Value(x) => self.expr(x),
+                // Dereferenced where it is computed: it may be a frame pointer.
+                Step::Value(x) => self.inner(x),
                 _ => {}
             }
         }

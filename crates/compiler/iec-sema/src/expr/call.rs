@@ -6,6 +6,7 @@ use petriplc_iec_syntax::diag;
 use crate::check::{Checker, Cx};
 use crate::ir::{Expr, ExprKind, FnCall, Place, VarClass, VarId};
 use crate::types::{ids, RefKind, Type, TypeId};
+use crate::value::Value;
 
 use super::{err, konst, Bound};
 
@@ -218,7 +219,7 @@ impl<'a> Checker<'a> {
                 matches!(
                     v.class,
                     VarClass::Input | VarClass::InOut | VarClass::Output
-                )
+                ) && !is_any_part(v)
             })
             .map(|(i, v)| (i as VarId, v))
             .collect();
@@ -265,6 +266,100 @@ impl<'a> Checker<'a> {
         ok.then_some(out)
     }
 
+    /// The argument `v` of an ANY input (`id` its `x.pValue`, then `x.diSize` and
+    /// `x.TypeClass`): its address, as ADR takes it, its size, as SIZEOF gives it, and the
+    /// class of its type. CODESYS also takes a value there (kept in a temporary); petriplc
+    /// wants a variable.
+    fn bind_any(
+        &mut self,
+        id: VarId,
+        var: &crate::ir::Var,
+        v: &ast::Expr,
+        cx: &mut Cx,
+        out: &mut Bound,
+    ) -> bool {
+        let span = v.span;
+        if !matches!(
+            v.kind,
+            A::Name(_) | A::Field(..) | A::Index(..) | A::Deref(_) | A::Part(..)
+        ) {
+            self.error(
+                diag::BAD_ARGUMENTS,
+                span,
+                format!("`{}` is an ANY input: give it a variable (petriplc passes its address; CODESYS also takes a value, which it stores in a temporary)", param_name(var)),
+            );
+            return false;
+        }
+        let call = ast::Call {
+            callee: Box::new(ast::Expr {
+                kind: A::Name(ast::Ident::new("ADR", span)),
+                span,
+            }),
+            args: vec![ast::Arg {
+                name: None,
+                output: false,
+                negated: false,
+                value: Some(v.clone()),
+                span,
+            }],
+            span,
+        };
+        let adr = self.ref_of(&ast::Ident::new("ADR", span), &call, cx);
+        let Some(target) = self.types.ref_target(adr.ty) else {
+            return false;
+        };
+        let size = self.size_of(&call, cx);
+        let size = self.coerce(size, ids::DINT, "the size of an ANY argument");
+        let class_ty = self.any_class_ty(span);
+        let class = konst(Value::Int(self.type_class(target)), class_ty, span);
+        let adr = self.coerce(adr, var.ty, "the address of an ANY argument");
+        out.inputs.push((id, adr));
+        out.inputs.push((id + 1, size));
+        out.inputs.push((id + 2, class));
+        true
+    }
+
+    /// CODESYS's `__SYSTEM.TYPE_CLASS` of a type (the numbers of twincat.st's TYPE_CLASS).
+    fn type_class(&self, ty: TypeId) -> i128 {
+        use crate::types::Elem::*;
+        match self.types.get(ty) {
+            Type::Elem(e) => match e {
+                Bool => 0,
+                Byte => 2,
+                Word => 3,
+                Dword => 4,
+                Lword => 5,
+                Sint => 6,
+                Int => 7,
+                Dint => 8,
+                Lint => 9,
+                Usint => 10,
+                Uint => 11,
+                Udint => 12,
+                Ulint => 13,
+                Real => 14,
+                Lreal => 15,
+                Time => 18,
+                Date => 19,
+                Dt => 20,
+                Tod => 21,
+                Ltime => 37,
+                _ => 28,
+            },
+            Type::Str { wide: false, .. } => 16,
+            Type::Str { wide: true, .. } => 17,
+            Type::Ref {
+                kind: RefKind::ReferenceTo,
+                ..
+            } => 23,
+            Type::Ref { .. } => 22,
+            Type::Subrange { .. } => 24,
+            Type::Enum { .. } => 25,
+            Type::Array { .. } | Type::VarArray { .. } => 26,
+            _ => 28,
+        }
+    }
+
     /// Whether a value of type `from` may be stored in `to` (same type, widening, any
     /// string into any string).
     pub fn assignable(&self, from: TypeId, to: TypeId) -> bool {
@@ -303,7 +398,7 @@ impl<'a> Checker<'a> {
             Some(n) => {
                 match params
                     .iter()
-                    .find(|(_, v)| v.name.eq_ignore_ascii_case(&n.name))
+                    .find(|(_, v)| param_name(v).eq_ignore_ascii_case(&n.name))
                 {
                     Some(p) => *p,
                     None if n.is("EN") || n.is("ENO") => {
@@ -368,6 +463,9 @@ impl<'a> Checker<'a> {
             return false;
         }
         let Some(v) = &a.value else { return true };
+        if var.name.ends_with(".pValue") {
+            return self.bind_any(id, var, v, cx, out);
+        }
         if let Type::Ref {
             kind: RefKind::ReferenceTo,
             ..
@@ -505,7 +603,21 @@ impl<'a> Checker<'a> {
 /// The names of `ps`, for messages.
 fn param_list(ps: &[(VarId, &crate::ir::Var)]) -> String {
     ps.iter()
-        .map(|(_, v)| v.name.clone())
+        .map(|(_, v)| param_name(v).to_string())
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// The second and third of an ANY input's three variables (`x.diSize`, `x.TypeClass`), which
+/// a call gives with the first (`x.pValue`).
+fn is_any_part(v: &crate::ir::Var) -> bool {
+    v.class == VarClass::Input && (v.name.ends_with(".diSize") || v.name.ends_with(".TypeClass"))
+}
+
+/// A parameter's name as a call gives it: an ANY input's by its own name.
+fn param_name(v: &crate::ir::Var) -> &str {
+    match v.class {
+        VarClass::Input => v.name.strip_suffix(".pValue").unwrap_or(&v.name),
+        _ => &v.name,
+    }
 }

@@ -227,11 +227,41 @@ impl<'a> Checker<'a> {
         }
     }
 
+    fn enum_compared_as_int(&self, op: BinaryOp, x: Expr, y: Expr) -> (Expr, Expr) {
+        let is_enum = |t| matches!(self.types.get(t), Type::Enum { .. });
+        let int = |t| {
+            self.types
+                .elem(t)
+                .is_some_and(|e| e.is_int() || e.is_bitstring())
+        };
+        if !op.is_comparison() || !self.dialect.is_codesys_family() {
+            return (x, y);
+        }
+        let to = |e: Expr, ty| Expr {
+            span: e.span,
+            kind: ExprKind::Convert(Box::new(e)),
+            ty,
+        };
+        if is_enum(x.ty) && int(y.ty) && self.convertible(x.ty, y.ty) {
+            let ty = y.ty;
+            (to(x, ty), y)
+        } else if is_enum(y.ty) && int(x.ty) && self.convertible(y.ty, x.ty) {
+            let ty = x.ty;
+            (x, to(y, ty))
+        } else {
+            (x, y)
+        }
+    }
+
     /// Types an operator over checked operands.
     pub fn binary_checked(&mut self, op: BinaryOp, x: Expr, y: Expr, span: Span) -> Expr {
         if x.ty == ids::ERROR || y.ty == ids::ERROR {
             return err(span);
         }
+        // CODESYS and TwinCAT compare an enumeration with an integer by its number (TcUnit's
+        // `UDINT_TO_INT(Expected.TypeClass) = TypeClass.TYPE_STRING`), converted to the
+        // integer's type as a conversion would.
+        let (x, y) = self.enum_compared_as_int(op, x, y);
         let (xe, ye) = (self.types.elem(x.ty), self.types.elem(y.ty));
         // Time arithmetic with mixed types.
         use BinaryOp::*;
@@ -629,6 +659,23 @@ impl<'a> Checker<'a> {
         }
         if let Some(x) = self.itf_coerce(&x, to, what) {
             return x;
+        }
+        // CODESYS and TwinCAT store an integer in an enumeration that is not
+        // `{attribute 'strict'}` (petriplc does not tell them apart), by its number: TcUnit
+        // passes `UDINT_TO_INT(Expected.TypeClass)` for a TypeClass.
+        let int_to_enum = self.dialect.is_codesys_family()
+            && matches!(self.types.get(to), Type::Enum { .. })
+            && self
+                .types
+                .elem(x.ty)
+                .is_some_and(|e| e.is_int() || e.is_bitstring())
+            && self.convertible(x.ty, to);
+        if int_to_enum {
+            return Expr {
+                span,
+                kind: ExprKind::Convert(Box::new(x)),
+                ty: to,
+            };
         }
         let from_t = self.types.get(x.ty).clone();
         let to_t = self.types.get(to).clone();

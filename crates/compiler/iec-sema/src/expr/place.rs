@@ -144,6 +144,18 @@ impl<'a> Checker<'a> {
         cx: &mut Cx,
         write: bool,
     ) -> Option<Place> {
+        // An ANY input's fields are inputs of their own (check/interface.rs, `any_input`).
+        if let A::Name(n) = &base.kind {
+            let key = format!("{}.{}", n.key(), f.key());
+            if let Some(&v) = cx.names.get(&key) {
+                return Some(Place {
+                    root: Root::Var(v),
+                    path: Vec::new(),
+                    ty: cx.vars[v as usize].ty,
+                    span: e.span,
+                });
+            }
+        }
         let mut p = self.place_inner(base, cx, write)?;
         let span = e.span;
         if self.types.union_members(p.ty).is_some() {

@@ -460,7 +460,7 @@ impl<'a> Checker<'a> {
     }
 
     /// Whether the explicit conversion functions convert `from` to `to`.
-    fn convertible(&self, from: TypeId, to: TypeId) -> bool {
+    pub(super) fn convertible(&self, from: TypeId, to: TypeId) -> bool {
         let s = |t: TypeId| matches!(self.types.get(t), Type::Str { .. });
         if s(from) && s(to) {
             return true;
@@ -469,7 +469,11 @@ impl<'a> Checker<'a> {
             Type::Enum { .. } => Some(Elem::Dint),
             _ => None,
         });
-        let te = self.types.elem(to);
+        // An enumeration's value is its DINT number, as the VM stores it.
+        let te = self.types.elem(to).or(match self.types.get(to) {
+            Type::Enum { .. } => Some(Elem::Dint),
+            _ => None,
+        });
         match (fe, te) {
             (Some(a), Some(b)) => {
                 let date = |e: Elem| e.is_date();

@@ -39,7 +39,7 @@ fn refused(libs: &[&str], decls: &str, body: &str, expect: &str) {
 
 /// The value assigned by the program's first statement, when it is a constant.
 fn first_const(p: &ir::Project) -> Option<i128> {
-    let body = &p.pous.last()?.body;
+    let body = &p.pous.iter().find(|x| x.name == "p")?.body;
     match &body.first()?.kind {
         StmtKind::Assign { value, .. } => match &value.kind {
             ExprKind::Const(v) => v.as_int(),
@@ -91,7 +91,7 @@ fn a_users_function_of_that_name_wins() {
 #[test]
 fn typed_with_the_library() {
     let p = run(&["twincat"], "t : TIME;", "t := TIME();").unwrap();
-    let body = &p.pous.last().unwrap().body;
+    let body = &p.pous.iter().find(|x| x.name == "p").unwrap().body;
     assert!(matches!(
         body.first().map(|s| &s.kind),
         Some(StmtKind::Assign { value, .. }) if matches!(value.kind, ExprKind::Builtin(Builtin::Time, _))
