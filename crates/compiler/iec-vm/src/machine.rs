@@ -56,6 +56,8 @@ pub struct Engine {
     task_used: Vec<bool>,
     /// Per task: the slot of its SINGLE variable (an event task), if it has one.
     singles: Vec<Option<u32>>,
+    /// TwinCAT's task information, when the project has it (the `twincat` library).
+    task_info: Option<TaskInfo>,
     /// Machine code for the instances, made when the first machine is ([`Engine::compiled`]),
     /// so that checking a program does not pay for it.
     compiled: OnceLock<Option<Box<dyn Compiled>>>,
@@ -216,10 +218,12 @@ impl Engine {
             scan_order,
             task_used,
             singles,
+            task_info: None,
             compiled: OnceLock::new(),
             compiler: None,
         };
         engine.apply_var_config();
+        engine.task_info = TaskInfo::find(&engine);
         Ok(Arc::new(engine))
     }
 
@@ -715,11 +719,13 @@ impl Machine {
             Some(c) => c.scanner(&engine),
             None => None,
         };
-        let whole = !engine
-            .singles
-            .iter()
-            .zip(&engine.task_used)
-            .any(|(s, &used)| s.is_some() && used);
+        // Task information is written between tasks: the task path runs them.
+        let whole = engine.task_info.is_none()
+            && !engine
+                .singles
+                .iter()
+                .zip(&engine.task_used)
+                .any(|(s, &used)| s.is_some() && used);
         Machine {
             scanner,
             tasked: engine.tasked,
@@ -855,9 +861,13 @@ impl Machine {
         let engine: &Engine = engine;
         let backend = *backend;
         let instances = &engine.code.instances;
+        let info = engine.task_info.as_ref();
         let tasks = match engine.project.configuration.as_ref() {
             Some(c) if engine.tasked => &c.tasks,
             _ => {
+                if let Some(info) = info {
+                    info.starts(mem, 1);
+                }
                 for i in 0..instances.len() {
                     run_one(
                         engine,
@@ -891,6 +901,9 @@ impl Machine {
             if !due {
                 continue;
             }
+            if let Some(info) = info {
+                info.starts(mem, t + 1);
+            }
             for (i, inst) in instances.iter().enumerate() {
                 if inst.task == Some(t as u32) {
                     run_one(
@@ -905,6 +918,10 @@ impl Machine {
                     )?;
                 }
             }
+        }
+        if let Some(info) = info.filter(|_| instances.iter().any(|i| i.task.is_none())) {
+            // The programs without a task are one task more, after the configured ones.
+            info.starts(mem, tasks.len() + 1);
         }
         for (i, inst) in instances.iter().enumerate() {
             if inst.task.is_none() {
@@ -1059,5 +1076,44 @@ impl Machine {
             }
         }
         skipped
+    }
+}
+
+/// TwinCAT's `TwinCAT_SystemInfoVarList._TaskInfo[n].CycleCount` and `.FirstCycle`, and the
+/// index GETCURTASKINDEX gives (`__CURTASKINDEX`), as the `twincat` library declares them:
+/// written when a task starts its cycle. Task n is the configuration's n-th; the programs
+/// without a task (all of them, without a configuration) are the task after the last.
+#[derive(Debug)]
+struct TaskInfo {
+    index: u32,
+    /// Per task index from 1: the slots of its cycle count and first-cycle flag.
+    tasks: Vec<(u32, u32)>,
+}
+
+impl TaskInfo {
+    fn find(engine: &Engine) -> Option<TaskInfo> {
+        let index = engine.lookup("__CURTASKINDEX")?.addr;
+        let mut tasks = Vec::new();
+        for n in 1.. {
+            let (Some(c), Some(f)) = (
+                engine.lookup(&format!("_TaskInfo[{n}].CycleCount")),
+                engine.lookup(&format!("_TaskInfo[{n}].FirstCycle")),
+            ) else {
+                break;
+            };
+            tasks.push((c.addr, f.addr));
+        }
+        Some(TaskInfo { index, tasks })
+    }
+
+    /// Task `n` (from 1) starts a cycle.
+    fn starts(&self, mem: &mut [u64], n: usize) {
+        mem[self.index as usize] = n as u64;
+        if let Some(&(c, f)) = self.tasks.get(n.wrapping_sub(1)) {
+            // A UDINT counter, wrapping as TwinCAT's does.
+            let count = (mem[c as usize] as u32).wrapping_add(1);
+            mem[c as usize] = u64::from(count);
+            mem[f as usize] = u64::from(count == 1);
+        }
     }
 }

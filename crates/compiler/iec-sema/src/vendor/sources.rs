@@ -9,6 +9,9 @@ use std::collections::HashSet;
 use petriplc_iec_syntax::ast::{Element, Library};
 use petriplc_iec_syntax::{builtin, Diagnostics};
 
+/// The global variable lists of the libraries, by their first variable.
+const LISTS: &[(&str, &str)] = &[("_TaskInfo", "TwinCAT_SystemInfoVarList")];
+
 /// `lib` with the declarations of the loaded libraries `libs` before its own; `None` when
 /// none of them brings any.
 pub fn with_sources(lib: &Library, libs: &[String], diags: &mut Diagnostics) -> Option<Library> {
@@ -35,6 +38,15 @@ pub fn with_sources(lib: &Library, libs: &[String], diags: &mut Diagnostics) -> 
             Element::Globals(mut block) => {
                 for v in &mut block.vars {
                     v.names.retain(|n| !own.contains(&n.key()));
+                }
+                // A library's global variable list is named by its first variable (ST has
+                // no syntax for a list's name, which TwinCAT takes from the file).
+                let first = block.vars.first().and_then(|v| v.names.first());
+                if let Some((_, list)) = first.and_then(|n| LISTS.iter().find(|(v, _)| n.is(v))) {
+                    block.list = Some(petriplc_iec_syntax::ast::Ident::new(
+                        *list,
+                        first.map_or_else(Default::default, |n| n.span),
+                    ));
                 }
                 block.vars.retain(|v| !v.names.is_empty());
                 if !block.vars.is_empty() {
