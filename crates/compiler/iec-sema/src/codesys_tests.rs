@@ -198,3 +198,18 @@ fn named_and_positional_arguments_mix_in_the_codesys_family() {
         "{text}"
     );
 }
+
+#[test]
+fn a_function_returns_an_instance_in_the_codesys_family_only() {
+    use petriplc_iec_syntax::Dialect;
+    let src = "FUNCTION_BLOCK fb\nVAR_OUTPUT q : INT; END_VAR\nEND_FUNCTION_BLOCK\n\
+               FUNCTION f : fb\nEND_FUNCTION\n\
+               PROGRAM p\nVAR x : fb; END_VAR\nx := f();\nEND_PROGRAM\n";
+    let (p, text) = crate::tests::run_dialect(src, Dialect::Codesys);
+    assert!(p.is_some(), "{text}");
+    let (_, text) = crate::tests::run_dialect(src, Dialect::Iec);
+    assert!(
+        text.contains("t.st:4:10: error[E109]: a function cannot return a function block instance (CODESYS and TwinCAT return a copy of one"),
+        "{text}"
+    );
+}

@@ -185,12 +185,18 @@ impl<'a> Checker<'a> {
                 Some(t) => self.resolve_spec(t, &mut cx).0,
                 None => ids::ERROR,
             };
-            if let Type::Fb(_) = self.types.get(ty) {
-                self.error(
-                    diag::BAD_DECLARATION,
-                    ast.name.span,
-                    "a function cannot return a function block instance",
-                );
+            // CODESYS and TwinCAT return a copy of an instance (TcUnit's `METHOD
+            // GetTestByPosition : FB_Test`): the result is an instance in the call's frame.
+            if let Type::Fb(f) = *self.types.get(ty) {
+                if !self.dialect.is_codesys_family() {
+                    self.error(
+                        diag::BAD_DECLARATION,
+                        ast.name.span,
+                        "a function cannot return a function block instance (CODESYS and TwinCAT return a copy of one: --dialect codesys or twincat)",
+                    );
+                } else if let FbRef::User(q) = f {
+                    self.frame_fbs.insert(q);
+                }
             }
             result = Some(0);
             cx.vars.push(Var {
