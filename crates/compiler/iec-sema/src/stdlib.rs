@@ -158,8 +158,11 @@ pub(crate) fn typed_param(generic: &str, index: usize) -> bool {
 /// `TO_REAL` → (None, "REAL"), `TRUNC_INT`/`REAL_TRUNC_INT` → truncations.
 pub(crate) fn conversion_of(name: &str) -> Option<(Option<String>, String, bool)> {
     let n = name.to_ascii_uppercase();
-    if let Some(rest) = n.strip_prefix("TO_") {
-        return Some((None, rest.to_string(), false));
+    // CODESYS's ANY_TO_<type> and ANY_NUM_TO_<type> are the standard's TO_<type>.
+    for generic in ["TO_", "ANY_TO_", "ANY_NUM_TO_"] {
+        if let Some(rest) = n.strip_prefix(generic) {
+            return Some((None, rest.to_string(), false));
+        }
     }
     if let Some(rest) = n.strip_prefix("TRUNC_") {
         return Some((None, rest.to_string(), true));

@@ -154,7 +154,7 @@ impl<'a> Checker<'a> {
                     why
                 ),
                 _ => format!(
-                    "a pointer to this {}'s own variables may only be kept in its VAR or VAR_TEMP pointers, dereferenced, compared and moved (p + n); it must not be stored elsewhere or passed to a call, since the variables end with the call{}",
+                    "a pointer to this {}'s own variables may only be kept in its VAR or VAR_TEMP pointers, dereferenced, compared and moved (p + n); it must not be stored elsewhere, nor given to a call that may keep it (a function block's input, a FUNCTION's or METHOD's input that it stores), since the variables end with the call{}",
                     kind.keyword(),
                     why
                 ),
