@@ -117,6 +117,17 @@ pub enum ExtOp {
         e: Elem,
         what: String,
     },
+    /// A STRING or WSTRING of capacity `cap` read from (`load`) or written to the byte image
+    /// the pointer in `p` designates (a union's string member): `s` holds the address of the
+    /// string's slots. Its `cap + 1` characters must lie inside the variable.
+    ViewStr {
+        s: u32,
+        p: u32,
+        cap: u32,
+        wide: bool,
+        load: bool,
+        what: String,
+    },
     /// `d` = the interface handle in `s`, a fault when it is NULL (a method or property
     /// used through an interface: the fault's line is the call's).
     ItfCheck {
@@ -531,6 +542,7 @@ pub fn exec(
         | ExtOp::ViewLoad { .. }
         | ExtOp::Mem { .. }
         | ExtOp::ViewStore { .. }
+        | ExtOp::ViewStr { .. }
         | ExtOp::ItfType { .. } => {
             // Run by crate::pointer::exec, which has the shapes (and the handles' format).
             return Err(fault(

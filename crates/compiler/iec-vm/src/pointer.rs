@@ -491,6 +491,14 @@ pub fn exec(
         }
         .store(mem, base, *s, shapes),
         ExtOp::Mem { f, d, a, b, n } => mem_fn(*f, mem, base, [*d, *a, *b, *n], shapes),
+        ExtOp::ViewStr {
+            s,
+            p,
+            cap,
+            wide,
+            load,
+            what,
+        } => view_str(mem, base, [*s, *p], *cap, *wide, *load, what, shapes),
         ExtOp::ItfType { d, s } => {
             mem[base + *d as usize] = type_of(mem[base + *s as usize]) as u64;
             Ok(())
@@ -525,6 +533,62 @@ fn bytes_at<'s>(
         ));
     }
     Ok((b, &img.shape, off as u64))
+}
+
+/// A string read from or written to a byte image ([`ExtOp::ViewStr`]): the characters up to
+/// the first zero one (at most `cap`), then, when written, a zero one.
+#[allow(clippy::too_many_arguments)]
+fn view_str(
+    mem: &mut [u64],
+    base: usize,
+    [s, p]: [u32; 2],
+    cap: u32,
+    wide: bool,
+    load: bool,
+    what: &str,
+    shapes: &Shapes,
+) -> Result<(), OpFault> {
+    let unit: u64 = if wide { 2 } else { 1 };
+    let n = (u64::from(cap) + 1) * unit;
+    let (b, shape, o) = bytes_at(mem, base, p, n, shapes, what)?;
+    let at = mem[base + s as usize] as usize;
+    if load {
+        let mut units: Vec<u16> = Vec::new();
+        for k in 0..u64::from(cap) {
+            let mut u = u16::from(read_byte(mem, locate(shape, b, o + k * unit)?));
+            if wide {
+                u |= u16::from(read_byte(mem, locate(shape, b, o + k * unit + 1)?)) << 8;
+            }
+            if u == 0 {
+                break;
+            }
+            units.push(u);
+        }
+        if wide {
+            crate::ext::write_units(mem, at, &units, cap.saturating_mul(2));
+        } else {
+            let bytes: Vec<u8> = units.iter().map(|&u| u as u8).collect();
+            crate::ext::write_str(mem, at, &bytes, cap);
+        }
+        return Ok(());
+    }
+    let units: Vec<u16> = if wide {
+        crate::ext::read_units(mem, at)
+    } else {
+        crate::ext::read_str(mem, at)
+            .into_iter()
+            .map(u16::from)
+            .collect()
+    };
+    let len = units.len().min(cap as usize);
+    for (k, u) in units[..len].iter().copied().chain([0]).enumerate() {
+        let k = k as u64 * unit;
+        write_byte(mem, locate(shape, b, o + k)?, u as u8);
+        if wide {
+            write_byte(mem, locate(shape, b, o + k + 1)?, (u >> 8) as u8);
+        }
+    }
+    Ok(())
 }
 
 /// MEMCPY (result 1), MEMSET (result 1), MEMCMP (-1, 0, 1) as TwinCAT's Tc2_System and

@@ -178,8 +178,10 @@ impl<'a> Checker<'a> {
         else {
             return true;
         };
+        // A whole STRING or WSTRING is read and written through the bytes too.
         let elementary = |t: TypeId, me: &Self| {
-            me.types.elem(t).is_some() && !matches!(me.types.get(t), Type::Subrange { .. })
+            (me.types.elem(t).is_some() && !matches!(me.types.get(t), Type::Subrange { .. }))
+                || matches!(me.types.get(t), Type::Str { .. })
         };
         let overlays = p
             .path
@@ -204,7 +206,7 @@ impl<'a> Checker<'a> {
         } else if fits {
             format!("member `{mn}` of UNION {un} is read and assigned through the union's bytes and has no address of its own: it cannot be an in-out, an output's target, REF's argument, nor (a part of it) ADR's; copy it to a variable first, or take ADR of the member itself")
         } else {
-            format!("member `{mn}` of UNION {un} is {tn}: only its elementary values are read and written (an elementary member, an element of an array member, a structure member's elementary field), not a whole STRING, array or structure, nor a union inside it, yet; copy the member's bytes with MEMCPY(ADR(x), ADR(u), SIZEOF(x))")
+            format!("member `{mn}` of UNION {un} is {tn}: only its elementary values and strings are read and written (an elementary or string member, an element of an array member, a structure member's elementary field), not a whole array or structure, nor a union inside it, yet; copy the member's bytes with MEMCPY(ADR(x), ADR(u), SIZEOF(x))")
         };
         self.error(diag::UNION_ACCESS, p.span, msg);
         false

@@ -327,6 +327,10 @@ impl ExtOp {
                     g(i);
                 }
             }
+            ExtOp::ViewStr { s, p, .. } => {
+                g(s);
+                g(p);
+            }
             ExtOp::ToStr { dp, s, .. } => {
                 g(dp);
                 g(s);

@@ -18,6 +18,8 @@ pub(super) struct ViewAt {
     idx: Option<(u32, i64)>,
     e: Elem,
     what: String,
+    /// A whole STRING or WSTRING (a union's member): its capacity and width.
+    text: Option<(u32, bool)>,
 }
 
 impl<'c, 'p> Fx<'c, 'p> {
@@ -239,6 +241,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             idx,
             e,
             what: self.c.p.types.name(ty),
+            text: None,
         }))
     }
 
@@ -256,7 +259,11 @@ impl<'c, 'p> Fx<'c, 'p> {
         else {
             return Err(unsupported("this use of a union's member"));
         };
-        let Some(e) = types.elem(last) else {
+        let text = match types.get(last) {
+            Type::Str { len, wide } => Some((*len, *wide)),
+            _ => None,
+        };
+        let Some(e) = types.elem(last).or(text.map(|_| Elem::Byte)) else {
             return Err(unsupported("this use of a union's member"));
         };
         if uty > crate::pointer::MAX_TAGGED_TYPE {
@@ -317,10 +324,29 @@ impl<'c, 'p> Fx<'c, 'p> {
             idx,
             e,
             what: format!("member of {}", self.c.p.types.name(uty)),
+            text,
         })
     }
 
     pub(super) fn view_load(&mut self, v: ViewAt, d: u32, span: Span) {
+        if let Some((cap, wide)) = v.text {
+            // `d` gets the address of a copy of the string.
+            let slots = crate::layout::string_slots(cap.saturating_mul(1 + u32::from(wide)));
+            let buf = self.temp(slots);
+            self.emit(Op::Lea { d, s: buf }, span);
+            self.ext(
+                ExtOp::ViewStr {
+                    s: d,
+                    p: v.h,
+                    cap,
+                    wide,
+                    load: true,
+                    what: v.what,
+                },
+                span,
+            );
+            return;
+        }
         self.ext(
             ExtOp::ViewLoad {
                 d,
@@ -334,6 +360,20 @@ impl<'c, 'p> Fx<'c, 'p> {
     }
 
     pub(super) fn view_store(&mut self, v: ViewAt, s: u32, span: Span) {
+        if let Some((cap, wide)) = v.text {
+            self.ext(
+                ExtOp::ViewStr {
+                    s,
+                    p: v.h,
+                    cap,
+                    wide,
+                    load: false,
+                    what: v.what,
+                },
+                span,
+            );
+            return;
+        }
         self.ext(
             ExtOp::ViewStore {
                 s,
