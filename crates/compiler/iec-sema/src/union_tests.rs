@@ -42,7 +42,7 @@ fn members_that_share_no_bytes_are_refused_at_the_declaration() {
 }
 
 #[test]
-fn only_elementary_members_and_their_array_elements_are_read_and_written() {
+fn only_elementary_and_string_members_and_array_elements_are_read_and_written() {
     check_diags(
         &format!(
             "{U}FUNCTION_BLOCK F\nVAR_IN_OUT io : STRING; END_VAR\nVAR_OUTPUT q : WORD; END_VAR\nEND_FUNCTION_BLOCK\n\
@@ -51,9 +51,8 @@ fn only_elementary_members_and_their_array_elements_are_read_and_written() {
              x := u.s;\nu.w := v.w;\nf(io := u.s, q => u.w[0]);\npw := ADR(u.w[1]);\nu.zz := 1;\nEND_PROGRAM\n"
         ),
         &[
-            "t.st:15:6: error[E222]: member `s` of UNION U is STRING: only its elementary values are read and written",
-            "t.st:16:1: error[E222]: member `w` of UNION U is ARRAY[0..1] OF WORD",
-            "t.st:17:9: error[E222]: member `s` of UNION U is STRING",
+            "t.st:16:1: error[E222]: member `w` of UNION U is ARRAY[0..1] OF WORD: only its elementary values and strings are read and written",
+            "t.st:17:9: error[E222]: member `s` of UNION U is read and assigned through the union's bytes and has no address of its own",
             "t.st:17:19: error[E222]: member `w` of UNION U is read and assigned through the union's bytes and has no address of its own",
             "t.st:18:11: error[E222]: member `w` of UNION U is read and assigned",
             "t.st:19:3: error[E105]: UNION U has no member `zz`; its members are a, s, w",
