@@ -65,6 +65,18 @@ impl<'a> Checker<'a> {
         if name.is("REF") || name.is("ADR") {
             return self.ref_of(name, call, cx);
         }
+        if name.is("__FORMAT") {
+            return self
+                .vendor_format(name, call, cx, None, "STRING")
+                .unwrap_or_else(|| {
+                    self.error(
+                        diag::BAD_ARGUMENTS,
+                        call.span,
+                        "__FORMAT takes a value and a C printf format: __FORMAT(x, '%5.2f')",
+                    );
+                    err(call.span)
+                });
+        }
         if name.is("__QUERYINTERFACE") {
             return self.query_interface(call, cx);
         }

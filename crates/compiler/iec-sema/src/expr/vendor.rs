@@ -198,7 +198,9 @@ impl<'a> Checker<'a> {
         };
         let span = call.span;
         let what = format!("{}(value, format)", name.name);
-        if !self.vendor_loaded(&what, "pcworx", name.span) {
+        // `__FORMAT(value, format)`: the same, for the vendor libraries' own ST (twincat's
+        // FB_FormatString), in every dialect.
+        if !name.is("__FORMAT") && !self.vendor_loaded(&what, "pcworx", name.span) {
             return Some(err(span));
         }
         let f = name.key();
