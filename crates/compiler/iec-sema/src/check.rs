@@ -88,6 +88,11 @@ pub(crate) struct Checker<'a> {
     pub(crate) type_decls: HashMap<String, &'a ast::TypeDecl>,
     type_done: HashMap<String, (TypeId, Option<Value>)>,
     type_busy: Vec<String>,
+    /// Structures being resolved, by upper-case name: a reference inside one may designate
+    /// it (`pNext : POINTER TO ST_NODE`).
+    pub(crate) type_partial: HashMap<String, crate::types::TypeId>,
+    /// Inside the target of a reference type (its type needs no size of its own).
+    pub(crate) in_ref_target: u32,
     pub pou_asts: Vec<&'a ast::Pou>,
     pub pou_names: HashMap<String, PouId>,
     pub pous: Vec<ir::Pou>,
@@ -151,6 +156,8 @@ impl<'a> Checker<'a> {
             type_decls: HashMap::new(),
             type_done: HashMap::new(),
             type_busy: Vec::new(),
+            type_partial: HashMap::new(),
+            in_ref_target: 0,
             pou_asts: Vec::new(),
             pou_names: HashMap::new(),
             pous: Vec::new(),

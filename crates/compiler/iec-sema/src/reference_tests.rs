@@ -208,3 +208,17 @@ fn pointer_indexing_takes_one_integer_subscript_of_a_pointer_to() {
         ],
     );
 }
+
+#[test]
+fn a_structure_may_point_at_its_own_type_but_not_hold_it() {
+    let ok = "TYPE N : STRUCT v : INT; next : POINTER TO N; kids : ARRAY[0..1] OF REF_TO N; END_STRUCT; END_TYPE\n\
+              PROGRAM p\nVAR a, b : N; END_VAR\na.next := ADR(b);\nb.v := a.next^.v + 1;\nEND_PROGRAM\n";
+    let (good, d) = run(ok);
+    assert!(good, "{d}");
+    // B, reached through A's pointer, still may not hold itself.
+    errors(
+        "TYPE A : STRUCT p : POINTER TO B; END_STRUCT; END_TYPE\nTYPE B : STRUCT b : B; END_STRUCT; END_TYPE\n\
+         PROGRAM p\nVAR a : A; END_VAR\nEND_PROGRAM\n",
+        &["t.st:2:21: error[E107]: type B contains itself"],
+    );
+}

@@ -21,6 +21,12 @@ impl<'a> Checker<'a> {
         }
         let d = *self.type_decls.get(key)?;
         if self.type_busy.iter().any(|k| k == key) {
+            // A linked list's node: a reference to the structure being resolved.
+            if self.in_ref_target > 0 {
+                if let Some(&id) = self.type_partial.get(key) {
+                    return Some((id, None));
+                }
+            }
             self.error(
                 diag::RECURSION,
                 use_span,
@@ -35,6 +41,8 @@ impl<'a> Checker<'a> {
             return Some((ids::ERROR, None));
         }
         self.type_busy.push(key.to_string());
+        // A reference further in designates this type's own parts, which need their size.
+        let in_ref = std::mem::replace(&mut self.in_ref_target, 0);
         let mut cx = Cx::global();
         cx.const_only = true;
         let (id, mut default) = match &d.spec {
@@ -44,6 +52,7 @@ impl<'a> Checker<'a> {
                     name: name.clone(),
                     fields: Vec::new(),
                 });
+                self.type_partial.insert(key.to_string(), id);
                 // EXTENDS: the base's fields first, flattened, with their initial values.
                 let (mut out, base_ok): (Vec<Field>, bool) = match base {
                     Some(b) => match self.base_struct_fields(b, &mut cx) {
@@ -103,6 +112,8 @@ impl<'a> Checker<'a> {
             default = self.initial_value(init, id, &mut cx);
         }
         self.type_busy.pop();
+        self.type_partial.remove(key);
+        self.in_ref_target = in_ref;
         self.leave_type();
         self.type_done
             .insert(key.to_string(), (id, default.clone()));
@@ -343,7 +354,9 @@ impl<'a> Checker<'a> {
                 (id, None)
             }
             TypeSpec::Ref { kind, target, span } => {
+                self.in_ref_target += 1;
                 let (t, _) = self.resolve_spec(target, cx);
+                self.in_ref_target -= 1;
                 if t == ids::ERROR {
                     return (ids::ERROR, None);
                 }

@@ -65,6 +65,14 @@ impl<'a> Checker<'a> {
         if name.is("REF") || name.is("ADR") {
             return self.ref_of(name, call, cx);
         }
+        if name.is("__NEW") || name.is("__DELETE") {
+            self.error(
+                diag::UNSUPPORTED,
+                name.span,
+                format!("{} (TwinCAT's and CODESYS's dynamic memory) is not supported yet: petriplc's memory is laid out when the program is built; declare the objects as variables (an array of them as a pool, with an index for a pointer)", name.name.to_ascii_uppercase()),
+            );
+            return err(call.span);
+        }
         if name.is("__FORMAT") {
             return self
                 .vendor_format(name, call, cx, None, "STRING")

@@ -282,6 +282,22 @@ impl<'a, 'd> Parser<'a, 'd> {
                 span: start.to(self.prev_span()),
             });
         }
+        // TwinCAT's `__NEW(POINTER TO T, n)` (an array of n pointers): read as the type's
+        // name, which the checker refuses with all of __NEW (not supported yet, E190).
+        if (self.at_word("POINTER") || self.at_word("REFERENCE"))
+            && self.peek_at(1).tok == Tok::Kw(Kw::To)
+        {
+            self.bump();
+            self.bump();
+            let v = self.postfix()?;
+            return Ok(Arg {
+                name: None,
+                output: false,
+                negated: false,
+                span: start.to(v.span),
+                value: Some(v),
+            });
+        }
         let v = self.expr()?;
         Ok(Arg {
             name: None,
