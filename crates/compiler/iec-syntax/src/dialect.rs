@@ -49,7 +49,9 @@ impl Dialect {
     /// `<TcPlcObject`; `None` when the file does not say.
     pub fn detect(name: &str, text: &str) -> Option<Dialect> {
         let lower = name.to_ascii_lowercase();
-        let twincat_ext = [".tcpou", ".tcdut", ".tcgvl", ".tcio", ".tctto", ".plcproj"];
+        let twincat_ext = [
+            ".tcpou", ".tcdut", ".tcgvl", ".tcio", ".tctto", ".tctleo", ".plcproj",
+        ];
         if twincat_ext.iter().any(|e| lower.ends_with(e)) {
             return Some(Dialect::Twincat);
         }

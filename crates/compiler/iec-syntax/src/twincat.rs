@@ -1,5 +1,5 @@
 //! TwinCAT 3 files read into the same tree as Structured Text: `.TcPOU` (a POU's declaration
-//! and its `<Implementation><ST>` body), `.TcDUT` (a type), `.TcGVL` (a global variable
+//! and its `<Implementation><ST>` body), `.TcDUT` (a type; `.TcTLEO`, an enumeration with a text list), `.TcGVL` (a global variable
 //! list), `.TcTTO` (a task: cycle time, priority, the programs it calls), and the list of
 //! files a `.plcproj` project compiles.
 //!
@@ -16,7 +16,7 @@ use crate::source::{FileId, SourceMap, Span};
 use crate::xml::{self, Element as X};
 
 /// The extensions of the TwinCAT files read as sources (lower case, without the dot).
-pub const EXTENSIONS: &[&str] = &["tcpou", "tcdut", "tcgvl", "tctto", "tcio"];
+pub const EXTENSIONS: &[&str] = &["tcpou", "tcdut", "tcgvl", "tctto", "tcio", "tctleo"];
 
 /// The configuration the tasks of `.TcTTO` files are gathered in (one per project).
 pub const TASKS_CONFIGURATION: &str = "TwinCAT";
@@ -71,7 +71,8 @@ pub fn read(map: &mut SourceMap, name: &str, text: &str, diags: &mut Diagnostics
                     lib.elements.push(Element::Pou(p));
                 }
             }
-            "DUT" | "GVL" => {
+            // `.TcTLEO`: an enumeration with a text list (its texts are for the HMI).
+            "DUT" | "GVL" | "EnumerationTextList" => {
                 if let Some((text, at)) = r.declaration(obj) {
                     let f = r.embed(&text, at);
                     let got = parser::parse(f, &text, r.diags);

@@ -17,7 +17,7 @@ use crate::{read_source, IecError, Sources, MAX_SOURCE_BYTES};
 /// The extensions of the files a folder contributes (lower case, without the dot); an `.xml`
 /// file counts only when it is a PLCopen or TwinCAT file (a folder may hold other XML).
 pub const FOLDER_EXTENSIONS: &[&str] = &[
-    "st", "il", "xml", "tcpou", "tcdut", "tcgvl", "tctto", "tcio",
+    "st", "il", "xml", "tcpou", "tcdut", "tcgvl", "tctto", "tcio", "tctleo",
 ];
 
 /// Most files read for one folder or project.

@@ -425,3 +425,32 @@ END_VAR
     let set = f.oop.properties[0].set.as_ref().unwrap();
     assert!(set.var_blocks.iter().any(|b| b.vars[0].names[0].is("old")));
 }
+
+#[test]
+fn an_enumeration_with_a_text_list_is_its_declaration() {
+    let text = "<?xml version=\"1.0\" encoding=\"utf-8\"?>
+<TcPlcObject Version=\"1.1.0.1\">
+  <EnumerationTextList Name=\"E_Mode\" Id=\"{00000000-0000-0000-0000-000000000009}\">
+    <Declaration><![CDATA[{attribute 'to_string'}
+TYPE E_Mode :
+(
+\tIdle := 0,
+\tRun
+)BYTE;
+END_TYPE
+]]></Declaration>
+    <XmlArchive>
+      <Data>
+        <o xml:space=\"preserve\" t=\"TextListEnumerationTextListObject\" />
+      </Data>
+    </XmlArchive>
+  </EnumerationTextList>
+</TcPlcObject>";
+    let (lib, msgs, _) = read_text("E_Mode.TcTLEO", text);
+    assert!(msgs.iter().all(|m| !m.contains("error")), "{msgs:?}");
+    assert!(
+        matches!(lib.elements.as_slice(), [Element::Types(t)] if t[0].name.name == "E_Mode"),
+        "{:?}",
+        lib.elements.len()
+    );
+}
