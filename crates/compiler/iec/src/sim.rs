@@ -225,7 +225,11 @@ impl<'p> IecSimulation<'p> {
         }
         let mut globals: Vec<Var> = Vec::new();
         for g in &engine.project.globals {
-            if g.constant || !traceable(&engine, g.ty) {
+            // A vendor library's own globals (TwinCAT's task index) are not the project's I/O.
+            if g.constant
+                || !traceable(&engine, g.ty)
+                || petriplc_iec_syntax::builtin::is_builtin(g.span.file)
+            {
                 continue;
             }
             if let Some(var) = engine.lookup(&g.name) {

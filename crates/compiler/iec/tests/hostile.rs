@@ -20,6 +20,10 @@ enum Piece {
     Fields(usize),
     Subscripts(usize),
     Calls(usize),
+    /// Pointer indexing inside its own subscript: `p[p[p[0]]]`.
+    PtrIndex(usize),
+    /// A pointer moved and dereferenced, `(((p + 1) + 1))^`, as a statement's target.
+    Computed(usize),
     Block(&'static str, usize),
     LongName(usize),
     LongNumber(usize),
@@ -44,6 +48,8 @@ fn piece() -> impl Strategy<Value = Piece> {
         depth().prop_map(Piece::Fields),
         depth().prop_map(Piece::Subscripts),
         depth().prop_map(Piece::Calls),
+        depth().prop_map(Piece::PtrIndex),
+        depth().prop_map(Piece::Computed),
         (
             prop::sample::select(vec!["IF", "CASE", "FOR", "WHILE", "REPEAT"]),
             depth()
@@ -97,6 +103,12 @@ fn statement(p: &Piece) -> String {
         Piece::Fields(n) => format!("x := s{}.x;", ".s".repeat(*n)),
         Piece::Subscripts(n) => format!("x := a{};", "[1]".repeat(*n)),
         Piece::Calls(n) => format!("x := {}x{};", "ABS(".repeat(*n), ")".repeat(*n)),
+        Piece::PtrIndex(n) => format!("p := ADR(x); x := {}0{};", "p[".repeat(*n), "]".repeat(*n)),
+        Piece::Computed(n) => format!(
+            "p := ADR(x); {}p{}^ := 1;",
+            "(".repeat(*n),
+            " + 1)".repeat(*n)
+        ),
         Piece::Block(kind, n) => {
             let (open, close) = match *kind {
                 "IF" => ("IF b THEN\n", "END_IF;\n"),
@@ -161,7 +173,7 @@ fn declarations(kind: u8, n: usize, outer_first: bool) -> String {
 fn program(decls: &str, uses_t0: bool, body: &str) -> String {
     let t0 = if uses_t0 { "t : T0;" } else { "" };
     format!(
-        "{decls}\nPROGRAM main\nVAR x : DINT; r : REAL; b : BOOL; s : S; \
+        "{decls}\nPROGRAM main\nVAR x : DINT; r : REAL; b : BOOL; s : S; p : POINTER TO DINT; \
          a : ARRAY[0..2] OF ARRAY[0..2] OF DINT; {t0} END_VAR\n{body}\nEND_PROGRAM\n"
     )
 }
@@ -230,7 +242,12 @@ fn check_refusal(diags: &str, source: &str, too_deep: bool) {
 
 fn too_deep(p: &Piece) -> bool {
     match p {
-        Piece::Parens(n) | Piece::Unary(n) | Piece::Calls(n) | Piece::Block(_, n) => *n >= 100,
+        Piece::Parens(n)
+        | Piece::Unary(n)
+        | Piece::Calls(n)
+        | Piece::Computed(n)
+        | Piece::Block(_, n) => *n >= 100,
+        Piece::PtrIndex(n) => *n >= 1000,
         // A chained assignment is read in a loop: no depth to pass.
         Piece::Chain(":=", _) => false,
         Piece::Chain(_, n) | Piece::Fields(n) | Piece::Subscripts(n) => *n >= 1000,
