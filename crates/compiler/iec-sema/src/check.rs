@@ -118,6 +118,8 @@ pub(crate) struct Checker<'a> {
     edges: HashMap<PouId, Vec<(VarId, ast::Edge)>>,
     /// Calls between POUs (caller, callee, where), for recursion.
     pub calls: Vec<(Option<PouId>, PouId, Span)>,
+    /// POUs on a cycle of calls through an interface (recursion.rs).
+    pub(crate) guarded: BTreeSet<PouId>,
     /// Named types and function block interfaces being resolved inside each other, and
     /// their names (`limits.rs`).
     pub(crate) nesting: Depth,
@@ -173,6 +175,7 @@ impl<'a> Checker<'a> {
             enum_values: HashMap::new(),
             edges: HashMap::new(),
             calls: Vec::new(),
+            guarded: BTreeSet::new(),
             nesting: Depth::new(MAX_TYPE_DEPTH),
             nest_path: Vec::new(),
             too_deep_reported: false,
@@ -238,6 +241,7 @@ impl<'a> Checker<'a> {
             globals: self.globals,
             configuration,
             overflow: self.overflow,
+            guarded: self.guarded,
         };
         (Some(project), diags)
     }

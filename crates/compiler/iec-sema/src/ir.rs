@@ -8,6 +8,8 @@
 //! languages (networks become assignments and calls, SFC steps flags and timers) lower into
 //! the same form, so the checker's rules and the VM are shared (issue 17).
 
+use std::collections::BTreeSet;
+
 use petriplc_iec_syntax::source::Span;
 
 pub use petriplc_iec_syntax::ast::{BinaryOp, PouKind, UnaryOp};
@@ -31,6 +33,9 @@ pub struct Project {
     pub configuration: Option<Configuration>,
     /// What integer overflow does when the project runs ([`crate::Options::overflow`]).
     pub overflow: Overflow,
+    /// POUs that a call through an interface may enter again while they run (W050): the
+    /// engine faults if one is (its frame is static).
+    pub guarded: BTreeSet<PouId>,
 }
 
 impl Project {

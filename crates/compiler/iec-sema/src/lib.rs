@@ -19,6 +19,7 @@ mod members;
 pub mod memory;
 mod oop;
 pub mod ops;
+mod recursion;
 mod stdlib;
 mod stmt;
 pub mod types;

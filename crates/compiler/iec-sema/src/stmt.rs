@@ -2,8 +2,6 @@
 //! checked for reachability), FOR, WHILE, REPEAT, EXIT, CONTINUE, RETURN; and the
 //! configuration: tasks and program instances with their connections.
 
-use std::collections::HashMap;
-
 use petriplc_iec_syntax::ast::{self, StmtKind as S};
 use petriplc_iec_syntax::diag;
 use petriplc_iec_syntax::source::Span;
@@ -578,53 +576,6 @@ impl Checker<'_> {
             })),
             span,
         })
-    }
-
-    /// Functions that call themselves through others.
-    pub fn check_recursion(&mut self) {
-        let mut graph: HashMap<ir::PouId, Vec<(ir::PouId, Span)>> = HashMap::new();
-        for (from, to, span) in &self.calls {
-            if let Some(f) = from {
-                graph.entry(*f).or_default().push((*to, *span));
-            }
-        }
-        let n = self.pous.len();
-        let mut state = vec![0u8; n];
-        let mut reported = false;
-        for start in 0..n as ir::PouId {
-            if state[start as usize] != 0 || reported {
-                continue;
-            }
-            // Iterative DFS.
-            let mut stack: Vec<(ir::PouId, usize)> = vec![(start, 0)];
-            state[start as usize] = 1;
-            while let Some((node, i)) = stack.pop() {
-                let edges = graph.get(&node).cloned().unwrap_or_default();
-                if i < edges.len() {
-                    stack.push((node, i + 1));
-                    let (next, span) = edges[i];
-                    match state[next as usize] {
-                        0 => {
-                            state[next as usize] = 1;
-                            stack.push((next, 0));
-                        }
-                        1 => {
-                            let name = self.pous[next as usize].name.clone();
-                            self.error(
-                                diag::RECURSION,
-                                span,
-                                format!("this call makes {name} call itself again; IEC 61131-3 does not allow recursion"),
-                            );
-                            reported = true;
-                            break;
-                        }
-                        _ => {}
-                    }
-                } else {
-                    state[node as usize] = 2;
-                }
-            }
-        }
     }
 
     // ---- configurations ----

@@ -120,6 +120,7 @@ codes! {
     COMMENT_NOT_NESTED = "W045",
     REPLACEMENT_CHAR = "W043",
     FB_INIT_NOT_CALLED = "W049",
+    RECURSION_THROUGH_INTERFACE = "W050",
 }
 
 /// Diagnostics collected by a stage, in the order found.

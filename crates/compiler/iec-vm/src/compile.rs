@@ -62,6 +62,9 @@ pub struct InstanceSpec {
 #[derive(Debug)]
 pub struct Code {
     pub ops: Vec<Op>,
+    /// The busy flags ([`ExtOp::Enter`]) of absolute units: cleared when a run faults, so
+    /// that a POU left by the fault can be entered again.
+    pub guards: Vec<u32>,
     pub ext: Vec<ExtOp>,
     /// Literals of [`Op::AndLits`] / [`Op::OrLits`]: (slot, 1 to negate).
     pub lits: Vec<(u32, u64)>,
@@ -284,6 +287,8 @@ struct Fx<'c, 'p> {
     layout: FrameLayout,
     rel: bool,
     temp_top: u32,
+    /// The busy flag of a guarded POU (`Project::guarded`), cleared before each return.
+    guard: Option<u32>,
     consts: HashMap<u64, u32>,
     loops: Vec<LoopCx>,
     /// Where each label of the body is (IL, SFC).
@@ -307,6 +312,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             layout,
             rel,
             temp_top: 0,
+            guard: None,
             consts: HashMap::new(),
             loops: Vec::new(),
             labels: HashMap::new(),
@@ -355,6 +361,14 @@ impl<'c, 'p> Fx<'c, 'p> {
         let i = u.ext.len() as u32;
         u.ext.push(x);
         self.emit(Op::Ext { x: i }, span);
+    }
+
+    /// A return, releasing the POU's busy flag first when it has one.
+    fn ret(&mut self, span: Span) {
+        if let Some(s) = self.guard {
+            self.ext(ExtOp::Leave { s }, span);
+        }
+        self.emit(Op::Ret, span);
     }
 
     fn pc(&self) -> u32 {

@@ -134,6 +134,16 @@ pub enum ExtOp {
         d: u32,
         s: u32,
     },
+    /// The entry of a POU that a call through an interface may enter again (W050): a fault
+    /// when its busy flag `s` (a slot of its static frame) is set, else it is set.
+    Enter {
+        s: u32,
+        pou: String,
+    },
+    /// The exit of such a POU: its busy flag `s` cleared.
+    Leave {
+        s: u32,
+    },
     /// `d` = the type id of the instance the interface handle in `s` designates, -1 for NULL
     /// ([`crate::pointer::type_of`]).
     ItfType {
@@ -777,6 +787,17 @@ pub fn exec(
             }
             mem[base + *d as usize] = h;
         }
+        ExtOp::Enter { s, pou } => {
+            let flag = &mut mem[base + *s as usize];
+            if *flag != 0 {
+                return Err(fault(
+                    OpError::Domain("recursion"),
+                    format!("{pou} is called again while it runs (through an interface, W050); its frame is static: end the chain of instances, or walk it in a loop"),
+                ));
+            }
+            *flag = 1;
+        }
+        ExtOp::Leave { s } => mem[base + *s as usize] = 0,
         ExtOp::Now { d } => {
             mem[base + *d as usize] = (now - now.rem_euclid(1_000_000)) as u64;
         }

@@ -558,6 +558,37 @@ fn run_one(
     now: i64,
     check: &mut dyn FnMut() -> bool,
 ) -> Result<(), Fault> {
+    let r = run_one_inner(
+        engine, backend, mem, stack, iterations, instance, now, check,
+    );
+    if r.is_err() {
+        release_guards(engine, mem);
+    }
+    r
+}
+
+/// The busy flags of the POUs a fault left (`Code::guards`): the next scan may enter them.
+#[cold]
+fn release_guards(engine: &Engine, mem: &mut [u64]) {
+    for &g in &engine.code.guards {
+        if let Some(flag) = mem.get_mut(g as usize) {
+            *flag = 0;
+        }
+    }
+}
+
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn run_one_inner(
+    engine: &Engine,
+    backend: Backend,
+    mem: &mut [u64],
+    stack: &mut Vec<(u32, u32)>,
+    iterations: u64,
+    instance: usize,
+    now: i64,
+    check: &mut dyn FnMut() -> bool,
+) -> Result<(), Fault> {
     let Some(inst) = engine.code.instances.get(instance) else {
         return Ok(());
     };
@@ -822,6 +853,7 @@ impl Machine {
     #[cold]
     #[inline(never)]
     fn scan_stopped(&mut self, r: Ran) -> Fault {
+        release_guards(&self.engine, &mut self.mem);
         let instances = &self.engine.code.instances;
         let i = self.scanner.as_ref().map_or(0, |s| s.instance());
         if let Some(t) = instances.get(i).and_then(|inst| inst.task) {

@@ -221,3 +221,69 @@ END_CONFIGURATION";
         ]
     );
 }
+
+/// A fault inside a POU guarded against re-entry (W050) releases its busy flag: once the
+/// instances no longer make a cycle, the next scans run (on machine code and on the VM).
+#[test]
+fn a_recursion_fault_leaves_the_next_scan_free_to_run() {
+    let src = "INTERFACE I_Count
+METHOD Count : INT
+END_METHOD
+END_INTERFACE
+FUNCTION_BLOCK List IMPLEMENTS I_Count
+VAR_INPUT n : INT; next : I_Count; END_VAR
+METHOD Count : INT
+Count := n;
+IF next <> 0 THEN
+  Count := n + next.Count();
+END_IF;
+END_METHOD
+END_FUNCTION_BLOCK
+FUNCTION_BLOCK Wrapper IMPLEMENTS I_Count
+VAR_INPUT inner : I_Count; END_VAR
+METHOD Count : INT
+Count := 1 + inner.Count();
+END_METHOD
+END_FUNCTION_BLOCK
+PROGRAM main
+VAR_INPUT cycle : BOOL; END_VAR
+VAR items : List; w : Wrapper; total : INT; END_VAR
+items(n := 30);
+w(inner := items);
+IF cycle THEN items(next := w); ELSE items(next := 0); END_IF;
+total := w.Count();
+END_PROGRAM";
+    let b = build_text("t.st", src, &Select::Auto).unwrap_or_else(|e| panic!("{e}"));
+    for backend in [
+        petriplc_iec_vm::Backend::Compiled,
+        petriplc_iec_vm::Backend::Vm,
+    ] {
+        let mut m = Machine::new(b.engine.clone());
+        m.set_backend(backend);
+        let cycle = b.engine.lookup("main.cycle").unwrap();
+        let total = b.engine.lookup("main.total").unwrap();
+        let mut outcome = Vec::new();
+        for (k, on) in [false, true, false, true, false].into_iter().enumerate() {
+            m.set(cycle, &petriplc_iec_sema::value::Value::Int(i128::from(on)))
+                .unwrap();
+            outcome.push(match m.scan(k as i64 * 10_000_000, &mut || true) {
+                Ok(()) => {
+                    petriplc_iec_vm::display(&b.engine.project, total.ty, &m.get(total).unwrap())
+                        .to_string()
+                }
+                Err(f) => format!("{:?}", f.kind),
+            });
+        }
+        assert_eq!(
+            outcome,
+            [
+                "31",
+                "Op(Domain(\"recursion\"))",
+                "31",
+                "Op(Domain(\"recursion\"))",
+                "31"
+            ],
+            "{backend:?}"
+        );
+    }
+}

@@ -51,6 +51,7 @@ impl<'p> Compiler<'p> {
         let mut stores_all: Vec<(u32, u64)> = Vec::new();
         let mut arrays = Vec::new();
         let mut lines = Vec::new();
+        let mut guards = Vec::new();
         let mut starts = Vec::new();
         for u in &self.units {
             starts.push(ops.len() as u32);
@@ -110,6 +111,9 @@ impl<'p> Compiler<'p> {
             for x in &u.ext {
                 let mut x = x.clone();
                 x.map_slots(reloc);
+                if let (ExtOp::Enter { s, .. }, false) = (&x, u.rel) {
+                    guards.push(*s);
+                }
                 ext_all.push(x);
             }
             arrays.extend(u.arrays.iter().copied());
@@ -182,6 +186,7 @@ impl<'p> Compiler<'p> {
             native_sizes: self.p.natives.iter().map(|n| n.vars.len() as u32).collect(),
             overflow: self.p.overflow,
             shapes,
+            guards,
         })
     }
 }
@@ -379,6 +384,7 @@ impl ExtOp {
             }
             ExtOp::NonZeroStep { s } => g(s),
             ExtOp::Now { d } => g(d),
+            ExtOp::Enter { s, .. } | ExtOp::Leave { s } => g(s),
             ExtOp::Chr { d, s, .. } => {
                 g(d);
                 g(s);

@@ -112,9 +112,7 @@ impl<'c, 'p> Fx<'c, 'p> {
                     l.continues.push(at);
                 }
             }
-            StmtKind::Return => {
-                self.emit(Op::Ret, span);
-            }
+            StmtKind::Return => self.ret(span),
             StmtKind::Label(l) => {
                 let here = self.pc();
                 self.labels.insert(*l, here);

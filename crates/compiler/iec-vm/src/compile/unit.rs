@@ -5,7 +5,7 @@ use petriplc_iec_sema::ir::{PouId, PouKind, VarClass};
 use petriplc_iec_sema::types::{FbRef, Type, TypeId};
 use petriplc_iec_sema::value::Value;
 
-use crate::ext;
+use crate::ext::{self, ExtOp};
 use crate::layout::{self, FrameLayout};
 use crate::op::Op;
 
@@ -117,6 +117,19 @@ impl<'p> Compiler<'p> {
             self.pou_unit[pou as usize] = Some(unit_id);
         }
         let mut fx = Fx::new(self, unit_id, pou, layout);
+        // A POU a call through an interface may enter again: its busy flag, a temporary that
+        // no statement reuses (statements free only the temporaries they take).
+        if fx.c.p.guarded.contains(&pou) {
+            let flag = fx.temp(1);
+            fx.guard = Some(flag);
+            fx.ext(
+                ExtOp::Enter {
+                    s: flag,
+                    pou: p.name.clone(),
+                },
+                p.span,
+            );
+        }
         // VAR_TEMP (and a function's non-inputs) start from their initial values each call.
         let reinit: Vec<(u32, u32)> = {
             let mut v = Vec::new();
@@ -141,7 +154,7 @@ impl<'p> Compiler<'p> {
             fx.emit(Op::Init { s: FRAME | off, n }, p.span);
         }
         fx.stmts(&p.body)?;
-        fx.emit(Op::Ret, p.span);
+        fx.ret(p.span);
         fx.finish()?;
         if rel {
             let size = self.units[unit_id].size();
