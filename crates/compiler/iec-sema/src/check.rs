@@ -17,6 +17,8 @@ use crate::types::{Elem, TypeId, TypeTable};
 use crate::value::Value;
 use crate::Options;
 
+mod any;
+pub(crate) use any::ANY_FIELDS;
 mod body;
 mod escape;
 mod interface;

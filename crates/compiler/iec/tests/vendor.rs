@@ -336,3 +336,48 @@ END_PROGRAM";
     let checked = petriplc_iec::check(&s, &Natives::default()).unwrap_or_else(|e| panic!("{e}"));
     assert!(checked.warnings.is_empty(), "{:?}", checked.warnings);
 }
+
+/// An ANY input kept whole (`stored := Item`, an AnyType holding the caller's address) keeps
+/// the caller's pointer: a METHOD's own variable given to it is E201, while one given to an
+/// input that only reads it (`F_Size(Item)`, a T_Generic input) is accepted.
+#[test]
+fn an_any_input_kept_whole_keeps_the_callers_address() {
+    let src = "{attribute 'TcTypeSystem'}
+TYPE T_Generic : __SYSTEM.AnyType; END_TYPE
+FUNCTION F_Size : DINT
+VAR_INPUT A : T_Generic; END_VAR
+F_Size := A.diSize;
+END_FUNCTION
+FUNCTION_BLOCK FB_Store
+VAR stored : T_Generic; END_VAR
+METHOD Keep
+VAR_INPUT Item : ANY; END_VAR
+stored := Item;
+END_METHOD
+METHOD Size : DINT
+VAR_INPUT Item : ANY; END_VAR
+Size := F_Size(Item);
+END_METHOD
+END_FUNCTION_BLOCK
+FUNCTION_BLOCK FB_User
+VAR s : FB_Store; n : DINT; END_VAR
+METHOD Use
+VAR x : INT; END_VAR
+n := s.Size(x);
+s.Keep(x);
+END_METHOD
+END_FUNCTION_BLOCK
+PROGRAM main
+VAR u : FB_User; END_VAR
+u.Use();
+END_PROGRAM";
+    let mut s = Sources::new();
+    s.add_text("t.st", src);
+    let errors = match build(&s, &Select::Auto, Natives::default()) {
+        Ok(_) => panic!("built"),
+        Err(e) => e.to_string(),
+    };
+    let lines: Vec<&str> = errors.lines().filter(|l| l.contains("error[")).collect();
+    assert_eq!(lines.len(), 1, "{errors}");
+    assert!(lines[0].starts_with("t.st:23:8: error[E201]"), "{errors}");
+}

@@ -34,6 +34,7 @@ impl<'a> Checker<'a> {
                     .collect();
                 let mut body = self.en_prologue(p, ast.name.span);
                 body.extend(self.edge_prologue(p, ast.name.span));
+                body.extend(self.any_prologue(p, ast.name.span));
                 body.extend(self.stmts(stmts, &mut cx));
                 // Results of calls given EN inside an expression are variables of the POU.
                 self.pous[p as usize].vars = cx.vars;
@@ -55,6 +56,7 @@ impl<'a> Checker<'a> {
                     .collect();
                 let mut body = self.en_prologue(p, ast.name.span);
                 body.extend(self.edge_prologue(p, ast.name.span));
+                body.extend(self.any_prologue(p, ast.name.span));
                 body.extend(self.il_body(code, &mut cx));
                 // The accumulator's temporaries are variables of the POU.
                 self.pous[p as usize].vars = cx.vars;

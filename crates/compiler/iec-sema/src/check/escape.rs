@@ -39,7 +39,7 @@ impl<'a> Checker<'a> {
                 continue;
             }
             for (v, var) in self.pous[p as usize].vars.iter().enumerate() {
-                if var.class == VarClass::Input && self.types.ref_target(var.ty).is_some() {
+                if var.class == VarClass::Input && self.holds_pointer(var.ty) {
                     candidates.push((p, v as VarId));
                 }
             }
@@ -165,6 +165,14 @@ impl<'a> Checker<'a> {
 }
 
 impl Checker<'_> {
+    /// Whether a value of type `ty` is a pointer or a structure with a pointer field (an
+    /// AnyType, a T_Generic): what a frame pointer may be passed in.
+    fn holds_pointer(&self, ty: crate::types::TypeId) -> bool {
+        self.types.ref_target(ty).is_some()
+            || matches!(self.types.get(ty), crate::types::Type::Struct { fields, .. }
+                if fields.iter().any(|f| self.types.ref_target(f.ty).is_some()))
+    }
+
     /// Whether block `p` has an instance in a FUNCTION's or METHOD's frame, directly or
     /// inside another block's instance that has one.
     fn in_frame(&self, p: PouId) -> bool {
@@ -276,6 +284,14 @@ impl Flow<'_> {
                 if self.carries(value) {
                     match (target.root, target.path.is_empty()) {
                         (Root::Var(v), true) if self.is_holder_slot(v) => {
+                            self.holders.insert(v);
+                        }
+                        // A field of a structure in the POU's VAR/VAR_TEMP (an ANY input's
+                        // whole value, check/any.rs): the structure holds it from now on.
+                        (Root::Var(v), false)
+                            if self.is_holder_slot(v)
+                                && matches!(target.path[..], [Step::Field(_)]) =>
+                        {
                             self.holders.insert(v);
                         }
                         (Root::Var(v), _) => self.escape(value, Into::Var(v)),

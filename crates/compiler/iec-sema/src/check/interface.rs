@@ -227,6 +227,7 @@ impl<'a> Checker<'a> {
                 self.var_block(ast, b, &mut cx, &mut edges);
             }
         }
+        self.any_whole_vars(&mut cx);
         self.member_vars(p, &mut cx, &mut edges);
         let mut vars = std::mem::take(&mut cx.vars);
         // R_EDGE / F_EDGE inputs keep their previous raw value (and a copy of the raw one).
@@ -530,72 +531,6 @@ impl<'a> Checker<'a> {
                 });
                 cx.names.insert(key, id);
             }
-        }
-    }
-
-    /// CODESYS's and TwinCAT's `VAR_INPUT x : ANY` (TcUnit's `AssertEquals(Expected : ANY;
-    /// …)`): an input of any type, which the callee reads through the fields of
-    /// `__SYSTEM.AnyType` (`x.pValue`, `x.diSize`, `x.TypeClass`). Each field is an input of
-    /// its own, named `x.FIELD` (a name no declaration can take); the call gives the three
-    /// from its argument (`Checker::bind_any`). Whether `d` was one.
-    fn any_input(
-        &mut self,
-        pou: &ast::Pou,
-        b: &ast::VarBlock,
-        d: &ast::VarDecl,
-        cx: &mut Cx,
-    ) -> bool {
-        let ast::TypeSpec::Named(t) = &d.ty else {
-            return false;
-        };
-        if !t.is("ANY") || b.kind != VarKind::Input || !self.dialect.is_codesys_family() {
-            return false;
-        }
-        if pou.kind == PouKind::Program {
-            return false;
-        }
-        let class_ty = self.any_class_ty(t.span);
-        let fields = [
-            (
-                "pValue",
-                self.types.reference(ast::RefKind::PointerTo, ids::BYTE),
-            ),
-            ("diSize", ids::DINT),
-            ("TypeClass", class_ty),
-        ];
-        for n in &d.names {
-            if cx.names.contains_key(&format!("{}.PVALUE", n.key()))
-                || cx.names.contains_key(&n.key())
-            {
-                let first = cx.vars[cx.names.get(&n.key()).copied().unwrap_or(0) as usize].span;
-                self.duplicate(n, first);
-                continue;
-            }
-            for (f, ty) in fields {
-                let name = format!("{}.{f}", n.name);
-                cx.names
-                    .insert(name.to_ascii_uppercase(), cx.vars.len() as VarId);
-                cx.vars.push(Var {
-                    name,
-                    ty,
-                    class: VarClass::Input,
-                    init: None,
-                    constant: false,
-                    retain: false,
-                    location: None,
-                    span: n.span,
-                });
-            }
-        }
-        true
-    }
-
-    /// The type of an ANY input's `TypeClass`: the library's TYPE_CLASS when it is loaded
-    /// (twincat), else its number.
-    pub(crate) fn any_class_ty(&mut self, span: Span) -> crate::types::TypeId {
-        match self.type_decls.contains_key("TYPE_CLASS") {
-            true => self.type_by_name(&ast::Ident::new("TYPE_CLASS", span)).0,
-            false => ids::UDINT,
         }
     }
 

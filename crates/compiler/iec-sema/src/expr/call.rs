@@ -299,6 +299,40 @@ impl<'a> Checker<'a> {
         out: &mut Bound,
     ) -> bool {
         let span = v.span;
+        // An ANY input of the caller passed on whole: its three parts, as TwinCAT does.
+        if let A::Name(n) = &v.kind {
+            let parts: Vec<Option<VarId>> = crate::check::ANY_FIELDS
+                .iter()
+                .map(|f| {
+                    cx.names
+                        .get(&format!("{}.{}", n.key(), f.to_ascii_uppercase()))
+                        .copied()
+                })
+                .collect();
+            if let [Some(a), Some(b), Some(c)] = parts[..] {
+                for (k, part) in [a, b, c].into_iter().enumerate() {
+                    let ty = cx.vars[part as usize].ty;
+                    let load = Expr {
+                        kind: ExprKind::Load(Place {
+                            root: crate::ir::Root::Var(part),
+                            path: Vec::new(),
+                            ty,
+                            span,
+                        }),
+                        ty,
+                        span,
+                    };
+                    let want = match k {
+                        0 => var.ty,
+                        1 => ids::DINT,
+                        _ => self.any_class_ty(span),
+                    };
+                    let value = self.coerce(load, want, "an ANY argument passed on");
+                    out.inputs.push((id + k as VarId, value));
+                }
+                return true;
+            }
+        }
         if !matches!(
             v.kind,
             A::Name(_) | A::Field(..) | A::Index(..) | A::Deref(_) | A::Part(..)
