@@ -57,6 +57,26 @@ impl<'a> Checker<'a> {
             );
             return None;
         }
+        // A REFERENCE TO a pointer (`pNode : REFERENCE TO POINTER TO T`): the reference is
+        // dereferenced where it is used, as always, and `^` follows the pointer it designates.
+        if let Type::Ref {
+            kind: RefKind::ReferenceTo,
+            ..
+        } = self.types.get(p.ty)
+        {
+            if let Some(t) = self.types.ref_target(p.ty).filter(|&t| {
+                matches!(
+                    self.types.get(t),
+                    Type::Ref {
+                        kind: RefKind::PointerTo | RefKind::RefTo,
+                        ..
+                    }
+                )
+            }) {
+                p.path.push(Step::Deref);
+                p.ty = t;
+            }
+        }
         if let Type::Ref {
             kind: RefKind::ReferenceTo,
             ..
