@@ -280,8 +280,9 @@ impl<'a> Checker<'a> {
         self.pou_asts[p as usize].return_type.is_some()
     }
 
-    /// After a block's own variables: its methods' VAR_INST (in the instance, named
-    /// `LEVEL.METHOD.NAME`); after a member's: THIS.
+    /// After a block's own variables: its methods' and property accessors' VAR_INST (in
+    /// the instance, named `LEVEL.METHOD.NAME`, `LEVEL.PROPERTY.GET.NAME`); after a
+    /// member's: THIS.
     pub(crate) fn member_vars(
         &mut self,
         p: PouId,
@@ -311,7 +312,13 @@ impl<'a> Checker<'a> {
             .oop
             .members
             .iter()
-            .filter(|(_, m)| m.owner == p && m.kind == MemberKind::Method)
+            .filter(|(_, m)| {
+                m.owner == p
+                    && matches!(
+                        m.kind,
+                        MemberKind::Method | MemberKind::Get | MemberKind::Set
+                    )
+            })
             .map(|(&id, m)| (id, m.clone()))
             .collect();
         mine.sort_by_key(|(id, _)| *id);
@@ -340,7 +347,12 @@ impl<'a> Checker<'a> {
     }
 
     pub(crate) fn inst_prefix(&self, m: &Member) -> String {
-        format!("{}.{}.", self.pou_asts[m.origin as usize].name.name, m.name)
+        let level = &self.pou_asts[m.origin as usize].name.name;
+        match m.kind {
+            MemberKind::Get => format!("{level}.{}.GET.", m.name),
+            MemberKind::Set => format!("{level}.{}.SET.", m.name),
+            _ => format!("{level}.{}.", m.name),
+        }
     }
 
     /// The instance the code of POU `p` works on, if it is a block's, a program's or a
@@ -352,7 +364,11 @@ impl<'a> Checker<'a> {
                 owner: m.owner,
                 root: Root::Var(this),
                 origin: m.origin,
-                inst_prefix: (m.kind == MemberKind::Method).then(|| self.inst_prefix(&m)),
+                inst_prefix: matches!(
+                    m.kind,
+                    MemberKind::Method | MemberKind::Get | MemberKind::Set
+                )
+                .then(|| self.inst_prefix(&m)),
             });
         }
         let kind = self.pou_asts[p as usize].kind;
