@@ -121,6 +121,7 @@ codes! {
     REPLACEMENT_CHAR = "W043",
     FB_INIT_NOT_CALLED = "W049",
     RECURSION_THROUGH_INTERFACE = "W050",
+    IMPLICIT_NARROWING = "W051",
 }
 
 /// Diagnostics collected by a stage, in the order found.

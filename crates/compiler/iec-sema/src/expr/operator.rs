@@ -860,6 +860,9 @@ impl<'a> Checker<'a> {
             if bits_fit(*a, *b) {
                 return self.bits_as_number(x, *a, *b, what);
             }
+            if self.dialect.is_codesys_family() && narrows(*a, *b) {
+                return self.implicit_narrowing(x, *a, *b, what);
+            }
         }
         let (a, b) = (self.types.name(x.ty), self.types.name(to));
         let hint = conversion_hint(&self.types, x.ty, to);
@@ -869,6 +872,19 @@ impl<'a> Checker<'a> {
             format!("{what} is {a} but {b} is needed{hint}"),
         );
         err(span)
+    }
+
+    /// A value where a type that does not hold all its values is needed, in the CODESYS
+    /// family: converted as the `A_TO_B` function converts it (an integer keeps its low
+    /// bits, LREAL to REAL rounds to nearest), with W051; the standard and matiec refuse it.
+    fn implicit_narrowing(&mut self, x: Expr, a: Elem, b: Elem, what: &str) -> Expr {
+        let (an, bn) = (a.name(), b.name());
+        self.diags.warning(
+            diag::IMPLICIT_NARROWING,
+            x.span,
+            format!("{what} is {an}, converted to {bn} implicitly as CODESYS and TwinCAT do (as {an}_TO_{bn}: a value outside {bn} changes); write {an}_TO_{bn}(…) to say so"),
+        );
+        self.convert(x, TypeTable::elem_id(b))
     }
 
     /// A bit string's value where a number that holds all its values is needed: CODESYS and
@@ -882,6 +898,16 @@ impl<'a> Checker<'a> {
         );
         self.convert(x, TypeTable::elem_id(b))
     }
+}
+
+/// Whether CODESYS and TwinCAT convert `a` to `b` implicitly though some values change (W051):
+/// between integers and bit strings of any widths, an integer to a REAL or LREAL that cannot
+/// hold all its values exactly, LREAL to REAL. (REAL to an integer, and BOOL, stay explicit.)
+fn narrows(a: Elem, b: Elem) -> bool {
+    let whole = |e: Elem| e.is_int() || e.is_bitstring();
+    (whole(a) && whole(b) && a != Elem::Bool && b != Elem::Bool)
+        || (a.is_int() && b.is_real())
+        || (a == Elem::Lreal && b == Elem::Real)
 }
 
 /// Whether every value of the bit string `a` is a value of the number type `b` (BYTE in INT,
