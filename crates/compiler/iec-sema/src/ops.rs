@@ -475,11 +475,12 @@ pub fn from_text(s: &[u8], to: Elem) -> OpResult<Value> {
         _ => upper.clone(),
     };
     match to {
-        Elem::Bool => match body.as_str() {
-            "TRUE" | "1" => Ok(Value::Int(1)),
-            "FALSE" | "0" => Ok(Value::Int(0)),
-            _ => Err(OpError::Conversion),
-        },
+        // Any text but TRUE (any case) and 1 is FALSE, as matiec and CODESYS convert it
+        // (Beremiz's language test checks STRING_TO_BOOL('42') = FALSE).
+        Elem::Bool => Ok(Value::Int(i128::from(matches!(
+            body.as_str(),
+            "TRUE" | "1"
+        )))),
         Elem::Real | Elem::Lreal => {
             let f: f64 = body
                 .replace('_', "")
