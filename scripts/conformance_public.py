@@ -22,7 +22,7 @@ import tempfile
 from collections import Counter, defaultdict
 
 TIMEOUT = 60
-TEXT = (b".st", b".il", b".txt", b".xml", b".tcpou", b".tcdut", b".tcgvl", b".tcio", b".tctto", b".plcproj", b".exp")
+TEXT = (b".st", b".il", b".txt", b".xml", b".tcpou", b".tcdut", b".tcgvl", b".tcio", b".tctto", b".tctleo", b".plcproj", b".exp")
 ERR = re.compile(r"^(?P<file>.+?)(:\d+:\d+)?(, [^:]*)?: error\[(?P<code>[A-Z]\d+)\]: (?P<msg>.*)$")
 # What another helper of issue 29 builds, told apart in the table of first errors.
 CAUSES = [
