@@ -137,11 +137,15 @@ impl Sources {
             syntax::plcopen::read(&mut self.map, name, text, &mut self.diags)
         } else {
             let f = self.map.add(name, text);
-            if name.to_ascii_lowercase().ends_with(".il") {
+            let lib = if name.to_ascii_lowercase().ends_with(".il") {
                 syntax::parse_il(f, text, &mut self.diags)
             } else {
                 syntax::parse(f, text, &mut self.diags)
+            };
+            if beremiz::generated_by_beremiz(&lib) && self.detected_libs.is_empty() {
+                self.detected_libs.push("beremiz".into());
             }
+            lib
         };
         for e in lib.elements {
             self.push_element(e);
