@@ -18,7 +18,6 @@ use crate::value::Value;
 use crate::Options;
 
 mod any;
-pub(crate) use any::ANY_FIELDS;
 mod body;
 mod escape;
 mod interface;

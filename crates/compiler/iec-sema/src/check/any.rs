@@ -8,12 +8,12 @@ use petriplc_iec_syntax::ast::{self, PouKind, VarKind};
 use petriplc_iec_syntax::source::Span;
 
 use crate::ir::{self, PouId, Var, VarClass, VarId};
-use crate::types::{ids, Type};
+use crate::types::{ids, Type, TypeId};
 
 use super::{Checker, Cx};
 
 /// The three fields of AnyType, in its order, as the inputs are named after them.
-pub(crate) const ANY_FIELDS: [&str; 3] = ["pValue", "diSize", "TypeClass"];
+const ANY_FIELDS: [&str; 3] = ["pValue", "diSize", "TypeClass"];
 
 impl Checker<'_> {
     /// CODESYS's and TwinCAT's `VAR_INPUT x : ANY` (TcUnit's `AssertEquals(Expected : ANY;
@@ -37,15 +37,7 @@ impl Checker<'_> {
         if pou.kind == PouKind::Program {
             return false;
         }
-        let class_ty = self.any_class_ty(t.span);
-        let fields = [
-            (
-                "pValue",
-                self.types.reference(ast::RefKind::PointerTo, ids::BYTE),
-            ),
-            ("diSize", ids::DINT),
-            ("TypeClass", class_ty),
-        ];
+        let fields = self.any_fields(t.span);
         for n in &d.names {
             if cx.names.contains_key(&format!("{}.PVALUE", n.key()))
                 || cx.names.contains_key(&n.key())
@@ -59,23 +51,31 @@ impl Checker<'_> {
                 cx.names
                     .insert(name.to_ascii_uppercase(), cx.vars.len() as VarId);
                 cx.vars.push(Var {
-                    name,
-                    ty,
                     class: VarClass::Input,
-                    init: None,
-                    constant: false,
-                    retain: false,
-                    location: None,
-                    span: n.span,
+                    ..Var::hidden(name, ty, n.span)
                 });
             }
         }
         true
     }
 
+    /// The three inputs an ANY input is, by the field of AnyType each holds, with their
+    /// types: POINTER TO BYTE, DINT and the type class (`any_class_ty`).
+    pub(crate) fn any_fields(&mut self, span: Span) -> [(&'static str, TypeId); 3] {
+        let [value, size, class] = ANY_FIELDS;
+        [
+            (
+                value,
+                self.types.reference(ast::RefKind::PointerTo, ids::BYTE),
+            ),
+            (size, ids::DINT),
+            (class, self.any_class_ty(span)),
+        ]
+    }
+
     /// The type of an ANY input's `TypeClass`: the library's TYPE_CLASS when it is loaded
     /// (twincat), else its number.
-    pub(crate) fn any_class_ty(&mut self, span: Span) -> crate::types::TypeId {
+    pub(crate) fn any_class_ty(&mut self, span: Span) -> TypeId {
         match self.type_decls.contains_key("TYPE_CLASS") {
             true => self.type_by_name(&ast::Ident::new("TYPE_CLASS", span)).0,
             false => ids::UDINT,
@@ -106,14 +106,8 @@ impl Checker<'_> {
             cx.names
                 .insert(name.to_ascii_uppercase(), cx.vars.len() as VarId);
             cx.vars.push(Var {
-                name,
-                ty,
                 class: VarClass::Temp,
-                init: None,
-                constant: false,
-                retain: false,
-                location: None,
-                span,
+                ..Var::hidden(name, ty, span)
             });
         }
     }

@@ -301,9 +301,10 @@ impl<'a> Checker<'a> {
         let span = v.span;
         // An ANY input of the caller passed on whole: its three parts, as TwinCAT does.
         if let A::Name(n) = &v.kind {
-            let parts: Vec<Option<VarId>> = crate::check::ANY_FIELDS
+            let fields = self.any_fields(span);
+            let parts: Vec<Option<VarId>> = fields
                 .iter()
-                .map(|f| {
+                .map(|(f, _)| {
                     cx.names
                         .get(&format!("{}.{}", n.key(), f.to_ascii_uppercase()))
                         .copied()
@@ -322,12 +323,7 @@ impl<'a> Checker<'a> {
                         ty,
                         span,
                     };
-                    let want = match k {
-                        0 => var.ty,
-                        1 => ids::DINT,
-                        _ => self.any_class_ty(span),
-                    };
-                    let value = self.coerce(load, want, "an ANY argument passed on");
+                    let value = self.coerce(load, fields[k].1, "an ANY argument passed on");
                     out.inputs.push((id + k as VarId, value));
                 }
                 return true;

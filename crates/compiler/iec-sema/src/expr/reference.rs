@@ -57,14 +57,12 @@ impl<'a> Checker<'a> {
             );
             return None;
         }
-        // A REFERENCE TO a pointer (`pNode : REFERENCE TO POINTER TO T`): the reference is
-        // dereferenced where it is used, as always, and `^` follows the pointer it designates.
         if let Type::Ref {
             kind: RefKind::ReferenceTo,
             ..
         } = self.types.get(p.ty)
         {
-            if let Some(t) = self.types.ref_target(p.ty).filter(|&t| {
+            let pointer = self.types.ref_target(p.ty).filter(|&t| {
                 matches!(
                     self.types.get(t),
                     Type::Ref {
@@ -72,26 +70,26 @@ impl<'a> Checker<'a> {
                         ..
                     }
                 )
-            }) {
-                p.path.push(Step::Deref);
-                p.ty = t;
-            }
-        }
-        if let Type::Ref {
-            kind: RefKind::ReferenceTo,
-            ..
-        } = self.types.get(p.ty)
-        {
-            // IronPLC's reading; CODESYS refuses `^` on a reference, which is dereferenced
-            // where it is used.
-            self.diags.warning(
-                diag::REFERENCE_CARET,
-                e.span,
-                format!(
-                    "this is a {}, dereferenced where it is used: the `^` is redundant (CODESYS refuses it); drop it",
-                    self.types.name(p.ty)
+            });
+            match pointer {
+                // A REFERENCE TO a pointer (`pNode : REFERENCE TO POINTER TO T`): the
+                // reference is dereferenced where it is used, as always, and `^` follows the
+                // pointer it designates.
+                Some(t) => {
+                    p.path.push(Step::Deref);
+                    p.ty = t;
+                }
+                // IronPLC's reading; CODESYS refuses `^` on a reference, which is
+                // dereferenced where it is used.
+                None => self.diags.warning(
+                    diag::REFERENCE_CARET,
+                    e.span,
+                    format!(
+                        "this is a {}, dereferenced where it is used: the `^` is redundant (CODESYS refuses it); drop it",
+                        self.types.name(p.ty)
+                    ),
                 ),
-            );
+            }
         }
         let Some(target) = self.types.ref_target(p.ty) else {
             if p.ty != ids::ERROR {

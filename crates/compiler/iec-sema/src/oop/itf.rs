@@ -158,14 +158,8 @@ impl<'a> Checker<'a> {
         }
         let ty = self.itf_type(m.owner);
         cx.vars.push(Var {
-            name: "THIS".into(),
-            ty,
             class: VarClass::Input,
-            init: None,
-            constant: false,
-            retain: false,
-            location: None,
-            span: m.span,
+            ..Var::hidden("THIS".into(), ty, m.span)
         });
     }
 
