@@ -381,3 +381,43 @@ END_PROGRAM";
     assert_eq!(lines.len(), 1, "{errors}");
     assert!(lines[0].starts_with("t.st:23:8: error[E201]"), "{errors}");
 }
+
+/// A structure input holding a pointer (a T_Generic) whose field the callee stores in a
+/// global keeps the caller's address: a METHOD's own variable put in it is E201.
+#[test]
+fn a_pointer_field_of_a_structure_input_kept_keeps_the_callers_address() {
+    let src = "{attribute 'TcTypeSystem'}
+TYPE T_Generic : __SYSTEM.AnyType; END_TYPE
+VAR_GLOBAL g : POINTER TO BYTE; END_VAR
+FUNCTION F_Keep : BOOL
+VAR_INPUT A : T_Generic; END_VAR
+VAR_EXTERNAL g : POINTER TO BYTE; END_VAR
+g := A.pValue;
+END_FUNCTION
+FUNCTION F_Read : DINT
+VAR_INPUT A : T_Generic; END_VAR
+F_Read := A.diSize + BYTE_TO_DINT(A.pValue^);
+END_FUNCTION
+FUNCTION_BLOCK FB_User
+VAR n : DINT; END_VAR
+METHOD Use
+VAR x : INT; t : T_Generic; END_VAR
+t.pValue := ADR(x);
+n := F_Read(t);
+F_Keep(t);
+END_METHOD
+END_FUNCTION_BLOCK
+PROGRAM main
+VAR u : FB_User; END_VAR
+u.Use();
+END_PROGRAM";
+    let mut s = Sources::new();
+    s.add_text("t.st", src);
+    let errors = match build(&s, &Select::Auto, Natives::default()) {
+        Ok(_) => panic!("built"),
+        Err(e) => e.to_string(),
+    };
+    let lines: Vec<&str> = errors.lines().filter(|l| l.contains("error[")).collect();
+    assert_eq!(lines.len(), 1, "{errors}");
+    assert!(lines[0].starts_with("t.st:19:8: error[E201]"), "{errors}");
+}

@@ -13,6 +13,7 @@ use crate::ir::{
     BinaryOp, Builtin, Expr, ExprKind, Place, PouId, PouKind, Root, Step, Stmt, StmtKind,
 };
 use crate::ir::{GlobalId, VarClass, VarId};
+use crate::types::TypeTable;
 
 use super::Checker;
 
@@ -59,8 +60,9 @@ impl<'a> Checker<'a> {
                 let mut holders = BTreeSet::from([v]);
                 let mut errors = Vec::new();
                 let body = &self.pous[p as usize].body;
-                holders_of(body, &frame, &slots, &mut holders, &free);
+                holders_of(&self.types, body, &frame, &slots, &mut holders, &free);
                 let mut f = Flow {
+                    types: &self.types,
                     frame: &frame,
                     slots: &slots,
                     holders: &mut holders,
@@ -123,9 +125,10 @@ impl<'a> Checker<'a> {
             .collect();
         // Variables that may hold such a pointer: plain VAR/VAR_TEMP pointers assigned one.
         let mut holders = BTreeSet::new();
-        holders_of(body, &frame, &slots, &mut holders, free);
+        holders_of(&self.types, body, &frame, &slots, &mut holders, free);
         let mut errors = Vec::new();
         let mut f = Flow {
+            types: &self.types,
             frame: &frame,
             slots: &slots,
             holders: &mut holders,
@@ -197,6 +200,7 @@ impl Checker<'_> {
 
 /// Grows `holders` with the variables a frame pointer is assigned to, until stable.
 fn holders_of(
+    types: &TypeTable,
     body: &[Stmt],
     frame: &[bool],
     slots: &[bool],
@@ -206,6 +210,7 @@ fn holders_of(
     loop {
         let before = holders.len();
         let mut f = Flow {
+            types,
             frame,
             slots,
             holders,
@@ -220,6 +225,7 @@ fn holders_of(
 }
 
 struct Flow<'f> {
+    types: &'f TypeTable,
     /// The variables whose address is a frame pointer.
     frame: &'f [bool],
     /// The variables that may hold one (the POU's own VAR/VAR_TEMP of a frame's lifetime).
@@ -254,8 +260,13 @@ impl Flow<'_> {
                     _ => false,
                 },
             },
+            // A holder, or a field of one that holds a reference (a structure holding the
+            // pointer: an AnyType's pValue, not its diSize).
             ExprKind::Load(p) => {
-                p.path.is_empty() && matches!(p.root, Root::Var(v) if self.holders.contains(&v))
+                matches!(p.root, Root::Var(v) if self.holders.contains(&v))
+                    && (p.path.is_empty()
+                        || (p.path.iter().all(|s| matches!(s, Step::Field(_)))
+                            && self.types.holds_reference(p.ty)))
             }
             ExprKind::Binary(BinaryOp::Add | BinaryOp::Sub, a, b) => {
                 self.carries(a) || self.carries(b)
