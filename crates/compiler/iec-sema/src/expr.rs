@@ -14,6 +14,7 @@ mod bcd;
 mod bounds;
 mod builtin;
 mod call;
+mod heap;
 mod name;
 mod operator;
 mod place;

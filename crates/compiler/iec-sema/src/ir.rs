@@ -399,6 +399,14 @@ pub enum Builtin {
     MemSet,
     /// MEMCMP(a, b, n): -1, 0 or 1.
     MemCmp,
+    /// `__NEW`: a new object of the result's target type (an argument: the count of an
+    /// array of them), NULL when the dynamic memory is full.
+    New,
+    /// `__DELETE`: the object its argument (a pointer, given by `Load` of the variable when
+    /// it has one, which is then set to NULL) designates is freed.
+    Free,
+    /// The memory area of a pointer (UDINT: 0 unknown, 1 static, 2 dynamic).
+    MemArea,
     /// The interface handle given, a fault when it is NULL (a call through an interface).
     ItfCheck,
     /// The type id of the instance an interface handle designates (DINT; -1 for NULL): the
@@ -456,6 +464,9 @@ impl Builtin {
             Builtin::MemCpy => "MEMCPY",
             Builtin::MemSet => "MEMSET",
             Builtin::MemCmp => "MEMCMP",
+            Builtin::New => "__NEW",
+            Builtin::Free => "__DELETE",
+            Builtin::MemArea => "__MEMORYAREA",
             Builtin::ItfCheck => "interface call",
             Builtin::ItfType => "interface dispatch",
             Builtin::Bound => "LOWER_BOUND/UPPER_BOUND",

@@ -54,6 +54,20 @@ impl Checker<'_> {
                 if x.ty == ids::ERROR || p.ty == ids::ERROR {
                     return None;
                 }
+                if matches!(self.types.get(x.ty), Type::Void)
+                    && self.dialect.is_codesys_family()
+                    && matches!(x.kind, ir::ExprKind::Call(_))
+                {
+                    self.diags.warning(
+                        diag::VOID_ASSIGNED,
+                        value.span,
+                        "this FUNCTION has no result: the call runs and the variable keeps what its outputs set (CODESYS and TwinCAT accept it); call the function as a statement",
+                    );
+                    return Some(Stmt {
+                        kind: StmtKind::Eval(x),
+                        span,
+                    });
+                }
                 if matches!(self.types.get(x.ty), Type::Void) {
                     self.error(
                         diag::TYPE_MISMATCH,
@@ -473,6 +487,9 @@ impl Checker<'_> {
         }
         if let Some(r) = self.en_stmt(None, call, span, cx) {
             return r;
+        }
+        if matches!(&call.callee.kind, ast::ExprKind::Name(n) if n.is("__DELETE")) {
+            return self.delete_stmt(call, cx);
         }
         // A function (user or standard) called for its effects.
         if let ast::ExprKind::Name(n) = &call.callee.kind {

@@ -122,6 +122,7 @@ codes! {
     FB_INIT_NOT_CALLED = "W049",
     RECURSION_THROUGH_INTERFACE = "W050",
     IMPLICIT_NARROWING = "W051",
+    VOID_ASSIGNED = "W052",
 }
 
 /// Diagnostics collected by a stage, in the order found.

@@ -31,7 +31,11 @@ pub const DONE_FLAG: &str = "__FB_INIT_DONE";
 /// globals) are reported (W049).
 pub fn lower(lib: &Library, diags: &mut Diagnostics) -> Option<Library> {
     let blocks = Blocks::of(lib);
-    if !blocks.any_init && !has_init_args(lib) && !has_runtime_init(lib, &blocks) {
+    if !blocks.any_init
+        && !has_init_args(lib)
+        && !has_runtime_init(lib, &blocks)
+        && !has_inst_this(lib)
+    {
         return None;
     }
     not_called(lib, &blocks, diags);
@@ -39,6 +43,12 @@ pub fn lower(lib: &Library, diags: &mut Diagnostics) -> Option<Library> {
     for el in &mut out.elements {
         let Element::Pou(p) = el else { continue };
         lower_pou(p, &blocks);
+        for b in bodies_of(p) {
+            lower_new(b, &blocks);
+        }
+        for m in members_of(p) {
+            lower_inst_this(m);
+        }
     }
     Some(out)
 }
@@ -184,7 +194,9 @@ impl<'a> Blocks<'a> {
                 ExprKind::Field(..) | ExprKind::Index(..) => true,
                 _ => false,
             };
-        (reference || itf).then_some(e)
+        // A METHOD's VAR computed from its instance or through a pointer (`pCurrent :
+        // POINTER TO T := THIS^.pRoot;`, `pY : POINTER TO T := pX^.pRight;`).
+        (reference || itf || expr_uses_this(e)).then_some(e)
     }
 
     /// An instance of the block needs initialising (its FB_init, or its members').
@@ -293,30 +305,272 @@ fn calls(inits: &[Init1]) -> Vec<Stmt> {
     }
     for i in inits {
         let inst = build::name(&i.name.name, i.span);
-        if i.nested {
-            let c = build::call(build::field(inst.clone(), MEMBERS_METHOD), Vec::new());
-            out.push(call_stmt(c));
-        }
-        if let Some(args) = &i.fb_init {
-            let named = args.iter().any(|a| a.name.is_some());
-            let flag = |n: &str| {
-                let v = build::boolean(false, i.span);
-                if named {
-                    build::arg(n, v)
-                } else {
-                    Arg {
-                        name: None,
-                        output: false,
-                        negated: false,
-                        value: Some(v),
-                        span: i.span,
-                    }
+        out.extend(init_calls(inst, i.nested, i.fb_init.as_deref(), i.span));
+    }
+    out
+}
+
+/// The calls that initialise the instance `inst`: its members' (`nested`), then its FB_init
+/// with `bInitRetains := FALSE, bInCopyCode := FALSE` and `args` (when it has one).
+fn init_calls(inst: Expr, nested: bool, fb_init: Option<&[Arg]>, span: Span) -> Vec<Stmt> {
+    let mut out = Vec::new();
+    if nested {
+        let c = build::call(build::field(inst.clone(), MEMBERS_METHOD), Vec::new());
+        out.push(call_stmt(c));
+    }
+    if let Some(args) = fb_init {
+        let named = args.iter().any(|a| a.name.is_some());
+        let flag = |n: &str| {
+            let v = build::boolean(false, span);
+            if named {
+                build::arg(n, v)
+            } else {
+                Arg {
+                    name: None,
+                    output: false,
+                    negated: false,
+                    value: Some(v),
+                    span,
                 }
+            }
+        };
+        let mut all = vec![flag("bInitRetains"), flag("bInCopyCode")];
+        all.extend(args.iter().cloned());
+        let c = build::call(build::field(inst, "FB_init"), all);
+        out.push(call_stmt(c));
+    }
+    out
+}
+
+/// `p := __NEW(FB_X(args));` (or `__NEW(FB_X)` of a block that needs initialising), as
+/// TwinCAT runs it: the new instance's members and its FB_init are initialised right after
+/// it is made, `p := __NEW(FB_X); IF p <> 0 THEN p^.FB_init(FALSE, FALSE, args); END_IF`.
+fn lower_new(stmts: &mut Vec<Stmt>, blocks: &Blocks) {
+    let mut out = Vec::with_capacity(stmts.len());
+    for mut st in std::mem::take(stmts) {
+        match &mut st.kind {
+            StmtKind::If {
+                branches,
+                else_body,
+            } => {
+                for (_, b) in branches {
+                    lower_new(b, blocks);
+                }
+                if let Some(b) = else_body {
+                    lower_new(b, blocks);
+                }
+            }
+            StmtKind::Case {
+                arms, else_body, ..
+            } => {
+                for a in arms {
+                    lower_new(&mut a.body, blocks);
+                }
+                if let Some(b) = else_body {
+                    lower_new(b, blocks);
+                }
+            }
+            StmtKind::For { body, .. }
+            | StmtKind::While { body, .. }
+            | StmtKind::Repeat { body, .. } => lower_new(body, blocks),
+            StmtKind::Assign { target, value } => {
+                if let Some((ty, args)) = new_of_block(value, blocks) {
+                    let span = st.span;
+                    let key = ty.key();
+                    let nested = !blocks.members(&key, &mut BTreeSet::new()).is_empty();
+                    let init = blocks.has_fb_init(&key).then(|| args.unwrap_or_default());
+                    let inst = Expr {
+                        kind: ExprKind::Deref(Box::new(target.clone())),
+                        span: target.span,
+                    };
+                    let calls = init_calls(inst, nested, init.as_deref(), span);
+                    let made = build::bin(
+                        BinaryOp::Ne,
+                        target.clone(),
+                        Expr {
+                            kind: ExprKind::Literal(Literal::Int { value: 0, ty: None }),
+                            span,
+                        },
+                    );
+                    if let ExprKind::Call(c) = &mut value.kind {
+                        c.args[0].value = Some(build::name(&ty.name, ty.span));
+                    }
+                    out.push(st);
+                    if !calls.is_empty() {
+                        out.push(build::when(made, calls));
+                    }
+                    continue;
+                }
+            }
+            _ => {}
+        }
+        out.push(st);
+    }
+    *stmts = out;
+}
+
+/// `__NEW(T(args))` or `__NEW(T)` of a block `T` that needs initialising: `T`, and the
+/// arguments when given.
+fn new_of_block(e: &Expr, blocks: &Blocks) -> Option<(Ident, Option<Vec<Arg>>)> {
+    let ExprKind::Call(c) = &e.kind else {
+        return None;
+    };
+    if !matches!(&c.callee.kind, ExprKind::Name(n) if n.is("__NEW")) || c.args.len() != 1 {
+        return None;
+    }
+    let (ty, args) = match &c.args[0].value.as_ref()?.kind {
+        ExprKind::Name(t) => (t.clone(), None),
+        ExprKind::Call(inner) => match &inner.callee.kind {
+            ExprKind::Name(t) if blocks.fbs.contains_key(&t.key()) => {
+                (t.clone(), Some(inner.args.clone()))
+            }
+            _ => return None,
+        },
+        _ => return None,
+    };
+    (blocks.needs(&ty.key()) || args.is_some()).then_some((ty, args))
+}
+
+/// The flag of a member whose VAR_INST initial values need THIS: they were set.
+pub const INST_DONE_FLAG: &str = "__VAR_INST_DONE";
+
+/// Whether a METHOD's or accessor's VAR_INST has an initial value computed from THIS.
+fn has_inst_this(lib: &Library) -> bool {
+    lib.elements.iter().any(|el| match el {
+        Element::Pou(p) => {
+            let mut p = p.clone();
+            members_of(&mut p).into_iter().any(|m| {
+                m.var_blocks.iter().any(|b| {
+                    b.kind == VarKind::Inst
+                        && b.vars
+                            .iter()
+                            .any(|d| d.init.as_ref().is_some_and(init_uses_this))
+                })
+            })
+        }
+        _ => false,
+    })
+}
+
+/// The methods and property accessors of the POU.
+fn members_of(p: &mut Pou) -> Vec<&mut Pou> {
+    let mut out: Vec<&mut Pou> = p.oop.methods.iter_mut().map(|m| &mut m.pou).collect();
+    for pr in &mut p.oop.properties {
+        out.extend([&mut pr.get, &mut pr.set].into_iter().flatten());
+    }
+    out
+}
+
+fn init_uses_this(i: &Init) -> bool {
+    match i {
+        Init::Expr(e) => expr_uses_this(e),
+        Init::Struct { fields, .. } => fields.iter().any(|(_, i)| init_uses_this(i)),
+        Init::Array { items, .. } => items
+            .iter()
+            .any(|it| it.value.as_ref().is_some_and(init_uses_this)),
+    }
+}
+
+/// Whether an initial value reads THIS or through a pointer: it is computed where the
+/// variable begins (a member's call, an instance's first run), not laid out beforehand.
+fn expr_uses_this(e: &Expr) -> bool {
+    match &e.kind {
+        ExprKind::Name(n) => n.is("THIS"),
+        // What a pointer designates is known only when the code runs (`pX^.pRight`).
+        ExprKind::Deref(_) => true,
+        ExprKind::Field(b, _)
+        | ExprKind::Bit(b, _)
+        | ExprKind::Part(b, ..)
+        | ExprKind::Unary(_, b)
+        | ExprKind::Paren(b) => expr_uses_this(b),
+        ExprKind::Index(b, ix) => expr_uses_this(b) || ix.iter().any(expr_uses_this),
+        ExprKind::Binary(_, a, b) => expr_uses_this(a) || expr_uses_this(b),
+        ExprKind::Call(c) => {
+            expr_uses_this(&c.callee)
+                || c.args
+                    .iter()
+                    .any(|a| a.value.as_ref().is_some_and(expr_uses_this))
+        }
+        ExprKind::Literal(_) | ExprKind::Direct(_) | ExprKind::Error => false,
+    }
+}
+
+/// A member's VAR_INST whose initial value needs THIS (TwinCAT-Dynamic-Collections'
+/// `fbList_View : FB_View := (ipList := THIS^.fbList);`): the instance is not known when
+/// the values are laid out, so they are set when the member first runs on the instance,
+/// under a hidden VAR_INST flag (before any other statement of it).
+fn lower_inst_this(m: &mut Pou) {
+    let mut sets = Vec::new();
+    for b in m.var_blocks.iter_mut().filter(|b| b.kind == VarKind::Inst) {
+        for d in &mut b.vars {
+            let Some(init) = d.init.take() else { continue };
+            let kept = match init {
+                Init::Expr(e) if expr_uses_this(&e) => {
+                    for n in &d.names {
+                        sets.push(build::assign(build::name(&n.name, n.span), e.clone()));
+                    }
+                    None
+                }
+                Init::Struct { fields, span } if fields.iter().any(|(_, i)| init_uses_this(i)) => {
+                    let mut rest = Vec::new();
+                    for (f, i) in fields {
+                        match i {
+                            Init::Expr(e) if expr_uses_this(&e) => {
+                                for n in &d.names {
+                                    let target =
+                                        build::field(build::name(&n.name, n.span), &f.name);
+                                    sets.push(build::assign(target, e.clone()));
+                                }
+                            }
+                            i => rest.push((f, i)),
+                        }
+                    }
+                    (!rest.is_empty()).then_some(Init::Struct { fields: rest, span })
+                }
+                other => Some(other),
             };
-            let mut all = vec![flag("bInitRetains"), flag("bInCopyCode")];
-            all.extend(args.iter().cloned());
-            let c = build::call(build::field(inst, "FB_init"), all);
-            out.push(call_stmt(c));
+            d.init = kept;
+        }
+    }
+    if sets.is_empty() {
+        return;
+    }
+    let span = m.name.span;
+    let flag = build::name(INST_DONE_FLAG, span);
+    let mut body = vec![build::assign(flag.clone(), build::boolean(true, span))];
+    body.extend(sets);
+    m.var_blocks.push(VarBlock {
+        kind: VarKind::Inst,
+        constant: false,
+        retain: Retain::NonRetain,
+        vars: vec![build::decl(INST_DONE_FLAG, "BOOL", None, span)],
+        list: None,
+        span,
+    });
+    prepend(&mut m.body, vec![build::when(build::not(flag), body)]);
+}
+
+/// Every statement list of the POU: its body, its members'.
+fn bodies_of(p: &mut Pou) -> Vec<&mut Vec<Stmt>> {
+    let mut out = Vec::new();
+    if let Body::St(b) = &mut p.body {
+        out.push(b);
+    }
+    for m in &mut p.oop.methods {
+        if let Body::St(b) = &mut m.pou.body {
+            out.push(b);
+        }
+    }
+    for pr in &mut p.oop.properties {
+        for acc in [&mut pr.get, &mut pr.set].into_iter().flatten() {
+            if let Body::St(b) = &mut acc.body {
+                out.push(b);
+            }
+        }
+    }
+    for a in &mut p.oop.actions {
+        if let Body::St(b) = &mut a.body {
+            out.push(b);
         }
     }
     out

@@ -83,6 +83,28 @@ pub enum ExtOp {
         n: u32,
         what: String,
     },
+    /// `__NEW`: `d` = the handle of a new object of `mem[base + n]` values of type id `ty`
+    /// (`slots` each), each a copy of the prototype at absolute slot `proto`; NULL when the
+    /// dynamic memory ([`crate::heap`]) is full. `n` is `None` for one value.
+    New {
+        d: u32,
+        n: Option<u32>,
+        ty: u32,
+        slots: u32,
+        proto: u32,
+    },
+    /// `__DELETE`: the object the handle in `p` designates is freed; with `by_addr`, `p`
+    /// holds the address of the pointer variable, which is set to NULL.
+    Free {
+        p: u32,
+        by_addr: bool,
+    },
+    /// TwinCAT's `F_CheckMemoryArea(p, n)`: `d` = 0 (Unknown: NULL, stale), 1 (Static), 2
+    /// (Dynamic: a `__NEW` object).
+    Area {
+        d: u32,
+        p: u32,
+    },
     /// `d` = the pointer in `p` moved by `n` (a LINT slot) bytes, back when `sub`.
     PtrAdd {
         d: u32,
@@ -547,6 +569,9 @@ pub fn exec(
             mem[base + *d as usize] = r as i64 as u64;
         }
         ExtOp::MakeRef { .. }
+        | ExtOp::New { .. }
+        | ExtOp::Free { .. }
+        | ExtOp::Area { .. }
         | ExtOp::Deref { .. }
         | ExtOp::PtrAdd { .. }
         | ExtOp::ViewLoad { .. }

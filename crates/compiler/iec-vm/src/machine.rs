@@ -797,8 +797,18 @@ impl Machine {
         self.single_was.iter_mut().for_each(|w| *w = false);
     }
 
+    /// A new epoch of the dynamic memory: what the last run deleted may be reused, since no
+    /// call that could still use its slots is running ([`crate::heap`]).
+    #[inline(always)]
+    fn heap_tick(&mut self) {
+        if let Some(h) = self.engine.code.shapes.heap {
+            h.tick(&mut self.mem);
+        }
+    }
+
     /// Runs one program instance once at time `now` (nanoseconds).
     pub fn run_instance(&mut self, instance: usize, now: i64) -> Result<(), Fault> {
+        self.heap_tick();
         let Machine {
             engine,
             backend,
@@ -825,6 +835,7 @@ impl Machine {
     /// scan (a watchdog fault) when it returns false (pass `&mut || true` for none).
     #[inline]
     pub fn scan(&mut self, now: i64, check: &mut dyn FnMut() -> bool) -> Result<(), Fault> {
+        self.heap_tick();
         // The fast path: machine code, and every task due (always, when no instance has a
         // task): one call into the scanner made for this machine, which runs every instance
         // in the order the task path would.

@@ -29,8 +29,9 @@ pub const MAX_TAGGED_TYPE: u32 = (1 << TAG_BITS) - 2;
 const OFF_MIN: i64 = -(1 << (OFF_BITS - 1));
 const OFF_MAX: i64 = (1 << (OFF_BITS - 1)) - 1;
 
-/// A handle's parts: first slot, type id, byte offset.
-fn decode(h: u64) -> (u64, u32, i64) {
+/// A handle's parts: first slot (or, for a heap object, [`crate::heap`]'s entry), type id,
+/// byte offset.
+pub(crate) fn decode(h: u64) -> (u64, u32, i64) {
     let base = h & ((1 << BASE_BITS) - 1);
     let tag = ((h >> BASE_BITS) & ((1 << TAG_BITS) - 1)) as u32;
     let off = ((h >> (BASE_BITS + TAG_BITS)) as i64) << (64 - OFF_BITS) >> (64 - OFF_BITS);
@@ -45,7 +46,7 @@ pub fn type_of(h: u64) -> i64 {
     i64::from(decode(h).1)
 }
 
-fn encode(base: u64, ty: u32, off: i64) -> u64 {
+pub(crate) fn encode(base: u64, ty: u32, off: i64) -> u64 {
     base | u64::from(ty + 1) << BASE_BITS
         | ((off as u64) & ((1 << OFF_BITS) - 1)) << (BASE_BITS + TAG_BITS)
 }
@@ -54,16 +55,26 @@ fn domain(what: &'static str, detail: String) -> OpFault {
     OpFault::new(OpError::Domain(what), detail)
 }
 
+/// Slots a handle of a variable reaches (the base field's upper bits mark heap objects).
+const STATIC_SLOTS: u64 = 1 << (BASE_BITS - 2);
+
 /// `mem[base + d]` = the handle of the variable whose slot address is in `mem[base + s]`.
-pub fn make(mem: &mut [u64], base: usize, d: u32, s: u32, ty: u32) -> Result<(), OpFault> {
+pub fn make(
+    mem: &mut [u64],
+    base: usize,
+    [d, s]: [u32; 2],
+    ty: u32,
+    shapes: &Shapes,
+) -> Result<(), OpFault> {
     let addr = mem[base + s as usize];
-    if addr >= 1 << BASE_BITS {
+    if let Some(h) = shapes.heap.filter(|h| h.holds(addr)) {
+        mem[base + d as usize] = h.handle_at(mem, addr, ty)?;
+        return Ok(());
+    }
+    if addr >= STATIC_SLOTS {
         return Err(domain(
             "reference out of range",
-            format!(
-                "slot {addr} is past the {} slots references reach",
-                1u64 << BASE_BITS
-            ),
+            format!("slot {addr} is past the {STATIC_SLOTS} slots references reach"),
         ));
     }
     mem[base + d as usize] = encode(addr, ty, 0);
@@ -81,6 +92,12 @@ pub fn add(mem: &mut [u64], base: usize, d: u32, p: u32, n: u32, sub: bool) -> R
         ));
     }
     let (b, ty, off) = decode(h);
+    if b & crate::heap::SUB_BIT != 0 {
+        return Err(domain(
+            "pointer out of range",
+            "pointer arithmetic on the address of a part of a __NEW object: take the address of the element you want (ADR(p^.a[i]))".into(),
+        ));
+    }
     let moved = if sub {
         off.checked_sub(k)
     } else {
@@ -101,8 +118,18 @@ pub fn add(mem: &mut [u64], base: usize, d: u32, p: u32, n: u32, sub: bool) -> R
     }
 }
 
-/// The checked handle in `mem[base + p]`: first slot, type id, offset.
-fn live(mem: &[u64], base: usize, p: u32, what: &str) -> Result<(u64, u32, i64), OpFault> {
+/// What a checked handle designates: the variable's first slot, its type id, the byte
+/// offset of the access, and how many values of the type lie from the first slot on (more
+/// than one only for a heap array: `__NEW(T, n)`).
+struct Live {
+    b: u64,
+    t: u32,
+    off: i64,
+    count: u64,
+}
+
+/// The checked handle in `mem[base + p]`.
+fn live(mem: &[u64], base: usize, p: u32, what: &str, shapes: &Shapes) -> Result<Live, OpFault> {
     let h = mem[base + p as usize];
     if h == 0 {
         return Err(domain(
@@ -114,7 +141,28 @@ fn live(mem: &[u64], base: usize, p: u32, what: &str) -> Result<(u64, u32, i64),
             },
         ));
     }
-    Ok(decode(h))
+    let (b, t, off) = decode(h);
+    if b & crate::heap::HEAP_BIT == 0 {
+        return Ok(Live {
+            b,
+            t,
+            off,
+            count: 1,
+        });
+    }
+    let Some(heap) = shapes.heap else {
+        return Err(domain(
+            "invalid reference",
+            format!("this {what} designates nothing the program referenced"),
+        ));
+    };
+    let d = heap.designated(mem, b, off, what)?;
+    Ok(Live {
+        b: d.first,
+        t,
+        off: d.off,
+        count: d.count,
+    })
 }
 
 /// `mem[base + d]` = the first slot of the variable the handle in `p` designates, which
@@ -130,7 +178,24 @@ pub fn deref(
     what: &str,
     shapes: &Shapes,
 ) -> Result<(), OpFault> {
-    let (b, t, off) = live(mem, base, p, what)?;
+    let Live { b, t, off, count } = live(mem, base, p, what, shapes)?;
+    // An element of a heap array (`p[i]` over `__NEW(T, n)`): a whole multiple of its size.
+    let (b, off) = match shapes.get(&t) {
+        Some(img) if count > 1 && off > 0 && img.bytes > 0 && off as u64 % img.bytes == 0 => {
+            let k = off as u64 / img.bytes;
+            if k >= count {
+                return Err(domain(
+                    "pointer out of range",
+                    format!(
+                        "this {what} designates element {k} of {count} {}s (counted from 0)",
+                        img.name
+                    ),
+                ));
+            }
+            (b + k * img.slots, 0)
+        }
+        _ => (b, off),
+    };
     if t != ty || off != 0 || b + u64::from(n) > mem.len() as u64 {
         return Err(domain(
             "invalid reference",
@@ -179,8 +244,19 @@ pub struct Image {
     pub name: String,
 }
 
-/// The image of every type the program references (by type id).
-pub type Shapes = BTreeMap<u32, Image>;
+/// The image of every type the program references (by type id), and where its dynamic
+/// memory lies, if it has any: what a handle is checked against.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Shapes {
+    pub images: BTreeMap<u32, Image>,
+    pub heap: Option<crate::heap::Layout>,
+}
+
+impl Shapes {
+    pub fn get(&self, t: &u32) -> Option<&Image> {
+        self.images.get(t)
+    }
+}
 
 fn name_of(shapes: &Shapes, t: u32) -> &str {
     shapes
@@ -376,43 +452,28 @@ pub struct View<'a> {
 }
 
 impl View<'_> {
-    /// The variable's first slot, its shape and the byte offset of the access, checked.
+    /// The variable's first slot, its image and the byte offset of the access, checked.
     fn target<'s>(
         &self,
         mem: &[u64],
         base: usize,
         shapes: &'s Shapes,
-    ) -> Result<(u64, &'s Shape, u64), OpFault> {
-        let (b, t, off) = live(mem, base, self.p, self.what)?;
+    ) -> Result<(u64, &'s Image, u64), OpFault> {
         let n = memory::elem_bytes(self.e) as i64;
-        let mut o = off as i128;
+        let mut extra = 0i128;
         if let Some((i, lo)) = self.idx {
             let i = mem[base + i as usize] as i64;
-            o += (i128::from(i) - i128::from(lo)) * i128::from(n);
+            extra = (i128::from(i) - i128::from(lo)) * i128::from(n);
         }
-        let Some(Image {
-            shape, bytes: size, ..
-        }) = shapes.get(&t).filter(|i| b + i.slots <= mem.len() as u64)
-        else {
-            return Err(domain(
-                "invalid reference",
-                format!(
-                    "this {} designates nothing the program referenced",
-                    self.what
-                ),
-            ));
-        };
-        if o < 0 || o + i128::from(n) > i128::from(*size) {
-            return Err(domain(
-                "pointer out of range",
-                format!(
-                    "{} bytes at byte {o} of a {} of {size} bytes",
-                    n,
-                    name_of(shapes, t)
-                ),
-            ));
-        }
-        Ok((b, shape, o as u64))
+        within(
+            mem,
+            base,
+            self.p,
+            extra,
+            n as u64,
+            shapes,
+            (self.what, false),
+        )
     }
 
     pub fn load(
@@ -422,14 +483,14 @@ impl View<'_> {
         d: u32,
         shapes: &Shapes,
     ) -> Result<(), OpFault> {
-        let (b, shape, o) = self.target(mem, base, shapes)?;
+        let (b, img, o) = self.target(mem, base, shapes)?;
         let n = memory::elem_bytes(self.e);
-        let v = match locate(shape, b, o)? {
+        let v = match leaf_at(img, b, o)? {
             Some((at, Shape::Elem(le), 0)) if *le == self.e => mem[at as usize],
             _ => {
                 let mut bytes = [0u8; 8];
                 for (k, byte) in bytes.iter_mut().enumerate().take(n as usize) {
-                    *byte = read_byte(mem, locate(shape, b, o + k as u64)?);
+                    *byte = read_byte(mem, leaf_at(img, b, o + k as u64)?);
                 }
                 elem_value(self.e, bytes)
             }
@@ -445,9 +506,9 @@ impl View<'_> {
         s: u32,
         shapes: &Shapes,
     ) -> Result<(), OpFault> {
-        let (b, shape, o) = self.target(mem, base, shapes)?;
+        let (b, img, o) = self.target(mem, base, shapes)?;
         let v = mem[base + s as usize];
-        match locate(shape, b, o)? {
+        match leaf_at(img, b, o)? {
             Some((at, Shape::Elem(le), 0)) if *le == self.e => mem[at as usize] = v,
             _ => {
                 let bytes = elem_bytes(self.e, v);
@@ -456,7 +517,7 @@ impl View<'_> {
                     .enumerate()
                     .take(memory::elem_bytes(self.e) as usize)
                 {
-                    let leaf = locate(shape, b, o + k as u64)?;
+                    let leaf = leaf_at(img, b, o + k as u64)?;
                     write_byte(mem, leaf, *byte);
                 }
             }
@@ -473,7 +534,7 @@ pub fn exec(
     base: usize,
 ) -> Option<Result<(), OpFault>> {
     Some(match x {
-        ExtOp::MakeRef { d, s, ty } => make(mem, base, *d, *s, *ty),
+        ExtOp::MakeRef { d, s, ty } => make(mem, base, [*d, *s], *ty, shapes),
         ExtOp::Deref { d, p, ty, n, what } => deref(mem, base, *d, *p, *ty, *n, what, shapes),
         ExtOp::PtrAdd { d, p, n, sub } => add(mem, base, *d, *p, *n, *sub),
         ExtOp::ViewLoad { d, p, idx, e, what } => View {
@@ -503,6 +564,43 @@ pub fn exec(
             mem[base + *d as usize] = type_of(mem[base + *s as usize]) as u64;
             Ok(())
         }
+        ExtOp::New {
+            d,
+            n,
+            ty,
+            slots,
+            proto,
+        } => {
+            let count = n.map_or(1, |n| mem[base + n as usize]);
+            mem[base + *d as usize] = match shapes.heap {
+                Some(h) => h.new_object(mem, *ty, u64::from(*slots), count, u64::from(*proto)),
+                None => 0,
+            };
+            Ok(())
+        }
+        ExtOp::Free { p, by_addr } => {
+            let at = if *by_addr {
+                mem[base + *p as usize] as usize
+            } else {
+                base + *p as usize
+            };
+            let r = match shapes.heap {
+                Some(h) => h.delete(mem, mem[at], "pointer"),
+                None => crate::heap::Layout::no_heap(mem[at]),
+            };
+            if r.is_ok() && *by_addr {
+                mem[at] = 0;
+            }
+            r
+        }
+        ExtOp::Area { d, p } => {
+            let h = mem[base + *p as usize];
+            mem[base + *d as usize] = match shapes.heap {
+                Some(heap) => heap.area(mem, h),
+                None => crate::heap::area_static(h),
+            };
+            Ok(())
+        }
         _ => return None,
     })
 }
@@ -515,24 +613,63 @@ fn bytes_at<'s>(
     n: u64,
     shapes: &'s Shapes,
     f: &str,
-) -> Result<(u64, &'s Shape, u64), OpFault> {
-    let (b, t, off) = live(mem, base, p, f)?;
-    let Some(img) = shapes.get(&t).filter(|i| b + i.slots <= mem.len() as u64) else {
+) -> Result<(u64, &'s Image, u64), OpFault> {
+    within(mem, base, p, 0, n, shapes, (f, true))
+}
+
+/// The variable the handle in `p` designates, and the byte offset of the `n` bytes at its
+/// offset moved by `extra`, checked to lie inside it (all of a heap array's elements).
+/// `what` names the pointer, and the fault starts with it when `named` (a function's).
+fn within<'s>(
+    mem: &[u64],
+    base: usize,
+    p: u32,
+    extra: i128,
+    n: u64,
+    shapes: &'s Shapes,
+    (what, named): (&str, bool),
+) -> Result<(u64, &'s Image, u64), OpFault> {
+    let Live { b, t, off, count } = live(mem, base, p, what, shapes)?;
+    let Some(img) = shapes
+        .get(&t)
+        .filter(|i| b + i.slots.saturating_mul(count) <= mem.len() as u64)
+    else {
         return Err(domain(
             "invalid reference",
-            format!("{f}: the pointer designates nothing the program referenced"),
+            if named {
+                format!("{what}: the pointer designates nothing the program referenced")
+            } else {
+                format!("this {what} designates nothing the program referenced")
+            },
         ));
     };
-    if off < 0 || off as u64 + n > img.bytes {
+    let size = img.bytes.saturating_mul(count);
+    let o = i128::from(off) + extra;
+    if o < 0 || o + i128::from(n) > i128::from(size) {
+        let of = if count > 1 {
+            format!("{count} {}s", img.name)
+        } else {
+            format!("a {}", img.name)
+        };
         return Err(domain(
             "pointer out of range",
             format!(
-                "{f}: {n} bytes at byte {off} of a {} of {} bytes",
-                img.name, img.bytes
+                "{}{n} bytes at byte {o} of {of} of {size} bytes",
+                if named {
+                    format!("{what}: ")
+                } else {
+                    String::new()
+                }
             ),
         ));
     }
-    Ok((b, &img.shape, off as u64))
+    Ok((b, img, o as u64))
+}
+
+/// Where byte `o` of the values of `img` from slot `at` on lives (see [`locate`]).
+fn leaf_at(img: &Image, b: u64, o: u64) -> Result<Option<(u64, &Shape, u64)>, OpFault> {
+    let k = o / img.bytes.max(1);
+    locate(&img.shape, b + k * img.slots, o - k * img.bytes)
 }
 
 /// A string read from or written to a byte image ([`ExtOp::ViewStr`]): the characters up to
@@ -550,14 +687,14 @@ fn view_str(
 ) -> Result<(), OpFault> {
     let unit: u64 = if wide { 2 } else { 1 };
     let n = (u64::from(cap) + 1) * unit;
-    let (b, shape, o) = bytes_at(mem, base, p, n, shapes, what)?;
+    let (b, img, o) = bytes_at(mem, base, p, n, shapes, what)?;
     let at = mem[base + s as usize] as usize;
     if load {
         let mut units: Vec<u16> = Vec::new();
         for k in 0..u64::from(cap) {
-            let mut u = u16::from(read_byte(mem, locate(shape, b, o + k * unit)?));
+            let mut u = u16::from(read_byte(mem, leaf_at(img, b, o + k * unit)?));
             if wide {
-                u |= u16::from(read_byte(mem, locate(shape, b, o + k * unit + 1)?)) << 8;
+                u |= u16::from(read_byte(mem, leaf_at(img, b, o + k * unit + 1)?)) << 8;
             }
             if u == 0 {
                 break;
@@ -583,9 +720,9 @@ fn view_str(
     let len = units.len().min(cap as usize);
     for (k, u) in units[..len].iter().copied().chain([0]).enumerate() {
         let k = k as u64 * unit;
-        write_byte(mem, locate(shape, b, o + k)?, u as u8);
+        write_byte(mem, leaf_at(img, b, o + k)?, u as u8);
         if wide {
-            write_byte(mem, locate(shape, b, o + k + 1)?, (u >> 8) as u8);
+            write_byte(mem, leaf_at(img, b, o + k + 1)?, (u >> 8) as u8);
         }
     }
     Ok(())
@@ -609,33 +746,33 @@ fn mem_fn(
         ));
     }
     let count = count as u64;
-    let (ab, ashape, aoff) = bytes_at(mem, base, a, count, shapes, name)?;
+    let (ab, aimg, aoff) = bytes_at(mem, base, a, count, shapes, name)?;
     let result = match f {
         Builtin::MemSet => {
             let fill = mem[base + b as usize] as u8;
             for k in 0..count {
-                write_byte(mem, locate(ashape, ab, aoff + k)?, fill);
+                write_byte(mem, leaf_at(aimg, ab, aoff + k)?, fill);
             }
             1
         }
         Builtin::MemCpy => {
-            let (bb, bshape, boff) = bytes_at(mem, base, b, count, shapes, name)?;
+            let (bb, bimg, boff) = bytes_at(mem, base, b, count, shapes, name)?;
             // Read all, then write: overlapping copies give the source's bytes (memmove).
             let mut buf = Vec::with_capacity(count as usize);
             for k in 0..count {
-                buf.push(read_byte(mem, locate(bshape, bb, boff + k)?));
+                buf.push(read_byte(mem, leaf_at(bimg, bb, boff + k)?));
             }
             for (k, v) in buf.into_iter().enumerate() {
-                write_byte(mem, locate(ashape, ab, aoff + k as u64)?, v);
+                write_byte(mem, leaf_at(aimg, ab, aoff + k as u64)?, v);
             }
             1
         }
         _ => {
-            let (bb, bshape, boff) = bytes_at(mem, base, b, count, shapes, name)?;
+            let (bb, bimg, boff) = bytes_at(mem, base, b, count, shapes, name)?;
             let mut r = 0i64;
             for k in 0..count {
-                let x = read_byte(mem, locate(ashape, ab, aoff + k)?);
-                let y = read_byte(mem, locate(bshape, bb, boff + k)?);
+                let x = read_byte(mem, leaf_at(aimg, ab, aoff + k)?);
+                let y = read_byte(mem, leaf_at(bimg, bb, boff + k)?);
                 if x != y {
                     r = if x < y { -1 } else { 1 };
                     break;

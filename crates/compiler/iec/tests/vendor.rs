@@ -421,3 +421,64 @@ END_PROGRAM";
     assert_eq!(lines.len(), 1, "{errors}");
     assert!(lines[0].starts_with("t.st:19:8: error[E201]"), "{errors}");
 }
+
+/// A block declared in a METHOD's VAR ends with the call: its method may give its own
+/// instance as the result (`Get := THIS^;`, TwinCAT-Dynamic-Collections' `Append`), used
+/// where it was called (`q.Get(v).Pop();`), but the caller may not keep that result beyond
+/// the call (a global: E201), nor the method keep its own VAR's address in the instance.
+#[test]
+fn a_frame_instance_may_return_itself_but_not_outlive_the_call() {
+    let src = |extra: &str| {
+        format!(
+            "{{attribute 'TcTypeSystem'}}
+INTERFACE I_Q
+METHOD Pop : BOOL
+END_METHOD
+METHOD Get : I_Q
+VAR_OUTPUT x : DINT; END_VAR
+END_METHOD
+END_INTERFACE
+VAR_GLOBAL g : I_Q; END_VAR
+FUNCTION_BLOCK FB_Q IMPLEMENTS I_Q
+VAR n : DINT; p : POINTER TO DINT; END_VAR
+METHOD Pop : BOOL
+n := n - 1;
+END_METHOD
+METHOD Get : I_Q
+VAR_OUTPUT x : DINT; END_VAR
+x := n;
+Get := THIS^;
+END_METHOD
+END_FUNCTION_BLOCK
+FUNCTION_BLOCK FB_User
+METHOD Run : DINT
+VAR q : FB_Q; v : DINT; END_VAR
+q.Get(v).Pop();
+{extra}
+Run := v;
+END_METHOD
+END_FUNCTION_BLOCK
+PROGRAM main
+VAR u : FB_User; r : DINT; END_VAR
+r := u.Run();
+END_PROGRAM"
+        )
+    };
+    let errors = |extra: &str| {
+        let mut s = Sources::new();
+        s.add_text("t.st", &src(extra));
+        match build(&s, &Select::Auto, Natives::default()) {
+            Ok(_) => Vec::new(),
+            Err(e) => e
+                .to_string()
+                .lines()
+                .filter(|l| l.contains("error["))
+                .map(str::to_string)
+                .collect(),
+        }
+    };
+    assert_eq!(errors(""), Vec::<String>::new());
+    let kept = errors("g := q.Get(v);");
+    assert_eq!(kept.len(), 1, "{kept:?}");
+    assert!(kept[0].starts_with("t.st:25:6: error[E201]"), "{kept:?}");
+}

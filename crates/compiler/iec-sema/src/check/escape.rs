@@ -5,7 +5,7 @@
 //! (the same rules in the callee: `kept_inputs`), never stored elsewhere (E201). No run-time
 //! check is needed then: a pointer to a frame exists only while the frame does.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 use petriplc_iec_syntax::diag;
 
@@ -20,11 +20,81 @@ use super::Checker;
 impl<'a> Checker<'a> {
     /// [`Self::frame_escapes`] for every body checked.
     pub(super) fn all_frame_escapes(&mut self) {
-        let free = self.free_inputs();
+        let receivers = self.receivers();
+        let free = self.free_inputs(&receivers);
         for (p, kind) in std::mem::take(&mut self.escape_todo) {
             let body = std::mem::take(&mut self.pous[p as usize].body);
-            self.frame_escapes(p, kind, &body, &free);
+            self.frame_escapes(p, kind, &body, (&free, &receivers));
             self.pous[p as usize].body = body;
+        }
+    }
+
+    /// The methods (with their THIS) of blocks that may live in a frame that may return
+    /// their instance's address (`Append := THIS^;`, directly or from another such call on
+    /// THIS): that result is a frame pointer wherever the instance is one
+    /// ([`Flow::carries`]). Found by growing the set until it is stable.
+    fn receivers(&self) -> BTreeMap<PouId, VarId> {
+        let mut candidates = Vec::new();
+        for (&p, m) in &self.oop.members {
+            let pou = &self.pous[p as usize];
+            let Some(r) = pou.result else { continue };
+            if !self.holds_pointer(pou.vars[r as usize].ty) || !self.in_frame(m.owner) {
+                continue;
+            }
+            let this = pou
+                .vars
+                .iter()
+                .position(|v| v.name == "THIS" && v.class == VarClass::InOut);
+            if let Some(t) = this {
+                candidates.push((p, t as VarId, r));
+            }
+        }
+        candidates.sort_unstable();
+        // A call through an interface: its dispatch takes the handle as its last input
+        // and gives it to the implementation's THIS; the result may be the instance's
+        // address when the handle is a frame pointer (whichever implementation runs).
+        let mut out = BTreeMap::new();
+        for (&p, m) in &self.oop.members {
+            if self.is_interface(m.owner) {
+                if let Some(last) = self.pous[p as usize].vars.len().checked_sub(1) {
+                    out.insert(p, last as VarId);
+                }
+            }
+        }
+        let none = BTreeSet::new();
+        loop {
+            let before = out.len();
+            for &(p, this, r) in &candidates {
+                if out.contains_key(&p) {
+                    continue;
+                }
+                let n = self.pous[p as usize].vars.len();
+                let frame: Vec<bool> = (0..n).map(|v| v == this as usize).collect();
+                let slots: Vec<bool> = self.pous[p as usize]
+                    .vars
+                    .iter()
+                    .enumerate()
+                    .map(|(v, x)| {
+                        v == r as usize || matches!(x.class, VarClass::Local | VarClass::Temp)
+                    })
+                    .collect();
+                let mut holders = BTreeSet::new();
+                let body = &self.pous[p as usize].body;
+                holders_of(
+                    &self.types,
+                    body,
+                    (&frame, &slots),
+                    &mut holders,
+                    (&none, &out),
+                    Some(this),
+                );
+                if holders.contains(&r) {
+                    out.insert(p, this);
+                }
+            }
+            if out.len() == before {
+                return out;
+            }
         }
     }
 
@@ -32,7 +102,7 @@ impl<'a> Checker<'a> {
     /// beyond the call: in the callee the pointer is only dereferenced, compared, moved,
     /// kept in its VAR/VAR_TEMP pointers and passed to such inputs, as a frame pointer
     /// may be. Found by growing the set of inputs that do keep it until it is stable.
-    fn free_inputs(&self) -> BTreeSet<(PouId, VarId)> {
+    fn free_inputs(&self, receivers: &BTreeMap<PouId, VarId>) -> BTreeSet<(PouId, VarId)> {
         let mut candidates = Vec::new();
         for &(p, kind) in &self.escape_todo {
             let member = self.oop.members.contains_key(&p);
@@ -60,13 +130,22 @@ impl<'a> Checker<'a> {
                 let mut holders = BTreeSet::from([v]);
                 let mut errors = Vec::new();
                 let body = &self.pous[p as usize].body;
-                holders_of(&self.types, body, &frame, &slots, &mut holders, &free);
+                holders_of(
+                    &self.types,
+                    body,
+                    (&frame, &slots),
+                    &mut holders,
+                    (&free, receivers),
+                    None,
+                );
                 let mut f = Flow {
                     types: &self.types,
                     frame: &frame,
                     slots: &slots,
                     holders: &mut holders,
                     free: &free,
+                    receivers,
+                    own: None,
                     errors: Some(&mut errors),
                 };
                 f.stmts(body);
@@ -89,7 +168,7 @@ impl<'a> Checker<'a> {
         p: PouId,
         kind: PouKind,
         body: &[Stmt],
-        free: &BTreeSet<(PouId, VarId)>,
+        (free, receivers): (&BTreeSet<(PouId, VarId)>, &BTreeMap<PouId, VarId>),
     ) {
         let vars = self.pous[p as usize].vars.clone();
         // A block with an instance in a FUNCTION's or METHOD's frame (or inside such an
@@ -123,19 +202,57 @@ impl<'a> Checker<'a> {
             .zip(&frame)
             .map(|(v, f)| *f && matches!(v.class, VarClass::Local | VarClass::Temp))
             .collect();
-        // Variables that may hold such a pointer: plain VAR/VAR_TEMP pointers assigned one.
-        let mut holders = BTreeSet::new();
-        holders_of(&self.types, body, &frame, &slots, &mut holders, free);
         let mut errors = Vec::new();
-        let mut f = Flow {
-            types: &self.types,
-            frame: &frame,
-            slots: &slots,
-            holders: &mut holders,
-            free,
-            errors: Some(&mut errors),
+        let flow = |frame: &[bool], slots: &[bool], own: Option<VarId>, errors: &mut Vec<_>| {
+            // Variables that may hold such a pointer: plain VAR/VAR_TEMP pointers assigned one.
+            let mut holders = BTreeSet::new();
+            holders_of(
+                &self.types,
+                body,
+                (frame, slots),
+                &mut holders,
+                (free, receivers),
+                own,
+            );
+            let mut f = Flow {
+                types: &self.types,
+                frame,
+                slots,
+                holders: &mut holders,
+                free,
+                receivers,
+                own,
+                errors: Some(errors),
+            };
+            f.stmts(body);
         };
-        f.stmts(body);
+        let this = self
+            .oop
+            .members
+            .get(&p)
+            .filter(|_| !this_lasts)
+            .and_then(|_| {
+                vars.iter()
+                    .position(|v| v.name == "THIS" && v.class == VarClass::InOut)
+            });
+        match this {
+            // A member of a block that may live in a frame: its own variables always end
+            // with the call, its instance may (then a caller that gets its address, from
+            // the result, treats it as a frame pointer: `receivers`). The two are followed
+            // apart; the instance's may be kept in the instance and given as the result.
+            Some(this) => {
+                let mut own = frame.clone();
+                own[this] = false;
+                flow(&own, &slots, None, &mut errors);
+                let only_this: Vec<bool> = (0..frame.len()).map(|v| v == this).collect();
+                let mut with_result = slots.clone();
+                if let Some(r) = self.pous[p as usize].result {
+                    with_result[r as usize] = true;
+                }
+                flow(&only_this, &with_result, Some(this as VarId), &mut errors);
+            }
+            None => flow(&frame, &slots, None, &mut errors),
+        }
         errors.sort_by_key(|e| (e.0.start, e.0.end));
         errors.dedup_by_key(|e| (e.0.start, e.0.end));
         let why = if in_frame {
@@ -202,10 +319,10 @@ impl Checker<'_> {
 fn holders_of(
     types: &TypeTable,
     body: &[Stmt],
-    frame: &[bool],
-    slots: &[bool],
+    (frame, slots): (&[bool], &[bool]),
     holders: &mut BTreeSet<VarId>,
-    free: &BTreeSet<(PouId, VarId)>,
+    (free, receivers): (&BTreeSet<(PouId, VarId)>, &BTreeMap<PouId, VarId>),
+    own: Option<VarId>,
 ) {
     loop {
         let before = holders.len();
@@ -215,6 +332,8 @@ fn holders_of(
             slots,
             holders,
             free,
+            receivers,
+            own,
             errors: None,
         };
         f.stmts(body);
@@ -233,6 +352,13 @@ struct Flow<'f> {
     /// Inputs of callees that keep a pointer no longer than the call.
     free: &'f BTreeSet<(PouId, VarId)>,
     holders: &'f mut BTreeSet<VarId>,
+    /// Methods of blocks that may live in a frame whose result may be their instance's
+    /// address (`Append := THIS^;`), and the members of interfaces (their dispatch), with
+    /// their THIS: such a call on a frame instance gives a frame pointer.
+    receivers: &'f BTreeMap<PouId, VarId>,
+    /// A method's THIS when the pointers followed are its instance's: storing them in the
+    /// instance itself is no escape (they end together).
+    own: Option<VarId>,
     /// `None` while the holders are gathered; then every escape found, with the variable
     /// it was stored in, if any.
     errors: Option<&'f mut Vec<(petriplc_iec_syntax::source::Span, Into)>>,
@@ -252,14 +378,7 @@ impl Flow<'_> {
         match &e.kind {
             // An address inside what a pointer designates is a frame pointer when that
             // pointer is one (`ADR(p^.x)`, `ADR(p[2])`).
-            ExprKind::Ref(p) => match p.path.iter().position(|s| matches!(s, Step::Deref)) {
-                None => matches!(p.root, Root::Var(v) if self.frame[v as usize]),
-                Some(k) => match (p.root, p.path.first()) {
-                    (Root::Value, Some(Step::Value(x))) => self.carries(x),
-                    (Root::Var(v), _) => k == 0 && self.holders.contains(&v),
-                    _ => false,
-                },
-            },
+            ExprKind::Ref(p) => self.address_carries(p),
             // A holder, or a field of one that holds a reference (a structure holding the
             // pointer: an AnyType's pValue, not its diSize).
             ExprKind::Load(p) => {
@@ -271,8 +390,34 @@ impl Flow<'_> {
             ExprKind::Binary(BinaryOp::Add | BinaryOp::Sub, a, b) => {
                 self.carries(a) || self.carries(b)
             }
+            // The NULL check of a call through an interface passes the handle on.
             ExprKind::Convert(x) => self.carries(x),
+            // The NULL check of a call through an interface passes the handle on.
+            ExprKind::Builtin(Builtin::ItfCheck, args) => args.iter().any(|x| self.carries(x)),
+            // A method that may return its instance's address, called on an instance whose
+            // address is a frame pointer.
+            ExprKind::Call(c) => {
+                self.types.holds_reference(e.ty)
+                    && self.receivers.get(&c.pou).is_some_and(|this| {
+                        c.in_outs
+                            .iter()
+                            .any(|(v, p)| v == this && self.address_carries(p))
+                            || c.inputs.iter().any(|(v, x)| v == this && self.carries(x))
+                    })
+            }
             _ => false,
+        }
+    }
+
+    /// Whether the address of `p` may be a pointer into the frame.
+    fn address_carries(&self, p: &Place) -> bool {
+        match p.path.iter().position(|s| matches!(s, Step::Deref)) {
+            None => matches!(p.root, Root::Var(v) if self.frame[v as usize]),
+            Some(k) => match (p.root, p.path.first()) {
+                (Root::Value, Some(Step::Value(x))) => self.carries(x),
+                (Root::Var(v), _) => k == 0 && self.holders.contains(&v),
+                _ => false,
+            },
         }
     }
 
@@ -305,6 +450,7 @@ impl Flow<'_> {
                         {
                             self.holders.insert(v);
                         }
+                        (Root::Var(v), false) if Some(v) == self.own => {}
                         (Root::Var(v), _) => self.escape(value, Into::Var(v)),
                         (Root::Global(g), _) => self.escape(value, Into::Global(g)),
                         (Root::This | Root::Value, _) => self.escape(value, Into::Elsewhere),
@@ -320,7 +466,8 @@ impl Flow<'_> {
                 c.in_outs.iter().for_each(|(_, p)| self.place(p));
                 c.outputs.iter().for_each(|(_, p, _)| self.place(p));
             }
-            StmtKind::Eval(x) => self.expr(x),
+            // A call for its effects: a pointer it returns is dropped, not kept.
+            StmtKind::Eval(x) => self.inner(x),
             StmtKind::If {
                 branches,
                 else_body,
@@ -403,7 +550,9 @@ impl Flow<'_> {
             }
             ExprKind::Call(c) => {
                 for (v, x) in &c.inputs {
-                    match self.free.contains(&(c.pou, *v)) {
+                    // An interface's handle, which the dispatch passes on as THIS.
+                    let handle = self.receivers.get(&c.pou) == Some(v);
+                    match handle || self.free.contains(&(c.pou, *v)) {
                         true => self.inner(x),
                         false => self.expr(x),
                     }
@@ -415,6 +564,7 @@ impl Flow<'_> {
             ExprKind::Builtin(Builtin::MemCpy | Builtin::MemSet | Builtin::MemCmp, args) => {
                 args.iter().for_each(|x| self.inner(x))
             }
+            ExprKind::Builtin(Builtin::ItfCheck, args) => args.iter().for_each(|x| self.inner(x)),
             ExprKind::Builtin(_, args) => args.iter().for_each(|x| self.expr(x)),
         }
     }

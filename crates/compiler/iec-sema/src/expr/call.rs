@@ -65,13 +65,19 @@ impl<'a> Checker<'a> {
         if name.is("REF") || name.is("ADR") {
             return self.ref_of(name, call, cx);
         }
-        if name.is("__NEW") || name.is("__DELETE") {
+        if name.is("__NEW") {
+            return self.heap_new(call, cx);
+        }
+        if name.is("__DELETE") {
             self.error(
-                diag::UNSUPPORTED,
-                name.span,
-                format!("{} (TwinCAT's and CODESYS's dynamic memory) is not supported yet: petriplc's memory is laid out when the program is built; declare the objects as variables (an array of them as a pool, with an index for a pointer)", name.name.to_ascii_uppercase()),
+                diag::BAD_ARGUMENTS,
+                call.span,
+                "__DELETE gives no value: call it as a statement, `__DELETE(p);`",
             );
             return err(call.span);
+        }
+        if name.is("__MEMORYAREA") {
+            return self.memory_area(call, cx);
         }
         if name.is("__FORMAT") {
             return self

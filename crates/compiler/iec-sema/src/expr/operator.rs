@@ -407,11 +407,18 @@ impl<'a> Checker<'a> {
         let elem = self.types.elem(t);
         // Arithmetic on bit strings, as CODESYS, TwinCAT and matiec allow it.
         let bits = elem.is_some_and(|e| e.is_bitstring());
+        // CODESYS and TwinCAT take AND, OR, XOR on integers bit by bit, and order the
+        // values of an enumeration (its integers).
+        let codesys = self.dialect.is_codesys_family();
         let ok = match op {
-            Or | Xor | And => matches!(tt, Type::IntLit) || elem.is_some_and(|e| e.is_bit()),
+            Or | Xor | And => {
+                matches!(tt, Type::IntLit)
+                    || elem.is_some_and(|e| e.is_bit() || (codesys && e.is_int()))
+            }
             // Typed in `short_circuit`; an operator built elsewhere is BOOL only too.
             AndThen | OrElse => elem == Some(Elem::Bool),
             Eq | Ne => true,
+            Lt | Le | Gt | Ge if codesys && matches!(tt, Type::Enum { .. }) => true,
             Lt | Le | Gt | Ge => !matches!(
                 tt,
                 Type::Enum { .. }

@@ -88,6 +88,61 @@ impl<'a> Checker<'a> {
     }
 
     /// A call of a method or action, `None` when the call is not one.
+    /// The interface an expression gives (a call's result), kept in a hidden temporary set
+    /// before the statement, so that a method can be called on it.
+    /// `Err`: the call gives no interface (a REFERENCE TO an instance: `instance_of`).
+    fn interface_value(&mut self, e: &ast::Expr, cx: &mut Cx) -> Result<Option<Place>, ()> {
+        // Checked once to learn its type; what it reports is dropped when it is no interface
+        // (it is checked again as the reference it is).
+        let mark = self.diags.items.len();
+        let pre = cx.pre.as_ref().map(Vec::len);
+        let x = self.expr(e, cx, None);
+        if x.ty == crate::types::ids::ERROR {
+            return Ok(None);
+        }
+        if !matches!(
+            self.types.get(x.ty),
+            Type::Ref {
+                kind: ast::RefKind::Interface,
+                ..
+            }
+        ) {
+            self.diags.items.truncate(mark);
+            if let (Some(n), Some(p)) = (pre, cx.pre.as_mut()) {
+                p.truncate(n);
+            }
+            return Err(());
+        }
+        if cx.pre.is_none() {
+            self.error(
+                diag::UNSUPPORTED,
+                e.span,
+                "a method of the interface a call returns is called here only in an assignment or a call statement: keep the interface in a variable first (i := s.Get(x); … i.M() …)",
+            );
+            return Ok(None);
+        }
+        let id = cx.vars.len() as crate::ir::VarId;
+        // A VAR_TEMP: it may hold what a frame pointer may (check/escape.rs).
+        cx.vars.push(crate::ir::Var {
+            class: crate::ir::VarClass::Temp,
+            ..crate::ir::Var::hidden(format!("$itf{id}"), x.ty, e.span)
+        });
+        let tmp = Place {
+            root: Root::Var(id),
+            path: Vec::new(),
+            ty: x.ty,
+            span: e.span,
+        };
+        cx.pre.get_or_insert_with(Vec::new).push(crate::ir::Stmt {
+            kind: crate::ir::StmtKind::Assign {
+                target: tmp.clone(),
+                value: x,
+            },
+            span: e.span,
+        });
+        Ok(Some(tmp))
+    }
+
     pub(crate) fn member_call(&mut self, call: &ast::Call, cx: &mut Cx) -> Option<Expr> {
         let span = call.span;
         let (m, this) = match &call.callee.kind {
@@ -153,7 +208,15 @@ impl<'a> Checker<'a> {
                             .and_then(|t| self.owner_of_instance(t))
                             .and_then(|q| self.no_itf_member(q, f, "method", span));
                     }
-                    let Some(inst) = self.instance_of(base, cx) else {
+                    let inst = match &base.kind {
+                        // `s.Get(x).Pop()`: a method of the interface a call returns.
+                        A::Call(_) => match self.interface_value(base, cx) {
+                            Ok(p) => p,
+                            Err(()) => self.instance_of(base, cx),
+                        },
+                        _ => self.instance_of(base, cx),
+                    };
+                    let Some(inst) = inst else {
                         return Some(err(span));
                     };
                     let q = self.owner_of_instance(inst.ty)?;

@@ -282,20 +282,43 @@ impl<'a, 'd> Parser<'a, 'd> {
                 span: start.to(self.prev_span()),
             });
         }
-        // TwinCAT's `__NEW(POINTER TO T, n)` (an array of n pointers): read as the type's
-        // name, which the checker refuses with all of __NEW (not supported yet, E190).
+        // TwinCAT's `__NEW(POINTER TO T, n)` (an array of n pointers): read as a call of
+        // `POINTER TO` (a name no identifier can spell) on the type, which __NEW takes apart.
         if (self.at_word("POINTER") || self.at_word("REFERENCE"))
             && self.peek_at(1).tok == Tok::Kw(Kw::To)
         {
+            let word = self.peek().span;
+            let text = format!("{} TO", self.text_of(word).to_ascii_uppercase());
             self.bump();
             self.bump();
             let v = self.postfix()?;
+            let span = start.to(v.span);
+            let callee = Expr {
+                kind: ExprKind::Name(Ident {
+                    name: text,
+                    span: word,
+                }),
+                span: word,
+            };
             return Ok(Arg {
                 name: None,
                 output: false,
                 negated: false,
-                span: start.to(v.span),
-                value: Some(v),
+                span,
+                value: Some(Expr {
+                    kind: ExprKind::Call(Call {
+                        callee: Box::new(callee),
+                        args: vec![Arg {
+                            name: None,
+                            output: false,
+                            negated: false,
+                            span: v.span,
+                            value: Some(v),
+                        }],
+                        span,
+                    }),
+                    span,
+                }),
             });
         }
         let v = self.expr()?;

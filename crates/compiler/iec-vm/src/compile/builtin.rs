@@ -1,8 +1,8 @@
 //! Built-in functions: the standard library's numeric, bit-string, selection and string
 //! functions, and the vendor libraries' (`TIME()`, `GET_CHAR`, `X_TO_STRING(value, format)`).
 
-use petriplc_iec_sema::ir::{Builtin, Expr};
-use petriplc_iec_sema::types::{Elem, TypeId};
+use petriplc_iec_sema::ir::{Builtin, Expr, ExprKind};
+use petriplc_iec_sema::types::{Elem, Type, TypeId};
 use petriplc_iec_syntax::source::Span;
 
 use crate::ext::{ExtOp, Kind};
@@ -21,6 +21,12 @@ impl<'c, 'p> Fx<'c, 'p> {
         if b == Builtin::Bound {
             // Its array argument is not a value: the bound is read from its descriptor.
             return self.var_array_bound(args, want, span);
+        }
+        if b == Builtin::New {
+            return self.heap_new(args, ty, want, span);
+        }
+        if b == Builtin::Free {
+            return self.heap_free(&args[0], span);
         }
         let p = self.p();
         let mut xs = Vec::with_capacity(args.len());
@@ -47,6 +53,7 @@ impl<'c, 'p> Fx<'c, 'p> {
         }
         let op = match b {
             Builtin::ItfCheck => Some(ExtOp::ItfCheck { d, s: xs[0] }),
+            Builtin::MemArea => Some(ExtOp::Area { d, p: xs[0] }),
             // PCWorx X_TO_STRING(value, format): the value's own type decides its text.
             Builtin::Format => Some(ExtOp::Format {
                 d,
@@ -70,6 +77,61 @@ impl<'c, 'p> Fx<'c, 'p> {
         };
         self.ext(op, span);
         Ok(d)
+    }
+
+    /// `__NEW`: a new object of the target type of the result `ty` (the POINTER TO T); the
+    /// object's size and prototype are filled in when the program is linked.
+    fn heap_new(&mut self, args: &[Expr], ty: TypeId, want: Option<u32>, span: Span) -> R<u32> {
+        let p = self.p();
+        let Type::Ref { target, .. } = p.types.get(ty) else {
+            return Err(CompileError::Unsupported("__NEW of a non-pointer".into()));
+        };
+        let target = *target;
+        if target > crate::pointer::MAX_TAGGED_TYPE {
+            return Err(CompileError::Unsupported(format!(
+                "__NEW of a type beyond the first {} types of a project",
+                crate::pointer::MAX_TAGGED_TYPE
+            )));
+        }
+        let n = match args.first() {
+            Some(a) => Some(self.expr(a, None)?),
+            None => None,
+        };
+        let d = want.unwrap_or_else(|| self.temp(1));
+        self.ext(
+            ExtOp::New {
+                d,
+                n,
+                ty: target,
+                slots: 0,
+                proto: 0,
+            },
+            span,
+        );
+        Ok(d)
+    }
+
+    /// `__DELETE(p)`: through the variable's address when `p` is one, so it is set to NULL.
+    fn heap_free(&mut self, arg: &Expr, span: Span) -> R<u32> {
+        let op = match &arg.kind {
+            ExprKind::Load(place) => {
+                let pl = self.place_loc(place)?;
+                let a = self.addr_of(pl.loc, span)?;
+                ExtOp::Free {
+                    p: a,
+                    by_addr: true,
+                }
+            }
+            _ => {
+                let v = self.expr(arg, None)?;
+                ExtOp::Free {
+                    p: v,
+                    by_addr: false,
+                }
+            }
+        };
+        self.ext(op, span);
+        Ok(self.temp(1))
     }
 
     /// Where the result of `b` goes: a string buffer for string results, else `want` or a
@@ -216,6 +278,9 @@ impl<'c, 'p> Fx<'c, 'p> {
             | Builtin::BcdToInt
             | Builtin::IntToBcd
             | Builtin::ItfCheck
+            | Builtin::New
+            | Builtin::Free
+            | Builtin::MemArea
             | Builtin::Bound => return None,
         })
     }

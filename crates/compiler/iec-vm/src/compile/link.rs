@@ -122,11 +122,42 @@ impl<'p> Compiler<'p> {
                 lines.push((start + pc, pou, *line));
             }
         }
+        // Dynamic memory, when the program has `__NEW`: the prototypes of the types it
+        // makes (their initial values, copied into each new object), then the region.
+        let mut protos: Vec<(u32, u64)> = Vec::new();
+        for x in &mut ext_all {
+            if let ExtOp::New {
+                ty, slots, proto, ..
+            } = x
+            {
+                // Every block's size is known now that all units are compiled.
+                *slots = self.sizes.of(self.p, *ty).unwrap_or(1);
+                let at = match protos.iter().find(|(t, _)| t == ty) {
+                    Some((_, a)) => *a,
+                    None => {
+                        protos.push((*ty, addr));
+                        addr += u64::from(*slots);
+                        protos[protos.len() - 1].1
+                    }
+                };
+                *proto = u32::try_from(at).map_err(|_| {
+                    CompileError::Unsupported("a program of more than 2^32 slots".into())
+                })?;
+            }
+        }
+        let heap = (!protos.is_empty()).then(|| {
+            let h = crate::heap::Layout { at: addr };
+            addr += crate::heap::Layout::slots();
+            h
+        });
         // Initial image.
         let mut init = vec![0u64; addr as usize];
         for (g, v) in self.p.globals.iter().enumerate() {
             let a = global_addr[g] as usize;
             self.write_init(&mut init, a, v.ty, v.init.as_ref());
+        }
+        for &(ty, at) in &protos {
+            self.write_init(&mut init, at as usize, ty, None);
         }
         for (i, &fa) in frame_addr.iter().enumerate() {
             if self.units[i].rel {
@@ -163,10 +194,14 @@ impl<'p> Compiler<'p> {
                 },
             })
             .collect();
-        let mut shapes = crate::pointer::Shapes::new();
+        let mut shapes = crate::pointer::Shapes {
+            heap,
+            ..Default::default()
+        };
         for x in &ext_all {
-            if let ExtOp::MakeRef { ty, .. } = x {
+            if let ExtOp::MakeRef { ty, .. } | ExtOp::New { ty, .. } = x {
                 shapes
+                    .images
                     .entry(*ty)
                     .or_insert_with(|| crate::pointer::image_of(self.p, &self.sizes, *ty));
             }
@@ -309,6 +344,17 @@ impl ExtOp {
             | ExtOp::ItfType { d, s } => {
                 g(d);
                 g(s);
+            }
+            ExtOp::New { d, n, .. } => {
+                g(d);
+                if let Some(n) = n {
+                    g(n);
+                }
+            }
+            ExtOp::Free { p, .. } => g(p),
+            ExtOp::Area { d, p } => {
+                g(d);
+                g(p);
             }
             ExtOp::Deref { d, p, .. } => {
                 g(d);
