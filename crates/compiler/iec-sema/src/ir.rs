@@ -407,6 +407,9 @@ pub enum Builtin {
     Free,
     /// The memory area of a pointer (UDINT: 0 unknown, 1 static, 2 dynamic).
     MemArea,
+    /// A pointer's handle as a number (ULINT), which converts back to no pointer: CODESYS's
+    /// and TwinCAT's conversions of a pointer to a number or a string.
+    Address,
     /// The interface handle given, a fault when it is NULL (a call through an interface).
     ItfCheck,
     /// The type id of the instance an interface handle designates (DINT; -1 for NULL): the
@@ -467,6 +470,7 @@ impl Builtin {
             Builtin::New => "__NEW",
             Builtin::Free => "__DELETE",
             Builtin::MemArea => "__MEMORYAREA",
+            Builtin::Address => "pointer as a number",
             Builtin::ItfCheck => "interface call",
             Builtin::ItfType => "interface dispatch",
             Builtin::Bound => "LOWER_BOUND/UPPER_BOUND",

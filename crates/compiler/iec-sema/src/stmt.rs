@@ -428,9 +428,20 @@ impl Checker<'_> {
         let ty = p.ty;
         let f = self.expr(from, cx, Some(ty));
         let f = self.coerce(f, ty, "the FOR loop's initial value");
-        let t = self.expr(to, cx, Some(ty));
-        let t = self.coerce(t, ty, "the FOR loop's final value");
+        // The final value is only compared with: outside a subrange it makes the loop end
+        // (`FOR i := 0 TO n - 1` with n = 0 runs no time), as CODESYS and TwinCAT run it.
+        let base = self.base_type(ty);
+        let t = self.expr(to, cx, Some(base));
+        let t = self.coerce(t, base, "the FOR loop's final value");
+        let unsigned = self.types.elem(ty).is_some_and(|e| !e.is_signed());
         let b = match by {
+            // CODESYS and TwinCAT count an unsigned variable down with `BY -1`
+            // (TwinCAT-Dynamic-Collections' `FOR i := SHR(nSize, 2) TO 1 BY -1`): the step
+            // stays the negative constant it is.
+            Some(b) if unsigned && self.dialect.is_codesys_family() && negative_literal(b) => {
+                let x = self.expr(b, cx, Some(ids::LINT));
+                self.coerce(x, ids::LINT, "the FOR loop's step")
+            }
             Some(b) => {
                 let x = self.expr(b, cx, Some(ty));
                 self.coerce(x, ty, "the FOR loop's step")
@@ -893,5 +904,18 @@ fn control_name(var: &ast::Expr) -> String {
     match &var.kind {
         ast::ExprKind::Name(n) => n.name.clone(),
         _ => "this element".into(),
+    }
+}
+
+/// `-1`, `-(2)`: a negated integer literal.
+fn negative_literal(e: &ast::Expr) -> bool {
+    match &e.kind {
+        ast::ExprKind::Unary(ast::UnaryOp::Neg, x) => {
+            matches!(&x.kind, ast::ExprKind::Literal(ast::Literal::Int { .. }))
+                || matches!(&x.kind, ast::ExprKind::Paren(p) if matches!(p.kind, ast::ExprKind::Literal(ast::Literal::Int { .. })))
+        }
+        ast::ExprKind::Literal(ast::Literal::Int { value, .. }) => *value < 0,
+        ast::ExprKind::Paren(p) => negative_literal(p),
+        _ => false,
     }
 }

@@ -123,6 +123,7 @@ codes! {
     RECURSION_THROUGH_INTERFACE = "W050",
     IMPLICIT_NARROWING = "W051",
     VOID_ASSIGNED = "W052",
+    NO_POINTER_FROM_TEXT = "W053",
 }
 
 /// Diagnostics collected by a stage, in the order found.

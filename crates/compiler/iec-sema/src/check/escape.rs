@@ -560,10 +560,12 @@ impl Flow<'_> {
                 c.in_outs.iter().for_each(|(_, p)| self.place(p));
                 c.outputs.iter().for_each(|(_, p)| self.place(p));
             }
-            // MEMCPY, MEMSET and MEMCMP use the pointers they are given and keep none.
-            ExprKind::Builtin(Builtin::MemCpy | Builtin::MemSet | Builtin::MemCmp, args) => {
-                args.iter().for_each(|x| self.inner(x))
-            }
+            // MEMCPY, MEMSET and MEMCMP use the pointers they are given and keep none; a
+            // pointer's number designates nothing.
+            ExprKind::Builtin(
+                Builtin::MemCpy | Builtin::MemSet | Builtin::MemCmp | Builtin::Address,
+                args,
+            ) => args.iter().for_each(|x| self.inner(x)),
             ExprKind::Builtin(Builtin::ItfCheck, args) => args.iter().for_each(|x| self.inner(x)),
             ExprKind::Builtin(_, args) => args.iter().for_each(|x| self.expr(x)),
         }

@@ -49,7 +49,7 @@ impl<'a> Checker<'a> {
             // Checked by mem_call (expr/reference.rs), never by name here.
             MemCpy | MemSet | MemCmp => (&["DEST", "SRC", "N"], 3, false),
             // Made by interface calls (oop/itf.rs), and by expr/heap.rs, never by name.
-            ItfCheck | ItfType | New | Free | MemArea => (&["IN"], 1, false),
+            ItfCheck | ItfType | New | Free | MemArea | Address => (&["IN"], 1, false),
             // Made by array_bound (expr/bounds.rs), never by name here.
             Bound => (&["IN", "DIM"], 2, false),
         };
@@ -81,9 +81,8 @@ impl<'a> Checker<'a> {
                 self.fold(mk(vec![d, t], ids::DT))
             }
             DtToTod | DtToDate | Expt | BcdToInt | IntToBcd | Time | GetChar | Format | Chr
-            | MemCpy | MemSet | MemCmp | ItfCheck | ItfType | Bound | New | Free | MemArea => {
-                err(span)
-            }
+            | MemCpy | MemSet | MemCmp | ItfCheck | ItfType | Bound | New | Free | MemArea
+            | Address => err(span),
         }
     }
 

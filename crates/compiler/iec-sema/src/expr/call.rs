@@ -47,6 +47,17 @@ impl<'a> Checker<'a> {
                 );
                 return err(span);
             }
+            if name.is("STRING_TO_PVOID")
+                && petriplc_iec_syntax::builtin::is_builtin(
+                    self.pou_asts[p as usize].name.span.file,
+                )
+            {
+                self.diags.warning(
+                    diag::NO_POINTER_FROM_TEXT,
+                    name.span,
+                    "STRING_TO_PVOID gives NULL here: petriplc's pointers are checked handles that no text can make; keep the pointer itself",
+                );
+            }
             return self.fn_call(p, call, cx);
         }
         if let Some(place) = self.var_place(name, cx) {

@@ -507,11 +507,21 @@ impl<'a> Checker<'a> {
             return (x, y);
         };
         let arith = matches!(op, Add | Sub | Mul | Div | Mod);
+        let to = |e: Elem| TypeTable::elem_id(e);
+        // CODESYS and TwinCAT: `dw XOR ud` is bit by bit in the bit string (the wider
+        // operand's width), as AND, OR, XOR on integers are (`binary_plain`).
+        if matches!(op, And | Or | Xor) && self.dialect.is_codesys_family() {
+            if a.is_bitstring() && b.is_int() && b.bits() <= a.bits() {
+                return (x, self.convert(y, to(a)));
+            }
+            if a.is_int() && b.is_bitstring() && a.bits() <= b.bits() {
+                return (self.convert(x, to(b)), y);
+            }
+        }
         let convertible = op.is_comparison() || arith;
         if !convertible {
             return (x, y);
         }
-        let to = |e: Elem| TypeTable::elem_id(e);
         if a.is_bitstring() && b.is_int() {
             if b.bits() > a.bits() {
                 return (self.convert(x, to(b)), y);

@@ -591,8 +591,11 @@ impl<'a> Checker<'a> {
             // Its size is the caller's array's, which SIZEOF (a constant) cannot give.
             return self.var_array_whole(arg.span);
         }
-        match crate::memory::size_align(&self.types, ty) {
-            Some((n, _)) => konst(Value::Int(i128::from(n)), ids::INT_LIT, span),
+        let size = crate::memory::size_align(&self.types, ty)
+            .map(|(n, _)| n)
+            .or_else(|| self.instance_size(ty, 0));
+        match size {
+            Some(n) => konst(Value::Int(i128::from(n)), ids::INT_LIT, span),
             None => {
                 let t = self.types.name(ty);
                 self.error(
@@ -603,6 +606,38 @@ impl<'a> Checker<'a> {
                 err(span)
             }
         }
+    }
+
+    /// CODESYS's and TwinCAT's SIZEOF of a function block instance: petriplc's own measure,
+    /// its variables (not VAR_TEMP) laid out as a structure's fields, an in-out as a pointer;
+    /// the vendors add hidden fields of their own, so their numbers are larger.
+    fn instance_size(&mut self, ty: TypeId, depth: u32) -> Option<u64> {
+        let Type::Fb(crate::types::FbRef::User(q)) = *self.types.get(ty) else {
+            return None;
+        };
+        if !self.dialect.is_codesys_family() || depth > 32 {
+            return None;
+        }
+        self.interface(q);
+        let vars: Vec<(crate::types::TypeId, VarClass)> = self.pous[q as usize]
+            .vars
+            .iter()
+            .map(|v| (v.ty, v.class))
+            .collect();
+        let (mut off, mut align) = (0u64, 1u64);
+        for (t, class) in vars {
+            let (s, a) = match class {
+                VarClass::Temp | VarClass::External(_) | VarClass::Global => continue,
+                VarClass::InOut => (8, 8),
+                _ => match crate::memory::size_align(&self.types, t) {
+                    Some(x) => x,
+                    None => (self.instance_size(t, depth + 1)?, 8),
+                },
+            };
+            off = off.div_ceil(a) * a + s;
+            align = align.max(a);
+        }
+        Some(off.div_ceil(align) * align)
     }
 
     /// `MEMCPY(dest, src, n)`, `MEMSET(dest, fill, n)`, `MEMCMP(a, b, n)` (TwinCAT

@@ -427,6 +427,7 @@ impl<'a> Checker<'a> {
         if trunc {
             return self.trunc(x, to_ty, span);
         }
+        let x = self.via_number(x, to_ty);
         if !self.convertible(x.ty, to_ty) {
             let (a, b) = (self.types.name(x.ty), self.types.name(to_ty));
             self.error(
@@ -460,6 +461,55 @@ impl<'a> Checker<'a> {
     }
 
     /// Whether the explicit conversion functions convert `from` to `to`.
+    /// CODESYS and TwinCAT convert among durations, dates and numbers through the number
+    /// each stands for (`TO_DT(r)` of a REAL, `TO_LREAL(d)` of a DATE, `TO_DT(t)` of a TIME),
+    /// where the standard has no conversion: `x` as that number (LINT, or LREAL for a real),
+    /// which then converts to `to` as integers do. Else `x` as it is.
+    fn via_number(&mut self, x: Expr, to: TypeId) -> Expr {
+        if !self.dialect.is_codesys_family() || self.convertible(x.ty, to) {
+            return x;
+        }
+        // A pointer to a number or a string: its handle's number (`TO_STRING(p)`), never
+        // the other way (STRING_TO_PVOID is NULL: vendor library).
+        if matches!(
+            self.types.get(x.ty),
+            Type::Ref {
+                kind: ast::RefKind::PointerTo,
+                ..
+            }
+        ) && (matches!(self.types.get(to), Type::Str { .. })
+            || self
+                .types
+                .elem(to)
+                .is_some_and(|e| e.is_num() || e.is_duration() || e.is_date()))
+        {
+            let span = x.span;
+            return Expr {
+                kind: ExprKind::Builtin(Builtin::Address, vec![x]),
+                ty: ids::ULINT,
+                span,
+            };
+        }
+        let timeish = |e: Elem| e.is_num() || e.is_duration() || e.is_date();
+        let (Some(a), Some(b)) = (self.types.elem(x.ty), self.types.elem(to)) else {
+            return x;
+        };
+        if !timeish(a) || !timeish(b) {
+            return x;
+        }
+        let mid = if a.is_real() && !b.is_real() {
+            ids::LINT
+        } else if a.is_real() {
+            ids::LREAL
+        } else {
+            ids::LINT
+        };
+        if !self.convertible(x.ty, mid) || !self.convertible(mid, to) {
+            return x;
+        }
+        self.convert(x, mid)
+    }
+
     pub(super) fn convertible(&self, from: TypeId, to: TypeId) -> bool {
         let s = |t: TypeId| matches!(self.types.get(t), Type::Str { .. });
         if s(from) && s(to) {

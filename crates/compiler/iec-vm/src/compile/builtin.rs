@@ -28,6 +28,15 @@ impl<'c, 'p> Fx<'c, 'p> {
         if b == Builtin::Free {
             return self.heap_free(&args[0], span);
         }
+        if b == Builtin::Address {
+            // The handle's bits are the number.
+            let x = self.expr(&args[0], None)?;
+            let d = want.unwrap_or_else(|| self.temp(1));
+            if d != x {
+                self.emit(crate::op::Op::Mov { d, s: x }, span);
+            }
+            return Ok(d);
+        }
         let p = self.p();
         let mut xs = Vec::with_capacity(args.len());
         for a in args {
@@ -281,6 +290,7 @@ impl<'c, 'p> Fx<'c, 'p> {
             | Builtin::New
             | Builtin::Free
             | Builtin::MemArea
+            | Builtin::Address
             | Builtin::Bound => return None,
         })
     }
