@@ -65,6 +65,8 @@ pub const STANDARD_FUNCTIONS: &[&str] = &[
     "SUB_TIME",
     "MUL_TIME",
     "DIV_TIME",
+    "MULTIME",
+    "DIVTIME",
     "ADD_TOD_TIME",
     "ADD_DT_TIME",
     "SUB_TOD_TIME",

@@ -177,10 +177,12 @@ impl<'a> Checker<'a> {
         // Operators as functions.
         let op = match f {
             "ADD" | "ADD_TIME" | "ADD_LTIME" | "ADD_TOD_TIME" | "ADD_DT_TIME" => Some((Add, true)),
-            "MUL" | "MUL_TIME" | "MUL_LTIME" => Some((Mul, true)),
+            // MULTIME and DIVTIME: the standard's second edition's names, which matiec keeps
+            // (OSCAT as OpenPLC builds it calls them).
+            "MUL" | "MUL_TIME" | "MUL_LTIME" | "MULTIME" => Some((Mul, true)),
             "SUB" | "SUB_TIME" | "SUB_LTIME" | "SUB_TOD_TIME" | "SUB_DT_TIME" | "SUB_DATE_DATE"
             | "SUB_TOD_TOD" | "SUB_DT_DT" => Some((Sub, false)),
-            "DIV" | "DIV_TIME" | "DIV_LTIME" => Some((Div, false)),
+            "DIV" | "DIV_TIME" | "DIV_LTIME" | "DIVTIME" => Some((Div, false)),
             "MOD" => Some((Mod, false)),
             "AND" => Some((And, true)),
             "OR" => Some((Or, true)),
