@@ -436,17 +436,23 @@ pub const INST_DONE_FLAG: &str = "__VAR_INST_DONE";
 
 /// Whether a METHOD's or accessor's VAR_INST has an initial value computed from THIS.
 fn has_inst_this(lib: &Library) -> bool {
+    let uses = |m: &Pou| {
+        m.var_blocks.iter().any(|b| {
+            b.kind == VarKind::Inst
+                && b.vars
+                    .iter()
+                    .any(|d| d.init.as_ref().is_some_and(init_uses_this))
+        })
+    };
     lib.elements.iter().any(|el| match el {
         Element::Pou(p) => {
-            let mut p = p.clone();
-            members_of(&mut p).into_iter().any(|m| {
-                m.var_blocks.iter().any(|b| {
-                    b.kind == VarKind::Inst
-                        && b.vars
-                            .iter()
-                            .any(|d| d.init.as_ref().is_some_and(init_uses_this))
-                })
-            })
+            p.oop.methods.iter().any(|m| uses(&m.pou))
+                || p.oop
+                    .properties
+                    .iter()
+                    .flat_map(|pr| [&pr.get, &pr.set])
+                    .flatten()
+                    .any(uses)
         }
         _ => false,
     })

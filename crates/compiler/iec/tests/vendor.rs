@@ -482,3 +482,41 @@ END_PROGRAM"
     assert_eq!(kept.len(), 1, "{kept:?}");
     assert!(kept[0].starts_with("t.st:25:6: error[E201]"), "{kept:?}");
 }
+
+/// In a method of a block that may end with a call, its own variables' addresses stay in it:
+/// stored in a global by the method itself, or by a caller from a method that returns one.
+#[test]
+fn a_frame_instance_keeps_its_variables_addresses_in() {
+    let src = "{attribute 'TcTypeSystem'}
+VAR_GLOBAL g : POINTER TO DINT; END_VAR
+FUNCTION_BLOCK FB_Q
+VAR n : DINT; END_VAR
+METHOD Leak
+g := ADR(n);
+END_METHOD
+METHOD Keep : POINTER TO DINT
+Keep := ADR(THIS^.n);
+END_METHOD
+END_FUNCTION_BLOCK
+FUNCTION_BLOCK FB_User
+METHOD Run : DINT
+VAR q : FB_Q; END_VAR
+q.Leak();
+g := q.Keep();
+END_METHOD
+END_FUNCTION_BLOCK
+PROGRAM main
+VAR u : FB_User; r : DINT; END_VAR
+r := u.Run();
+END_PROGRAM";
+    let mut s = Sources::new();
+    s.add_text("t.st", src);
+    let errors = match build(&s, &Select::Auto, Natives::default()) {
+        Ok(_) => panic!("built"),
+        Err(e) => e.to_string(),
+    };
+    let lines: Vec<&str> = errors.lines().filter(|l| l.contains("error[")).collect();
+    assert_eq!(lines.len(), 2, "{errors}");
+    assert!(lines[0].starts_with("t.st:6:6: error[E201]"), "{errors}");
+    assert!(lines[1].starts_with("t.st:16:6: error[E201]"), "{errors}");
+}
