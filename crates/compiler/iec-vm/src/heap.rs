@@ -13,6 +13,7 @@
 //! deleted (`__DELETE(THIS)`) writes slots nobody else holds.
 
 use crate::ext::OpFault;
+use crate::handle::{HEAP_BIT, SUB_BIT};
 use petriplc_iec_sema::ops::OpError;
 
 /// Objects alive at once (the table's entries; an index takes 15 bits of a handle).
@@ -22,11 +23,6 @@ pub const DATA: u64 = 1 << 18;
 const HEADER: u64 = 4;
 const ENTRY_SLOTS: u64 = 3;
 
-/// The handle's base field of a heap object: this bit, then the entry and its generation.
-pub const HEAP_BIT: u64 = 1 << 27;
-/// A handle of a part of a heap object (`THIS`, `ADR(p^.field)`): its offset field holds the
-/// part's first slot within the object, not a byte offset.
-pub const SUB_BIT: u64 = 1 << 26;
 const INDEX_BITS: u32 = 15;
 const GEN_BITS: u32 = 11;
 
@@ -188,7 +184,7 @@ impl Layout {
         mem[self.entry_rover()] = (i + 1) % ENTRIES;
         mem[self.rover()] = start + len;
         mem[self.live_count()] += 1;
-        crate::pointer::encode(HEAP_BIT | gen << INDEX_BITS | i, tag, 0)
+        crate::handle::encode(HEAP_BIT | gen << INDEX_BITS | i, tag, 0)
     }
 
     /// A free table entry, searched from after the last one given (so that an entry comes
@@ -294,9 +290,9 @@ impl Layout {
         let at = k - e.start;
         let base = HEAP_BIT | e.gen << INDEX_BITS | i;
         if at == 0 && u64::from(ty) == e.tag {
-            return Ok(crate::pointer::encode(base, ty, 0));
+            return Ok(crate::handle::encode(base, ty, 0));
         }
-        Ok(crate::pointer::encode(base | SUB_BIT, ty, at as i64))
+        Ok(crate::handle::encode(base | SUB_BIT, ty, at as i64))
     }
 
     /// `__DELETE`: the object the handle designates is freed (NULL: nothing happens).
@@ -304,7 +300,7 @@ impl Layout {
         if h == 0 {
             return Ok(());
         }
-        let (base, _, off) = crate::pointer::decode(h);
+        let (base, _, off) = crate::handle::decode(h);
         if base & HEAP_BIT == 0 {
             return Err(fault(
                 "invalid pointer",
@@ -332,7 +328,7 @@ impl Layout {
         if h == 0 {
             return 0;
         }
-        let (base, _, _) = crate::pointer::decode(h);
+        let (base, _, _) = crate::handle::decode(h);
         if base & HEAP_BIT == 0 {
             return 1;
         }
@@ -377,7 +373,7 @@ mod tests {
         let (h, mut mem) = region();
         let p = h.new_object(&mut mem, 3, 1, 4, 0);
         assert_ne!(p, 0);
-        let (base, tag, _) = crate::pointer::decode(p);
+        let (base, tag, _) = crate::handle::decode(p);
         assert_eq!(tag, 3);
         let d = h.designated(&mem, base, 0, "pointer").unwrap();
         assert_eq!(d.count, 4);
@@ -401,7 +397,7 @@ mod tests {
         h.tick(&mut mem);
         let b = h.new_object(&mut mem, 3, 1, 1, 0);
         assert_ne!(b, 0);
-        let (ba, _, _) = crate::pointer::decode(a);
+        let (ba, _, _) = crate::handle::decode(a);
         assert!(
             h.designated(&mem, ba, 0, "p").is_err(),
             "the old handle stays stale"
@@ -412,11 +408,11 @@ mod tests {
     fn a_part_has_its_own_handle_and_the_whole_its_own() {
         let (h, mut mem) = region();
         let p = h.new_object(&mut mem, 5, 3, 1, 0);
-        let (base, _, _) = crate::pointer::decode(p);
+        let (base, _, _) = crate::handle::decode(p);
         let first = h.designated(&mem, base, 0, "p").unwrap().first;
         assert_eq!(h.handle_at(&mem, first, 5).unwrap(), p);
         let part = h.handle_at(&mem, first + 2, 9).unwrap();
-        let (pb, pt, po) = crate::pointer::decode(part);
+        let (pb, pt, po) = crate::handle::decode(part);
         assert_eq!((pt, po), (9, 2));
         let d = h.designated(&mem, pb, po, "p").unwrap();
         assert_eq!((d.first, d.part), (first + 2, true));

@@ -12,6 +12,7 @@
 pub mod compile;
 pub mod exec;
 pub mod ext;
+mod handle;
 pub mod heap;
 pub mod layout;
 mod machine;

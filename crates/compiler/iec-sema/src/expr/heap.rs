@@ -127,18 +127,7 @@ impl<'a> Checker<'a> {
     /// then the object freed and `p` set to 0 (nothing at all when `p` is 0).
     pub(crate) fn delete_stmt(&mut self, call: &ast::Call, cx: &mut Cx) -> Option<Stmt> {
         let span = call.span;
-        let arg = match call.args.as_slice() {
-            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
-            _ => None,
-        };
-        let Some(arg) = arg else {
-            self.error(
-                diag::BAD_ARGUMENTS,
-                span,
-                "__DELETE takes the pointer __NEW gave: __DELETE(p)",
-            );
-            return None;
-        };
+        let arg = self.sole_argument(call, "__DELETE takes the pointer __NEW gave: __DELETE(p)")?;
         let mut x = self.expr(arg, cx, None);
         if x.ty == ids::ERROR {
             return None;
@@ -261,16 +250,8 @@ impl<'a> Checker<'a> {
     /// deleted object), Static (1) or Dynamic (2, an object of `__NEW`), as a UDINT.
     pub(super) fn memory_area(&mut self, call: &ast::Call, cx: &mut Cx) -> Expr {
         let span = call.span;
-        let arg = match call.args.as_slice() {
-            [a] if a.name.is_none() && !a.output => a.value.as_ref(),
-            _ => None,
-        };
-        let Some(arg) = arg else {
-            self.error(
-                diag::BAD_ARGUMENTS,
-                span,
-                "__MEMORYAREA takes a pointer: __MEMORYAREA(p)",
-            );
+        let Some(arg) = self.sole_argument(call, "__MEMORYAREA takes a pointer: __MEMORYAREA(p)")
+        else {
             return err(span);
         };
         let x = self.expr(arg, cx, None);

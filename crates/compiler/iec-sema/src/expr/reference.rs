@@ -16,7 +16,7 @@ use super::{err, konst};
 impl<'a> Checker<'a> {
     /// The one positional argument of `call` (`ADR(x)`, `SIZEOF(x)`, `__ISVALIDREF(r)`);
     /// `None`, with `usage` reported, when there is not exactly one.
-    fn sole_argument<'c>(
+    pub(super) fn sole_argument<'c>(
         &mut self,
         call: &'c ast::Call,
         usage: impl Into<String>,
