@@ -525,7 +525,8 @@ impl Flow<'_> {
         self.inner(e);
     }
 
-    /// The operands of `e`: comparisons and pointer arithmetic may take a frame pointer.
+    /// The operands of `e`: comparisons (equality and CODESYS's ordering) and pointer
+    /// arithmetic may take a frame pointer.
     fn inner(&mut self, e: &Expr) {
         match &e.kind {
             ExprKind::Const(_) => {}
@@ -539,7 +540,15 @@ impl Flow<'_> {
                 }
             }
             ExprKind::Binary(op, a, b) => {
-                let ok = matches!(op, BinaryOp::Eq | BinaryOp::Ne) || self.carries(e);
+                let ok = matches!(
+                    op,
+                    BinaryOp::Eq
+                        | BinaryOp::Ne
+                        | BinaryOp::Lt
+                        | BinaryOp::Le
+                        | BinaryOp::Gt
+                        | BinaryOp::Ge
+                ) || self.carries(e);
                 for x in [a, b] {
                     if ok {
                         self.inner(x)

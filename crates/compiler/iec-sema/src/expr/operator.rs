@@ -419,6 +419,20 @@ impl<'a> Checker<'a> {
             AndThen | OrElse => elem == Some(Elem::Bool),
             Eq | Ne => true,
             Lt | Le | Gt | Ge if codesys && matches!(tt, Type::Enum { .. }) => true,
+            // CODESYS's pointers are addresses, ordered (OSCAT's `pto < ptm` walking a
+            // buffer): two into one variable are ordered by their offsets.
+            Lt | Le | Gt | Ge
+                if codesys
+                    && matches!(
+                        tt,
+                        Type::Ref {
+                            kind: petriplc_iec_syntax::ast::RefKind::PointerTo,
+                            ..
+                        }
+                    ) =>
+            {
+                true
+            }
             Lt | Le | Gt | Ge => !matches!(
                 tt,
                 Type::Enum { .. }
