@@ -50,16 +50,13 @@ struct Entry {
     deleted: u64,
 }
 
-/// What a heap handle designates: the first slot of the variable, its type id, the byte
-/// offset of the access and how many values of that type lie from the first slot on.
+/// What a heap handle designates: the first slot of the variable, the byte offset of the
+/// access and how many values of the handle's type lie from the first slot on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Designated {
     pub first: u64,
-    pub tag: u32,
     pub off: i64,
     pub count: u64,
-    /// A part of an object (no pointer arithmetic).
-    pub part: bool,
 }
 
 fn fault(what: &'static str, detail: impl Into<String>) -> OpFault {
@@ -253,18 +250,14 @@ impl Layout {
         if base & SUB_BIT != 0 {
             return Ok(Designated {
                 first: first + off as u64,
-                tag: u32::MAX,
                 off: 0,
                 count: 1,
-                part: true,
             });
         }
         Ok(Designated {
             first,
-            tag: e.tag as u32,
             off,
             count: e.count,
-            part: false,
         })
     }
 
@@ -302,10 +295,7 @@ impl Layout {
         }
         let (base, _, off) = crate::handle::decode(h);
         if base & HEAP_BIT == 0 {
-            return Err(fault(
-                "invalid pointer",
-                "__DELETE of a pointer that __NEW did not give (the address of a variable): only objects made by __NEW are deleted",
-            ));
+            return Err(not_made());
         }
         let (i, mut e) = self.entry_of(mem, base, what)?;
         if off != 0 {
@@ -339,17 +329,19 @@ impl Layout {
     }
 }
 
-impl Layout {
-    /// `__DELETE` in a program that has no `__NEW`: only NULL may be deleted.
-    pub fn no_heap(h: u64) -> Result<(), OpFault> {
-        if h == 0 {
-            return Ok(());
-        }
-        Err(fault(
-            "invalid pointer",
-            "__DELETE of a pointer that __NEW did not give (the address of a variable): only objects made by __NEW are deleted",
-        ))
+/// `__DELETE` in a program that has no `__NEW`: only NULL may be deleted.
+pub fn delete_static(h: u64) -> Result<(), OpFault> {
+    if h == 0 {
+        return Ok(());
     }
+    Err(not_made())
+}
+
+fn not_made() -> OpFault {
+    fault(
+        "invalid pointer",
+        "__DELETE of a pointer that __NEW did not give (the address of a variable): only objects made by __NEW are deleted",
+    )
 }
 
 /// The memory area of a handle in a program without dynamic memory.
@@ -415,7 +407,7 @@ mod tests {
         let (pb, pt, po) = crate::handle::decode(part);
         assert_eq!((pt, po), (9, 2));
         let d = h.designated(&mem, pb, po, "p").unwrap();
-        assert_eq!((d.first, d.part), (first + 2, true));
+        assert_eq!((d.first, d.count, d.off), (first + 2, 1, 0), "one value, the part");
         assert!(h.delete(&mut mem, part, "p").is_err(), "not the object");
         h.delete(&mut mem, p, "p").unwrap();
         assert!(

@@ -559,7 +559,7 @@ pub fn exec(
             };
             let r = match shapes.heap {
                 Some(h) => h.delete(mem, mem[at], "pointer"),
-                None => crate::heap::Layout::no_heap(mem[at]),
+                None => crate::heap::delete_static(mem[at]),
             };
             if r.is_ok() && *by_addr {
                 mem[at] = 0;

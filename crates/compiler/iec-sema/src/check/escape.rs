@@ -41,12 +41,8 @@ impl<'a> Checker<'a> {
             if !self.holds_pointer(pou.vars[r as usize].ty) || !self.in_frame(m.owner) {
                 continue;
             }
-            let this = pou
-                .vars
-                .iter()
-                .position(|v| v.name == "THIS" && v.class == VarClass::InOut);
-            if let Some(t) = this {
-                candidates.push((p, t as VarId, r));
+            if let Some(t) = this_of(&pou.vars) {
+                candidates.push((p, t, r));
             }
         }
         candidates.sort_unstable();
@@ -127,28 +123,17 @@ impl<'a> Checker<'a> {
                     .collect();
                 // The callee's own VAR/VAR_TEMP pointers may hold it, as a frame's.
                 let slots = local.clone();
-                let mut holders = BTreeSet::from([v]);
                 let mut errors = Vec::new();
                 let body = &self.pous[p as usize].body;
-                holders_of(
+                follow(
                     &self.types,
                     body,
                     (&frame, &slots),
-                    &mut holders,
+                    BTreeSet::from([v]),
                     (&free, receivers),
                     None,
+                    &mut errors,
                 );
-                let mut f = Flow {
-                    types: &self.types,
-                    frame: &frame,
-                    slots: &slots,
-                    holders: &mut holders,
-                    free: &free,
-                    receivers,
-                    own: None,
-                    errors: Some(&mut errors),
-                };
-                f.stmts(body);
                 if !errors.is_empty() {
                     kept.push((p, v));
                 }
@@ -205,36 +190,22 @@ impl<'a> Checker<'a> {
         let mut errors = Vec::new();
         let flow = |frame: &[bool], slots: &[bool], own: Option<VarId>, errors: &mut Vec<_>| {
             // Variables that may hold such a pointer: plain VAR/VAR_TEMP pointers assigned one.
-            let mut holders = BTreeSet::new();
-            holders_of(
+            follow(
                 &self.types,
                 body,
                 (frame, slots),
-                &mut holders,
+                BTreeSet::new(),
                 (free, receivers),
                 own,
+                errors,
             );
-            let mut f = Flow {
-                types: &self.types,
-                frame,
-                slots,
-                holders: &mut holders,
-                free,
-                receivers,
-                own,
-                errors: Some(errors),
-            };
-            f.stmts(body);
         };
         let this = self
             .oop
             .members
             .get(&p)
             .filter(|_| !this_lasts)
-            .and_then(|_| {
-                vars.iter()
-                    .position(|v| v.name == "THIS" && v.class == VarClass::InOut)
-            });
+            .and_then(|_| this_of(&vars));
         match this {
             // A member of a block that may live in a frame: its own variables always end
             // with the call, its instance may (then a caller that gets its address, from
@@ -242,14 +213,14 @@ impl<'a> Checker<'a> {
             // apart; the instance's may be kept in the instance and given as the result.
             Some(this) => {
                 let mut own = frame.clone();
-                own[this] = false;
+                own[this as usize] = false;
                 flow(&own, &slots, None, &mut errors);
-                let only_this: Vec<bool> = (0..frame.len()).map(|v| v == this).collect();
+                let only_this: Vec<bool> = (0..frame.len()).map(|v| v == this as usize).collect();
                 let mut with_result = slots.clone();
                 if let Some(r) = self.pous[p as usize].result {
                     with_result[r as usize] = true;
                 }
-                flow(&only_this, &with_result, Some(this as VarId), &mut errors);
+                flow(&only_this, &with_result, Some(this), &mut errors);
             }
             None => flow(&frame, &slots, None, &mut errors),
         }
@@ -313,6 +284,46 @@ impl Checker<'_> {
         }
         false
     }
+}
+
+/// Every escape from `body` of a pointer into the frame (or held by `holders` at the start),
+/// once the variables that come to hold one are found.
+#[allow(clippy::too_many_arguments)]
+fn follow(
+    types: &TypeTable,
+    body: &[Stmt],
+    (frame, slots): (&[bool], &[bool]),
+    mut holders: BTreeSet<VarId>,
+    (free, receivers): (&BTreeSet<(PouId, VarId)>, &BTreeMap<PouId, VarId>),
+    own: Option<VarId>,
+    errors: &mut Vec<(petriplc_iec_syntax::source::Span, Into)>,
+) {
+    holders_of(
+        types,
+        body,
+        (frame, slots),
+        &mut holders,
+        (free, receivers),
+        own,
+    );
+    let mut f = Flow {
+        types,
+        frame,
+        slots,
+        holders: &mut holders,
+        free,
+        receivers,
+        own,
+        errors: Some(errors),
+    };
+    f.stmts(body);
+}
+
+/// A member's THIS: its instance, passed as the last in-out.
+fn this_of(vars: &[crate::ir::Var]) -> Option<VarId> {
+    vars.iter()
+        .position(|v| v.name == "THIS" && v.class == VarClass::InOut)
+        .map(|t| t as VarId)
 }
 
 /// Grows `holders` with the variables a frame pointer is assigned to, until stable.
@@ -390,7 +401,6 @@ impl Flow<'_> {
             ExprKind::Binary(BinaryOp::Add | BinaryOp::Sub, a, b) => {
                 self.carries(a) || self.carries(b)
             }
-            // The NULL check of a call through an interface passes the handle on.
             ExprKind::Convert(x) => self.carries(x),
             // The NULL check of a call through an interface passes the handle on.
             ExprKind::Builtin(Builtin::ItfCheck, args) => args.iter().any(|x| self.carries(x)),
@@ -570,12 +580,16 @@ impl Flow<'_> {
                 c.outputs.iter().for_each(|(_, p)| self.place(p));
             }
             // MEMCPY, MEMSET and MEMCMP use the pointers they are given and keep none; a
-            // pointer's number designates nothing.
+            // pointer's number designates nothing; an interface call's NULL check passes
+            // the handle on (`carries`).
             ExprKind::Builtin(
-                Builtin::MemCpy | Builtin::MemSet | Builtin::MemCmp | Builtin::Address,
+                Builtin::MemCpy
+                | Builtin::MemSet
+                | Builtin::MemCmp
+                | Builtin::Address
+                | Builtin::ItfCheck,
                 args,
             ) => args.iter().for_each(|x| self.inner(x)),
-            ExprKind::Builtin(Builtin::ItfCheck, args) => args.iter().for_each(|x| self.inner(x)),
             ExprKind::Builtin(_, args) => args.iter().for_each(|x| self.expr(x)),
         }
     }

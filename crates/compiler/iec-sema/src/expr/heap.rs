@@ -168,19 +168,12 @@ impl<'a> Checker<'a> {
             }),
             span,
         });
-        if this {
-            return Some(Stmt {
-                kind: StmtKind::If {
-                    branches: vec![(
-                        super::konst(crate::value::Value::Int(1), ids::BOOL, span),
-                        body,
-                    )],
-                    else_body: Vec::new(),
-                },
-                span,
-            });
-        }
-        let cond = self.expr(&not_null(arg, span), cx, Some(ids::BOOL));
+        // Nothing happens to NULL (THIS never is).
+        let cond = if this {
+            super::konst(crate::value::Value::Int(1), ids::BOOL, span)
+        } else {
+            self.expr(&not_null(arg, span), cx, Some(ids::BOOL))
+        };
         if cond.ty == ids::ERROR {
             return None;
         }

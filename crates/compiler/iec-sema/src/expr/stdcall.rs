@@ -465,12 +465,13 @@ impl<'a> Checker<'a> {
     /// Whether the explicit conversion functions convert `from` to `to`.
     /// CODESYS and TwinCAT convert among durations, dates and numbers through the number
     /// each stands for (`TO_DT(r)` of a REAL, `TO_LREAL(d)` of a DATE, `TO_DT(t)` of a TIME),
-    /// where the standard has no conversion: `x` as that number (LINT, or LREAL for a real),
+    /// where the standard has no conversion: `x` as that number (a LINT; a real rounded),
     /// which then converts to `to` as integers do. Else `x` as it is.
     fn via_number(&mut self, x: Expr, to: TypeId) -> Expr {
         if !self.dialect.is_codesys_family() || self.convertible(x.ty, to) {
             return x;
         }
+        let timeish = |e: Elem| e.is_num() || e.is_duration() || e.is_date();
         // A pointer to a number or a string: its handle's number (`TO_STRING(p)`), never
         // the other way (STRING_TO_PVOID is NULL: vendor library).
         if matches!(
@@ -480,10 +481,7 @@ impl<'a> Checker<'a> {
                 ..
             }
         ) && (matches!(self.types.get(to), Type::Str { .. })
-            || self
-                .types
-                .elem(to)
-                .is_some_and(|e| e.is_num() || e.is_duration() || e.is_date()))
+            || self.types.elem(to).is_some_and(timeish))
         {
             let span = x.span;
             return Expr {
@@ -492,24 +490,17 @@ impl<'a> Checker<'a> {
                 span,
             };
         }
-        let timeish = |e: Elem| e.is_num() || e.is_duration() || e.is_date();
         let (Some(a), Some(b)) = (self.types.elem(x.ty), self.types.elem(to)) else {
             return x;
         };
         if !timeish(a) || !timeish(b) {
             return x;
         }
-        let mid = if a.is_real() && !b.is_real() {
-            ids::LINT
-        } else if a.is_real() {
-            ids::LREAL
-        } else {
-            ids::LINT
-        };
-        if !self.convertible(x.ty, mid) || !self.convertible(mid, to) {
+        // Two reals always convert, so the number in between is an integer.
+        if !self.convertible(x.ty, ids::LINT) || !self.convertible(ids::LINT, to) {
             return x;
         }
-        self.convert(x, mid)
+        self.convert(x, ids::LINT)
     }
 
     pub(super) fn convertible(&self, from: TypeId, to: TypeId) -> bool {

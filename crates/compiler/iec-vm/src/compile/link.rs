@@ -133,11 +133,12 @@ impl<'p> Compiler<'p> {
                 // Every block's size is known now that all units are compiled.
                 *slots = self.sizes.of(self.p, *ty).unwrap_or(1);
                 let at = match protos.iter().find(|(t, _)| t == ty) {
-                    Some((_, a)) => *a,
+                    Some(&(_, a)) => a,
                     None => {
-                        protos.push((*ty, addr));
+                        let a = addr;
+                        protos.push((*ty, a));
                         addr += u64::from(*slots);
-                        protos[protos.len() - 1].1
+                        a
                     }
                 };
                 *proto = u32::try_from(at).map_err(|_| {
