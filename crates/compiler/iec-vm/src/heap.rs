@@ -407,7 +407,11 @@ mod tests {
         let (pb, pt, po) = crate::handle::decode(part);
         assert_eq!((pt, po), (9, 2));
         let d = h.designated(&mem, pb, po, "p").unwrap();
-        assert_eq!((d.first, d.count, d.off), (first + 2, 1, 0), "one value, the part");
+        assert_eq!(
+            (d.first, d.count, d.off),
+            (first + 2, 1, 0),
+            "one value, the part"
+        );
         assert!(h.delete(&mut mem, part, "p").is_err(), "not the object");
         h.delete(&mut mem, p, "p").unwrap();
         assert!(
